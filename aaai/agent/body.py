@@ -1,0 +1,98 @@
+"""The quadruped in a PyBullet client: loading, driving its axes, reading its joints."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pybullet as p
+
+from aaai.config import ConfigError
+
+URDF_DIR = Path(__file__).resolve().parent.parent / "urdf"
+BODY_FILES = {"quadruped": "quadruped.urdf", "quadruped16": "quadruped16.urdf"}
+SPAWN_HEIGHT = 1.5
+AGENT_GROUP = 64  # collision group of the body's parts; rays leave it out
+RAY_MASK = 0xFFFF & ~AGENT_GROUP
+
+
+def urdf_path(body: str) -> Path:
+    if body not in BODY_FILES:
+        raise ConfigError(f"config key 'agent.body': got {body!r}; allowed: one of {', '.join(BODY_FILES)}")
+    path = URDF_DIR / BODY_FILES[body]
+    if not path.is_file():
+        raise FileNotFoundError(f"model file for agent.body={body!r} is missing: {path}")
+    return path
+
+
+class Quadruped:
+    """One body in one client. Load it with ``load`` after every resetSimulation."""
+
+    def __init__(self, client: int, body: str, action_mode: str, max_force: float,
+                 max_joint_velocity: float, friction: float):
+        self.client = client
+        self.path = str(urdf_path(body))
+        self.action_mode = action_mode
+        self.max_force = max_force
+        self.max_joint_velocity = max_joint_velocity
+        self.friction = friction
+        self.id = -1
+        self._describe_joints()
+
+    def _describe_joints(self) -> None:
+        """Reads joint names and limits once, from a scratch client, so spaces exist before reset."""
+        scratch = p.connect(p.DIRECT)
+        try:
+            body = p.loadURDF(self.path, physicsClientId=scratch)
+            infos = [p.getJointInfo(body, j, physicsClientId=scratch) for j in range(p.getNumJoints(body, physicsClientId=scratch))]
+        finally:
+            p.disconnect(scratch)
+        revolute = [info for info in infos if info[2] == p.JOINT_REVOLUTE]
+        self.joint_ids = [info[0] for info in revolute]
+        self.joint_names = [info[1].decode() for info in revolute]
+        self.lower = np.array([info[8] for info in revolute])
+        self.upper = np.array([info[9] for info in revolute])
+        self.links = [-1] + [info[0] for info in infos]  # -1 is the head
+        self.link_names = ["head"] + [info[12].decode() for info in infos]
+        self.foot_links = [info[0] for info in infos if info[12].decode().endswith("_shin")]
+        self.n_axes = len(self.joint_ids)
+        self._forces = [self.max_force] * self.n_axes
+
+    def load(self, x: float, y: float, yaw: float) -> int:
+        c = self.client
+        orientation = p.getQuaternionFromEuler((0, 0, yaw))
+        self.id = p.loadURDF(self.path, (x, y, SPAWN_HEIGHT), orientation, physicsClientId=c)
+        for link in self.links:
+            p.setCollisionFilterGroupMask(self.id, link, AGENT_GROUP, 0xFFFF, physicsClientId=c)
+            p.changeDynamics(self.id, link, lateralFriction=self.friction, physicsClientId=c)
+        self.apply(np.zeros(self.n_axes) if self.action_mode == "velocity" else self.rest_action())
+        return self.id
+
+    def rest_action(self) -> np.ndarray:
+        """The action that holds every axis at its rest angle (0) in rotation mode."""
+        return (-self.lower - self.upper) / (self.upper - self.lower)
+
+    def apply(self, action: np.ndarray) -> None:
+        """Sends one control step's commands: target angles (rotation) or speeds (velocity)."""
+        if self.action_mode == "rotation":
+            targets = self.lower + (action + 1.0) * 0.5 * (self.upper - self.lower)
+            p.setJointMotorControlArray(self.id, self.joint_ids, p.POSITION_CONTROL,
+                                        targetPositions=targets.tolist(), forces=self._forces,
+                                        physicsClientId=self.client)
+        else:
+            p.setJointMotorControlArray(self.id, self.joint_ids, p.VELOCITY_CONTROL,
+                                        targetVelocities=(action * self.max_joint_velocity).tolist(),
+                                        forces=self._forces, physicsClientId=self.client)
+
+    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Angles normalised to [-1, 1] over each axis's range (0 at rest) and speeds in rad/s."""
+        states = p.getJointStates(self.id, self.joint_ids, physicsClientId=self.client)
+        angles = np.array([s[0] for s in states])
+        speeds = np.array([s[1] for s in states])
+        half_range = 0.5 * (self.upper - self.lower)
+        return np.clip(angles / half_range, -1.0, 1.0), speeds
+
+    def head_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Head centre (3,) and rotation matrix (3, 3) whose columns are the head's x, y, z axes."""
+        position, orientation = p.getBasePositionAndOrientation(self.id, physicsClientId=self.client)
+        rotation = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+        return np.array(position), rotation

@@ -1,0 +1,170 @@
+"""Loads and validates configuration: configs/default.yaml, then a user YAML, then keywords.
+
+Every value is checked against RULES; a bad key or value raises ConfigError with one
+message that names the key, the value and what is allowed.
+"""
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any, Mapping
+
+import yaml
+
+
+class ConfigError(ValueError):
+    """A configuration key or value that is not allowed."""
+
+
+@dataclass(frozen=True)
+class Rule:
+    kind: str  # int | float | bool | choice
+    low: float | None = None
+    high: float | None = None
+    choices: tuple[str, ...] = ()
+
+    def describe(self) -> str:
+        if self.kind == "bool":
+            return "true or false"
+        if self.kind == "choice":
+            return "one of " + ", ".join(self.choices)
+        noun = "an integer" if self.kind == "int" else "a number"
+        return f"{noun} from {self.low:g} to {self.high:g}"
+
+    def check(self, key: str, value: Any) -> Any:
+        if self.kind == "bool":
+            ok = isinstance(value, bool)
+        elif self.kind == "choice":
+            ok = isinstance(value, str) and value in self.choices
+        else:
+            is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
+            if self.kind == "int":
+                is_number = is_number and float(value).is_integer()
+            ok = is_number and self.low <= value <= self.high
+            if ok:
+                value = int(value) if self.kind == "int" else float(value)
+        if not ok:
+            raise ConfigError(f"config key '{key}': got {value!r}; allowed: {self.describe()}")
+        return value
+
+
+BODIES = ("quadruped", "quadruped16")
+RULES: dict[str, Rule] = {
+    "level": Rule("int", 0, 11),
+    "difficulty": Rule("int", 0, 10),
+    "agent.body": Rule("choice", choices=BODIES),
+    "agent.action_mode": Rule("choice", choices=("rotation", "velocity")),
+    "agent.max_force": Rule("float", 1e-3, 1e5),
+    "agent.max_joint_velocity": Rule("float", 1e-3, 100),
+    "agent.friction": Rule("float", 0, 10),
+    "agent.limb_food_reward": Rule("choice", choices=("flat", "size", "none")),
+    "sensors.rays": Rule("bool"),
+    "sensors.rays_per_side": Rule("int", 1, 20),
+    "sensors.ray_max_angle": Rule("float", 5, 180),
+    "sensors.ray_length": Rule("float", 1, 100),
+    "sensors.camera": Rule("bool"),
+    "sensors.camera_resolution": Rule("int", 8, 512),
+    "sensors.camera_grayscale": Rule("bool"),
+    "sensors.joint_velocities": Rule("bool"),
+    "sensors.head_orientation": Rule("bool"),
+    "sensors.foot_contacts": Rule("bool"),
+    "episode.max_steps": Rule("int", 10, 10000),
+    "episode.ground_penalty": Rule("bool"),
+    "physics.timestep": Rule("float", 1e-4, 0.05),
+    "physics.action_repeat": Rule("int", 1, 50),
+    "physics.solver_iterations": Rule("int", 1, 500),
+    "physics.gravity": Rule("float", 0, 100),
+    "physics.blowup_speed": Rule("float", 1, 1e5),
+}
+
+
+def config_dir() -> Path:
+    """The folder holding default.yaml and levels/ (installed as the package aaai_configs)."""
+    return Path(str(resources.files("aaai_configs")))
+
+
+def read_yaml(path: str | Path) -> dict:
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"config file {str(path)!r} does not exist")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as error:
+        raise ConfigError(f"config file {str(path)!r} is not valid YAML: {error}") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"config file {str(path)!r}: the top level must be a mapping, got {type(data).__name__}")
+    return data
+
+
+def _flatten(tree: Mapping, prefix: str = "") -> dict[str, Any]:
+    flat = {}
+    for key, value in tree.items():
+        dotted = f"{prefix}{key}"
+        if isinstance(value, Mapping):
+            flat.update(_flatten(value, dotted + "."))
+        else:
+            flat[dotted] = value
+    return flat
+
+
+def _leaf_names() -> dict[str, str]:
+    """Short keyword names ('camera_resolution') for the dotted keys ('sensors.camera_resolution')."""
+    return {key.rsplit(".", 1)[-1]: key for key in RULES}
+
+
+def _section_names() -> set[str]:
+    return {key.rsplit(".", 1)[0] for key in RULES if "." in key}
+
+
+def _merge(flat: dict[str, Any], overrides: Mapping, source: str) -> None:
+    for key, value in _flatten(overrides).items():
+        if key not in RULES:
+            section = key.rsplit(".", 1)[0] if "." in key else ""
+            allowed = sorted(k for k in RULES if section and k.startswith(section + ".")) or sorted(
+                {k.split(".")[0] for k in RULES}
+            )
+            raise ConfigError(f"config key '{key}' ({source}) does not exist; allowed: {', '.join(allowed)}")
+        flat[key] = RULES[key].check(key, value)
+
+
+def _unflatten(flat: Mapping[str, Any]) -> dict:
+    tree: dict = {}
+    for key, value in flat.items():
+        *sections, leaf = key.split(".")
+        node = tree
+        for section in sections:
+            node = node.setdefault(section, {})
+        node[leaf] = value
+    return tree
+
+
+def load_config(config: str | Path | Mapping | None = None, **keywords: Any) -> dict:
+    """The resolved configuration as a nested dict.
+
+    ``config`` is a YAML path or a nested mapping of overrides. ``keywords`` use either
+    the short name of a key (``camera_resolution=64``) or, for a whole section, its name
+    with a mapping (``sensors={"camera": True}``).
+    """
+    flat: dict[str, Any] = {}
+    _merge(flat, read_yaml(config_dir() / "default.yaml"), "default.yaml")
+    if set(flat) != set(RULES):
+        missing = sorted(set(RULES) - set(flat))
+        raise ConfigError(f"default.yaml lacks the keys {', '.join(missing)}")
+    if config is not None:
+        overrides = copy.deepcopy(dict(config)) if isinstance(config, Mapping) else read_yaml(config)
+        _merge(flat, overrides, "config" if isinstance(config, Mapping) else str(config))
+    leaves = _leaf_names()
+    sections = _section_names()
+    for name, value in keywords.items():
+        if name in sections and isinstance(value, Mapping):
+            _merge(flat, {name: value}, "keyword")
+        elif name in leaves:
+            _merge(flat, {leaves[name]: value}, "keyword")
+        else:
+            allowed = ", ".join(sorted(set(leaves) | sections))
+            raise ConfigError(f"config key '{name}' (keyword) does not exist; allowed: {allowed}")
+    return _unflatten(flat)

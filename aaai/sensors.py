@@ -1,0 +1,82 @@
+"""What the agent senses from its head: rays (one rayTestBatch per step) and a camera."""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pybullet as p
+from gymnasium import spaces
+
+from aaai.agent.body import RAY_MASK
+from aaai.agent.urdf_writer import HEAD_RADIUS
+from aaai.kinds import KINDS
+
+CAMERA_FOV = 60.0
+CAMERA_NEAR, CAMERA_FAR = 0.05, 120.0
+EYE_OFFSET = HEAD_RADIUS + 0.05  # eye and ray origins sit just outside the head
+
+
+class Rays:
+    """2n+1 rays in the head's horizontal plane, from -max_angle (right) to +max_angle (left).
+
+    Each ray reports a one-hot of the kind hit (aaai.kinds.KINDS order), a hit-nothing flag,
+    and the hit distance over the ray length (1 when nothing is hit).
+    """
+
+    def __init__(self, client: int, rays_per_side: int, max_angle: float, length: float):
+        self.client = client
+        self.length = length
+        angles = np.radians(np.linspace(-max_angle, max_angle, 2 * rays_per_side + 1))
+        self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
+        self.n_rays = len(angles)
+        self.n_kinds = len(KINDS)
+        self.space = spaces.Box(0.0, 1.0, (self.n_rays, self.n_kinds + 2), np.float32)
+        self._nothing = self.n_kinds
+        self._rows = np.arange(self.n_rays)
+
+    def observe(self, head_pos: np.ndarray, head_rot: np.ndarray, kind_index: np.ndarray) -> np.ndarray:
+        dirs = self.local_dirs @ head_rot.T
+        starts = head_pos + dirs * EYE_OFFSET
+        ends = head_pos + dirs * (EYE_OFFSET + self.length)
+        hits = p.rayTestBatch(starts.tolist(), ends.tolist(), collisionFilterMask=RAY_MASK,
+                              physicsClientId=self.client)
+        bodies = np.array([hit[0] for hit in hits])
+        fractions = np.array([hit[2] for hit in hits])
+        kinds = np.where(bodies >= 0, kind_index[np.clip(bodies, 0, len(kind_index) - 1)], -1)
+        obs = np.zeros(self.space.shape, np.float32)
+        column = np.where(kinds >= 0, kinds, self._nothing)
+        obs[self._rows, column] = 1.0
+        obs[:, -1] = np.where(kinds >= 0, fractions, 1.0)
+        return obs
+
+
+class Camera:
+    """A TinyRenderer camera in the head, looking forward: uint8 H x W x C (C = 3, or 1 in grey)."""
+
+    def __init__(self, client: int, resolution: int, grayscale: bool):
+        self.client = client
+        self.resolution = resolution
+        self.grayscale = grayscale
+        self.space = spaces.Box(0, 255, (resolution, resolution, 1 if grayscale else 3), np.uint8)
+        self.projection = p.computeProjectionMatrixFOV(CAMERA_FOV, 1.0, CAMERA_NEAR, CAMERA_FAR)
+
+    def observe(self, head_pos: np.ndarray, head_rot: np.ndarray) -> np.ndarray:
+        forward, up = head_rot[:, 0], head_rot[:, 2]
+        eye = head_pos + forward * EYE_OFFSET
+        return self.render(eye, eye + forward, up)
+
+    def render(self, eye, target, up) -> np.ndarray:
+        view = p.computeViewMatrix(eye.tolist(), target.tolist(), up.tolist())
+        return render_rgb(self.client, self.resolution, self.resolution, view, self.projection, self.grayscale)
+
+    def blank(self) -> np.ndarray:
+        return np.zeros(self.space.shape, np.uint8)
+
+
+def render_rgb(client: int, width: int, height: int, view, projection, grayscale: bool = False) -> np.ndarray:
+    """An image from TinyRenderer as uint8 H x W x 3 (or H x W x 1 in grey)."""
+    _, _, rgba, _, _ = p.getCameraImage(width, height, view, projection, renderer=p.ER_TINY_RENDERER,
+                                        flags=p.ER_NO_SEGMENTATION_MASK, physicsClientId=client)
+    rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+    if grayscale:
+        return cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)[:, :, None]
+    return np.ascontiguousarray(rgb)

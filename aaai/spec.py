@@ -1,0 +1,91 @@
+"""A level as plain data: what a generator returns and the builder turns into PyBullet bodies.
+
+A spec holds no simulator state, so it can be validated, drawn and hashed without physics.
+Coordinates: metres, z up, the arena centred on the origin with its floor's top at z = 0;
+yaw in radians, 0 facing +x (east), pi/2 facing +y (north).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass, field
+
+from aaai.kinds import COLOURS, FOOD_KINDS, check_kind
+
+SHAPES = ("box", "sphere", "cylinder")
+BEHAVIOURS = ("random_walk",)
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    kind: str
+    shape: str
+    position: tuple[float, float, float]  # centre
+    size: tuple[float, float, float]  # full extents; a sphere's diameter thrice
+    yaw: float = 0.0
+    colour: tuple[float, float, float, float] | None = None  # None: the kind's colour
+    mass: float = 0.0  # 0: static
+    behaviour: dict | None = None  # e.g. {"type": "random_walk", "speed": 4.0}
+
+    def __post_init__(self):
+        check_kind(self.kind)
+        if self.shape not in SHAPES:
+            raise ValueError(f"object shape {self.shape!r} is not known; allowed: {', '.join(SHAPES)}")
+        if min(self.size) <= 0:
+            raise ValueError(f"object size {self.size} must be positive")
+        if self.behaviour is not None and self.behaviour.get("type") not in BEHAVIOURS:
+            raise ValueError(f"object behaviour {self.behaviour!r}; allowed types: {', '.join(BEHAVIOURS)}")
+
+    @property
+    def rgba(self) -> tuple[float, float, float, float]:
+        return self.colour if self.colour is not None else COLOURS[self.kind]
+
+    @property
+    def is_food(self) -> bool:
+        return self.kind in FOOD_KINDS
+
+    @property
+    def food_value(self) -> float:
+        """Reward for eating this piece with the head: its size (green) or half its size (yellow)."""
+        if self.kind == "food_green":
+            return self.size[0]
+        if self.kind == "food_yellow":
+            return self.size[0] / 2
+        return 0.0
+
+
+@dataclass(frozen=True)
+class AgentPose:
+    x: float
+    y: float
+    yaw: float
+
+
+@dataclass(frozen=True)
+class LevelSpec:
+    level: int
+    name: str
+    difficulty: int
+    seed: int
+    agent: AgentPose
+    objects: tuple[ObjectSpec, ...]
+    arena_size: tuple[float, float] = (50.0, 50.0)
+    wall_height: float = 4.0
+    tiles: tuple[int, int] = (1, 1)  # floor tiles along x and y
+    holes: tuple[tuple[int, int], ...] = ()  # (i, j) of floor tiles left out
+    max_food_reward: float = 0.0  # best food reward this instance can give
+    extras: dict = field(default_factory=dict)  # level-specific data (plain JSON types)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+
+    def digest(self) -> str:
+        """A hash of the whole spec: equal specs have equal digests, in any process."""
+        return hashlib.sha256(self.to_json().encode()).hexdigest()
+
+    @property
+    def foods(self) -> list[ObjectSpec]:
+        return [obj for obj in self.objects if obj.is_food]

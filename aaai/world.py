@@ -1,0 +1,188 @@
+"""Builds a LevelSpec into a PyBullet client and runs its moving parts.
+
+Every body carries a kind (aaai.kinds); rays and rewards read it from ``kind_index``.
+The floor is one body made of tiles (holes are tiles left out); a deadly floor far below
+the arena catches anything that falls.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as p
+
+from aaai.kinds import COLOURS, KIND_INDEX
+from aaai.spec import LevelSpec, ObjectSpec
+
+FLOOR_THICKNESS = 1.0
+DEADLY_FLOOR_TOP = -6.0
+DEADLY_FLOOR_SIZE = 400.0
+NO_KIND = -1
+MAX_COMPOUND_SHAPES = 16  # PyBullet's limit on shapes in one createCollisionShapeArray
+RANDOM_WALK_TURN = 2.0  # heading noise of a random walk, rad per sqrt(s)
+
+
+class World:
+    """The level's bodies in one client. Build it after every resetSimulation."""
+
+    def __init__(self, client: int, spec: LevelSpec, motion_rng: np.random.Generator):
+        self.client = client
+        self.spec = spec
+        self.motion_rng = motion_rng
+        self.kind_index = np.full(64, NO_KIND, dtype=np.int64)  # body id -> index into KINDS
+        self.objects: dict[int, ObjectSpec] = {}
+        self.food: dict[int, ObjectSpec] = {}
+        self.walkers: dict[int, list[float]] = {}  # body id -> [x, y, z, heading]
+        self._shapes: dict[tuple, tuple[int, int]] = {}
+        self._build_floor()
+        self._build_deadly_floor()
+        for obj in spec.objects:
+            self._build_object(obj)
+        self._obstacles = [  # footprints that random walkers steer clear of
+            footprint(obj) for obj in spec.objects
+            if not obj.is_food and obj.mass == 0 and _inside_arena(obj, spec)
+        ]
+
+    # --- building -------------------------------------------------------------------
+    def _register(self, body: int, kind: str) -> None:
+        if body >= len(self.kind_index):
+            grown = np.full(max(2 * len(self.kind_index), body + 1), NO_KIND, dtype=np.int64)
+            grown[: len(self.kind_index)] = self.kind_index
+            self.kind_index = grown
+        self.kind_index[body] = KIND_INDEX[kind]
+
+    def _build_floor(self) -> None:
+        """The floor's tiles, merged into as few boxes as can be, in bodies of up to 16 boxes."""
+        c, spec = self.client, self.spec
+        nx, ny = spec.tiles
+        tile_x, tile_y = spec.arena_size[0] / nx, spec.arena_size[1] / ny
+        boxes = []
+        for i0, j0, i1, j1 in merge_tiles(nx, ny, set(map(tuple, spec.holes))):
+            centre = (-spec.arena_size[0] / 2 + (i0 + i1) / 2 * tile_x,
+                      -spec.arena_size[1] / 2 + (j0 + j1) / 2 * tile_y, -FLOOR_THICKNESS / 2)
+            half = ((i1 - i0) * tile_x / 2, (j1 - j0) * tile_y / 2, FLOOR_THICKNESS / 2)
+            boxes.append((centre, half))
+        for start in range(0, len(boxes), MAX_COMPOUND_SHAPES):
+            chunk = boxes[start:start + MAX_COMPOUND_SHAPES]
+            count = len(chunk)
+            centres, halves = [list(b[0]) for b in chunk], [list(b[1]) for b in chunk]
+            collision = p.createCollisionShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
+                                                    collisionFramePositions=centres, physicsClientId=c)
+            visual = p.createVisualShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
+                                              visualFramePositions=centres,
+                                              rgbaColors=[COLOURS["floor"]] * count, physicsClientId=c)
+            self._register(p.createMultiBody(0, collision, visual, physicsClientId=c), "floor")
+
+    def _build_deadly_floor(self) -> None:
+        c = self.client
+        half = [DEADLY_FLOOR_SIZE / 2, DEADLY_FLOOR_SIZE / 2, 0.5]
+        collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
+        visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=COLOURS["deadly_floor"], physicsClientId=c)
+        body = p.createMultiBody(0, collision, visual, basePosition=(0, 0, DEADLY_FLOOR_TOP - 0.5), physicsClientId=c)
+        self._register(body, "deadly_floor")
+
+    def _shape(self, obj: ObjectSpec) -> tuple[int, int]:
+        """Collision and visual shapes for an object, made once per (shape, size, colour)."""
+        key = (obj.shape, obj.size, obj.rgba)
+        if key not in self._shapes:
+            c = self.client
+            if obj.shape == "box":
+                geometry = dict(shapeType=p.GEOM_BOX, halfExtents=[s / 2 for s in obj.size])
+            elif obj.shape == "sphere":
+                geometry = dict(shapeType=p.GEOM_SPHERE, radius=obj.size[0] / 2)
+            else:
+                geometry = dict(shapeType=p.GEOM_CYLINDER, radius=obj.size[0] / 2)
+            collision_extra = {"height": obj.size[2]} if obj.shape == "cylinder" else {}
+            visual_extra = {"length": obj.size[2]} if obj.shape == "cylinder" else {}
+            collision = p.createCollisionShape(**geometry, **collision_extra, physicsClientId=c)
+            visual = p.createVisualShape(**geometry, **visual_extra, rgbaColor=obj.rgba, physicsClientId=c)
+            self._shapes[key] = (collision, visual)
+        return self._shapes[key]
+
+    def _build_object(self, obj: ObjectSpec) -> int:
+        c = self.client
+        collision, visual = self._shape(obj)
+        orientation = p.getQuaternionFromEuler((0, 0, obj.yaw))
+        body = p.createMultiBody(obj.mass, collision, visual, basePosition=obj.position,
+                                 baseOrientation=orientation, physicsClientId=c)
+        self._register(body, obj.kind)
+        self.objects[body] = obj
+        if obj.is_food:
+            self.food[body] = obj
+        if obj.behaviour and obj.behaviour["type"] == "random_walk":
+            heading = float(self.motion_rng.uniform(-math.pi, math.pi))
+            self.walkers[body] = [*obj.position, heading]
+        return body
+
+    # --- running --------------------------------------------------------------------
+    def remove(self, body: int) -> None:
+        """Takes an object (an eaten food piece) out of the world."""
+        p.removeBody(body, physicsClientId=self.client)
+        self.kind_index[body] = NO_KIND
+        self.objects.pop(body, None)
+        self.food.pop(body, None)
+        self.walkers.pop(body, None)
+
+    def advance(self, dt: float) -> None:
+        """Moves the moving parts by dt of simulated time (random-walking food)."""
+        for body, state in self.walkers.items():
+            self._walk(body, state, dt)
+
+    def _walk(self, body: int, state: list[float], dt: float) -> None:
+        obj = self.objects[body]
+        x, y, z, heading = state
+        heading += RANDOM_WALK_TURN * math.sqrt(dt) * float(self.motion_rng.standard_normal())
+        step = obj.behaviour["speed"] * dt
+        nx, ny = x + step * math.cos(heading), y + step * math.sin(heading)
+        if self._blocked(nx, ny, obj.size[0] / 2):
+            heading += math.pi  # turn back; stay put this step
+            nx, ny = x, y
+        state[:] = [nx, ny, z, heading]
+        p.resetBasePositionAndOrientation(body, (nx, ny, z), (0, 0, 0, 1), physicsClientId=self.client)
+
+    def _blocked(self, x: float, y: float, radius: float) -> bool:
+        """Would a disc at (x, y) leave the arena or overlap a static solid's footprint?"""
+        half_x, half_y = self.spec.arena_size[0] / 2 - radius, self.spec.arena_size[1] / 2 - radius
+        if not (-half_x <= x <= half_x and -half_y <= y <= half_y):
+            return True
+        return any(abs(x - ox) < hx + radius and abs(y - oy) < hy + radius for ox, oy, hx, hy in self._obstacles)
+
+
+def merge_tiles(nx: int, ny: int, holes: set[tuple[int, int]]) -> list[tuple[int, int, int, int]]:
+    """Covers the present tiles with few rectangles (i0, j0, i1, j1), end-exclusive.
+
+    Each row's runs of present tiles are found, then a run is stretched over the next rows
+    while they hold the very same run.
+    """
+    runs_by_row = []
+    for j in range(ny):
+        runs, i = [], 0
+        while i < nx:
+            if (i, j) in holes:
+                i += 1
+                continue
+            start = i
+            while i < nx and (i, j) not in holes:
+                i += 1
+            runs.append((start, i))
+        runs_by_row.append(runs)
+    rectangles, open_runs = [], {}  # (i0, i1) -> first row
+    for j in range(ny + 1):
+        row = set(runs_by_row[j]) if j < ny else set()
+        for run in [r for r in open_runs if r not in row]:
+            rectangles.append((run[0], open_runs.pop(run), run[1], j))
+        for run in row:
+            open_runs.setdefault(run, j)
+    return sorted(rectangles, key=lambda r: (r[1], r[0]))
+
+
+def footprint(obj: ObjectSpec) -> tuple[float, float, float, float]:
+    """Centre and half extents (x, y) of the axis-aligned box around an object's footprint."""
+    cos, sin = abs(math.cos(obj.yaw)), abs(math.sin(obj.yaw))
+    half_x = 0.5 * (cos * obj.size[0] + sin * obj.size[1])
+    half_y = 0.5 * (sin * obj.size[0] + cos * obj.size[1])
+    return obj.position[0], obj.position[1], half_x, half_y
+
+
+def _inside_arena(obj: ObjectSpec, spec: LevelSpec) -> bool:
+    return abs(obj.position[0]) < spec.arena_size[0] / 2 and abs(obj.position[1]) < spec.arena_size[1] / 2

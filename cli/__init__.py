@@ -1,0 +1,1 @@
+"""The aaai command line (installed as the import package aaai_cli)."""

@@ -1,0 +1,38 @@
+import math
+
+import numpy as np
+import pytest
+
+from aaai.env import AnimalAIEnv
+from aaai.levels.common import arena_walls, sphere
+from aaai.spec import AgentPose, LevelSpec, ObjectSpec
+
+
+def heading(rotation: np.ndarray) -> float:
+    return math.atan2(rotation[1, 0], rotation[0, 0])
+
+
+def open_arena(*objects: ObjectSpec, agent=(0.0, 0.0, 0.0), **extra) -> LevelSpec:
+    """A hand-made level: the 50 x 50 arena, the agent at ``agent`` (x, y, yaw), these objects."""
+    foods = [o for o in objects if o.is_food]
+    return LevelSpec(level=0, name="test", difficulty=0, seed=0, agent=AgentPose(*agent),
+                     objects=tuple(arena_walls((50.0, 50.0), 4.0)) + objects,
+                     max_food_reward=max([f.food_value for f in foods], default=0.0), **extra)
+
+
+@pytest.fixture
+def make_env():
+    envs = []
+
+    def factory(**kwargs):
+        kwargs.setdefault("rays", False)
+        env = AnimalAIEnv(**kwargs)
+        envs.append(env)
+        return env
+
+    yield factory
+    for env in envs:
+        env.close()
+
+
+__all__ = ["heading", "open_arena", "sphere"]

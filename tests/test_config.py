@@ -1,0 +1,86 @@
+import pytest
+
+from aaai.agent.body import urdf_path
+from aaai.config import ConfigError, load_config
+from aaai.env import AnimalAIEnv
+from aaai.levels import generate
+from aaai.levels.params import LevelParamError, resolve, resolve_value
+
+
+def test_defaults_load_and_keywords_override():
+    config = load_config(camera=True, camera_resolution=64, sensors={"rays_per_side": 3})
+    assert config["sensors"]["camera"] is True
+    assert config["sensors"]["camera_resolution"] == 64
+    assert config["sensors"]["rays_per_side"] == 3
+    assert config["physics"]["timestep"] * config["physics"]["action_repeat"] == pytest.approx(0.02)
+
+
+def test_user_yaml_overrides_defaults(tmp_path):
+    path = tmp_path / "mine.yaml"
+    path.write_text("episode:\n  max_steps: 500\nagent:\n  body: quadruped16\n")
+    config = load_config(path)
+    assert config["episode"]["max_steps"] == 500
+    assert config["agent"]["body"] == "quadruped16"
+
+
+@pytest.mark.parametrize(
+    "overrides, names",
+    [
+        ({"difficulty": 11}, ["difficulty", "11", "0 to 10"]),
+        ({"rays_per_side": 0}, ["sensors.rays_per_side", "0", "1 to 20"]),
+        ({"camera_resolution": 4}, ["sensors.camera_resolution", "4", "8 to 512"]),
+        ({"max_steps": 5}, ["episode.max_steps", "5", "10 to 10000"]),
+        ({"ray_max_angle": 200}, ["sensors.ray_max_angle", "200", "5 to 180"]),
+        ({"camera": "yes"}, ["sensors.camera", "'yes'", "true or false"]),
+        ({"body": "spider"}, ["agent.body", "'spider'", "quadruped, quadruped16"]),
+        ({"camra": True}, ["camra", "does not exist", "camera"]),
+        ({"sensors": {"camra": True}}, ["sensors.camra", "does not exist", "sensors.camera"]),
+    ],
+)
+def test_bad_values_name_key_value_and_what_is_allowed(overrides, names):
+    with pytest.raises(ConfigError) as caught:
+        load_config(**overrides)
+    for name in names:
+        assert name in str(caught.value)
+
+
+def test_unknown_key_in_user_yaml(tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text("episode:\n  max_stepz: 500\n")
+    with pytest.raises(ConfigError, match=r"episode\.max_stepz.*does not exist.*episode\.max_steps"):
+        load_config(path)
+
+
+def test_missing_config_file_is_named():
+    with pytest.raises(ConfigError, match="nope.yaml.*does not exist"):
+        load_config("nope.yaml")
+
+
+def test_env_rejects_bad_level_and_difficulty():
+    with pytest.raises(ConfigError, match="level 42 does not exist"):
+        AnimalAIEnv(level=42)
+    with pytest.raises(ConfigError, match="difficulty: got 11"):
+        AnimalAIEnv(level=0, difficulty=11)
+
+
+def test_missing_model_file_is_named(monkeypatch, tmp_path):
+    monkeypatch.setattr("aaai.agent.body.URDF_DIR", tmp_path)
+    with pytest.raises(FileNotFoundError, match="agent.body='quadruped'.*quadruped.urdf"):
+        urdf_path("quadruped")
+
+
+def test_level_parameters_follow_difficulty():
+    assert [resolve_value("round(0.4 * d + 1)", d, "x") for d in (0, 5, 10)] == [1, 3, 5]
+    assert resolve_value([4, 4, 4, 4, 4, 3, 3, 3, 2, 2, 2], 8, "x") == 2
+    assert resolve_value("clamp(3 + floor(d / 3), 2, 5) - 1", 10, "x") == 4
+    with pytest.raises(LevelParamError, match="'__import__\\(.os.\\)' is not allowed"):
+        resolve_value("__import__('os')", 0, "x")
+    with pytest.raises(LevelParamError, match="parameter 'food_sise' does not exist"):
+        resolve({"food_sise": 1}, 0, ("food_size",), "L0.yaml")
+    with pytest.raises(LevelParamError, match="list of 11"):
+        resolve_value([1, 2, 3], 0, "x")
+
+
+def test_bad_seed_is_rejected():
+    with pytest.raises(ConfigError, match="seed: got -1"):
+        generate(0, 0, -1)

@@ -1,0 +1,132 @@
+"""Rewards and episode ends, tested by running physics."""
+import numpy as np
+import pybullet as p
+import pytest
+
+from aaai.gait import SineGait
+from aaai.spec import ObjectSpec
+from conftest import open_arena, sphere
+
+
+def walk_until(env, spec, predicate, steps=600):
+    observation, _ = env.reset(options={"spec": spec})
+    gait = SineGait.for_env(env, "forward")
+    history = []
+    for _ in range(steps):
+        observation, reward, terminated, truncated, info = env.step(gait(observation))
+        history.append((reward, terminated, truncated, info))
+        if predicate(info) or terminated or truncated:
+            break
+    return history
+
+
+def test_green_food_eaten_by_the_head_pays_its_size_and_ends_the_episode(make_env):
+    env = make_env(limb_food_reward="none", max_steps=1000)
+    spec = open_arena(sphere("food_green", 5.0, 0.0, 2.0))
+    history = walk_until(env, spec, lambda info: False)
+    reward, terminated, truncated, info = history[-1]
+    assert terminated and not truncated
+    assert info["reward_terms"]["food"] == 2.0 and info["food_eaten"] == 1
+    assert reward == pytest.approx(2.0 + sum(v for k, v in info["reward_terms"].items() if k != "food"))
+    assert info["max_reward"] == pytest.approx(2.0 - 0.5)
+
+
+def test_yellow_food_pays_half_its_size_disappears_and_the_episode_goes_on(make_env):
+    env = make_env(limb_food_reward="none")
+    spec = open_arena(sphere("food_yellow", 5.0, 0.0, 3.0))
+    history = walk_until(env, spec, lambda info: info["food_eaten"] > 0)
+    reward, terminated, truncated, info = history[-1]
+    assert info["reward_terms"]["food"] == 1.5 and not terminated
+    assert not env.world.food  # the piece is gone
+    _, _, terminated, _, info = env.step(np.zeros(8))
+    assert not terminated and info["reward_terms"]["food"] == 0.0
+
+
+def test_a_leg_touching_food_pays_the_flat_limb_reward(make_env):
+    env = make_env(limb_food_reward="flat")
+    # The front-left leg lies along the diagonal; a piece resting on its shin is touched at once.
+    spec = open_arena(ObjectSpec("food_green", "sphere", (2.6, 2.6, 2.45), (1.0, 1.0, 1.0)))
+    env.reset(options={"spec": spec})
+    _, _, terminated, _, info = env.step(env.body.rest_action())
+    assert terminated and info["reward_terms"]["food"] == 1.0
+
+
+def test_each_new_wall_contact_costs_one(make_env):
+    env = make_env()
+    wall = ObjectSpec("wall", "box", (7.0, 0.0, 2.0), (1.0, 20.0, 4.0))
+    history = walk_until(env, open_arena(wall), lambda info: False, steps=300)
+    wall_terms = [info["reward_terms"]["wall"] for *_, info in history]
+    hits = history[-1][3]["wall_hits"]
+    assert hits >= 1
+    assert sum(wall_terms) == -hits  # one -1 per new contact, none while a contact lasts
+    assert min(wall_terms) >= -8  # at most one per body part
+
+
+def test_transparent_walls_cost_nothing(make_env):
+    env = make_env()
+    glass = ObjectSpec("transparent_wall", "box", (7.0, 0.0, 2.0), (1.0, 20.0, 4.0))
+    history = walk_until(env, open_arena(glass), lambda info: False, steps=300)
+    assert all(info["reward_terms"]["wall"] == 0 for *_, info in history)
+    position, _ = env.body.head_pose()
+    assert position[0] < 7.0  # it still stops the body
+
+
+def test_falling_onto_the_deadly_floor_costs_one_and_ends_the_episode(make_env):
+    env = make_env()
+    spec = open_arena(tiles=(5, 5), holes=((2, 2),))  # the centre tile, under the agent, is missing
+    observation, _ = env.reset(options={"spec": spec})
+    for step in range(200):
+        observation, reward, terminated, truncated, info = env.step(env.body.rest_action())
+        if terminated:
+            break
+    assert terminated and not truncated
+    assert info["fell"] and info["reward_terms"]["fall"] == -1.0
+
+
+def test_step_costs_with_and_without_the_ground_penalty(make_env):
+    env = make_env(max_steps=100)
+    env.reset(options={"spec": open_arena()})
+    _, reward, *_ , info = env.step(env.body.rest_action())  # lying at rest: the head is on the floor
+    assert info["reward_terms"]["ground"] == -0.005 and reward == pytest.approx(-0.01)
+    flat = make_env(max_steps=100, ground_penalty=False)
+    flat.reset(options={"spec": open_arena()})
+    for action in (np.full(8, 0.9, np.float32),) * 30:  # pushed up off the head
+        _, reward, *_, info = flat.step(action)
+    assert reward == pytest.approx(-0.01)
+
+
+def test_reaching_max_steps_truncates(make_env):
+    env = make_env(max_steps=10)
+    env.reset(seed=0)
+    for step in range(10):
+        _, _, terminated, truncated, info = env.step(np.zeros(8))
+    assert truncated and not terminated and info["steps"] == 10
+
+
+def test_a_physics_blow_up_is_caught_and_truncates(make_env):
+    env = make_env()
+    env.reset(seed=0)
+    p.resetBaseVelocity(env.body.id, [1e4, 0, 0], physicsClientId=env.client)
+    _, _, terminated, truncated, info = env.step(np.zeros(8))
+    assert truncated and not terminated and info["blew_up"]
+
+
+@pytest.mark.parametrize("level", [0, 1])
+@pytest.mark.parametrize("body", ["quadruped", "quadruped16"])
+def test_random_actions_keep_the_body_whole_and_in_the_arena(make_env, level, body):
+    env = make_env(body=body, action_mode="rotation")
+    rng = np.random.default_rng(level)
+    for difficulty in (0, 5, 10):
+        env.reset(seed=difficulty, options={"level": level, "difficulty": difficulty})
+        for _ in range(250):
+            _, _, terminated, truncated, info = env.step(rng.uniform(-1, 1, env.body.n_axes))
+            assert not info["blew_up"]
+            parts = [env.body.head_pose()[0]] + [
+                np.array(s[0]) for s in p.getLinkStates(env.body.id, env.body.links[1:], physicsClientId=env.client)
+            ]
+            for position in parts:
+                assert np.all(np.isfinite(position))
+                assert abs(position[0]) < 25 and abs(position[1]) < 25  # inside the walls
+                assert position[2] > 0.0  # above the floor's top
+            if terminated or truncated:
+                break
