@@ -1,0 +1,37 @@
+# Every install step lives here: `make test` and `make demo` work on a bare machine with Python 3.
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+# torch is installed explicitly, before stable-baselines3, so that pip takes the CPU wheel
+# instead of a multi-GB CUDA build. Override with e.g. `make TORCH_SPEC="torch==2.5.1" test`.
+TORCH_SPEC ?= torch==2.13.0
+PYTEST_ARGS ?=
+
+.PHONY: install install-train test test-long demo bench clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+
+$(VENV)/.installed: setup.cfg pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	touch $@
+
+$(VENV)/.installed-train: $(VENV)/.installed
+	$(BIN)/python -m pip install --quiet "$(TORCH_SPEC)"
+	$(BIN)/python -m pip install --quiet -e ".[dev,train]"
+	touch $@
+
+install: $(VENV)/.installed
+
+install-train: $(VENV)/.installed-train
+
+test: install
+	$(BIN)/python -m pytest -q $(PYTEST_ARGS)
+
+demo: install
+	$(BIN)/aaai run --levels 0-1 --difficulty 0,5 --episodes 1 --policy random
+	$(BIN)/aaai run --levels 0 --difficulty 0 --episodes 1 --policy gait
+
+clean:
+	rm -rf $(VENV) *.egg-info .pytest_cache
