@@ -27,7 +27,10 @@ install: $(VENV)/.installed
 install-train: $(VENV)/.installed-train
 
 test: install
-	$(BIN)/python -m pytest -q $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -q -m "not long" $(PYTEST_ARGS)
+
+test-long: install
+	$(BIN)/python -m pytest -q -m long $(PYTEST_ARGS)
 
 demo: install
 	$(BIN)/aaai run --levels 0-1 --difficulty 0,5 --episodes 1 --policy random

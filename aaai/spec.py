@@ -73,6 +73,9 @@ class LevelSpec:
     wall_height: float = 4.0
     tiles: tuple[int, int] = (1, 1)  # floor tiles along x and y
     holes: tuple[tuple[int, int], ...] = ()  # (i, j) of floor tiles left out
+    # Rough terrain instead of flat tiles: heights (rows along y, columns along x) spanning the
+    # arena, or None for a flat floor.
+    heightfield: tuple[tuple[float, ...], ...] | None = None
     max_food_reward: float = 0.0  # best food reward this instance can give
     extras: dict = field(default_factory=dict)  # level-specific data (plain JSON types)
 

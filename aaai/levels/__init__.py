@@ -5,20 +5,17 @@ A level is a pure function of (difficulty, seed, parameters) that returns a Leve
 from __future__ import annotations
 
 import functools
+import importlib
 from dataclasses import dataclass
+from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 
 from aaai.config import ConfigError, config_dir, read_yaml
-from aaai.levels import food_contact, food_retrieval
 from aaai.levels.params import DIFFICULTIES, resolve
 from aaai.spec import AgentPose, LevelSpec
 
-GENERATORS: dict[str, ModuleType] = {
-    "food_contact": food_contact,
-    "food_retrieval": food_retrieval,
-}
 LEVEL_FILE_KEYS = ("id", "name", "title", "generator", "params")
 SEED_LIMIT = 2**32  # seeds are integers in [0, 2**32)
 
@@ -45,11 +42,16 @@ def _load_level(path) -> Level:
     for key in LEVEL_FILE_KEYS:
         if key not in data:
             raise ConfigError(f"{path.name}: key '{key}' is missing")
-    if data["generator"] not in GENERATORS:
-        raise ConfigError(
-            f"{path.name}: generator {data['generator']!r} does not exist; allowed: {', '.join(GENERATORS)}"
-        )
-    return Level(data["id"], data["name"], data["title"], GENERATORS[data["generator"]], data["params"], path.name)
+    return Level(data["id"], data["name"], data["title"], _generator(data["generator"], path.name),
+                 data["params"], path.name)
+
+
+def _generator(name: str, source: str) -> ModuleType:
+    """The generator module aaai/levels/<name>.py named by a level file."""
+    available = sorted(p.stem for p in Path(__file__).parent.glob("*.py") if not p.stem.startswith("_"))
+    if name not in available or name in ("common", "params"):
+        raise ConfigError(f"{source}: generator {name!r} does not exist; allowed: a module of aaai/levels/")
+    return importlib.import_module(f"aaai.levels.{name}")
 
 
 @functools.cache
