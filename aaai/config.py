@@ -20,7 +20,7 @@ class ConfigError(ValueError):
 
 @dataclass(frozen=True)
 class Rule:
-    kind: str  # int | float | bool | choice
+    kind: str  # int | float | bool | choice | set (integers, written "0-3,5")
     low: float | None = None
     high: float | None = None
     choices: tuple[str, ...] = ()
@@ -30,10 +30,14 @@ class Rule:
             return "true or false"
         if self.kind == "choice":
             return "one of " + ", ".join(self.choices)
+        if self.kind == "set":
+            return f"integers from {self.low:g} to {self.high:g}, as a list or ranges like '0-3,5'"
         noun = "an integer" if self.kind == "int" else "a number"
         return f"{noun} from {self.low:g} to {self.high:g}"
 
     def check(self, key: str, value: Any) -> Any:
+        if self.kind == "set":
+            return parse_int_set(value, key, int(self.low), int(self.high))
         if self.kind == "bool":
             ok = isinstance(value, bool)
         elif self.kind == "choice":
@@ -50,9 +54,30 @@ class Rule:
         return value
 
 
+def parse_int_set(value: Any, key: str, low: int, high: int) -> list[int]:
+    """'0-3,5', 4 or [0, 2] -> a sorted list of distinct integers, each checked to lie in low..high."""
+    allowed = f"integers from {low} to {high}, as a list or ranges like '0-3,5'"
+    values: list[int] = []
+    try:
+        parts = value if isinstance(value, list) else str(value).split(",")
+        for part in parts:
+            if isinstance(part, bool):
+                raise ValueError
+            if isinstance(part, int):
+                values.append(part)
+                continue
+            first, _, last = str(part).strip().partition("-")
+            values.extend(range(int(first), int(last or first) + 1))
+    except ValueError:
+        raise ConfigError(f"config key '{key}': got {value!r}; allowed: {allowed}") from None
+    if not values or any(not low <= v <= high for v in values):
+        raise ConfigError(f"config key '{key}': got {value!r}; allowed: {allowed}")
+    return sorted(set(values))
+
+
 BODIES = ("quadruped", "quadruped16")
 RULES: dict[str, Rule] = {
-    "level": Rule("int", 0, 11),
+    "level": Rule("int", 0, 12),  # 12 is L2b (delayed gratification)
     "difficulty": Rule("int", 0, 10),
     "agent.body": Rule("choice", choices=BODIES),
     "agent.action_mode": Rule("choice", choices=("rotation", "velocity")),
@@ -77,6 +102,27 @@ RULES: dict[str, Rule] = {
     "physics.solver_iterations": Rule("int", 1, 500),
     "physics.gravity": Rule("float", 0, 100),
     "physics.blowup_speed": Rule("float", 1, 1e5),
+    "curriculum.mode": Rule("choice", choices=("curriculum", "random")),
+    "curriculum.levels": Rule("set", 0, 12),
+    "curriculum.difficulties": Rule("set", 0, 10),
+    "curriculum.window": Rule("int", 2, 1000),
+    "curriculum.c": Rule("float", 1e-9, 1e3),
+    "curriculum.spread": Rule("choice", choices=("std", "variance")),
+    "train.agent": Rule("choice", choices=("ppo", "random")),
+    "train.total_steps": Rule("int", 1, 10**10),
+    "train.num_envs": Rule("int", 1, 256),
+    "train.seed": Rule("int", 0, 2**32 - 1),
+    "train.checkpoint_every": Rule("int", 1, 10**10),
+    "train.heatmap_every": Rule("int", 1, 10**10),
+    "train.learning_rate": Rule("float", 1e-7, 1.0),
+    "train.n_steps": Rule("int", 8, 100000),
+    "train.batch_size": Rule("int", 8, 100000),
+    "train.n_epochs": Rule("int", 1, 100),
+    "train.gamma": Rule("float", 0.0, 1.0),
+    "train.gae_lambda": Rule("float", 0.0, 1.0),
+    "train.ent_coef": Rule("float", 0.0, 1.0),
+    "train.net_width": Rule("int", 4, 4096),
+    "eval.seeds_per_cell": Rule("int", 1, 1000),
 }
 
 

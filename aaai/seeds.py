@@ -1,5 +1,29 @@
-"""Seed ranges: training draws from TRAIN_SEEDS only; RESERVED_SEEDS are kept for evaluation."""
+"""Seed ranges. Training draws from TRAIN_SEEDS only; RESERVED_SEEDS are kept for evaluation.
+
+The reserved evaluation set is a fixed list of K seeds per (level, difficulty): the first K
+distinct draws of a generator seeded with (RESERVED_KEY, level, difficulty) from
+RESERVED_SEEDS, so every user evaluates on the same episodes (`aaai seeds` prints them).
+"""
 from __future__ import annotations
+
+import numpy as np
 
 TRAIN_SEEDS = range(0, 1288490240)
 RESERVED_SEEDS = range(1288490240, 1717986944)
+RESERVED_KEY = 20241121  # fixed forever: changing it changes every published score
+
+
+def reserved_seeds(level: int, difficulty: int, count: int) -> list[int]:
+    """The first ``count`` reserved seeds of a (level, difficulty) cell; a longer list extends a shorter one."""
+    rng = np.random.default_rng([RESERVED_KEY, level, difficulty])
+    seeds: list[int] = []
+    while len(seeds) < count:
+        seed = int(rng.integers(RESERVED_SEEDS.start, RESERVED_SEEDS.stop))
+        if seed not in seeds:
+            seeds.append(seed)
+    return seeds
+
+
+def training_seed(rng: np.random.Generator) -> int:
+    """One training seed, drawn by the caller's generator."""
+    return int(rng.integers(TRAIN_SEEDS.start, TRAIN_SEEDS.stop))

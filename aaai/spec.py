@@ -13,7 +13,15 @@ from dataclasses import asdict, dataclass, field
 from aaai.kinds import COLOURS, FOOD_KINDS, check_kind
 
 SHAPES = ("box", "sphere", "cylinder")
-BEHAVIOURS = ("random_walk",)
+# Moving parts, run by aaai.world in simulated time:
+# - random_walk {"speed"}: wanders at speed, turning back at walls (L1 food);
+# - sink {"depth", "duration"}: moves straight down by depth over duration seconds (L2b pillar
+#   and the food on it);
+# - slide {"to": [x, y], "speed"}: moves in a straight line to (x, y), then stops (L8 food);
+# - door {"direction": [ux, uy], "distance"}: hidden below the arena until the agent's head is
+#   farther than distance along direction and inside that 90-degree sector, then stands at its
+#   position for good (L9 sector openings).
+BEHAVIOURS = ("random_walk", "sink", "slide", "door")
 
 
 @dataclass(frozen=True)

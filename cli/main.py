@@ -2,32 +2,27 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import click
 import numpy as np
 
-from aaai.config import ConfigError
+from aaai.config import ConfigError, load_config, parse_int_set
 from aaai.env import AnimalAIEnv
 from aaai.gait import SineGait
 from aaai.levels import all_levels, generate, get_level
 from aaai.registration import level_env_id
+from aaai.runs import RunFolder
 
 POLICIES = ("random", "gait")
 
 
 def parse_range(text: str, name: str, low: int, high: int) -> list[int]:
     """'0-3,5' -> [0, 1, 2, 3, 5], each checked to lie in low..high."""
-    values: list[int] = []
     try:
-        for part in text.split(","):
-            first, _, last = part.strip().partition("-")
-            values.extend(range(int(first), int(last or first) + 1))
-    except ValueError:
-        raise click.BadParameter(f"got {text!r}; allowed: numbers and ranges like '0-3,5'", param_hint=name) from None
-    bad = [v for v in values if not low <= v <= high]
-    if bad or not values:
-        raise click.BadParameter(f"got {text!r}; allowed: values from {low} to {high}", param_hint=name)
-    return sorted(set(values))
+        return parse_int_set(text, name, low, high)
+    except ConfigError as error:
+        raise click.BadParameter(str(error).split(": ", 1)[1], param_hint=name) from None
 
 
 @click.group()
@@ -116,6 +111,115 @@ def run_episode(env: AnimalAIEnv, level: int, difficulty: int, seed: int, policy
     return (f"{name:<20} {difficulty:>4} {seed:>6} {total:>8.3f} {info['max_reward']:>6.2f} {info['steps']:>6} "
             f"{info['food_eaten']:>4} {info['wall_hits']:>5} {end:<10} {rate:>8.0f}")
 
+
+def _overrides(**values) -> dict:
+    return {key: value for key, value in values.items() if value is not None}
+
+
+@cli.command("train")
+@click.option("--curriculum", "mode", flag_value="curriculum", help="Sample cells by the curriculum (default).")
+@click.option("--random", "mode", flag_value="random", help="Sample cells uniformly.")
+@click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
+@click.option("--levels", help="Active levels, e.g. '0-3,5'.")
+@click.option("--difficulty", help="Active difficulties, e.g. '0-4'.")
+@click.option("--steps", "total_steps", type=int, help="Environment steps in all.")
+@click.option("--envs", "num_envs", type=int, help="Worker processes.")
+@click.option("--seed", type=int, help="Seeds the sampler and the learner.")
+@click.option("--agent", type=click.Choice(["ppo", "random"]), help="ppo (needs the train extra) or random.")
+@click.option("--camera/--no-camera", default=None)
+@click.option("--camera-resolution", type=int)
+@click.option("--rays/--no-rays", default=None)
+@click.option("--run", "run_dir", type=click.Path(), help="Run folder (default runs/run-<date>-<time>).")
+@click.option("--resume", "resume_dir", type=click.Path(), help="Continue the run in this folder.")
+def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, seed, agent, camera,
+                  camera_resolution, rays, run_dir, resume_dir):
+    """Train on a curriculum of (level, difficulty) cells; checkpoints and logs go to the run folder."""
+    from aaai.training import train
+
+    try:
+        if resume_dir:  # --steps may move the run's end; other options come from the run's config
+            run_dir, config = resume_dir, None
+        else:
+            config = load_config(config_path, **_overrides(
+                mode=mode, levels=levels, difficulties=difficulty, total_steps=total_steps, num_envs=num_envs,
+                seed=seed, agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays))
+            run_dir = run_dir or time.strftime("runs/run-%Y%m%d-%H%M%S")
+        with click.progressbar(length=1, label="training", show_pos=True) as bar:
+            def progress(steps, bar=bar):
+                if bar.length == 1:
+                    bar.length = total_steps or (config or RunFolder(run_dir).read_config())["train"]["total_steps"]
+                bar.update(steps)
+            result = train(run_dir, config, resume=bool(resume_dir), progress=progress,
+                           total_steps=total_steps if resume_dir else None)
+    except (ConfigError, FileExistsError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.UsageError(f"{error}. PPO needs the train extra: pip install -e '.[train]' "
+                               "(or make install-train), or use --agent random") from None
+    curriculum = result.run.read_config()["curriculum"]
+    click.echo(f"run {result.run.path}: {result.steps} steps, {result.episodes} episodes"
+               + (f" (resumed at step {result.resumed_from})" if resume_dir else ""))
+    click.echo(f"cells: levels {curriculum['levels']} x difficulties {curriculum['difficulties']}; "
+               f"heatmap {result.run.path / 'curriculum.png'}")
+
+
+@cli.command("eval")
+@click.option("--seeds", "seeds_mode", default="reserved", show_default=True,
+              help="reserved, train, or a list like 1,2,3.")
+@click.option("--policy", default="random", show_default=True,
+              help="A run folder, a model .zip, random, or module:callable (called with the env).")
+@click.option("--levels", help="Levels to score (default: the run's or config's curriculum levels).")
+@click.option("--difficulty", help="Difficulties to score (default: the curriculum's).")
+@click.option("--seeds-per-cell", "-k", type=click.IntRange(1), help="K seeds per cell (default: eval.seeds_per_cell).")
+@click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
+@click.option("--out", "output", type=click.Path(), help="Scoreboard CSV (default: scoreboard_<seeds>.csv in the run).")
+def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output):
+    """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
+    from aaai.evaluation import cells_for, evaluate, summarise, summary_markdown, write_summary
+
+    run_folder = Path(policy) if Path(policy).is_dir() else None
+    try:
+        if config_path or run_folder is None:
+            config = load_config(config_path)
+        else:
+            config = load_config(RunFolder(run_folder).read_config())
+        level_list = parse_range(levels, "--levels", 0, 12) if levels else config["curriculum"]["levels"]
+        difficulty_list = (parse_range(difficulty, "--difficulty", 0, 10) if difficulty
+                           else config["curriculum"]["difficulties"])
+        count = seeds_per_cell or config["eval"]["seeds_per_cell"]
+        cells = cells_for(level_list, difficulty_list, seeds_mode, count)
+        label = seeds_mode if seeds_mode in ("reserved", "train") else "list"
+        output = Path(output) if output else (run_folder or Path(".")) / f"scoreboard_{label}.csv"
+        episodes = sum(len(cell.seeds) for cell in cells)
+        with click.progressbar(length=episodes, label=f"scoring {episodes} episodes", show_pos=True) as bar:
+            rows = evaluate(policy, cells, output, config, on_episode=lambda row: bar.update(1))
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.UsageError(f"{error}. Loading a model needs the train extra: pip install -e '.[train]'") from None
+    summary = summarise(rows)
+    summary_path = write_summary(summary, output)
+    click.echo(summary_markdown(summary), nl=False)
+    click.echo(f"scoreboard {output} ({len(rows)} episodes); summary {summary_path}")
+
+
+@cli.command("seeds")
+@click.option("--levels", default="0-12", show_default=True)
+@click.option("--difficulty", default="0-10", show_default=True)
+@click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=10, show_default=True)
+def seeds_command(levels, difficulty, count):
+    """Print the reserved evaluation seeds of each (level, difficulty) cell."""
+    from aaai.seeds import reserved_seeds
+
+    for level in parse_range(levels, "--levels", 0, 12):
+        for d in parse_range(difficulty, "--difficulty", 0, 10):
+            click.echo(f"L{level} d{d}: " + ",".join(str(s) for s in reserved_seeds(level, d, count)))
+
+
+# Commands that live in their own files.
+from aaai_cli.show import show  # noqa: E402
+
+cli.add_command(show)
 
 if __name__ == "__main__":
     cli()

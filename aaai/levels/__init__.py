@@ -1,6 +1,9 @@
 """The level registry: configs/levels/L*.yaml joined to the generators in this package.
 
-A level is a pure function of (difficulty, seed, parameters) that returns a LevelSpec.
+A level is a pure function of (difficulty, seed, parameters) that returns a LevelSpec. Every
+generated spec is checked (aaai.validate); one that fails is generated again from a generator
+derived from the same (seed, level, difficulty) and the attempt number, so the result is still a
+pure function of the inputs.
 """
 from __future__ import annotations
 
@@ -12,12 +15,20 @@ from types import ModuleType
 
 import numpy as np
 
+from aaai import validate
 from aaai.config import ConfigError, config_dir, read_yaml
+from aaai.levels.common import PlacementError
 from aaai.levels.params import DIFFICULTIES, resolve
 from aaai.spec import AgentPose, LevelSpec
 
-LEVEL_FILE_KEYS = ("id", "name", "title", "generator", "params")
+LEVEL_FILE_KEYS = ("id", "name", "title", "generator", "params", "label")
+OPTIONAL_KEYS = ("label",)  # label: how the level is shown, default "L<id>" (L2b has id 12)
 SEED_LIMIT = 2**32  # seeds are integers in [0, 2**32)
+MAX_ATTEMPTS = 50  # generations of one (level, difficulty, seed) before it is an error
+
+
+class InvalidLevelError(RuntimeError):
+    """No valid level could be generated; the message names the level, difficulty and seed."""
 
 
 @dataclass(frozen=True)
@@ -28,10 +39,7 @@ class Level:
     generator: ModuleType
     params: dict
     source: str
-
-    @property
-    def label(self) -> str:
-        return f"L{self.id}"
+    label: str
 
 
 def _load_level(path) -> Level:
@@ -40,10 +48,11 @@ def _load_level(path) -> Level:
         if key not in LEVEL_FILE_KEYS:
             raise ConfigError(f"{path.name}: key '{key}' does not exist; allowed: {', '.join(LEVEL_FILE_KEYS)}")
     for key in LEVEL_FILE_KEYS:
-        if key not in data:
+        if key not in data and key not in OPTIONAL_KEYS:
             raise ConfigError(f"{path.name}: key '{key}' is missing")
+    label = data.get("label", f"L{data['id']}")
     return Level(data["id"], data["name"], data["title"], _generator(data["generator"], path.name),
-                 data["params"], path.name)
+                 data["params"], path.name, label)
 
 
 def _generator(name: str, source: str) -> ModuleType:
@@ -67,7 +76,7 @@ def get_level(ref: int | str) -> Level:
     for level in levels.values():
         if ref in (level.id, level.label, level.name, str(level.id)):
             return level
-    allowed = ", ".join(f"{level.id} ({level.name})" for level in levels.values())
+    allowed = ", ".join(f"{level.id} ({level.label} {level.name})" for level in levels.values())
     raise ConfigError(f"level {ref!r} does not exist; allowed: {allowed}")
 
 
@@ -89,13 +98,42 @@ def episode_rngs(level_id: int, difficulty: int, seed: int) -> tuple[np.random.G
     return np.random.default_rng(spec_seq), np.random.default_rng(motion_seq)
 
 
+def attempt_rng(level_id: int, difficulty: int, seed: int, attempt: int) -> np.random.Generator:
+    """The generator that builds a level: the episode's for the first attempt, derived ones after."""
+    if attempt == 0:
+        return episode_rngs(level_id, difficulty, seed)[0]
+    return np.random.default_rng(np.random.SeedSequence([seed, level_id, difficulty, attempt]))
+
+
 def generate(level: int | str, difficulty: int, seed: int) -> LevelSpec:
-    """The level spec for (level, difficulty, seed): the same inputs always give an equal spec."""
+    """The level spec for (level, difficulty, seed): the same inputs always give an equal spec.
+
+    A spec that fails aaai.validate.check is generated again (extras["regenerated"] counts the
+    failed attempts); after MAX_ATTEMPTS it is an InvalidLevelError.
+    """
     lvl = get_level(level)
     difficulty, seed = check_difficulty(difficulty), check_seed(seed)
     params = resolve(lvl.params, difficulty, lvl.generator.PARAMETERS, lvl.source)
-    rng, _ = episode_rngs(lvl.id, difficulty, seed)
-    built = lvl.generator.generate(params, difficulty, rng)
+    problem = ""
+    for attempt in range(MAX_ATTEMPTS):
+        try:
+            built = lvl.generator.generate(params, difficulty, attempt_rng(lvl.id, difficulty, seed, attempt))
+        except PlacementError as error:
+            problem = str(error)
+            continue
+        spec = _assemble(lvl, difficulty, seed, built, attempt)
+        problems = validate.check(spec)
+        if not problems:
+            return spec
+        problem = problems[0]
+    raise InvalidLevelError(f"level {lvl.label} ({lvl.name}) difficulty {difficulty} seed {seed}: no valid level "
+                            f"in {MAX_ATTEMPTS} attempts; last problem: {problem}")
+
+
+def _assemble(lvl: Level, difficulty: int, seed: int, built: dict, attempt: int) -> LevelSpec:
+    extras = dict(built.pop("extras", {}))
+    if attempt:
+        extras["regenerated"] = attempt
     return LevelSpec(
         level=lvl.id,
         name=lvl.name,
@@ -104,5 +142,33 @@ def generate(level: int | str, difficulty: int, seed: int) -> LevelSpec:
         agent=AgentPose(*built.pop("agent")),
         objects=tuple(built.pop("objects")),
         max_food_reward=float(built.pop("max_food_reward")),
+        extras=extras,
         **built,
     )
+
+
+def other_level(rng: np.random.Generator, exclude: tuple[int, ...]) -> LevelSpec:
+    """A random other level and cell (L6, L7): the spec of an rng-drawn (level, difficulty, seed).
+
+    The inner seed comes from rng, so the result is a pure function of the outer level's seed.
+    """
+    choices = [level_id for level_id in all_levels() if level_id not in exclude]
+    level_id = int(rng.choice(choices))
+    difficulty = int(rng.integers(DIFFICULTIES.start, DIFFICULTIES.stop))
+    return generate(level_id, difficulty, int(rng.integers(0, SEED_LIMIT)))
+
+
+def spec_fields(spec: LevelSpec) -> dict:
+    """A spec as the dict a generator returns, to wrap one level in another."""
+    return {
+        "agent": (spec.agent.x, spec.agent.y, spec.agent.yaw),
+        "objects": list(spec.objects),
+        "max_food_reward": spec.max_food_reward,
+        "arena_size": spec.arena_size,
+        "wall_height": spec.wall_height,
+        "tiles": spec.tiles,
+        "holes": spec.holes,
+        "heightfield": spec.heightfield,
+        "extras": {key: value for key, value in spec.extras.items() if key != "regenerated"}
+        | {"inner": {"level": spec.level, "name": spec.name, "difficulty": spec.difficulty, "seed": spec.seed}},
+    }

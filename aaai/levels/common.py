@@ -1,4 +1,4 @@
-"""Pieces that level generators share: arena walls and collision-free placement."""
+"""Pieces that level generators share: arena walls, footprint geometry and collision-free placement."""
 from __future__ import annotations
 
 import math
@@ -10,14 +10,18 @@ from aaai.spec import ObjectSpec
 WALL_THICKNESS = 1.0
 AGENT_RADIUS = 4.5  # the resting X reaches 4.5 from the head's centre
 MAX_TRIES = 1000
+TOLERANCE = 1e-3  # faces that touch do not overlap
 
 
 class PlacementError(RuntimeError):
     """A generator could not place its objects; the message names the level and seed."""
 
 
-def arena_walls(size: tuple[float, float], height: float) -> list[ObjectSpec]:
-    """Four walls around a floor of ``size`` centred on the origin, inner faces on its edges."""
+def arena_walls(size: tuple[float, float], height: float, bottom: float = 0.0) -> list[ObjectSpec]:
+    """Four walls around a floor of ``size`` centred on the origin, inner faces on its edges.
+
+    ``bottom`` below 0 lets the walls reach down to a terrain that dips below z = 0.
+    """
     half_x, half_y = size[0] / 2, size[1] / 2
     t = WALL_THICKNESS
     spans = [
@@ -26,9 +30,69 @@ def arena_walls(size: tuple[float, float], height: float) -> list[ObjectSpec]:
         ((half_x + t / 2, 0.0), (t, size[1])),
         ((-half_x - t / 2, 0.0), (t, size[1])),
     ]
+    tall = height - bottom
     return [
-        ObjectSpec("wall", "box", (x, y, height / 2), (sx, sy, height)) for (x, y), (sx, sy) in spans
+        ObjectSpec("wall", "box", (x, y, bottom + tall / 2), (sx, sy, tall)) for (x, y), (sx, sy) in spans
     ]
+
+
+def slab(kind: str, x: float, y: float, length: float, thickness: float, height: float,
+         yaw: float = 0.0, **extra) -> ObjectSpec:
+    """An upright box standing on the floor: ``length`` along its yaw, ``thickness`` across it."""
+    return ObjectSpec(kind, "box", (x, y, height / 2), (length, thickness, height), yaw=yaw, **extra)
+
+
+def corners(obj: ObjectSpec) -> np.ndarray:
+    """The four (x, y) corners of an object's footprint (a sphere's or cylinder's bounding square)."""
+    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+    hx, hy = obj.size[0] / 2, obj.size[1] / 2
+    local = np.array([(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)])
+    return local @ np.array([[c, s], [-s, c]]) + np.array(obj.position[:2])
+
+
+def footprints_overlap(a: np.ndarray, b: np.ndarray, gap: float = 0.0) -> bool:
+    """Separating-axis test of two convex quadrilaterals: closer than ``gap`` (or overlapping by
+    more than TOLERANCE when gap is 0)?"""
+    for quad in (a, b):
+        for i in range(4):
+            edge = quad[(i + 1) % 4] - quad[i]
+            axis = np.array([-edge[1], edge[0]]) / math.hypot(*edge)
+            pa, pb = a @ axis, b @ axis
+            margin = gap if gap > 0 else -TOLERANCE
+            if pa.max() + margin <= pb.min() or pb.max() + margin <= pa.min():
+                return False
+    return True
+
+
+def distance_to_footprint(obj: ObjectSpec, x: float, y: float) -> float:
+    """Distance from (x, y) to an object's footprint rectangle (0 inside it)."""
+    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+    dx, dy = x - obj.position[0], y - obj.position[1]
+    u, v = c * dx + s * dy, -s * dx + c * dy
+    return math.hypot(max(abs(u) - obj.size[0] / 2, 0.0), max(abs(v) - obj.size[1] / 2, 0.0))
+
+
+def place_slabs(rng: np.random.Generator, size: tuple[float, float], slabs: list[dict],
+                existing: list[ObjectSpec], keep_out: list[tuple[float, float, float]],
+                gap: float = 1.0) -> list[ObjectSpec]:
+    """Upright slabs (dicts of slab() arguments but x, y, yaw) at random places and headings, each
+    inside the arena, ``gap`` clear of every existing object and of the others, and outside every
+    circle (x, y, r) of keep_out."""
+    placed: list[ObjectSpec] = []
+    for spec in slabs:
+        reach = spec["length"] / 2 + 0.5
+        for _ in range(MAX_TRIES):
+            x = float(rng.uniform(-size[0] / 2 + reach, size[0] / 2 - reach))
+            y = float(rng.uniform(-size[1] / 2 + reach, size[1] / 2 - reach))
+            candidate = slab(x=x, y=y, yaw=float(rng.uniform(0, math.pi)), **spec)
+            quad = corners(candidate)
+            if (all(distance_to_footprint(candidate, cx, cy) >= r for cx, cy, r in keep_out)
+                    and not any(footprints_overlap(quad, corners(o), gap) for o in existing + placed)):
+                placed.append(candidate)
+                break
+        else:
+            raise PlacementError(f"no place for a {spec['kind']} of length {spec['length']:.1f} after {MAX_TRIES} tries")
+    return placed
 
 
 def sphere(kind: str, x: float, y: float, diameter: float, **extra) -> ObjectSpec:

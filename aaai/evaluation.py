@@ -1,0 +1,239 @@
+"""`aaai eval`: score a policy on fixed seeds and write a CSV scoreboard, one row per episode.
+
+An episode's ratio is return / max_reward, where max_reward is the best food reward that level
+instance can give minus 0.5 (allowing for step costs). Outcome: failed (ratio < 0.8), passed
+(0.8 <= ratio < 1) or succeeded (ratio >= 1), as in the original build.
+"""
+from __future__ import annotations
+
+import csv
+import importlib
+import math
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from aaai.config import ConfigError
+from aaai.env import AnimalAIEnv
+from aaai.levels import get_level
+from aaai.runs import RunFolder, write_atomic
+from aaai.seeds import TRAIN_SEEDS, reserved_seeds
+
+COLUMNS = ["level", "level_name", "difficulty", "seed", "return", "max_reward", "ratio", "outcome", "steps",
+           "food_eaten", "wall_hits", "fell", "wall_seconds"]
+PASS_RATIO, SUCCESS_RATIO = 0.8, 1.0
+TRAIN_EVAL_KEY = 7  # seeds `--seeds train` picks: fixed draws from the training range
+
+
+def outcome(ratio: float) -> str:
+    if ratio >= SUCCESS_RATIO:
+        return "succeeded"
+    return "passed" if ratio >= PASS_RATIO else "failed"
+
+
+def seeds_for(mode: str, level: int, difficulty: int, count: int) -> list[int]:
+    """'reserved', 'train' (fixed draws from the training range) or an explicit list '1,2,3'."""
+    if mode == "reserved":
+        return reserved_seeds(level, difficulty, count)
+    if mode == "train":
+        rng = np.random.default_rng([TRAIN_EVAL_KEY, level, difficulty])
+        return [int(s) for s in rng.choice(TRAIN_SEEDS.stop, size=count, replace=False)]
+    try:
+        return [int(part) for part in mode.split(",")]
+    except ValueError:
+        raise ConfigError(f"--seeds: got {mode!r}; allowed: reserved, train or a list like 1,2,3") from None
+
+
+# --- policies -------------------------------------------------------------------------
+class RandomPolicy:
+    """Uniform random actions, seeded per episode so that a scoreboard repeats exactly."""
+
+    def __init__(self, env: AnimalAIEnv):
+        self.space = env.action_space
+
+    def reset(self, seed: int) -> None:
+        self.space.seed(seed)
+
+    def __call__(self, observation):
+        return self.space.sample()
+
+
+class ModelPolicy:
+    """A stable-baselines3 PPO model, acting deterministically."""
+
+    def __init__(self, path: Path):
+        from stable_baselines3 import PPO
+
+        self.model = PPO.load(path, device="cpu")
+
+    def reset(self, seed: int) -> None:
+        pass
+
+    def __call__(self, observation):
+        action, _ = self.model.predict(observation, deterministic=True)
+        return action
+
+
+def model_path(policy: str) -> Path | None:
+    """The model file a --policy names: a .zip, or a run folder's final (else latest) model."""
+    path = Path(policy)
+    if path.suffix == ".zip":
+        if not path.is_file():
+            raise ConfigError(f"--policy: model file {policy!r} does not exist")
+        return path
+    if path.is_dir():
+        run = RunFolder(path)
+        if run.read_config()["train"]["agent"] == "random":
+            return None  # a run of the random agent: scored with the random policy
+        for folder in (run.final, run.latest_checkpoint()):
+            if folder is not None and (folder / "model.zip").is_file():
+                return folder / "model.zip"
+        raise ConfigError(f"--policy: run folder {policy!r} holds no model (final/ or checkpoints/*/model.zip)")
+    return None
+
+
+def load_policy(policy: str, env: AnimalAIEnv) -> Callable:
+    """'random', a model .zip, a run folder, or 'module:callable' called with the env to make the policy."""
+    if policy == "random":
+        return RandomPolicy(env)
+    path = model_path(policy)
+    if path is not None:
+        return ModelPolicy(path)
+    if Path(policy).is_dir():
+        return RandomPolicy(env)
+    module_name, _, attribute = policy.partition(":")
+    if not attribute:
+        raise ConfigError(f"--policy: got {policy!r}; allowed: random, a model .zip, a run folder, module:callable")
+    try:
+        target: Any = importlib.import_module(module_name)
+        for part in attribute.split("."):
+            target = getattr(target, part)
+    except (ImportError, AttributeError) as error:
+        raise ConfigError(f"--policy: cannot load {policy!r}: {error}") from None
+    return target(env)
+
+
+# --- running --------------------------------------------------------------------------
+@dataclass
+class Cell:
+    level: int
+    difficulty: int
+    seeds: list[int]
+
+
+def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int, seed: int) -> dict:
+    started = time.perf_counter()
+    observation, info = env.reset(seed=seed, options={"level": level, "difficulty": difficulty})
+    if hasattr(policy, "reset"):
+        policy.reset(seed)
+    total = 0.0
+    while True:
+        observation, reward, terminated, truncated, info = env.step(policy(observation))
+        total += reward
+        if terminated or truncated:
+            break
+    ratio = total / info["max_reward"] if info["max_reward"] > 0 else math.nan
+    return {
+        "level": level, "level_name": info["level_name"], "difficulty": difficulty, "seed": seed,
+        "return": round(total, 6), "max_reward": round(info["max_reward"], 6), "ratio": round(ratio, 6),
+        "outcome": outcome(ratio), "steps": info["steps"], "food_eaten": info["food_eaten"],
+        "wall_hits": info["wall_hits"], "fell": info["fell"],
+        "wall_seconds": round(time.perf_counter() - started, 3),
+    }
+
+
+def scored_episodes(path: Path) -> list[dict]:
+    """Rows already in a scoreboard; a torn last line (an interrupted write) is cut off."""
+    if not path.exists():
+        return []
+    text = path.read_text()
+    if text and not text.endswith("\n"):
+        with open(path, "r+") as handle:
+            handle.truncate(text.rfind("\n") + 1)
+        text = text[: text.rfind("\n") + 1]
+    rows = list(csv.DictReader(text.splitlines()))
+    if rows and list(rows[0].keys()) != COLUMNS:
+        raise ConfigError(f"{str(path)!r} is not a scoreboard of this version (columns {list(rows[0].keys())})")
+    return rows
+
+
+def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
+             on_episode: Callable[[dict], None] | None = None) -> list[dict]:
+    """Plays every (cell, seed) not yet in ``output`` and appends its row, flushed per episode."""
+    output.parent.mkdir(parents=True, exist_ok=True)
+    rows = scored_episodes(output)
+    done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows}
+    env = AnimalAIEnv(config=_env_part(config))
+    try:
+        policy = load_policy(policy_name, env)
+        new_file = not output.exists() or output.stat().st_size == 0
+        with open(output, "a", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+            if new_file:
+                writer.writeheader()
+            for cell in cells:
+                for seed in cell.seeds:
+                    if (cell.level, cell.difficulty, seed) in done:
+                        continue
+                    row = run_episode(env, policy, cell.level, cell.difficulty, seed)
+                    writer.writerow(row)
+                    handle.flush()
+                    os.fsync(handle.fileno())
+                    rows.append({k: str(v) for k, v in row.items()})
+                    if on_episode:
+                        on_episode(row)
+    finally:
+        env.close()
+    return rows
+
+
+def _env_part(config: dict) -> dict:
+    return {key: value for key, value in config.items() if key not in ("curriculum", "train", "eval")}
+
+
+# --- summary --------------------------------------------------------------------------
+def summarise(rows: list[dict]) -> list[dict]:
+    """Per level and overall: episodes, mean return, mean ratio, % passed or better, % succeeded."""
+    groups: dict[str, list[dict]] = {}
+    for row in rows:
+        groups.setdefault(f"L{row['level']} {row['level_name']}", []).append(row)
+    ordered = sorted(groups.items(), key=lambda item: int(item[1][0]["level"])) + [("overall", rows)]
+    summary = []
+    for name, group in ordered:
+        if not group:
+            continue
+        ratios = np.array([float(r["ratio"]) for r in group])
+        outcomes = [r["outcome"] for r in group]
+        summary.append({
+            "level": name, "episodes": len(group),
+            "mean_return": float(np.mean([float(r["return"]) for r in group])),
+            "mean_ratio": float(np.nanmean(ratios)) if np.isfinite(ratios).any() else math.nan,
+            "passed_pct": 100.0 * sum(o != "failed" for o in outcomes) / len(group),
+            "succeeded_pct": 100.0 * outcomes.count("succeeded") / len(group),
+        })
+    return summary
+
+
+def summary_markdown(summary: list[dict]) -> str:
+    lines = ["| level | episodes | mean return | mean ratio | passed or better | succeeded |",
+             "|---|---:|---:|---:|---:|---:|"]
+    for s in summary:
+        lines.append(f"| {s['level']} | {s['episodes']} | {s['mean_return']:.3f} | {s['mean_ratio']:.3f} | "
+                     f"{s['passed_pct']:.0f}% | {s['succeeded_pct']:.0f}% |")
+    return "\n".join(lines) + "\n"
+
+
+def write_summary(summary: list[dict], output: Path) -> Path:
+    path = output.with_name(output.stem + "_summary.md")
+    write_atomic(path, summary_markdown(summary))
+    return path
+
+
+def cells_for(levels: list[int], difficulties: list[int], seeds: str, count: int) -> list[Cell]:
+    for level in levels:
+        get_level(level)
+    return [Cell(level, d, seeds_for(seeds, level, d, count)) for level in levels for d in difficulties]

@@ -1,0 +1,102 @@
+"""PPO from stable-baselines3 on the curriculum's parallel workers (needs the `train` extra)."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import VecEnv, VecMonitor
+
+from aaai.runs import RunFolder
+from aaai.vector import CurriculumVecEnv
+
+
+class CurriculumSB3Env(VecEnv):
+    """Presents a CurriculumVecEnv to stable-baselines3 and keeps the episodes it finishes."""
+
+    def __init__(self, vec: CurriculumVecEnv):
+        self.vec = vec  # first: the base class asks the workers for their render_mode
+        super().__init__(vec.num_envs, vec.single_observation_space, vec.single_action_space)
+        self.finished = []
+        self._actions = None
+
+    def reset(self):
+        return self.vec.reset()
+
+    def step_async(self, actions):
+        self._actions = actions
+
+    def step_wait(self):
+        observation, rewards, terminated, truncated, finished, final = self.vec.step(self._actions)
+        self.finished.extend(finished)
+        dones = np.logical_or(terminated, truncated)
+        infos = [{} for _ in range(self.num_envs)]
+        for i, last in final.items():
+            infos[i] = {"terminal_observation": last, "TimeLimit.truncated": bool(truncated[i] and not terminated[i])}
+        return observation, rewards.astype(np.float32), dones, infos
+
+    def close(self):
+        self.vec.close()
+
+    def get_attr(self, attr_name, indices=None):
+        values = self.vec.envs.get_attr(attr_name)
+        return [values[i] for i in self._get_indices(indices)]
+
+    def set_attr(self, attr_name, value, indices=None):
+        raise NotImplementedError("the workers' attributes are fixed by the config")
+
+    def env_method(self, method_name, *method_args, indices=None, **method_kwargs):
+        values = self.vec.envs.call(method_name, *method_args, **method_kwargs)
+        return [values[i] for i in self._get_indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class, indices=None):
+        return [False for _ in self._get_indices(indices)]
+
+
+class TrackerCallback(BaseCallback):
+    """Hands finished episodes to the tracker and logs the curriculum to TensorBoard."""
+
+    def __init__(self, env: CurriculumSB3Env, tracker, progress: Callable[[int], None]):
+        super().__init__()
+        self.env, self.tracker, self.progress = env, tracker, progress
+
+    def _on_step(self) -> bool:
+        finished, self.env.finished = self.env.finished, []
+        self.tracker.update(self.num_timesteps, finished, agent_state=dict, save_model=self.model.save)
+        self.progress(self.env.num_envs)
+        if finished:
+            curriculum = self.tracker.curriculum
+            for (level, difficulty), p in zip(curriculum.cells, curriculum.probabilities()):
+                self.logger.record(f"curriculum/p_L{level}_d{difficulty}", float(p))
+        return True
+
+
+def ppo_from_config(env, config: dict, run: RunFolder) -> PPO:
+    train = config["train"]
+    width = train["net_width"]
+    return PPO(
+        "MultiInputPolicy", env,
+        learning_rate=train["learning_rate"], n_steps=train["n_steps"], batch_size=train["batch_size"],
+        n_epochs=train["n_epochs"], gamma=train["gamma"], gae_lambda=train["gae_lambda"],
+        ent_coef=train["ent_coef"], policy_kwargs={"net_arch": [width, width]},
+        tensorboard_log=str(run.path / "tb"), seed=train["seed"], device="cpu", verbose=0,
+    )
+
+
+def train_ppo(vec: CurriculumVecEnv, tracker, config: dict, run: RunFolder, checkpoint: Path | None,
+              progress: Callable[[int], None]) -> int:
+    env = CurriculumSB3Env(vec)
+    monitored = VecMonitor(env)
+    if checkpoint is not None:
+        model = PPO.load(checkpoint / "model.zip", env=monitored, device="cpu",
+                         tensorboard_log=str(run.path / "tb"))
+    else:
+        model = ppo_from_config(monitored, config, run)
+    remaining = config["train"]["total_steps"] - model.num_timesteps
+    if remaining > 0:
+        model.learn(remaining, callback=TrackerCallback(env, tracker, progress),
+                    reset_num_timesteps=checkpoint is None, tb_log_name="ppo")
+    tracker.save(model.num_timesteps, dict, save_model=model.save, final=True)
+    return model.num_timesteps

@@ -1,0 +1,206 @@
+"""Solvability checks of a LevelSpec, without physics.
+
+A generated level must have: no two solid objects overlapping; the agent's start and every
+food piece inside the arena, on solid ground and clear of solids; every food piece reachable
+by a body of the agent's footprint. Reachability is a search on an occupancy grid of the
+arena: solids and holes (missing floor tiles: holes, pits, trenches) are blocked, sinking
+pillars and sector doors are passable (a pillar ends flush with the floor; a door is open
+until the agent has gone through it), and a level's ``extras["bridge"]`` rectangle (where
+the L10 plank lands when pushed over) is floor again.
+"""
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+from aaai.agent.urdf_writer import HEAD_RADIUS
+from aaai.kinds import SOLID_KINDS
+from aaai.levels.common import AGENT_RADIUS, TOLERANCE, corners, footprints_overlap
+from aaai.spec import LevelSpec, ObjectSpec
+
+GRID = 0.5  # occupancy grid cell, units
+# The footprint a walking body needs: the resting X reaches 4.5 from the head's centre and the
+# example gait's feet stay within about that (measured: 4.5 to 5 at the capsules' outer
+# edges), so a passage must be wider than 9.
+FOOTPRINT_RADIUS = AGENT_RADIUS
+# Facing an obstacle the X's legs point 45 degrees aside, so the front feet reach only
+# 4.5 cos 45 + 0.5 (the capsule) = 3.7 ahead: from its walking region the body can bring its head
+# that close to a wall to eat food lying against it.
+REACH_CLEARANCE = 3.7
+PASSABLE_BEHAVIOURS = ("sink", "door")
+
+
+def z_range(obj: ObjectSpec, z: float | None = None) -> tuple[float, float]:
+    centre = obj.position[2] if z is None else z
+    return centre - obj.size[2] / 2, centre + obj.size[2] / 2
+
+
+def solids(spec: LevelSpec) -> list[ObjectSpec]:
+    return [obj for obj in spec.objects if obj.kind in SOLID_KINDS]
+
+
+def overlapping_solids(spec: LevelSpec) -> list[str]:
+    """Pairs of solid objects that overlap (boxes cut into each other), by index and kind."""
+    objs = solids(spec)
+    if len(objs) < 2:
+        return []
+    quads = [corners(obj) for obj in objs]
+    low = np.array([q.min(axis=0) for q in quads])
+    high = np.array([q.max(axis=0) for q in quads])
+    zs = np.array([z_range(obj) for obj in objs])
+    candidates = ((low[:, None, :] < high[None, :, :] - TOLERANCE).all(axis=2)
+                  & (low[None, :, :] < high[:, None, :] - TOLERANCE).all(axis=2)
+                  & (zs[:, None, 0] < zs[None, :, 1] - TOLERANCE) & (zs[None, :, 0] < zs[:, None, 1] - TOLERANCE))
+    problems = []
+    for i, j in zip(*np.nonzero(np.triu(candidates, 1))):
+        if footprints_overlap(quads[i], quads[j]):
+            problems.append(f"solid objects overlap: {objs[i].kind} at {_xy(objs[i].position)} "
+                            f"and {objs[j].kind} at {_xy(objs[j].position)}")
+    return problems
+
+
+def food_places(food: ObjectSpec) -> list[tuple[float, float, float]]:
+    """Where a piece of food will be: its start, and where a sliding piece stops."""
+    places = [food.position]
+    if food.behaviour and food.behaviour["type"] == "slide":
+        places.append((*food.behaviour["to"], food.position[2]))
+    return places
+
+
+def food_problems(spec: LevelSpec, food: ObjectSpec) -> list[str]:
+    """A piece outside the arena, over a hole, floating, or cutting into a solid."""
+    problems = []
+    radius = food.size[0] / 2
+    for x, y, z in food_places(food):
+        where = f"{food.kind} at {_xy((x, y))}"
+        if abs(x) + radius > spec.arena_size[0] / 2 or abs(y) + radius > spec.arena_size[1] / 2:
+            problems.append(f"{where} is outside the arena")
+            continue
+        if spec.heightfield is None and not _supported(spec, x, y, z - radius):
+            problems.append(f"{where} is not on solid ground")
+        bottom, top = z - radius, z + radius
+        quad = corners(ObjectSpec(food.kind, "box", (x, y, z), food.size))
+        for obj in solids(spec):
+            low, high = z_range(obj)
+            if low < top - TOLERANCE and bottom < high - TOLERANCE and footprints_overlap(quad, corners(obj)):
+                problems.append(f"{where} cuts into {obj.kind} at {_xy(obj.position)}")
+    return problems
+
+
+def _supported(spec: LevelSpec, x: float, y: float, bottom: float) -> bool:
+    """Rests on the floor (not over a hole) or on top of a solid object."""
+    if abs(bottom) < TOLERANCE:
+        return tile_at(spec, x, y) not in set(map(tuple, spec.holes))
+    point = np.array([x, y])
+    for obj in solids(spec):
+        if abs(z_range(obj)[1] - bottom) < TOLERANCE and footprints_overlap(
+                corners(obj), np.array([point + d for d in ((-0.01, -0.01), (0.01, -0.01), (0.01, 0.01), (-0.01, 0.01))])):
+            return True
+    return False
+
+
+def tile_at(spec: LevelSpec, x: float, y: float) -> tuple[int, int]:
+    nx, ny = spec.tiles
+    i = int((x + spec.arena_size[0] / 2) / spec.arena_size[0] * nx)
+    j = int((y + spec.arena_size[1] / 2) / spec.arena_size[1] * ny)
+    return min(max(i, 0), nx - 1), min(max(j, 0), ny - 1)
+
+
+# --- the occupancy grid ------------------------------------------------------------------
+def blocked_grid(spec: LevelSpec) -> np.ndarray:
+    """uint8 (rows along y, columns along x), 1 where the agent cannot stand: solids and holes."""
+    width, height = spec.arena_size
+    cols, rows = math.ceil(width / GRID), math.ceil(height / GRID)
+    grid = np.zeros((rows, cols), np.uint8)
+    bridge = spec.extras.get("bridge")
+    for obj in solids(spec):
+        if obj.behaviour and obj.behaviour["type"] in PASSABLE_BEHAVIOURS:
+            continue
+        if bridge and obj.kind == "plank" and obj.mass > 0:  # it becomes the bridge
+            continue
+        if obj.position[2] - obj.size[2] / 2 > 2 * HEAD_RADIUS:  # high above the body (none yet)
+            continue
+        _fill(grid, spec, corners(obj))
+    if spec.holes:
+        nx, ny = spec.tiles
+        tile_x, tile_y = width / nx, height / ny
+        for i, j in spec.holes:
+            x0, y0 = -width / 2 + i * tile_x, -height / 2 + j * tile_y
+            _fill(grid, spec, np.array([(x0, y0), (x0 + tile_x, y0), (x0 + tile_x, y0 + tile_y), (x0, y0 + tile_y)]))
+    if bridge:  # the L10 plank, pushed over, is floor across the trench
+        x0, y0, x1, y1 = bridge
+        _fill(grid, spec, np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)]), value=0)
+    return grid
+
+
+def _fill(grid: np.ndarray, spec: LevelSpec, quad: np.ndarray, value: int = 1) -> None:
+    """Marks the cells whose centres a quadrilateral (world x, y) covers."""
+    shift = 4
+    pixels = (quad + np.array(spec.arena_size) / 2) / GRID - 0.5  # cell centres at integers
+    points = np.round(pixels * (1 << shift)).astype(np.int32)
+    cv2.fillConvexPoly(grid, points, value, lineType=cv2.LINE_8, shift=shift)
+
+
+def reachable_region(spec: LevelSpec, grid: np.ndarray | None = None) -> tuple[np.ndarray, bool]:
+    """Where the head's centre can get to from the start (a bool grid), and whether the start is clear.
+
+    The body walks where a disc of FOOTPRINT_RADIUS is clear, in the start's connected region;
+    from there it can push its head on to any place with REACH_CLEARANCE.
+    """
+    grid = blocked_grid(spec) if grid is None else grid
+    padded = np.pad(grid, 1, constant_values=1)  # the arena's walls
+    clearance = cv2.distanceTransform((padded == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    clearance = clearance[1:-1, 1:-1] * GRID
+    free = (clearance > FOOTPRINT_RADIUS).astype(np.uint8)
+    _, labels = cv2.connectedComponents(free, connectivity=8)
+    row, col = _cell(spec, spec.agent.x, spec.agent.y, grid.shape)
+    start = labels[row, col]
+    if start == 0:
+        return np.zeros_like(free, bool), False
+    walk = (labels == start).astype(np.uint8)
+    lean = round((FOOTPRINT_RADIUS - REACH_CLEARANCE) / GRID) + 1
+    leaned = cv2.dilate(walk, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * lean + 1, 2 * lean + 1)))
+    return (leaned > 0) & (clearance > REACH_CLEARANCE), True
+
+
+def _cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
+    col = int(np.clip(np.floor((x + spec.arena_size[0] / 2) / GRID), 0, shape[1] - 1))
+    row = int(np.clip(np.floor((y + spec.arena_size[1] / 2) / GRID), 0, shape[0] - 1))
+    return row, col
+
+
+def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> bool:
+    """Can the head, its centre in the agent's region, touch the piece where it comes to rest?"""
+    x, y, _ = food_places(food)[-1]
+    reach = HEAD_RADIUS + food.size[0] / 2 + GRID
+    row0, col0 = _cell(spec, x - reach, y - reach, region.shape)
+    row1, col1 = _cell(spec, x + reach, y + reach, region.shape)
+    window = region[row0:row1 + 1, col0:col1 + 1]
+    cols = (np.arange(col0, col1 + 1) + 0.5) * GRID - spec.arena_size[0] / 2
+    rows = (np.arange(row0, row1 + 1) + 0.5) * GRID - spec.arena_size[1] / 2
+    near = np.hypot(cols[None, :] - x, rows[:, None] - y) <= reach
+    return bool(np.any(window & near))
+
+
+def check(spec: LevelSpec) -> list[str]:
+    """Every problem found in a spec; an empty list means the level is valid."""
+    problems = overlapping_solids(spec)
+    for food in spec.foods:
+        problems += food_problems(spec, food)
+    region, clear = reachable_region(spec)
+    if not clear:
+        problems.append(f"the agent's start {_xy((spec.agent.x, spec.agent.y))} is not clear: a body of "
+                        f"radius {FOOTPRINT_RADIUS} there meets a solid, a hole or the arena's edge")
+        return problems
+    for food in spec.foods:
+        if not food_reachable(spec, region, food):
+            problems.append(f"{food.kind} at {_xy(food_places(food)[-1])} cannot be reached from the start")
+    if not spec.foods:
+        problems.append("the level has no food")
+    return problems
+
+
+def _xy(position) -> str:
+    return f"({position[0]:.1f}, {position[1]:.1f})"

@@ -1,0 +1,99 @@
+"""``aaai show``: a picture of a level (top-down map beside the agent's camera), or a video."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from aaai.config import ConfigError
+from aaai.levels import check_difficulty, check_seed, get_level
+from aaai.viewer import VIDEO_CODECS, VideoWriter, compose, draw_top_down, draw_world, save_png, video_extension_error
+
+POLICIES = ("random", "gait")
+CAMERA_RESOLUTION = 128
+MAP_SIZE = 640  # pixels across the longer side of the top-down map
+
+
+def frame_every(fps: float, control_dt: float) -> int:
+    """Control steps between video frames so the video plays in simulated real time (at least 1)."""
+    return max(1, int(round(1.0 / (fps * control_dt))))
+
+
+@click.command("show")
+@click.argument("level")
+@click.option("-d", "--difficulty", type=int, default=0, show_default=True)
+@click.option("-s", "--seed", type=int, default=0, show_default=True)
+@click.option("-o", "--output", type=click.Path(dir_okay=False),
+              help="PNG to write [default: <label>_d<D>_s<S>.png, e.g. L1_d0_s0.png; with --video, only if given].")
+@click.option("--video", type=click.Path(dir_okay=False), help="Record an episode to this .mp4 or .avi.")
+@click.option("--policy", type=click.Choice(POLICIES), default="random", show_default=True,
+              help="Who moves the agent in the video.")
+@click.option("--steps", type=click.IntRange(1), default=500, show_default=True,
+              help="Control steps to record (fewer if the episode ends first).")
+@click.option("--fps", type=click.IntRange(1, 500), default=25, show_default=True,
+              help="Video frame rate; a frame every round(1 / (fps x 0.02 s)) control steps, at least 1.")
+@click.option("--size", type=click.IntRange(200, 4000), default=MAP_SIZE, show_default=True,
+              help="Pixels across the longer side of the top-down map.")
+@click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
+def show(level, difficulty, seed, output, video, policy, steps, fps, size, config_path):
+    """Draw LEVEL (id, label like L1, or name) from above beside the agent's camera view.
+
+    Writes a PNG, and with --video records an episode (random policy by default) so that the
+    moving parts can be watched. Outputs are written atomically.
+    """
+    try:
+        lvl = get_level(level)
+        difficulty, seed = check_difficulty(difficulty), check_seed(seed)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    if output is None and video is None:
+        output = f"{lvl.label}_d{difficulty}_s{seed}.png"
+    if output is not None and Path(output).suffix.lower() != ".png":
+        raise click.UsageError(f"--output: got {output!r}; allowed: a path ending in .png")
+    if video is not None and Path(video).suffix.lower() not in VIDEO_CODECS:
+        raise click.UsageError(video_extension_error(video))
+    for path in (output, video):
+        if path is not None and not Path(path).absolute().parent.is_dir():
+            raise click.UsageError(f"output {path!r}: the folder {str(Path(path).absolute().parent)!r} does not exist")
+
+    from aaai.env import AnimalAIEnv  # after the checks: bad input fails fast
+
+    try:
+        env = AnimalAIEnv(level=lvl.id, difficulty=difficulty, config=config_path, camera=True,
+                          camera_resolution=CAMERA_RESOLUTION)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    try:
+        observation, _ = env.reset(seed=seed)
+        if output is not None:
+            picture = compose(draw_top_down(env.level_spec, size), observation["camera"])
+            click.echo(f"wrote {save_png(picture, output)} ({picture.shape[1]} x {picture.shape[0]})")
+        if video is not None:
+            record(env, observation, video, policy, steps, fps, size)
+    finally:
+        env.close()
+
+
+def record(env, observation, path: str, policy: str, steps: int, fps: int, size: int) -> int:
+    """Runs up to ``steps`` control steps and writes a frame every few of them; returns the frames."""
+    from aaai.gait import SineGait
+
+    gait = SineGait.for_env(env) if policy == "gait" else None
+    env.action_space.seed(env.level_spec.seed)
+    every = frame_every(fps, env.control_dt)
+    end = None
+    with VideoWriter(path, fps) as writer:
+        for step in range(1, steps + 1):
+            action = gait(observation) if gait else env.action_space.sample()
+            observation, _, terminated, truncated, info = env.step(action)
+            if step % every == 0:
+                writer.write(compose(draw_world(env, size), observation["camera"]))
+            if terminated or truncated:
+                end = ("fell" if info["fell"] else "blew up" if info["blew_up"]
+                       else "ate green food" if terminated else "reached max_steps")
+                break
+        if writer.frames == 0:  # the episode ended before the first frame
+            writer.write(compose(draw_world(env, size), observation["camera"]))
+    ended = f"; the episode ended at step {step} ({end})" if end else ""
+    click.echo(f"wrote {path} ({writer.frames} frames at {fps} fps, a frame every {every} steps{ended})")
+    return writer.frames

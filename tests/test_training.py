@@ -1,0 +1,133 @@
+"""`aaai train` and `aaai eval` as a user runs them: the CLI in subprocesses."""
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from aaai.evaluation import COLUMNS
+
+AAAI = [sys.executable, "-m", "aaai_cli.main"]
+
+
+def aaai(*args, check=True):
+    result = subprocess.run([*AAAI, *map(str, args)], capture_output=True, text=True)
+    if check and result.returncode != 0:
+        raise AssertionError(f"aaai {' '.join(map(str, args))} failed:\n{result.stdout}\n{result.stderr}")
+    return result
+
+
+def small_config(tmp_path, **train):
+    config = {"episode": {"max_steps": 100}, "curriculum": {"levels": "0-1", "difficulties": "0-1"},
+              "train": {"checkpoint_every": 400, "heatmap_every": 200, "n_steps": 64, "batch_size": 64,
+                        "n_epochs": 2, "net_width": 32, **train}}
+    path = tmp_path / "small.yaml"
+    path.write_text(yaml.safe_dump(config))
+    return path
+
+
+def read_state(folder: Path) -> dict:
+    return json.loads((folder / "state.json").read_text())
+
+
+def test_random_agent_run_writes_its_folder(tmp_path):
+    run = tmp_path / "run"
+    aaai("train", "--random", "--agent", "random", "--steps", 1000, "--config", small_config(tmp_path), "--run", run)
+    assert (run / "config.yaml").is_file() and (run / "versions.json").is_file()
+    assert (run / "curriculum.png").is_file()
+    assert sorted(p.name for p in (run / "checkpoints").iterdir()) == [f"step_{s:012d}" for s in (400, 800)]
+    state = read_state(run / "final")
+    assert state["step"] == 1000 and state["curriculum"]["mode"] == "random"
+    with open(run / "episodes.csv") as handle:
+        episodes = list(csv.DictReader(handle))
+    assert len(episodes) == sum(state["curriculum"]["episodes"]) >= 8  # 100-step episodes, 2 workers
+    assert {(int(e["level"]), int(e["difficulty"])) for e in episodes} <= {(0, 0), (0, 1), (1, 0), (1, 1)}
+    again = aaai("train", "--agent", "random", "--run", run, check=False)
+    assert again.returncode != 0 and "already holds a run" in again.stderr
+
+
+def test_resume_after_a_kill_continues_curriculum_and_step_count(tmp_path):
+    run = tmp_path / "run"
+    process = subprocess.Popen([*AAAI, "train", "--agent", "random", "--steps", "10000000",
+                                "--config", str(small_config(tmp_path)), "--run", str(run)],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while not (run / "checkpoints" / f"step_{1200:012d}").exists():
+        assert process.poll() is None and time.monotonic() < deadline, "no checkpoint appeared"
+        time.sleep(0.1)
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    checkpoints = sorted((run / "checkpoints").iterdir())
+    last = read_state(checkpoints[-1])
+    aaai("train", "--resume", run, "--steps", last["step"] + 600)
+    final = read_state(run / "final")
+    assert final["step"] == last["step"] + 600
+    saved, resumed = last["curriculum"], final["curriculum"]
+    assert sum(resumed["episodes"]) > sum(saved["episodes"])
+    assert all(after >= before for before, after in zip(saved["episodes"], resumed["episodes"]))
+    with open(run / "episodes.csv") as handle:
+        steps = [int(row["step"]) for row in csv.DictReader(handle)]
+    assert steps == sorted(steps)  # episodes logged after the checkpoint, then lost, were dropped
+    assert len(steps) == sum(resumed["episodes"])
+
+
+def test_eval_scoreboard_schema_determinism_and_skipping(tmp_path):
+    out = tmp_path / "board.csv"
+    args = ["eval", "--seeds", "reserved", "--policy", "random", "--levels", "0-1", "--difficulty", "0",
+            "-k", 2, "--config", small_config(tmp_path)]
+    result = aaai(*args, "--out", out)
+    assert "| overall | 4 |" in result.stdout
+    with open(out) as handle:
+        rows = list(csv.DictReader(handle))
+    assert list(rows[0].keys()) == COLUMNS and len(rows) == 4
+    for row in rows:
+        ratio = float(row["return"]) / float(row["max_reward"])
+        assert float(row["ratio"]) == pytest.approx(ratio, abs=1e-5)
+        assert row["outcome"] == ("succeeded" if ratio >= 1 else "passed" if ratio >= 0.8 else "failed")
+        assert 1288490240 <= int(row["seed"]) < 1717986944
+    assert (tmp_path / "board_summary.md").is_file()
+
+    def without_time(path):
+        with open(path) as handle:
+            return [{k: v for k, v in row.items() if k != "wall_seconds"} for row in csv.DictReader(handle)]
+
+    second = tmp_path / "second.csv"
+    aaai(*args, "--out", second)
+    assert without_time(second) == without_time(out)
+    # An interrupted eval: two rows and a torn third line; re-running scores only what is missing.
+    lines = out.read_text().splitlines(keepends=True)
+    out.write_text("".join(lines[:3]) + lines[3][:10])
+    aaai(*args, "--out", out)
+    assert without_time(out) == without_time(second)
+
+
+def test_train_with_ppo_then_eval_end_to_end(tmp_path):
+    pytest.importorskip("stable_baselines3", reason="PPO needs the train extra (make install-train)")
+    run = tmp_path / "ppo"
+    aaai("train", "--curriculum", "--steps", 2048, "--config", small_config(tmp_path), "--run", run)
+    assert (run / "final" / "model.zip").is_file() and (run / "tb").is_dir()
+    assert read_state(run / "final")["step"] >= 2048
+    aaai("eval", "--seeds", "reserved", "--policy", run, "-k", 1, "--difficulty", 0)
+    with open(run / "scoreboard_reserved.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [(r["level"], r["difficulty"]) for r in rows] == [("0", "0"), ("1", "0")]
+    first = [r["return"] for r in rows]
+    (run / "scoreboard_reserved.csv").unlink()
+    aaai("eval", "--seeds", "reserved", "--policy", run, "-k", 1, "--difficulty", 0)
+    with open(run / "scoreboard_reserved.csv") as handle:
+        assert [r["return"] for r in csv.DictReader(handle)] == first  # deterministic policy, same seeds
+
+
+def test_cli_errors_are_clear(tmp_path):
+    result = aaai("train", "--levels", "0-14", "--run", tmp_path / "x", check=False)
+    assert result.returncode != 0 and "curriculum.levels" in result.stderr and "0 to 12" in result.stderr
+    result = aaai("eval", "--policy", "nope.zip", check=False)
+    assert result.returncode != 0 and "nope.zip" in result.stderr
+    result = aaai("eval", "--seeds", "a,b", check=False)
+    assert result.returncode != 0 and "--seeds" in result.stderr
