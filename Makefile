@@ -26,15 +26,23 @@ install: $(VENV)/.installed
 
 install-train: $(VENV)/.installed-train
 
-test: install
+test: install-train
 	$(BIN)/python -m pytest -q -m "not long" $(PYTEST_ARGS)
 
-test-long: install
+test-long: install-train
 	$(BIN)/python -m pytest -q -m long $(PYTEST_ARGS)
 
-demo: install
-	$(BIN)/aaai run --levels 0-1 --difficulty 0,5 --episodes 1 --policy random
-	$(BIN)/aaai run --levels 0 --difficulty 0 --episodes 1 --policy gait
+# The main job on the shipped default config: a short curriculum training run, then its
+# reserved-seed scoreboard. DEMO_RUN is replaced on every `make demo`.
+DEMO_RUN ?= runs/demo
+demo: install-train
+	rm -rf $(DEMO_RUN)
+	$(BIN)/aaai train --curriculum --run $(DEMO_RUN)
+	$(BIN)/aaai eval --seeds reserved --policy $(DEMO_RUN)
+
+bench: install
+	$(BIN)/python -m pip install --quiet -e ".[dev,bench]"
+	$(BIN)/aaai bench --out bench
 
 clean:
 	rm -rf $(VENV) *.egg-info .pytest_cache

@@ -35,7 +35,8 @@ class SineGait:
         base = env.unwrapped
         return cls(base.body.joint_names, direction, base.control_dt, **kwargs)
 
-    def reset(self) -> None:
+    def reset(self, seed: int | None = None) -> None:
+        """Restarts the cycle (the seed is unused: the gait has no randomness)."""
         self.step_count = 0
 
     def _sweep_sign(self, leg: str) -> float:

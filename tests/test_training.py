@@ -108,7 +108,6 @@ def test_eval_scoreboard_schema_determinism_and_skipping(tmp_path):
 
 
 def test_train_with_ppo_then_eval_end_to_end(tmp_path):
-    pytest.importorskip("stable_baselines3", reason="PPO needs the train extra (make install-train)")
     run = tmp_path / "ppo"
     aaai("train", "--curriculum", "--steps", 2048, "--config", small_config(tmp_path), "--run", run)
     assert (run / "final" / "model.zip").is_file() and (run / "tb").is_dir()
