@@ -220,15 +220,17 @@ def seeds_command(levels, difficulty, count):
 @click.option("--levels", help="Levels to measure (default: all).")
 @click.option("--steps", type=click.IntRange(100), default=3000, show_default=True, help="Steps per measurement.")
 @click.option("--resets", type=click.IntRange(5), default=50, show_default=True, help="Resets timed per level.")
+@click.option("--worker-steps", type=click.IntRange(100), default=2000, show_default=True,
+              help="Steps per worker in the 1/2/4-worker runs.")
 @click.option("--memory-steps", type=click.IntRange(1000), default=20000, show_default=True)
 @click.option("--out", "folder", type=click.Path(), default="bench", show_default=True,
               help="Folder for bench.json and bench.md.")
-def bench_command(levels, steps, resets, memory_steps, folder):
+def bench_command(levels, steps, resets, worker_steps, memory_steps, folder):
     """Measure steps/s against a bare PyBullet loop and MuJoCo Ant-v5, resets, workers and memory."""
     from aaai import bench
 
     level_list = parse_range(levels, "--levels", 0, 12) if levels else None
-    results = bench.run(level_list, steps=steps, resets=resets, memory_steps=memory_steps,
+    results = bench.run(level_list, steps=steps, resets=resets, worker_steps=worker_steps, memory_steps=memory_steps,
                         log=lambda text: click.echo(text, err=True))
     json_path, md_path = bench.write(results, Path(folder))
     click.echo(bench.markdown(results), nl=False)
