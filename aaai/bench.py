@@ -21,7 +21,7 @@ import numpy as np
 import pybullet as p
 
 from aaai.env import AnimalAIEnv
-from aaai.levels import all_levels
+from aaai.levels import all_levels, get_level
 from aaai.runs import package_versions, write_atomic
 
 SENSOR_SETTINGS = {
@@ -170,14 +170,15 @@ def run(levels: list[int] | None = None, steps: int = 3000, resets: int = 50, wo
     results: dict = {"machine": _machine(), "settings": {"steps": steps, "resets": resets,
                                                           "worker_steps": worker_steps, "memory_steps": memory_steps}}
     log("limit (bare PyBullet loop) ...")
-    results["limit"] = {f"L{level}": limit_rate(level, steps) for level in levels}
+    results["limit"] = {get_level(level).label: limit_rate(level, steps) for level in levels}
     results["env"] = {}
     for level in levels:
-        log(f"L{level} ...")
-        results["env"][f"L{level}"] = {name: env_rate(level, sensors, steps) for name, sensors in SENSOR_SETTINGS.items()}
+        label = get_level(level).label
+        log(f"{label} ...")
+        results["env"][label] = {name: env_rate(level, sensors, steps) for name, sensors in SENSOR_SETTINGS.items()}
         median, p95 = reset_times_ms(level, resets)
-        results["env"][f"L{level}"]["reset_median_ms"] = median
-        results["env"][f"L{level}"]["reset_p95_ms"] = p95
+        results["env"][label]["reset_median_ms"] = median
+        results["env"][label]["reset_p95_ms"] = p95
     log("workers ...")
     results["workers"] = {str(n): workers_rate(n, worker_steps) for n in (1, 2, 4)}
     log("Ant-v5 ...")

@@ -13,6 +13,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from aaai.levels import get_level
 from aaai.seeds import training_seed
 
 EPSILON = 1e-7
@@ -129,7 +130,7 @@ def _panel(title: str, values: np.ndarray, cells: list[Cell]) -> np.ndarray:
         cv2.putText(image, text, (x + 2, y + CELL_PX // 2 + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.33, (255, 255, 255), 1,
                     cv2.LINE_AA)
     for row, level in enumerate(levels):
-        cv2.putText(image, f"L{level}", (4, MARGIN_PX + row * CELL_PX + CELL_PX // 2 + 4),
+        cv2.putText(image, get_level(level).label, (4, MARGIN_PX + row * CELL_PX + CELL_PX // 2 + 4),
                     cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
     for col, d in enumerate(difficulties):
         cv2.putText(image, f"d{d}", (MARGIN_PX + col * CELL_PX + 8, MARGIN_PX - 6),

@@ -40,7 +40,7 @@ class AnimalAIEnv(gym.Env):
     """A limbed agent that must find food in a seeded, difficulty-scaled level.
 
     Args:
-        level: level id 0..11, label ("L1") or name ("food_retrieval").
+        level: level id 0..12, label ("L1", "L2b") or name ("food_retrieval").
         difficulty: 0..10.
         config: a YAML path or nested mapping overriding configs/default.yaml.
         render_mode: None, "rgb_array" (a third-person view) or "human" (PyBullet's GUI).
@@ -143,6 +143,7 @@ class AnimalAIEnv(gym.Env):
 
         self._reset_physics()
         self.world = World(self.client, spec, motion_rng)
+        self._blackout = self._blackout_steps(spec)
         self.body.load(spec.agent.x, spec.agent.y, spec.agent.yaw)
         self.steps = 0
         self.wall_contacts: set[tuple[int, int]] = set()
@@ -160,7 +161,8 @@ class AnimalAIEnv(gym.Env):
         if not np.all(np.isfinite(action)):
             raise ValueError(f"action: got non-finite values {action}; allowed: numbers in [-1, 1]")
         self.body.apply(np.clip(action, -1.0, 1.0))
-        self.world.advance(self.control_dt)
+        head = self.body.head_pose()[0][:2] if self.world.doors else None  # only doors need it
+        self.world.advance(self.control_dt, head)
         p.stepSimulation(physicsClientId=self.client)
         self.steps += 1
 
@@ -214,6 +216,19 @@ class AnimalAIEnv(gym.Env):
                 world.remove(food_body)
         return events, green_eaten
 
+    def _blackout_steps(self, spec: LevelSpec) -> tuple[int, int] | None:
+        """(light steps, cycle steps) of an L7 blackout schedule, in whole control steps, or None."""
+        schedule = spec.extras.get("blackout")
+        if not schedule:
+            return None
+        light = round(schedule["light"] / self.control_dt)
+        return light, light + round(schedule["dark"] / self.control_dt)
+
+    @property
+    def dark(self) -> bool:
+        """Is the camera blacked out now (L7: light for a while, then dark, repeating)?"""
+        return self._blackout is not None and self.steps % self._blackout[1] >= self._blackout[0]
+
     def _blew_up(self, joint_speeds: np.ndarray) -> bool:
         """Catches a physics blow-up: a non-finite state, a body moving impossibly fast or far."""
         velocity, _ = p.getBaseVelocity(self.body.id, physicsClientId=self.client)
@@ -233,7 +248,7 @@ class AnimalAIEnv(gym.Env):
         if self.rays:
             observation["rays"] = self.rays.observe(head_pos, head_rot, self.world.kind_index)
         if self.camera:
-            observation["camera"] = self.camera.observe(head_pos, head_rot)
+            observation["camera"] = self.camera.blank() if self.dark else self.camera.observe(head_pos, head_rot)
         if "joint_velocities" in self.observation_space.spaces:
             observation["joint_velocities"] = speeds.astype(np.float32)
         if "head_orientation" in self.observation_space.spaces:
@@ -256,6 +271,7 @@ class AnimalAIEnv(gym.Env):
             "wall_hits": self.wall_hits,
             "fell": fell,
             "blew_up": blew_up,
+            "dark": self.dark,
             "steps": self.steps,
             "sim_time": self.steps * self.control_dt,
         }

@@ -200,7 +200,7 @@ def summarise(rows: list[dict]) -> list[dict]:
     """Per level and overall: episodes, mean return, mean ratio, % passed or better, % succeeded."""
     groups: dict[str, list[dict]] = {}
     for row in rows:
-        groups.setdefault(f"L{row['level']} {row['level_name']}", []).append(row)
+        groups.setdefault(f"{get_level(int(row['level'])).label} {row['level_name']}", []).append(row)
     ordered = sorted(groups.items(), key=lambda item: int(item[1][0]["level"])) + [("overall", rows)]
     summary = []
     for name, group in ordered:

@@ -123,12 +123,14 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
         if obj.position[2] - obj.size[2] / 2 > 2 * HEAD_RADIUS:  # high above the body (none yet)
             continue
         _fill(grid, spec, corners(obj))
-    if spec.holes:
+    if spec.holes:  # every cell whose centre lies over a missing tile
         nx, ny = spec.tiles
-        tile_x, tile_y = width / nx, height / ny
-        for i, j in spec.holes:
-            x0, y0 = -width / 2 + i * tile_x, -height / 2 + j * tile_y
-            _fill(grid, spec, np.array([(x0, y0), (x0 + tile_x, y0), (x0 + tile_x, y0 + tile_y), (x0, y0 + tile_y)]))
+        missing = np.zeros((ny, nx), bool)
+        i, j = np.array(spec.holes).T
+        missing[j, i] = True
+        tile_col = np.minimum(((np.arange(cols) + 0.5) * GRID / (width / nx)).astype(int), nx - 1)
+        tile_row = np.minimum(((np.arange(rows) + 0.5) * GRID / (height / ny)).astype(int), ny - 1)
+        grid[missing[tile_row][:, tile_col]] = 1
     if bridge:  # the L10 plank, pushed over, is floor across the trench
         x0, y0, x1, y1 = bridge
         _fill(grid, spec, np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)]), value=0)
@@ -204,3 +206,29 @@ def check(spec: LevelSpec) -> list[str]:
 
 def _xy(position) -> str:
     return f"({position[0]:.1f}, {position[1]:.1f})"
+
+
+def survey(level: int, difficulty: int, seeds) -> dict:
+    """Generates (level, difficulty, seed) for every seed and checks each spec once more.
+
+    Returns the counts for one row of ``aaai validate``: seeds checked, regenerated (valid only
+    after a regeneration), failed (no valid level, or a returned spec with problems), and the
+    first failures' messages.
+    """
+    from aaai.levels import InvalidLevelError, generate  # the registry imports this module
+
+    row = {"checked": 0, "regenerated": 0, "failed": 0, "errors": []}
+    for seed in seeds:
+        row["checked"] += 1
+        try:
+            spec = generate(level, difficulty, seed)
+            problems = check(spec)
+        except InvalidLevelError as error:
+            problems = [str(error)]
+        else:
+            problems = [f"level {level} difficulty {difficulty} seed {seed}: {problem}" for problem in problems]
+            row["regenerated"] += bool(spec.extras.get("regenerated"))
+        if problems:
+            row["failed"] += 1
+            row["errors"] += problems[:1]
+    return row

@@ -1,8 +1,10 @@
 """Builds a LevelSpec into a PyBullet client and runs its moving parts.
 
 Every body carries a kind (aaai.kinds); rays and rewards read it from ``kind_index``.
-The floor is one body made of tiles (holes are tiles left out); a deadly floor far below
-the arena catches anything that falls.
+The floor is one body made of tiles (holes are tiles left out), or a heightfield for rough
+terrain; a deadly floor far below the arena catches anything that falls. Moving parts (the
+behaviours of aaai.spec) advance by simulated time only; one with nothing left to do is dropped,
+so a level without moving parts costs nothing per step.
 """
 from __future__ import annotations
 
@@ -20,6 +22,59 @@ DEADLY_FLOOR_SIZE = 400.0
 NO_KIND = -1
 MAX_COMPOUND_SHAPES = 16  # PyBullet's limit on shapes in one createCollisionShapeArray
 RANDOM_WALK_TURN = 2.0  # heading noise of a random walk, rad per sqrt(s)
+# Bullet multiplies the two bodies' frictions; the floor's default is 0.5. A plank must grip the
+# floor (1.0 combined) or a body climbing onto the L10 bridge shoves it into the trench.
+PLANK_FRICTION = 2.0
+HIDDEN_Z = -30.0  # where an open door waits: below the deadly floor, out of sight and reach
+
+
+class Sink:
+    """Moves a body straight down by ``depth`` over ``duration`` simulated seconds."""
+
+    def __init__(self, obj: ObjectSpec):
+        self.start, self.yaw = obj.position, obj.yaw
+        self.depth, self.duration = obj.behaviour["depth"], obj.behaviour["duration"]
+
+    def pose(self, time: float, dt: float) -> tuple[tuple[float, float, float], bool]:
+        """The position at ``time`` and whether it has arrived."""
+        done = time >= self.duration
+        fraction = 1.0 if done else time / self.duration
+        x, y, z = self.start
+        return (x, y, z - self.depth * fraction), done
+
+
+class Slide:
+    """Moves a body in a straight line to a target at a constant speed, then stops."""
+
+    def __init__(self, obj: ObjectSpec):
+        self.x, self.y, self.z = obj.position
+        self.yaw = obj.yaw
+        self.target = tuple(obj.behaviour["to"])
+        self.speed = obj.behaviour["speed"]
+
+    def pose(self, time: float, dt: float) -> tuple[tuple[float, float, float], bool]:
+        dx, dy = self.target[0] - self.x, self.target[1] - self.y
+        remaining, step = math.hypot(dx, dy), self.speed * dt
+        if remaining <= step:
+            self.x, self.y = self.target
+            return (self.x, self.y, self.z), True
+        self.x, self.y = self.x + dx / remaining * step, self.y + dy / remaining * step
+        return (self.x, self.y, self.z), False
+
+
+class Door:
+    """A wall hidden until the agent's head is past ``distance`` along ``direction`` and inside
+    that direction's 90-degree sector; then it stands at its place for good."""
+
+    def __init__(self, obj: ObjectSpec):
+        self.position, self.yaw = obj.position, obj.yaw
+        self.ux, self.uy = obj.behaviour["direction"]
+        self.distance = obj.behaviour["distance"]
+
+    def entered(self, head_x: float, head_y: float) -> bool:
+        along = head_x * self.ux + head_y * self.uy
+        across = abs(head_y * self.ux - head_x * self.uy)
+        return along > self.distance and across < along
 
 
 class World:
@@ -33,6 +88,10 @@ class World:
         self.objects: dict[int, ObjectSpec] = {}
         self.food: dict[int, ObjectSpec] = {}
         self.walkers: dict[int, list[float]] = {}  # body id -> [x, y, z, heading]
+        self.movers: dict[int, Sink | Slide] = {}  # sinking pillars and their food, sliding food
+        self.doors: dict[int, Door] = {}  # open doors; the env passes the head's position while any are
+        self.time = 0.0  # simulated seconds since the build
+        self.colours = {**COLOURS, **{kind: tuple(rgba) for kind, rgba in spec.extras.get("colours", {}).items()}}
         self._shapes: dict[tuple, tuple[int, int]] = {}
         self._build_floor()
         self._build_deadly_floor()
@@ -54,6 +113,9 @@ class World:
     def _build_floor(self) -> None:
         """The floor's tiles, merged into as few boxes as can be, in bodies of up to 16 boxes."""
         c, spec = self.client, self.spec
+        if spec.heightfield is not None:
+            self._build_terrain()
+            return
         nx, ny = spec.tiles
         tile_x, tile_y = spec.arena_size[0] / nx, spec.arena_size[1] / ny
         boxes = []
@@ -70,14 +132,31 @@ class World:
                                                     collisionFramePositions=centres, physicsClientId=c)
             visual = p.createVisualShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
                                               visualFramePositions=centres,
-                                              rgbaColors=[COLOURS["floor"]] * count, physicsClientId=c)
+                                              rgbaColors=[self.colours["floor"]] * count, physicsClientId=c)
             self._register(p.createMultiBody(0, collision, visual, physicsClientId=c), "floor")
+
+    def _build_terrain(self) -> None:
+        """Rough terrain: the spec's heightfield (rows along y, columns along x) over the arena.
+
+        Bullet centres a heightfield on its body between the lowest and highest sample, so the
+        body sits at that middle height for the samples to land at their own heights.
+        """
+        c, spec = self.client, self.spec
+        heights = np.asarray(spec.heightfield, dtype=np.float64)
+        rows, cols = heights.shape
+        scale = [spec.arena_size[0] / (cols - 1), spec.arena_size[1] / (rows - 1), 1.0]
+        collision = p.createCollisionShape(p.GEOM_HEIGHTFIELD, meshScale=scale, heightfieldData=heights.ravel().tolist(),
+                                           numHeightfieldRows=cols, numHeightfieldColumns=rows, physicsClientId=c)
+        middle = (heights.min() + heights.max()) / 2
+        body = p.createMultiBody(0, collision, basePosition=(0, 0, middle), physicsClientId=c)
+        p.changeVisualShape(body, -1, rgbaColor=self.colours["floor"], physicsClientId=c)
+        self._register(body, "floor")
 
     def _build_deadly_floor(self) -> None:
         c = self.client
         half = [DEADLY_FLOOR_SIZE / 2, DEADLY_FLOOR_SIZE / 2, 0.5]
         collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
-        visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=COLOURS["deadly_floor"], physicsClientId=c)
+        visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=self.colours["deadly_floor"], physicsClientId=c)
         body = p.createMultiBody(0, collision, visual, basePosition=(0, 0, DEADLY_FLOOR_TOP - 0.5), physicsClientId=c)
         self._register(body, "deadly_floor")
 
@@ -103,15 +182,25 @@ class World:
         c = self.client
         collision, visual = self._shape(obj)
         orientation = p.getQuaternionFromEuler((0, 0, obj.yaw))
-        body = p.createMultiBody(obj.mass, collision, visual, basePosition=obj.position,
+        kind = obj.behaviour["type"] if obj.behaviour else None
+        position = (*obj.position[:2], HIDDEN_Z) if kind == "door" else obj.position
+        body = p.createMultiBody(obj.mass, collision, visual, basePosition=position,
                                  baseOrientation=orientation, physicsClientId=c)
         self._register(body, obj.kind)
+        if obj.kind == "plank":
+            p.changeDynamics(body, -1, lateralFriction=PLANK_FRICTION, physicsClientId=c)
         self.objects[body] = obj
         if obj.is_food:
             self.food[body] = obj
-        if obj.behaviour and obj.behaviour["type"] == "random_walk":
+        if kind == "random_walk":
             heading = float(self.motion_rng.uniform(-math.pi, math.pi))
             self.walkers[body] = [*obj.position, heading]
+        elif kind == "sink":
+            self.movers[body] = Sink(obj)
+        elif kind == "slide":
+            self.movers[body] = Slide(obj)
+        elif kind == "door":
+            self.doors[body] = Door(obj)
         return body
 
     # --- running --------------------------------------------------------------------
@@ -122,11 +211,39 @@ class World:
         self.objects.pop(body, None)
         self.food.pop(body, None)
         self.walkers.pop(body, None)
+        self.movers.pop(body, None)
+        self.doors.pop(body, None)
 
-    def advance(self, dt: float) -> None:
-        """Moves the moving parts by dt of simulated time (random-walking food)."""
+    def advance(self, dt: float, head: tuple[float, float] | None = None) -> None:
+        """Moves the moving parts by dt of simulated time. ``head`` (x, y) is needed while any
+        door is open (``self.doors``)."""
+        self.time += dt
         for body, state in self.walkers.items():
             self._walk(body, state, dt)
+        if self.movers:
+            self._move(dt)
+        if self.doors and head is not None:
+            self._close_doors(head)
+
+    def _move(self, dt: float) -> None:
+        """Sinking and sliding bodies to their poses at the new time; arrived ones stop."""
+        arrived = []
+        for body, mover in self.movers.items():
+            position, done = mover.pose(self.time, dt)
+            p.resetBasePositionAndOrientation(body, position, p.getQuaternionFromEuler((0, 0, mover.yaw)),
+                                              physicsClientId=self.client)
+            if done:
+                arrived.append(body)
+        for body in arrived:
+            del self.movers[body]
+
+    def _close_doors(self, head: tuple[float, float]) -> None:
+        """Stands up the door of any sector the head has entered."""
+        for body, door in list(self.doors.items()):
+            if door.entered(head[0], head[1]):
+                p.resetBasePositionAndOrientation(body, door.position, p.getQuaternionFromEuler((0, 0, door.yaw)),
+                                                  physicsClientId=self.client)
+                del self.doors[body]
 
     def _walk(self, body: int, state: list[float], dt: float) -> None:
         obj = self.objects[body]

@@ -52,7 +52,7 @@ def spec_command(level, difficulty, seed, as_json):
     if as_json:
         click.echo(spec.to_json())
         return
-    click.echo(f"L{spec.level} {spec.name}  difficulty {spec.difficulty}  seed {spec.seed}")
+    click.echo(f"{get_level(spec.level).label} {spec.name}  difficulty {spec.difficulty}  seed {spec.seed}")
     click.echo(f"agent at ({spec.agent.x:.2f}, {spec.agent.y:.2f}) heading {np.degrees(spec.agent.yaw):.0f} deg")
     for obj in spec.objects:
         x, y, z = obj.position
@@ -73,7 +73,7 @@ def spec_command(level, difficulty, seed, as_json):
 @click.option("--rays/--no-rays", default=None, help="Turn the rays on or off.")
 def run_command(levels_text, difficulty_text, episodes, seed, policy, config_path, max_steps, camera, rays):
     """Run episodes with a random policy or the example gait and print a summary of each."""
-    levels = parse_range(levels_text, "--levels", 0, 11)
+    levels = parse_range(levels_text, "--levels", 0, 12)
     difficulties = parse_range(difficulty_text, "--difficulty", 0, 10)
     overrides = {k: v for k, v in dict(max_steps=max_steps, camera=camera, rays=rays).items() if v is not None}
     try:
@@ -107,7 +107,7 @@ def run_episode(env: AnimalAIEnv, level: int, difficulty: int, seed: int, policy
             break
     rate = info["steps"] / max(time.perf_counter() - started, 1e-9)
     end = "fell" if info["fell"] else "blew up" if info["blew_up"] else "ate green" if terminated else "time"
-    name = f"L{level} {info['level_name']}"
+    name = f"{get_level(level).label} {info['level_name']}"
     return (f"{name:<20} {difficulty:>4} {seed:>6} {total:>8.3f} {info['max_reward']:>6.2f} {info['steps']:>6} "
             f"{info['food_eaten']:>4} {info['wall_hits']:>5} {end:<10} {rate:>8.0f}")
 
@@ -213,7 +213,7 @@ def seeds_command(levels, difficulty, count):
 
     for level in parse_range(levels, "--levels", 0, 12):
         for d in parse_range(difficulty, "--difficulty", 0, 10):
-            click.echo(f"L{level} d{d}: " + ",".join(str(s) for s in reserved_seeds(level, d, count)))
+            click.echo(f"{get_level(level).label} d{d}: " + ",".join(str(s) for s in reserved_seeds(level, d, count)))
 
 
 @cli.command("bench")
@@ -240,9 +240,9 @@ def bench_command(levels, steps, resets, worker_steps, memory_steps, folder):
 
 # Commands that live in their own files.
 from aaai_cli.show import show  # noqa: E402
+from aaai_cli.validate import validate  # noqa: E402
 
 cli.add_command(show)
-from aaai_cli.validate import validate  # noqa: E402
 cli.add_command(validate)
 
 if __name__ == "__main__":

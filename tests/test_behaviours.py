@@ -1,0 +1,226 @@
+"""Moving parts, deadly floors, sector doors, the L10 bridge and the L7 blackout, tested by
+running physics. All timing is in simulated time (steps x control dt)."""
+import math
+from dataclasses import replace
+
+import numpy as np
+import pybullet as p
+import pytest
+
+from aaai.gait import SineGait
+from aaai.levels import generate
+from aaai.spec import AgentPose
+from aaai.world import HIDDEN_Z
+from test_env import assert_identical, run_random
+
+
+def bodies_of(env, kind):
+    return [body for body, obj in env.world.objects.items() if obj.kind == kind]
+
+
+def position(env, body):
+    return np.array(p.getBasePositionAndOrientation(body, physicsClientId=env.client)[0])
+
+
+def rest(env, steps):
+    for _ in range(steps):
+        result = env.step(env.body.rest_action())
+    return result
+
+
+@pytest.mark.parametrize("action_repeat", [2, 4])
+def test_the_l2b_pillar_and_its_yellow_sink_to_the_floor_in_simulated_time(make_env, action_repeat):
+    difficulty = 2
+    seconds = round(1.5 * difficulty + 5)  # 8 s
+    env = make_env(action_repeat=action_repeat, max_steps=5000)
+    env.reset(seed=4, options={"level": "L2b", "difficulty": difficulty})
+    (pillar,), (yellow,) = bodies_of(env, "pillar"), bodies_of(env, "food_yellow")
+    height = env.world.objects[pillar].size[2]
+    per_second = round(1 / env.control_dt)
+    assert position(env, pillar)[2] == pytest.approx(height / 2)
+    rest(env, per_second * seconds // 2)
+    assert position(env, pillar)[2] == pytest.approx(0.0, abs=1e-6)  # half way: top at height / 2
+    assert position(env, yellow)[2] == pytest.approx(height / 2 + 1.5, abs=1e-6)
+    rest(env, per_second * seconds // 2 - 1)
+    assert position(env, pillar)[2] > -height / 2 + 1e-3  # not quite down a step before the end
+    rest(env, 1)
+    assert position(env, pillar)[2] == pytest.approx(-height / 2)  # its top flush with the floor
+    assert position(env, yellow)[2] == pytest.approx(1.5)  # the yellow (size 3) rests on the floor
+    rest(env, per_second)
+    assert position(env, pillar)[2] == pytest.approx(-height / 2) and not env.world.movers
+
+
+def test_the_l8_food_slides_behind_the_occluder_and_stops(make_env):
+    env = make_env()
+    for seed in (0, 1):  # both sides
+        env.reset(seed=seed, options={"level": 8, "difficulty": 10})
+        (food,) = bodies_of(env, "food_green")
+        spec = env.world.objects[food]
+        start, target, speed = np.array(spec.position[:2]), np.array(spec.behaviour["to"]), spec.behaviour["speed"]
+        assert speed == round(0.2 * 10 + 4)
+        occluder = next(o for o in env.level_spec.objects if o.kind == "wall" and o.position[:2] == (0.0, 0.0))
+        assert abs(start[0]) > occluder.size[0] / 2  # starts in view, beyond the occluder's end
+        travel = np.linalg.norm(target - start) / speed
+        steps = int(travel / 2 / env.control_dt)
+        rest(env, steps)
+        assert position(env, food)[:2] == pytest.approx(start + (target - start) * steps * env.control_dt * speed
+                                                      / np.linalg.norm(target - start), abs=1e-6)
+        rest(env, int(travel / env.control_dt))
+        x, y, _ = position(env, food)
+        assert (x, y) == pytest.approx(tuple(target))
+        assert abs(x) < occluder.size[0] / 2 and y > occluder.position[1]  # hidden behind it
+        pit = env.level_spec.holes
+        pit_x = -env.level_spec.arena_size[0] / 2 + np.mean([i for i, _ in pit]) + 0.5
+        assert np.sign(pit_x) == -np.sign(x)  # the pit is on the other side of the barrier
+
+
+def test_an_l9_door_closes_once_the_head_is_inside_its_sector(make_env):
+    env = make_env()
+    env.reset(seed=3, options={"level": 9, "difficulty": 5})
+    doors = {tuple(env.world.objects[b].behaviour["direction"]): b for b in env.world.doors}
+    north = doors[(0.0, 1.0)]
+    assert all(position(env, b)[2] == HIDDEN_Z for b in doors.values())
+    rest(env, 50)  # in the hub: every opening stays open
+    assert len(env.world.doors) == 4
+    body = env.body.id
+
+    def teleport(y):
+        p.resetBasePositionAndOrientation(body, (0.0, y, 1.5), p.getQuaternionFromEuler((0, 0, math.pi / 2)),
+                                          physicsClientId=env.client)
+
+    teleport(12.0)  # in the opening, not yet past the trigger line
+    rest(env, 5)
+    assert position(env, north)[2] == HIDDEN_Z
+    teleport(16.0)  # inside the north sector
+    *_, info = rest(env, 2)
+    assert position(env, north) == pytest.approx(env.world.objects[north].position)
+    assert sorted(env.world.doors) == sorted(b for b in doors.values() if b != north)  # the others stay open
+    hit = p.rayTest((0.0, 14.0, 2.0), (0.0, 3.0, 2.0), physicsClientId=env.client)[0]
+    assert hit[0] == north  # the way back to the hub is shut
+    gait = SineGait.for_env(env, "backward")  # and walking back into it does not get through
+    observation = None
+    for _ in range(400):
+        observation, *_ = env.step(gait(observation))
+    assert env.body.head_pose()[0][1] > 9.0
+
+
+def hole_centre(spec, tile):
+    nx, ny = spec.tiles
+    i, j = tile
+    return (-spec.arena_size[0] / 2 + (i + 0.5) * spec.arena_size[0] / nx,
+            -spec.arena_size[1] / 2 + (j + 0.5) * spec.arena_size[1] / ny)
+
+
+@pytest.mark.parametrize("level, what", [(4, "hole"), (8, "pit"), (10, "trench")])
+def test_falling_into_a_hole_pit_or_trench_costs_one_and_ends_the_episode(make_env, level, what):
+    spec = generate(level, 10, 2)
+    holes = sorted(spec.holes)
+    tile = holes[len(holes) // 2]  # the middle one of the hole's tiles
+    x, y = hole_centre(spec, tile)
+    if level == 10:  # the trench's middle, away from the plank
+        plank = next(o for o in spec.objects if o.kind == "plank")
+        x = -15.0 if plank.position[0] > 0 else 15.0
+        y = sum(spec.extras["trench"]) / 2
+    env = make_env()
+    env.reset(options={"spec": replace(spec, agent=AgentPose(x, y, 0.0))})
+    for _ in range(200):
+        _, reward, terminated, truncated, info = env.step(env.body.rest_action())
+        if terminated or truncated:
+            break
+    assert terminated and not truncated and info["fell"]
+    assert info["reward_terms"]["fall"] == -1.0 and reward < -0.99
+
+
+def test_the_same_level_without_its_hole_holds_the_body(make_env):
+    spec = generate(4, 10, 2)
+    x, y = hole_centre(spec, spec.holes[0])
+    env = make_env()
+    env.reset(options={"spec": replace(spec, holes=(), agent=AgentPose(x, y, 0.0))})
+    _, _, terminated, _, info = rest(env, 200)
+    assert not terminated and not info["fell"]
+
+
+def push_plank_over(env, plank_body, plank):
+    """Pushes the standing plank's top north until it has fallen across the trench."""
+    top = (plank.position[0], plank.position[1], plank.size[2])
+    for _ in range(40):
+        p.applyExternalForce(plank_body, -1, (0.0, 60.0, 0.0), top, p.WORLD_FRAME, physicsClientId=env.client)
+        env.step(env.body.rest_action())
+    rest(env, 100)
+
+
+def walk_north(env, lane_x, goal_y, steps=2500):
+    """The forward gait, kept on a lane facing north by a sideways spring and a turning spring on
+    the head (nothing lifts it): returns the lowest head height on the way, the last step's info
+    and the head's last position."""
+    gait, observation, lowest = SineGait.for_env(env, "forward"), None, math.inf
+    for _ in range(steps):
+        head, rotation = env.body.head_pose()
+        velocity, spin = p.getBaseVelocity(env.body.id, physicsClientId=env.client)
+        sideways = 20.0 * (lane_x - head[0]) - 10.0 * velocity[0]
+        turn = math.remainder(math.pi / 2 - math.atan2(rotation[1, 0], rotation[0, 0]), 2 * math.pi)
+        p.applyExternalForce(env.body.id, -1, (sideways, 0.0, 0.0), head.tolist(), p.WORLD_FRAME,
+                             physicsClientId=env.client)
+        p.applyExternalTorque(env.body.id, -1, (0.0, 0.0, 40.0 * turn - 8.0 * spin[2]), p.WORLD_FRAME,
+                              physicsClientId=env.client)
+        observation, _, terminated, truncated, info = env.step(gait(observation))
+        lowest = min(lowest, env.body.head_pose()[0][2])
+        if terminated or truncated or head[1] > goal_y:
+            break
+    return lowest, info, env.body.head_pose()[0]
+
+
+@pytest.mark.parametrize("difficulty, seed, pushed", [(0, 2, True), (5, 4, True), (10, 3, True), (10, 3, False)])
+def test_the_l10_plank_pushed_over_bridges_the_trench(make_env, difficulty, seed, pushed):
+    spec = generate(10, difficulty, seed)
+    plank = next(o for o in spec.objects if o.kind == "plank")
+    south, north = spec.extras["trench"]
+    env = make_env(max_steps=5000)
+    start = AgentPose(plank.position[0], plank.position[1] - 6.0, math.pi / 2)
+    env.reset(options={"spec": replace(spec, agent=start)})
+    (plank_body,) = bodies_of(env, "plank")
+    if pushed:
+        push_plank_over(env, plank_body, plank)
+        low, high = p.getAABB(plank_body, physicsClientId=env.client)
+        assert low[1] < south - 1.0 and high[1] > north + 2.0 and high[2] < 1.0  # lying across
+    else:  # the same walk with the plank taken away
+        p.resetBasePositionAndOrientation(plank_body, (100.0, 100.0, -100.0), (0, 0, 0, 1), physicsClientId=env.client)
+    lowest, info, head = walk_north(env, plank.position[0], north + 3.0)
+    if pushed:
+        assert not info["fell"] and head[1] > north + 3.0 and lowest > 0.5  # carried across, never sagging
+    else:
+        assert info["fell"]  # without the bridge the same walk ends in the trench
+
+
+@pytest.mark.parametrize("difficulty", [0, 4])
+def test_l7_blacks_out_the_camera_on_schedule_but_not_the_rays(make_env, difficulty):
+    env = make_env(rays=True, camera=True, camera_resolution=16)
+    observation, info = env.reset(seed=1, options={"level": 7, "difficulty": difficulty})
+    dark_seconds = math.floor(min(difficulty + 1.1, 10))
+    assert env.level_spec.extras["blackout"] == {"light": 5.0, "dark": float(dark_seconds)}
+    light_steps, dark_steps = 250, dark_seconds * 50
+    assert not info["dark"] and observation["camera"].any()
+    for step in range(1, light_steps + dark_steps + 20):
+        observation, _, terminated, truncated, info = env.step(env.body.rest_action())
+        expected = light_steps <= step < light_steps + dark_steps
+        assert info["dark"] == expected, step
+        assert observation["camera"].any() != expected, step  # black frames only while dark
+        assert observation["rays"].sum() > 0  # the rays never go out
+        assert not (terminated or truncated)
+
+
+def test_other_levels_are_never_dark(make_env):
+    env = make_env(camera=True, camera_resolution=16)
+    for level in (0, 6, 12):
+        _, info = env.reset(seed=1, options={"level": level, "difficulty": 10})
+        for _ in range(300):
+            *_, info = env.step(env.body.rest_action())
+            assert not info["dark"]
+
+
+@pytest.mark.parametrize("level", [7, 8, 9, 11, 12])
+def test_moving_parts_and_terrain_repeat_bit_for_bit(make_env, level):
+    sensors = dict(rays=True, camera=True, camera_resolution=16)
+    first = run_random(make_env(**sensors), seed=7, steps=300, level=level)
+    second = run_random(make_env(**sensors), seed=7, steps=300, level=level)
+    assert_identical(first, second)

@@ -1,0 +1,268 @@
+"""All thirteen level generators: registry, reproducibility, content, and solvability (aaai validate)."""
+import math
+import subprocess
+import sys
+from dataclasses import replace
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import aaai  # noqa: F401  (registers the ids)
+from aaai import validate
+from aaai.config import ConfigError, load_config
+from aaai.levels import InvalidLevelError, all_levels, generate, get_level
+from aaai.levels.common import arena_walls, slab, sphere
+from aaai.spec import AgentPose, LevelSpec, ObjectSpec
+from aaai_cli.main import cli
+
+LEVELS = list(range(13))
+
+
+def test_every_level_is_registered_with_its_label_and_gymnasium_id():
+    assert sorted(all_levels()) == LEVELS
+    assert [all_levels()[i].label for i in LEVELS] == [f"L{i}" for i in range(12)] + ["L2b"]
+    assert get_level("L2b").name == "delayed_gratification" and get_level("y_maze").id == 2
+    assert "aaai/L2b-DelayedGratification-v0" in gym.registry and "aaai/L11-BodyAwareness-v0" in gym.registry
+    assert load_config(level=12)["level"] == 12
+    with pytest.raises(ConfigError, match="config key 'level': got 13; allowed: an integer from 0 to 12"):
+        load_config(level=13)
+
+
+@pytest.mark.parametrize("level", LEVELS)
+def test_every_level_gives_the_same_spec_for_the_same_seed(level):
+    for difficulty in (0, 5, 10):
+        assert generate(level, difficulty, 77) == generate(level, difficulty, 77)
+    assert len({generate(level, 5, seed).digest() for seed in range(6)}) == 6
+
+
+def test_spec_hashes_are_the_same_in_two_separate_processes():
+    cells = [(level, difficulty, 1000 + level) for level in LEVELS for difficulty in (0, 7, 10)]
+    code = ("from aaai.levels import generate\n"
+            f"for l, d, s in {cells!r}: print(generate(l, d, s).digest())")
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+            for _ in range(2)]
+    assert runs[0] == runs[1] == [generate(*cell).digest() for cell in cells]
+
+
+def test_aaai_validate_passes_every_level_and_difficulty_over_20_seeds():
+    result = CliRunner().invoke(cli, ["validate", "--seeds", "20"])
+    assert result.exit_code == 0, result.output
+    rows = [line.split() for line in result.output.splitlines()[1:-1]]
+    assert len(rows) == 13 * 11
+    assert all(row[-3] == "20" and row[-1] == "0" for row in rows)
+    assert result.output.splitlines()[-1].split()[1:] == ["2860", result.output.splitlines()[-1].split()[2], "0"]
+
+
+@pytest.mark.long
+def test_aaai_validate_passes_1000_seeds_per_cell():
+    result = CliRunner().invoke(cli, ["validate", "--seeds", "1000"])
+    assert result.exit_code == 0, result.output
+    assert result.output.splitlines()[-1].split()[-1] == "0"
+
+
+def test_aaai_validate_refuses_bad_ranges():
+    result = CliRunner().invoke(cli, ["validate", "--levels", "0-20"])
+    assert result.exit_code != 0 and "--levels" in result.output and "0 to 12" in result.output
+
+
+# --- the checks catch what they should -------------------------------------------------
+def arena(*objects, agent=(0.0, -15.0, 0.0), **extra):
+    foods = [o for o in objects if o.is_food]
+    return LevelSpec(level=0, name="test", difficulty=0, seed=0, agent=AgentPose(*agent),
+                     objects=tuple(arena_walls((50.0, 50.0), 4.0)) + objects,
+                     max_food_reward=max([f.food_value for f in foods], default=0.0), **extra)
+
+
+def test_a_plain_level_is_valid():
+    assert validate.check(arena(sphere("food_green", 0.0, 10.0, 2.0))) == []
+
+
+@pytest.mark.parametrize("spec, problem", [
+    (arena(sphere("food_green", 0, 10, 2), slab("wall", 5, 0, 6, 1, 4), slab("wall", 5, 0, 6, 1, 4, yaw=1.0)),
+     "solid objects overlap"),
+    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 10, 6, 1, 4)), "cuts into wall"),
+    (arena(sphere("food_green", 0, 10, 2), tiles=(5, 5), holes=((2, 3),)), "not on solid ground"),
+    (arena(sphere("food_green", 0, 24.5, 2)), "outside the arena"),
+    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, -15, 6, 1, 4)), "start"),
+    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 50, 1, 4)), "cannot be reached"),
+    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 34, 1, 4)), "cannot be reached"),  # gaps of 8 < 9
+    (arena(sphere("food_green", 0, 10, 2), tiles=(50, 50), holes=tuple((i, 24) for i in range(50))),
+     "cannot be reached"),
+    (arena(ObjectSpec("food_green", "sphere", (0, 10, 3), (2, 2, 2))), "not on solid ground"),
+])
+def test_the_checks_find_each_kind_of_problem(spec, problem):
+    problems = validate.check(spec)
+    assert any(problem in text for text in problems), problems
+
+
+def test_a_gap_wide_enough_for_the_body_is_passable():
+    assert validate.check(arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 26, 1, 4))) == []  # gaps of 12
+
+
+def test_the_l10_trench_is_crossable_only_by_the_plank():
+    spec = generate(10, 10, 4)
+    assert validate.check(spec) == []
+    extras = {k: v for k, v in spec.extras.items() if k != "bridge"}
+    assert any("cannot be reached" in text for text in validate.check(replace(spec, extras=extras)))
+
+
+def test_l9_doors_are_passable_in_the_search_but_solid_in_physics():
+    spec = generate(9, 5, 4)
+    closed = [replace(o, behaviour=None) if o.behaviour else o for o in spec.objects]
+    assert validate.check(spec) == []
+    assert any("cannot be reached" in text for text in validate.check(replace(spec, objects=tuple(closed))))
+
+
+def test_a_level_that_fails_the_check_is_regenerated_deterministically(monkeypatch):
+    real = validate.check
+    calls = []
+
+    def fails_first(spec):
+        calls.append(spec)
+        return ["made up"] if len(calls) % 2 == 1 else real(spec)
+
+    monkeypatch.setattr(validate, "check", fails_first)
+    first = generate(3, 6, 5)
+    again = generate(3, 6, 5)
+    assert first == again and first.extras["regenerated"] == 1
+    assert calls[0] != first  # the second attempt differs from the first
+    monkeypatch.setattr(validate, "check", real)
+    assert "regenerated" not in generate(3, 6, 5).extras
+
+
+def test_a_level_that_cannot_be_made_valid_names_its_seed(monkeypatch):
+    monkeypatch.setattr(validate, "check", lambda spec: ["always wrong"])
+    with pytest.raises(InvalidLevelError, match=r"level L4 \(avoidance\) difficulty 3 seed 42: .*always wrong"):
+        generate(4, 3, 42)
+
+
+# --- what each level holds --------------------------------------------------------------
+@pytest.mark.parametrize("difficulty", range(11))
+def test_l2_y_maze_one_better_green_and_a_smaller_one_above_5(difficulty):
+    for seed in range(5):
+        spec = generate(2, difficulty, seed)
+        greens = sorted(f.size[0] for f in spec.foods)
+        assert len(greens) == (2 if difficulty > 5 else 1) and all(f.kind == "food_green" for f in spec.foods)
+        assert 3 <= greens[-1] <= 4 and spec.max_food_reward == greens[-1]  # one green only
+        if difficulty > 5:
+            assert greens[0] == 2 and np.sign(spec.foods[0].position[0]) != np.sign(spec.foods[1].position[0])
+
+
+@pytest.mark.parametrize("difficulty", [0, 6, 10])
+def test_l2b_small_green_ahead_and_a_yellow_on_a_sinking_pillar(difficulty):
+    spec = generate("L2b", difficulty, 3)
+    (pillar,) = [o for o in spec.objects if o.kind == "pillar"]
+    green, yellow = sorted(spec.foods, key=lambda f: f.kind)
+    assert green.size[0] == 2 and yellow.size[0] == 3 and pillar.size[2] == 8
+    assert green.position[1] - spec.agent.y == 15
+    assert pillar.behaviour == {"type": "sink", "depth": 8.0, "duration": float(round(1.5 * difficulty + 5))}
+    assert yellow.behaviour == pillar.behaviour and yellow.position[2] == 8 + 1.5
+    assert spec.max_food_reward == 2 + 1.5
+
+
+@pytest.mark.parametrize("difficulty", range(11))
+def test_l3_a_transparent_wall_hides_the_green_and_obstacles_grow(difficulty):
+    spec = generate(3, difficulty, 1)
+    glass = [o for o in spec.objects if o.kind == "transparent_wall"][0]
+    assert glass.size[0] == difficulty + 5 and glass.size[2] == difficulty + 6
+    (food,) = spec.foods
+    assert food.position[1] == pytest.approx(glass.position[1] + 0.5 + 3)
+    extra = [o for o in spec.objects[5:] if not o.is_food]
+    assert len(extra) == round(0.4 * difficulty)
+    assert all(o.mass == 10 for o in extra if o.kind == "plank")
+
+
+@pytest.mark.parametrize("difficulty", range(11))
+def test_l4_holes_are_missing_tiles(difficulty):
+    spec = generate(4, difficulty, 2)
+    n = round(6 - 0.2 * difficulty)
+    assert spec.tiles == (n, n) and len(spec.holes) == (2 if difficulty <= 5 else 3)
+    walls = [o for o in spec.objects[4:] if o.kind == "wall"]
+    assert len(walls) == round(0.2 * difficulty + 1)
+
+
+@pytest.mark.parametrize("difficulty", range(11))
+def test_l5_maze_grows_and_puts_agent_and_food_farthest_apart(difficulty):
+    spec = generate(5, difficulty, 6)
+    maze = spec.extras["maze"]
+    assert maze["chunks"] == round(0.6 * difficulty + 4)
+    assert spec.arena_size == (30.0 * maze["columns"], 30.0 * maze["rows"]) and spec.wall_height == 10
+    cell = lambda x, y: [int((x + spec.arena_size[0] / 2) // 30), int((y + spec.arena_size[1] / 2) // 30)]
+    assert cell(spec.agent.x, spec.agent.y) == maze["start"]
+    assert cell(*spec.foods[0].position[:2]) == maze["goal"] and maze["start"] != maze["goal"]
+
+
+def test_l6_recolours_kinds_with_five_colours_and_raises_walls():
+    for seed in range(6):
+        spec = generate(6, 10, seed)
+        inner = spec.extras["inner"]
+        assert inner["level"] not in (6, 7) and spec.level == 6
+        colours = {tuple(rgba[:3]) for rgba in spec.extras["colours"].values()}
+        assert len(colours) <= 5
+        assert all(o.colour is not None for o in spec.objects)
+        assert all(o.size[2] >= 10 for o in spec.objects if o.kind in ("wall", "transparent_wall"))
+        assert generate(inner["level"], inner["difficulty"], inner["seed"]).foods == [
+            replace(f, colour=None) for f in spec.foods]
+
+
+def test_l7_wraps_another_level_with_a_blackout_schedule():
+    for difficulty in (0, 5, 9, 10):
+        spec = generate(7, difficulty, difficulty)
+        assert spec.level == 7 and spec.extras["inner"]["level"] not in (6, 7)
+        assert spec.extras["blackout"] == {"light": 5.0, "dark": float(math.floor(min(difficulty + 1.1, 10)))}
+
+
+@pytest.mark.parametrize("difficulty", range(11))
+def test_l9_one_sector_holds_the_most_and_sets_max_food_reward(difficulty):
+    spec = generate(9, difficulty, 8)
+    counts = spec.extras["sector_food"]
+    most = max(counts.values())
+    assert list(counts.values()).count(most) == 1 and most <= min(max(3 + difficulty // 3, 2), 5) - 1
+    assert spec.max_food_reward == most * 1.0 and len(spec.foods) == sum(counts.values())
+    assert len([o for o in spec.objects if o.behaviour and o.behaviour["type"] == "door"]) == 4
+
+
+@pytest.mark.parametrize("difficulty", range(11))
+def test_l10_trench_plank_and_side_walls(difficulty):
+    spec = generate(10, difficulty, 9)
+    south, north = spec.extras["trench"]
+    assert north - south == round(4 + 0.6 * difficulty)
+    (plank,) = [o for o in spec.objects if o.kind == "plank"]
+    assert plank.mass == 10 and plank.size[2] > north - south + 2
+    x0, y0, x1, y1 = spec.extras["bridge"]
+    assert y0 < south and y1 > north and x1 - x0 > 9
+    side = [o for o in spec.objects[4:] if o.kind in ("wall", "transparent_wall")]
+    assert len(side) == [0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2][difficulty]
+    assert spec.foods[0].position[1] > north and spec.agent.y < south
+
+
+def test_l10_side_walls_are_transparent_with_probability_1_2_minus_0_1d():
+    for difficulty, expected in ((4, 0.8), (10, 0.2)):
+        kinds = [o.kind for seed in range(150) for o in generate(10, difficulty, seed).objects[4:]
+                 if o.kind in ("wall", "transparent_wall")]
+        assert abs(kinds.count("transparent_wall") / len(kinds) - expected) < 0.1
+
+
+@pytest.mark.parametrize("difficulty", [0, 10])
+def test_l11_rough_terrain_and_a_far_green(difficulty):
+    spec = generate(11, difficulty, 12)
+    heights = np.array(spec.heightfield)
+    assert heights.shape == (65, 65) and heights.min() == pytest.approx(-2) and heights.max() == pytest.approx(0)
+    (food,) = spec.foods
+    assert math.dist(food.position[:2], (spec.agent.x, spec.agent.y)) >= 15
+    roughness = np.abs(np.diff(heights, axis=1)).mean()
+    smooth = np.abs(np.diff(np.array(generate(11, 0, 12).heightfield), axis=1)).mean()
+    assert difficulty == 0 or roughness > 2 * smooth
+
+
+@pytest.mark.parametrize("level", LEVELS)
+def test_every_level_runs_headless_with_rays_and_camera_at_every_difficulty(make_env, level):
+    env = make_env(rays=True, camera=True, camera_resolution=16)
+    for difficulty in range(11):
+        observation, info = env.reset(seed=difficulty, options={"level": level, "difficulty": difficulty})
+        assert info["max_reward"] == pytest.approx(env.level_spec.max_food_reward - 0.5)
+        for _ in range(3):
+            observation, _, _, _, info = env.step(env.action_space.sample())
+        assert env.observation_space.contains(observation) and not info["blew_up"]
