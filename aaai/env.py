@@ -1,6 +1,7 @@
 """AnimalAIEnv: the quadruped in one level of the test bench, as a Gymnasium environment."""
 from __future__ import annotations
 
+import math
 import os
 import sys
 from typing import Any
@@ -27,9 +28,9 @@ GREEN = KIND_INDEX["food_green"]
 YELLOW = KIND_INDEX["food_yellow"]
 RESET_OPTIONS = ("level", "difficulty", "spec")
 RENDER_SIZE = (320, 240)
-SCORE_ALLOWANCE = 0.5
+SCORE_ALLOWANCE = 0.5  # max_reward = best food reward - this, allowing for step costs
 BLOWUP_JOINT_SPEED = 90.0  # rad/s; Bullet clamps joint speeds at 100
-BLOWUP_MARGIN = 20.0  # how far beyond the arena's half-size a body may be before it "flew off"  # max_reward = best food reward - this, allowing for step costs
+BLOWUP_MARGIN = 20.0  # how far beyond the arena's half-size a body may be before it "flew off"
 
 
 def display_available() -> bool:
@@ -64,6 +65,11 @@ class AnimalAIEnv(gym.Env):
         self.metadata = {**self.metadata, "render_modes": ["rgb_array"] + (["human"] if display_available() else [])}
         self.level, self.difficulty = cfg["level"], cfg["difficulty"]
         self.max_steps = cfg["episode"]["max_steps"]
+        self.ground_penalty = cfg["episode"]["ground_penalty"]
+        self.shaping = cfg["episode"]["shaping"]
+        self.limb_food_reward = cfg["agent"]["limb_food_reward"]
+        self.control_dt = cfg["physics"]["timestep"] * cfg["physics"]["action_repeat"]  # simulated s per step
+        self._blowup_speed_sq = cfg["physics"]["blowup_speed"] ** 2
         self.client = self._connect(render_mode)
 
         agent, sensors = cfg["agent"], cfg["sensors"]
@@ -115,11 +121,6 @@ class AnimalAIEnv(gym.Env):
             physicsClientId=c,
         )
 
-    @property
-    def control_dt(self) -> float:
-        """Simulated seconds per control step."""
-        return self.config["physics"]["timestep"] * self.config["physics"]["action_repeat"]
-
     # --- the Gymnasium API ------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -151,16 +152,18 @@ class AnimalAIEnv(gym.Env):
         self.wall_hits = 0
         self.foot_contact = np.zeros(len(self.body.foot_links), np.float32)
         angles, speeds = self.body.joint_state()
+        position, orientation = p.getBasePositionAndOrientation(self.body.id, physicsClientId=self.client)
+        self.food_distance = self._nearest_food_distance(position) if self.shaping else 0.0
         info = self._info({term: 0.0 for term in TERMS}, fell=False, blew_up=False)
-        return self._observe(angles, speeds), info
+        return self._observe(angles, speeds, position, orientation), info
 
     def step(self, action):
         action = np.asarray(action, dtype=np.float64)
         if action.shape != self.action_space.shape:
             raise ValueError(f"action: got shape {action.shape}; allowed: shape {self.action_space.shape}")
-        if not np.all(np.isfinite(action)):
+        if not np.isfinite(action).all():
             raise ValueError(f"action: got non-finite values {action}; allowed: numbers in [-1, 1]")
-        self.body.apply(np.clip(action, -1.0, 1.0))
+        self.body.apply(np.minimum(np.maximum(action, -1.0), 1.0))
         head = self.body.head_pose()[0][:2] if self.world.doors else None  # only doors need it
         self.world.advance(self.control_dt, head)
         p.stepSimulation(physicsClientId=self.client)
@@ -168,14 +171,28 @@ class AnimalAIEnv(gym.Env):
 
         events, green_eaten = self._contact_events()
         angles, speeds = self.body.joint_state()
-        blew_up = self._blew_up(speeds)
-        terms = step_reward(events, self.max_steps, self.config["episode"]["ground_penalty"],
-                            self.config["agent"]["limb_food_reward"])
+        position, orientation = p.getBasePositionAndOrientation(self.body.id, physicsClientId=self.client)
+        blew_up = self._blew_up(speeds, position)
+        terms = step_reward(events, self.max_steps, self.ground_penalty, self.limb_food_reward)
+        if self.shaping:
+            terms["shaping"] = self._shaping_reward(position)
         terminated = green_eaten or events.fell
         truncated = not terminated and (blew_up or self.steps >= self.max_steps)
-        observation = self._observe(angles, speeds)
+        observation = self._observe(angles, speeds, position, orientation)
         info = self._info(terms, fell=events.fell, blew_up=blew_up)
         return observation, float(sum(terms.values())), terminated, truncated, info
+
+    def _nearest_food_distance(self, head: tuple[float, float, float]) -> float:
+        """Horizontal distance from the head to the nearest food piece still in the world (0 if none)."""
+        distances = [math.dist(head[:2], p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0][:2])
+                     for body in self.world.food]
+        return min(distances, default=0.0)
+
+    def _shaping_reward(self, head: tuple[float, float, float]) -> float:
+        """Potential-based shaping (potential = -shaping x distance to the nearest food): training only."""
+        distance = self._nearest_food_distance(head)
+        reward, self.food_distance = self.shaping * (self.food_distance - distance), distance
+        return reward
 
     def _contact_events(self) -> tuple[StepEvents, bool]:
         """Reads the agent's contacts once and turns them into reward events."""
@@ -184,7 +201,7 @@ class AnimalAIEnv(gym.Env):
         touching: dict[int, bool] = {}  # food body -> touched by the head
         walls_now: set[tuple[int, int]] = set()
         self.foot_contact[:] = 0.0
-        foot_slot = {link: i for i, link in enumerate(body.foot_links)}
+        foot_slot = body.foot_slot
         for contact in p.getContactPoints(bodyA=body.id, physicsClientId=self.client):
             other, link = contact[2], contact[3]
             if link in foot_slot:
@@ -203,7 +220,7 @@ class AnimalAIEnv(gym.Env):
         self.wall_hits += events.new_wall_hits
 
         green_eaten = False
-        limbs_eat = limb_eats(self.config["agent"]["limb_food_reward"])
+        limbs_eat = limb_eats(self.limb_food_reward)
         for food_body, by_head in sorted(touching.items()):
             if not (by_head or limbs_eat):
                 continue
@@ -229,22 +246,24 @@ class AnimalAIEnv(gym.Env):
         """Is the camera blacked out now (L7: light for a while, then dark, repeating)?"""
         return self._blackout is not None and self.steps % self._blackout[1] >= self._blackout[0]
 
-    def _blew_up(self, joint_speeds: np.ndarray) -> bool:
-        """Catches a physics blow-up: a non-finite state, a body moving impossibly fast or far."""
-        velocity, _ = p.getBaseVelocity(self.body.id, physicsClientId=self.client)
-        position, _ = p.getBasePositionAndOrientation(self.body.id, physicsClientId=self.client)
-        state = np.concatenate([joint_speeds, velocity, position])
-        if not np.all(np.isfinite(state)):
-            return True
-        bound = max(self.level_spec.arena_size) / 2 + BLOWUP_MARGIN
-        return bool(np.linalg.norm(velocity) > self.config["physics"]["blowup_speed"]
-                    or np.abs(joint_speeds).max() > BLOWUP_JOINT_SPEED
-                    or max(abs(position[0]), abs(position[1]), position[2]) > bound)
+    def _blew_up(self, joint_speeds: np.ndarray, position: tuple[float, float, float]) -> bool:
+        """Catches a physics blow-up: a non-finite state, a body moving impossibly fast or far.
 
-    def _observe(self, angles: np.ndarray, speeds: np.ndarray) -> dict[str, np.ndarray]:
+        Comparisons are written so that NaN fails them (NaN compares False with everything).
+        """
+        (vx, vy, vz), _ = p.getBaseVelocity(self.body.id, physicsClientId=self.client)
+        fastest_joint = float(np.abs(joint_speeds).max())
+        bound = max(self.level_spec.arena_size) / 2 + BLOWUP_MARGIN
+        x, y, z = position
+        healthy = (vx * vx + vy * vy + vz * vz <= self._blowup_speed_sq and fastest_joint <= BLOWUP_JOINT_SPEED
+                   and -bound <= x <= bound and -bound <= y <= bound and z <= bound)
+        return not healthy
+
+    def _observe(self, angles: np.ndarray, speeds: np.ndarray, position, orientation) -> dict[str, np.ndarray]:
         observation = {"joints": angles.astype(np.float32)}
         if self.rays or self.camera or "head_orientation" in self.observation_space.spaces:
-            head_pos, head_rot = self.body.head_pose()
+            head_pos = np.array(position)
+            head_rot = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
         if self.rays:
             observation["rays"] = self.rays.observe(head_pos, head_rot, self.world.kind_index)
         if self.camera:

@@ -31,21 +31,25 @@ class Rays:
         self.n_kinds = len(KINDS)
         self.space = spaces.Box(0.0, 1.0, (self.n_rays, self.n_kinds + 2), np.float32)
         self._nothing = self.n_kinds
-        self._rows = np.arange(self.n_rays)
 
     def observe(self, head_pos: np.ndarray, head_rot: np.ndarray, kind_index: np.ndarray) -> np.ndarray:
         dirs = self.local_dirs @ head_rot.T
         starts = head_pos + dirs * EYE_OFFSET
-        ends = head_pos + dirs * (EYE_OFFSET + self.length)
-        hits = p.rayTestBatch(starts.tolist(), ends.tolist(), collisionFilterMask=RAY_MASK,
+        ends = starts + dirs * self.length
+        hits = p.rayTestBatch(starts.tolist(), ends.tolist(), numThreads=1, collisionFilterMask=RAY_MASK,
                               physicsClientId=self.client)
-        bodies = np.array([hit[0] for hit in hits])
-        fractions = np.array([hit[2] for hit in hits])
-        kinds = np.where(bodies >= 0, kind_index[np.clip(bodies, 0, len(kind_index) - 1)], -1)
+        # A plain loop: for a few dozen rays it is several times faster than numpy's fancy indexing.
         obs = np.zeros(self.space.shape, np.float32)
-        column = np.where(kinds >= 0, kinds, self._nothing)
-        obs[self._rows, column] = 1.0
-        obs[:, -1] = np.where(kinds >= 0, fractions, 1.0)
+        known = len(kind_index)
+        for row, hit in enumerate(hits):
+            body = hit[0]
+            kind = kind_index[body] if 0 <= body < known else -1
+            if kind >= 0:
+                obs[row, kind] = 1.0
+                obs[row, -1] = hit[2]
+            else:
+                obs[row, self._nothing] = 1.0
+                obs[row, -1] = 1.0
         return obs
 
 

@@ -54,8 +54,11 @@ class Quadruped:
         self.links = [-1] + [info[0] for info in infos]  # -1 is the head
         self.link_names = ["head"] + [info[12].decode() for info in infos]
         self.foot_links = [info[0] for info in infos if info[12].decode().endswith("_shin")]
+        self.foot_slot = {link: i for i, link in enumerate(self.foot_links)}
         self.n_axes = len(self.joint_ids)
         self._forces = [self.max_force] * self.n_axes
+        self._half_range = 0.5 * (self.upper - self.lower)
+        self._middle = self.lower + self._half_range
 
     def load(self, x: float, y: float, yaw: float) -> int:
         c = self.client
@@ -74,7 +77,7 @@ class Quadruped:
     def apply(self, action: np.ndarray) -> None:
         """Sends one control step's commands: target angles (rotation) or speeds (velocity)."""
         if self.action_mode == "rotation":
-            targets = self.lower + (action + 1.0) * 0.5 * (self.upper - self.lower)
+            targets = self._middle + action * self._half_range
             p.setJointMotorControlArray(self.id, self.joint_ids, p.POSITION_CONTROL,
                                         targetPositions=targets.tolist(), forces=self._forces,
                                         physicsClientId=self.client)
@@ -88,8 +91,7 @@ class Quadruped:
         states = p.getJointStates(self.id, self.joint_ids, physicsClientId=self.client)
         angles = np.array([s[0] for s in states])
         speeds = np.array([s[1] for s in states])
-        half_range = 0.5 * (self.upper - self.lower)
-        return np.clip(angles / half_range, -1.0, 1.0), speeds
+        return np.minimum(np.maximum((angles - self._middle) / self._half_range, -1.0), 1.0), speeds
 
     def head_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """Head centre (3,) and rotation matrix (3, 3) whose columns are the head's x, y, z axes."""
