@@ -123,6 +123,7 @@ RULES: dict[str, Rule] = {
     "train.gae_lambda": Rule("float", 0.0, 1.0),
     "train.ent_coef": Rule("float", 0.0, 1.0),
     "train.net_width": Rule("int", 4, 4096),
+    "train.reward_shaping": Rule("float", 0, 1e3),
     "eval.seeds_per_cell": Rule("int", 1, 1000),
 }
 
@@ -161,6 +162,9 @@ def _flatten(tree: Mapping, prefix: str = "") -> dict[str, Any]:
 def _leaf_names() -> dict[str, str]:
     """Short keyword names ('camera_resolution') for the dotted keys ('sensors.camera_resolution')."""
     return {key.rsplit(".", 1)[-1]: key for key in RULES}
+
+
+assert len(_leaf_names()) == len(RULES), "two config keys share a short name"
 
 
 def _section_names() -> set[str]:

@@ -192,7 +192,10 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
 
 
 def _env_part(config: dict) -> dict:
-    return {key: value for key, value in config.items() if key not in ("curriculum", "train", "eval")}
+    """The environment's part of a config, never shaped: scores count the task's own reward."""
+    env_config = {key: value for key, value in config.items() if key not in ("curriculum", "train", "eval")}
+    env_config["episode"] = {**env_config["episode"], "shaping": 0.0}
+    return env_config
 
 
 # --- summary --------------------------------------------------------------------------

@@ -1,4 +1,6 @@
 """Rewards and episode ends, tested by running physics."""
+import math
+
 import numpy as np
 import pybullet as p
 import pytest
@@ -130,3 +132,23 @@ def test_random_actions_keep_the_body_whole_and_in_the_arena(make_env, level, bo
                 assert position[2] > 0.0  # above the floor's top
             if terminated or truncated:
                 break
+
+
+def test_shaping_pays_the_progress_towards_food_and_is_off_by_default(make_env):
+    spec = open_arena(sphere("food_green", 12.0, 0.0, 2.0))
+    plain = make_env()
+    plain.reset(options={"spec": spec})
+    _, _, _, _, info = plain.step(plain.body.rest_action())
+    assert info["reward_terms"]["shaping"] == 0.0
+    env = make_env(shaping=2.0)
+    observation, _ = env.reset(options={"spec": spec})
+    start = env.food_distance
+    gait = SineGait.for_env(env, "forward")
+    total = 0.0
+    for _ in range(150):
+        observation, _, terminated, _, info = env.step(gait(observation))
+        total += info["reward_terms"]["shaping"]
+    head, _ = env.body.head_pose()
+    assert env.food_distance == pytest.approx(math.dist(head[:2], (12.0, 0.0)), abs=1e-6)
+    assert total == pytest.approx(2.0 * (start - env.food_distance))  # the potential telescopes
+    assert total > 4.0  # the gait walked towards the food

@@ -130,3 +130,17 @@ def test_cli_errors_are_clear(tmp_path):
     assert result.returncode != 0 and "nope.zip" in result.stderr
     result = aaai("eval", "--seeds", "a,b", check=False)
     assert result.returncode != 0 and "--seeds" in result.stderr
+
+
+def test_eval_scores_the_task_reward_even_when_the_config_shapes_it(tmp_path):
+    shaped = tmp_path / "shaped.yaml"
+    shaped.write_text(yaml.safe_dump({"episode": {"max_steps": 100, "shaping": 5.0}}))
+    plain = tmp_path / "plain.yaml"
+    plain.write_text(yaml.safe_dump({"episode": {"max_steps": 100}}))
+    boards = []
+    for name, config in (("shaped", shaped), ("plain", plain)):
+        out = tmp_path / f"{name}.csv"
+        aaai("eval", "--policy", "random", "--levels", 0, "--difficulty", 0, "-k", 2, "--config", config, "--out", out)
+        with open(out) as handle:
+            boards.append([row["return"] for row in csv.DictReader(handle)])
+    assert boards[0] == boards[1]
