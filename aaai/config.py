@@ -98,6 +98,7 @@ RULES: dict[str, Rule] = {
     "episode.max_steps": Rule("int", 10, 10000),
     "episode.ground_penalty": Rule("bool"),
     "episode.shaping": Rule("float", 0, 1e3),
+    "episode.shaping_gamma": Rule("float", 0, 1),
     "physics.timestep": Rule("float", 1e-4, 0.05),
     "physics.action_repeat": Rule("int", 1, 50),
     "physics.solver_iterations": Rule("int", 1, 500),

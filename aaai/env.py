@@ -67,14 +67,16 @@ class AnimalAIEnv(gym.Env):
         self.max_steps = cfg["episode"]["max_steps"]
         self.ground_penalty = cfg["episode"]["ground_penalty"]
         self.shaping = cfg["episode"]["shaping"]
+        self.shaping_gamma = cfg["episode"]["shaping_gamma"]
         self.limb_food_reward = cfg["agent"]["limb_food_reward"]
         self.control_dt = cfg["physics"]["timestep"] * cfg["physics"]["action_repeat"]  # simulated s per step
         self._blowup_speed_sq = cfg["physics"]["blowup_speed"] ** 2
         self.client = self._connect(render_mode)
 
         agent, sensors = cfg["agent"], cfg["sensors"]
+        self.visuals = sensors["camera"] or render_mode is not None  # visual shapes only if anything draws
         self.body = Quadruped(self.client, agent["body"], agent["action_mode"], agent["max_force"],
-                              agent["max_joint_velocity"], agent["friction"])
+                              agent["max_joint_velocity"], agent["friction"], self.visuals)
         self.rays = Rays(self.client, sensors["rays_per_side"], sensors["ray_max_angle"],
                          sensors["ray_length"]) if sensors["rays"] else None
         self.camera = Camera(self.client, sensors["camera_resolution"],
@@ -143,7 +145,7 @@ class AnimalAIEnv(gym.Env):
         _, motion_rng = episode_rngs(spec.level, spec.difficulty, spec.seed)
 
         self._reset_physics()
-        self.world = World(self.client, spec, motion_rng)
+        self.world = World(self.client, spec, motion_rng, self.visuals)
         self._blackout = self._blackout_steps(spec)
         self.body.load(spec.agent.x, spec.agent.y, spec.agent.yaw)
         self.steps = 0
@@ -189,9 +191,12 @@ class AnimalAIEnv(gym.Env):
         return min(distances, default=0.0)
 
     def _shaping_reward(self, head: tuple[float, float, float]) -> float:
-        """Potential-based shaping (potential = -shaping x distance to the nearest food): training only."""
+        """Potential-based shaping, gamma x potential(now) - potential(before), with potential =
+        -shaping x distance to the nearest food. With the learner's discount as gamma, going to and
+        fro earns nothing, and the best policy stays the best (Ng, Harada and Russell, 1999)."""
         distance = self._nearest_food_distance(head)
-        reward, self.food_distance = self.shaping * (self.food_distance - distance), distance
+        reward = self.shaping * (self.food_distance - self.shaping_gamma * distance)
+        self.food_distance = distance
         return reward
 
     def _contact_events(self) -> tuple[StepEvents, bool]:

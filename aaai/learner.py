@@ -5,6 +5,7 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
+import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
@@ -87,6 +88,7 @@ def ppo_from_config(env, config: dict, run: RunFolder) -> PPO:
 
 def train_ppo(vec: CurriculumVecEnv, tracker, config: dict, run: RunFolder, checkpoint: Path | None,
               progress: Callable[[int], None]) -> int:
+    torch.set_num_threads(1)  # the workers need the other cores; small networks gain nothing from more
     env = CurriculumSB3Env(vec)
     monitored = VecMonitor(env)
     if checkpoint is not None:

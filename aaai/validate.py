@@ -47,8 +47,8 @@ def overlapping_solids(spec: LevelSpec) -> list[str]:
     if len(objs) < 2:
         return []
     quads = [corners(obj) for obj in objs]
-    low = np.array([q.min(axis=0) for q in quads])
-    high = np.array([q.max(axis=0) for q in quads])
+    points = np.array(quads)  # (objects, 4 corners, x y)
+    low, high = points.min(axis=1), points.max(axis=1)
     zs = np.array([z_range(obj) for obj in objs])
     candidates = ((low[:, None, :] < high[None, :, :] - TOLERANCE).all(axis=2)
                   & (low[None, :, :] < high[:, None, :] - TOLERANCE).all(axis=2)
@@ -137,10 +137,10 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
     return grid
 
 
-def _fill(grid: np.ndarray, spec: LevelSpec, quad: np.ndarray, value: int = 1) -> None:
+def _fill(grid: np.ndarray, spec: LevelSpec, quad, value: int = 1) -> None:
     """Marks the cells whose centres a quadrilateral (world x, y) covers."""
     shift = 4
-    pixels = (quad + np.array(spec.arena_size) / 2) / GRID - 0.5  # cell centres at integers
+    pixels = (np.asarray(quad) + np.array(spec.arena_size) / 2) / GRID - 0.5  # cell centres at integers
     points = np.round(pixels * (1 << shift)).astype(np.int32)
     cv2.fillConvexPoly(grid, points, value, lineType=cv2.LINE_8, shift=shift)
 

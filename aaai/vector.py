@@ -25,7 +25,8 @@ class Episode:
     level: int
     difficulty: int
     seed: int
-    episode_return: float
+    episode_return: float  # what the learner got, shaping included
+    task_return: float  # the task's own reward: what the curriculum and the scoreboard count
     length: int
     food_eaten: int
     wall_hits: int
@@ -59,7 +60,8 @@ def _make_worker(index: int, config: dict) -> gym.Env:
 def _env_config(config: dict) -> dict:
     """The environment's part of a resolved config, with the training workers' reward shaping."""
     env_config = {key: value for key, value in config.items() if key not in ("curriculum", "train", "eval")}
-    env_config["episode"] = {**env_config["episode"], "shaping": config["train"]["reward_shaping"]}
+    env_config["episode"] = {**env_config["episode"], "shaping": config["train"]["reward_shaping"],
+                             "shaping_gamma": config["train"]["gamma"]}
     return env_config
 
 
@@ -78,6 +80,7 @@ class CurriculumVecEnv:
         self.single_action_space = self.envs.single_action_space
         self.assigned: list[tuple[int, int, int]] = []
         self.returns = np.zeros(num_envs)
+        self.shaping = np.zeros(num_envs)
         self.lengths = np.zeros(num_envs, dtype=np.int64)
 
     def reset(self):
@@ -85,6 +88,7 @@ class CurriculumVecEnv:
         observation, _ = self.envs.reset(seed=[seed for *_, seed in self.assigned],
                                          options={"cells": [cell[:2] for cell in self.assigned]})
         self.returns[:] = 0.0
+        self.shaping[:] = 0.0
         self.lengths[:] = 0
         return observation
 
@@ -96,6 +100,7 @@ class CurriculumVecEnv:
         """
         observation, rewards, terminated, truncated, infos = self.envs.step(actions)
         self.returns += rewards
+        self.shaping += infos["reward_terms"]["shaping"]
         self.lengths += 1
         done = np.logical_or(terminated, truncated)
         finished: list[Episode] = []
@@ -112,10 +117,12 @@ class CurriculumVecEnv:
 
     def _finish(self, i: int, infos: dict) -> Episode:
         level, difficulty, seed = self.assigned[i]
-        episode = Episode(i, level, difficulty, seed, float(self.returns[i]), int(self.lengths[i]),
+        episode = Episode(i, level, difficulty, seed, float(self.returns[i]),
+                          float(self.returns[i] - self.shaping[i]), int(self.lengths[i]),
                           **{key: infos[key][i].item() for key in EPISODE_INFO_KEYS})
-        self.curriculum.record(level, difficulty, episode.episode_return)
+        self.curriculum.record(level, difficulty, episode.task_return)
         self.returns[i] = 0.0
+        self.shaping[i] = 0.0
         self.lengths[i] = 0
         return episode
 

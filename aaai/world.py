@@ -80,8 +80,9 @@ class Door:
 class World:
     """The level's bodies in one client. Build it after every resetSimulation."""
 
-    def __init__(self, client: int, spec: LevelSpec, motion_rng: np.random.Generator):
+    def __init__(self, client: int, spec: LevelSpec, motion_rng: np.random.Generator, visuals: bool = True):
         self.client = client
+        self.visuals = visuals  # without them building is faster; nothing can be drawn
         self.spec = spec
         self.motion_rng = motion_rng
         self.kind_index = np.full(64, NO_KIND, dtype=np.int64)  # body id -> index into KINDS
@@ -132,8 +133,10 @@ class World:
                                                     collisionFramePositions=centres, physicsClientId=c)
             visual = p.createVisualShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
                                               visualFramePositions=centres,
-                                              rgbaColors=[self.colours["floor"]] * count, physicsClientId=c)
-            self._register(p.createMultiBody(0, collision, visual, physicsClientId=c), "floor")
+                                              rgbaColors=[self.colours["floor"]] * count,
+                                              physicsClientId=c) if self.visuals else -1
+            self._register(p.createMultiBody(0, collision, visual, useMaximalCoordinates=True, physicsClientId=c),
+                           "floor")
 
     def _build_terrain(self) -> None:
         """Rough terrain: the spec's heightfield (rows along y, columns along x) over the arena.
@@ -149,15 +152,18 @@ class World:
                                            numHeightfieldRows=cols, numHeightfieldColumns=rows, physicsClientId=c)
         middle = (heights.min() + heights.max()) / 2
         body = p.createMultiBody(0, collision, basePosition=(0, 0, middle), physicsClientId=c)
-        p.changeVisualShape(body, -1, rgbaColor=self.colours["floor"], physicsClientId=c)
+        if self.visuals:
+            p.changeVisualShape(body, -1, rgbaColor=self.colours["floor"], physicsClientId=c)
         self._register(body, "floor")
 
     def _build_deadly_floor(self) -> None:
         c = self.client
         half = [DEADLY_FLOOR_SIZE / 2, DEADLY_FLOOR_SIZE / 2, 0.5]
         collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
-        visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=self.colours["deadly_floor"], physicsClientId=c)
-        body = p.createMultiBody(0, collision, visual, basePosition=(0, 0, DEADLY_FLOOR_TOP - 0.5), physicsClientId=c)
+        visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=self.colours["deadly_floor"],
+                                     physicsClientId=c) if self.visuals else -1
+        body = p.createMultiBody(0, collision, visual, basePosition=(0, 0, DEADLY_FLOOR_TOP - 0.5),
+                                 useMaximalCoordinates=True, physicsClientId=c)
         self._register(body, "deadly_floor")
 
     def _shape(self, obj: ObjectSpec) -> tuple[int, int]:
@@ -174,7 +180,8 @@ class World:
             collision_extra = {"height": obj.size[2]} if obj.shape == "cylinder" else {}
             visual_extra = {"length": obj.size[2]} if obj.shape == "cylinder" else {}
             collision = p.createCollisionShape(**geometry, **collision_extra, physicsClientId=c)
-            visual = p.createVisualShape(**geometry, **visual_extra, rgbaColor=obj.rgba, physicsClientId=c)
+            visual = p.createVisualShape(**geometry, **visual_extra, rgbaColor=obj.rgba,
+                                         physicsClientId=c) if self.visuals else -1
             self._shapes[key] = (collision, visual)
         return self._shapes[key]
 
@@ -184,8 +191,9 @@ class World:
         orientation = p.getQuaternionFromEuler((0, 0, obj.yaw))
         kind = obj.behaviour["type"] if obj.behaviour else None
         position = (*obj.position[:2], HIDDEN_Z) if kind == "door" else obj.position
-        body = p.createMultiBody(obj.mass, collision, visual, basePosition=position,
-                                 baseOrientation=orientation, physicsClientId=c)
+        # Static bodies in maximal coordinates: plain rigid bodies, about twice as fast to create.
+        body = p.createMultiBody(obj.mass, collision, visual, basePosition=position, baseOrientation=orientation,
+                                 useMaximalCoordinates=obj.mass == 0, physicsClientId=c)
         self._register(body, obj.kind)
         if obj.kind == "plank":
             p.changeDynamics(body, -1, lateralFriction=PLANK_FRICTION, physicsClientId=c)

@@ -6,19 +6,20 @@ from pathlib import Path
 import numpy as np
 import pybullet as p
 
+from aaai.agent.urdf_writer import file_name
 from aaai.config import ConfigError
 
 URDF_DIR = Path(__file__).resolve().parent.parent / "urdf"
-BODY_FILES = {"quadruped": "quadruped.urdf", "quadruped16": "quadruped16.urdf"}
+BODIES = ("quadruped", "quadruped16")
 SPAWN_HEIGHT = 1.5
 AGENT_GROUP = 64  # collision group of the body's parts; rays leave it out
 RAY_MASK = 0xFFFF & ~AGENT_GROUP
 
 
-def urdf_path(body: str) -> Path:
-    if body not in BODY_FILES:
-        raise ConfigError(f"config key 'agent.body': got {body!r}; allowed: one of {', '.join(BODY_FILES)}")
-    path = URDF_DIR / BODY_FILES[body]
+def urdf_path(body: str, visuals: bool = True) -> Path:
+    if body not in BODIES:
+        raise ConfigError(f"config key 'agent.body': got {body!r}; allowed: one of {', '.join(BODIES)}")
+    path = URDF_DIR / file_name(body, visuals)
     if not path.is_file():
         raise FileNotFoundError(f"model file for agent.body={body!r} is missing: {path}")
     return path
@@ -28,9 +29,9 @@ class Quadruped:
     """One body in one client. Load it with ``load`` after every resetSimulation."""
 
     def __init__(self, client: int, body: str, action_mode: str, max_force: float,
-                 max_joint_velocity: float, friction: float):
+                 max_joint_velocity: float, friction: float, visuals: bool = True):
         self.client = client
-        self.path = str(urdf_path(body))
+        self.path = str(urdf_path(body, visuals))
         self.action_mode = action_mode
         self.max_force = max_force
         self.max_joint_velocity = max_joint_velocity

@@ -42,24 +42,35 @@ def slab(kind: str, x: float, y: float, length: float, thickness: float, height:
     return ObjectSpec(kind, "box", (x, y, height / 2), (length, thickness, height), yaw=yaw, **extra)
 
 
-def corners(obj: ObjectSpec) -> np.ndarray:
+Quad = tuple[tuple[float, float], ...]
+
+
+def corners(obj: ObjectSpec) -> Quad:
     """The four (x, y) corners of an object's footprint (a sphere's or cylinder's bounding square)."""
     c, s = math.cos(obj.yaw), math.sin(obj.yaw)
     hx, hy = obj.size[0] / 2, obj.size[1] / 2
-    local = np.array([(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)])
-    return local @ np.array([[c, s], [-s, c]]) + np.array(obj.position[:2])
+    x, y = obj.position[0], obj.position[1]
+    return tuple((x + u * c - v * s, y + u * s + v * c) for u, v in ((-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)))
 
 
-def footprints_overlap(a: np.ndarray, b: np.ndarray, gap: float = 0.0) -> bool:
+def footprints_overlap(a: Quad, b: Quad, gap: float = 0.0) -> bool:
     """Separating-axis test of two convex quadrilaterals: closer than ``gap`` (or overlapping by
-    more than TOLERANCE when gap is 0)?"""
+    more than TOLERANCE when gap is 0)? Plain floats: this runs at every reset, on a few points."""
+    margin = gap if gap > 0 else -TOLERANCE
+    a = [(float(x), float(y)) for x, y in a]
+    b = [(float(x), float(y)) for x, y in b]
+    for axis in (0, 1):  # the bounding boxes first: most pairs are far apart
+        if (max(p[axis] for p in a) + margin <= min(p[axis] for p in b)
+                or max(p[axis] for p in b) + margin <= min(p[axis] for p in a)):
+            return False
     for quad in (a, b):
         for i in range(4):
-            edge = quad[(i + 1) % 4] - quad[i]
-            axis = np.array([-edge[1], edge[0]]) / math.hypot(*edge)
-            pa, pb = a @ axis, b @ axis
-            margin = gap if gap > 0 else -TOLERANCE
-            if pa.max() + margin <= pb.min() or pb.max() + margin <= pa.min():
+            (x0, y0), (x1, y1) = quad[i], quad[(i + 1) % 4]
+            length = math.hypot(x1 - x0, y1 - y0)
+            ax, ay = -(y1 - y0) / length, (x1 - x0) / length
+            pa = [x * ax + y * ay for x, y in a]
+            pb = [x * ax + y * ay for x, y in b]
+            if max(pa) + margin <= min(pb) or max(pb) + margin <= min(pa):
                 return False
     return True
 
