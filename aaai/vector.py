@@ -60,8 +60,7 @@ def _make_worker(index: int, config: dict) -> gym.Env:
 def _env_config(config: dict) -> dict:
     """The environment's part of a resolved config, with the training workers' reward shaping."""
     env_config = {key: value for key, value in config.items() if key not in ("curriculum", "train", "eval")}
-    env_config["episode"] = {**env_config["episode"], "shaping": config["train"]["reward_shaping"],
-                             "shaping_gamma": config["train"]["gamma"]}
+    env_config["episode"] = {**env_config["episode"], "shaping": config["train"]["reward_shaping"]}
     return env_config
 
 
