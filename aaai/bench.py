@@ -47,7 +47,8 @@ def _actions(n_axes: int, steps: int, seed: int = 0) -> np.ndarray:
 
 
 def _timed_episode_steps(env: AnimalAIEnv, actions: np.ndarray, seed: int) -> float:
-    """Steps per second of env.step over ``actions`` (resets, untimed, when an episode ends)."""
+    """Steps per second of env.step over ``actions`` in the world of ``seed`` (the limit's world);
+    an episode that ends is reset, untimed, to the same seed."""
     env.reset(seed=seed)
     elapsed = 0.0
     for action in actions:
@@ -55,13 +56,13 @@ def _timed_episode_steps(env: AnimalAIEnv, actions: np.ndarray, seed: int) -> fl
         _, _, terminated, truncated, _ = env.step(action)
         elapsed += time.perf_counter() - started
         if terminated or truncated:
-            env.reset(seed=seed + 1)
+            env.reset(seed=seed)
     return len(actions) / elapsed
 
 
-def limit_rate(level: int, steps: int) -> float:
+def limit_rate(level: int, steps: int, difficulty: int = 5) -> float:
     """The bare loop: motor command, stepSimulation, joint states; on the world an episode builds."""
-    env = AnimalAIEnv(level=level, rays=False, max_steps=10000)
+    env = AnimalAIEnv(level=level, difficulty=difficulty, rays=False, max_steps=10000)
     env.reset(seed=0)
     body, c = env.body, env.client
     actions = _actions(body.n_axes, steps)
@@ -79,7 +80,7 @@ def limit_rate(level: int, steps: int) -> float:
 
 
 def env_rate(level: int, sensors: dict, steps: int) -> float:
-    env = AnimalAIEnv(level=level, difficulty=5, **sensors)
+    env = AnimalAIEnv(level=level, difficulty=5, max_steps=10000, **sensors)
     rate = _timed_episode_steps(env, _actions(env.body.n_axes, steps), seed=0)
     env.close()
     return rate
