@@ -46,7 +46,7 @@ def _actions(n_axes: int, steps: int, seed: int = 0) -> np.ndarray:
     return np.random.default_rng(seed).uniform(-1, 1, (steps, n_axes)).astype(np.float32)
 
 
-def _timed_episode_steps(env: AnimalAIEnv, actions: np.ndarray, seed: int) -> float:
+def _timed_episode_steps(env, actions, seed: int) -> float:
     """Steps per second of env.step over ``actions`` in the world of ``seed`` (the limit's world);
     an episode that ends is reset, untimed, to the same seed."""
     env.reset(seed=seed)
@@ -126,18 +126,10 @@ def ant_rate(steps: int) -> float | None:
         env = gym.make("Ant-v5")
     except Exception:  # mujoco (the `bench` extra) is missing
         return None
-    env.reset(seed=0)
     env.action_space.seed(0)
-    actions = [env.action_space.sample() for _ in range(steps)]
-    elapsed = 0.0
-    for action in actions:
-        started = time.perf_counter()
-        _, _, terminated, truncated, _ = env.step(action)
-        elapsed += time.perf_counter() - started
-        if terminated or truncated:
-            env.reset()
+    rate = _timed_episode_steps(env, [env.action_space.sample() for _ in range(steps)], seed=0)
     env.close()
-    return steps / elapsed
+    return rate
 
 
 def _rss_mb() -> float:

@@ -78,8 +78,8 @@ def train(run_dir: str | Path, config: dict | None = None, resume: bool = False,
             config = load_config(config, total_steps=total_steps)
             run.update_config(config)
     else:
+        check_trainable(config)  # before the run folder exists: a refused config leaves nothing behind
         run.create(config)
-    check_trainable(config)
     curriculum = Curriculum.from_config(config)
     checkpoint = run.latest_checkpoint() if resume else None
     state = RunFolder.read_state(checkpoint) if checkpoint else None
