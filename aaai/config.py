@@ -124,6 +124,8 @@ RULES: dict[str, Rule] = {
     "train.gae_lambda": Rule("float", 0.0, 1.0),
     "train.ent_coef": Rule("float", 0.0, 1.0),
     "train.net_width": Rule("int", 4, 4096),
+    "train.log_std_init": Rule("float", -5, 2),
+    "train.proprioception": Rule("bool"),
     "train.reward_shaping": Rule("float", 0, 1e3),
     "eval.seeds_per_cell": Rule("int", 1, 1000),
 }

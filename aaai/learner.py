@@ -81,7 +81,7 @@ def ppo_from_config(env, config: dict, run: RunFolder) -> PPO:
         "MultiInputPolicy", env,
         learning_rate=train["learning_rate"], n_steps=train["n_steps"], batch_size=train["batch_size"],
         n_epochs=train["n_epochs"], gamma=train["gamma"], gae_lambda=train["gae_lambda"],
-        ent_coef=train["ent_coef"], policy_kwargs={"net_arch": [width, width]},
+        ent_coef=train["ent_coef"], policy_kwargs={"net_arch": [width, width], "log_std_init": train["log_std_init"]},
         tensorboard_log=str(run.path / "tb"), seed=train["seed"], device="cpu", verbose=0,
     )
 

@@ -55,6 +55,21 @@ class Tracker:
         return self.run.save_checkpoint(step, state, save_model, final=final)
 
 
+PROPRIOCEPTION = ("joint_velocities", "head_orientation", "foot_contacts")
+
+
+def with_proprioception(config: dict) -> dict:
+    """The run's config with the extra body senses on when train.proprioception asks for them.
+
+    The environment leaves them off by default; a learner without joint speeds, body tilt and foot
+    contacts learned next to nothing on L0 in our runs (see the README), so training turns them on.
+    The run folder's config records the result, and evaluation reads it from there.
+    """
+    if not config["train"]["proprioception"]:
+        return config
+    return load_config(config, sensors={name: True for name in PROPRIOCEPTION})
+
+
 def check_trainable(config: dict) -> None:
     sensors = config["sensors"]
     if config["train"]["agent"] == "ppo" and sensors["camera"] and sensors["camera_resolution"] < MIN_CNN_RESOLUTION:
@@ -78,6 +93,7 @@ def train(run_dir: str | Path, config: dict | None = None, resume: bool = False,
             config = load_config(config, total_steps=total_steps)
             run.update_config(config)
     else:
+        config = with_proprioception(config)
         check_trainable(config)  # before the run folder exists: a refused config leaves nothing behind
         run.create(config)
     curriculum = Curriculum.from_config(config)

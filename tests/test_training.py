@@ -40,6 +40,8 @@ def test_random_agent_run_writes_its_folder(tmp_path):
     run = tmp_path / "run"
     aaai("train", "--random", "--agent", "random", "--steps", 1000, "--config", small_config(tmp_path), "--run", run)
     assert (run / "config.yaml").is_file() and (run / "versions.json").is_file()
+    sensors = yaml.safe_load((run / "config.yaml").read_text())["sensors"]
+    assert sensors["joint_velocities"] and sensors["head_orientation"] and sensors["foot_contacts"]
     assert (run / "curriculum.png").is_file()
     assert sorted(p.name for p in (run / "checkpoints").iterdir()) == [f"step_{s:012d}" for s in (400, 800)]
     state = read_state(run / "final")
