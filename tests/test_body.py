@@ -79,3 +79,23 @@ def test_body_stands_up_off_its_head(make_env):
         observation, _, _, _, info = env.step(gait(observation))
     head, _ = env.body.head_pose()
     assert head[2] > 1.8 and info["reward_terms"]["ground"] == 0.0
+
+
+def test_shipped_urdf_files_are_what_the_writer_writes():
+    from aaai.agent.urdf_writer import URDF_DIR, all_files
+
+    for name, text in all_files().items():
+        assert (URDF_DIR / name).read_text() == text, f"{name} is stale: run python -m aaai.agent.urdf_writer"
+
+
+def test_the_physics_only_body_behaves_like_the_drawn_one(make_env):
+    drawn, plain = make_env(camera=True, camera_resolution=8), make_env()
+    assert drawn.visuals and not plain.visuals
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (100, 8))
+    trajectories = []
+    for env in (drawn, plain):
+        observation, _ = env.reset(seed=3)
+        joints = [env.step(action)[0]["joints"] for action in actions]
+        trajectories.append(np.array(joints))
+    assert np.array_equal(trajectories[0], trajectories[1])
