@@ -146,3 +146,15 @@ def test_eval_scores_the_task_reward_even_when_the_config_shapes_it(tmp_path):
         with open(out) as handle:
             boards.append([row["return"] for row in csv.DictReader(handle)])
     assert boards[0] == boards[1]
+
+
+def test_eval_on_training_seeds_and_on_a_seed_list(tmp_path):
+    config = small_config(tmp_path)
+    listed, train = tmp_path / "listed.csv", tmp_path / "train.csv"
+    aaai("eval", "--seeds", "5,6", "--levels", 0, "--difficulty", 0, "--config", config, "--out", listed)
+    aaai("eval", "--seeds", "train", "-k", 2, "--levels", 0, "--difficulty", 0, "--config", config, "--out", train)
+    with open(listed) as handle:
+        assert [int(row["seed"]) for row in csv.DictReader(handle)] == [5, 6]
+    with open(train) as handle:
+        seeds = [int(row["seed"]) for row in csv.DictReader(handle)]
+    assert len(seeds) == 2 and all(0 <= s < 1288490240 for s in seeds)
