@@ -14,7 +14,6 @@ import json
 import platform
 import resource
 import time
-from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -106,7 +105,7 @@ def workers_rate(workers: int, steps_per_worker: int) -> float:
     """Total steps/s of L0 (joints only) in ``workers`` processes through AsyncVectorEnv."""
     from gymnasium.vector import AsyncVectorEnv
 
-    envs = AsyncVectorEnv([partial(_make_l0) for _ in range(workers)], context="forkserver")
+    envs = AsyncVectorEnv([_make_l0] * workers, context="forkserver")
     envs.reset(seed=0)
     actions = np.random.default_rng(0).uniform(-1, 1, (steps_per_worker, workers, 8)).astype(np.float32)
     for action in actions[:50]:  # warm-up

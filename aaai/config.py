@@ -131,6 +131,16 @@ RULES: dict[str, Rule] = {
 }
 
 
+TRAINING_SECTIONS = ("curriculum", "train", "eval")
+
+
+def env_part(config: dict, shaping: float) -> dict:
+    """The environment's part of a resolved config (no training sections), with this reward shaping."""
+    part = {key: value for key, value in config.items() if key not in TRAINING_SECTIONS}
+    part["episode"] = {**part["episode"], "shaping": shaping}
+    return part
+
+
 def config_dir() -> Path:
     """The folder holding default.yaml and levels/ (installed as the package aaai_configs)."""
     return Path(str(resources.files("aaai_configs")))

@@ -155,6 +155,7 @@ class AnimalAIEnv(gym.Env):
         self.foot_contact = np.zeros(len(self.body.foot_links), np.float32)
         angles, speeds = self.body.joint_state()
         position, orientation = p.getBasePositionAndOrientation(self.body.id, physicsClientId=self.client)
+        self._head = position
         self.food_distance = self._nearest_food_distance(position) if self.shaping else 0.0
         info = self._info({term: 0.0 for term in TERMS}, fell=False, blew_up=False)
         return self._observe(angles, speeds, position, orientation), info
@@ -166,8 +167,7 @@ class AnimalAIEnv(gym.Env):
         if not np.isfinite(action).all():
             raise ValueError(f"action: got non-finite values {action}; allowed: numbers in [-1, 1]")
         self.body.apply(np.minimum(np.maximum(action, -1.0), 1.0))
-        head = self.body.head_pose()[0][:2] if self.world.doors else None  # only doors need it
-        self.world.advance(self.control_dt, head)
+        self.world.advance(self.control_dt, self._head[:2])  # the head as the last step left it
         p.stepSimulation(physicsClientId=self.client)
         self.steps += 1
 
@@ -180,6 +180,7 @@ class AnimalAIEnv(gym.Env):
             terms["shaping"] = self._shaping_reward(position)
         terminated = green_eaten or events.fell
         truncated = not terminated and (blew_up or self.steps >= self.max_steps)
+        self._head = position
         observation = self._observe(angles, speeds, position, orientation)
         info = self._info(terms, fell=events.fell, blew_up=blew_up)
         return observation, float(sum(terms.values())), terminated, truncated, info
@@ -192,8 +193,9 @@ class AnimalAIEnv(gym.Env):
 
     def _shaping_reward(self, head: tuple[float, float, float]) -> float:
         """Potential-based shaping, gamma x potential(now) - potential(before), with potential =
-        -shaping x distance to the nearest food. With the learner's discount as gamma, going to and
-        fro earns nothing, and the best policy stays the best (Ng, Harada and Russell, 1999)."""
+        -shaping x distance to the nearest food (Ng, Harada and Russell, 1999). With gamma 1 (the
+        default) an episode's shaping adds up to shaping x (start distance - end distance); with
+        gamma < 1, standing far from the food pays a little every step."""
         distance = self._nearest_food_distance(head)
         reward = self.shaping * (self.food_distance - self.shaping_gamma * distance)
         self.food_distance = distance

@@ -17,7 +17,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from aaai.config import ConfigError
+from aaai.config import ConfigError, env_part
 from aaai.env import AnimalAIEnv
 from aaai.levels import get_level
 from aaai.runs import RunFolder, write_atomic
@@ -167,7 +167,7 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
     output.parent.mkdir(parents=True, exist_ok=True)
     rows = scored_episodes(output)
     done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows}
-    env = AnimalAIEnv(config=_env_part(config))
+    env = AnimalAIEnv(config=env_part(config, shaping=0.0))  # scores count the task's own reward
     try:
         policy = load_policy(policy_name, env)
         new_file = not output.exists() or output.stat().st_size == 0
@@ -189,13 +189,6 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
     finally:
         env.close()
     return rows
-
-
-def _env_part(config: dict) -> dict:
-    """The environment's part of a config, never shaped: scores count the task's own reward."""
-    env_config = {key: value for key, value in config.items() if key not in ("curriculum", "train", "eval")}
-    env_config["episode"] = {**env_config["episode"], "shaping": 0.0}
-    return env_config
 
 
 # --- summary --------------------------------------------------------------------------

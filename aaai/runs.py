@@ -12,6 +12,7 @@ runs/NAME/
 from __future__ import annotations
 
 import csv
+import io
 import json
 import os
 import platform
@@ -94,9 +95,9 @@ class RunFolder:
         with open(path, newline="") as handle:
             rows = list(csv.reader(handle))
         kept = [rows[0]] + [row for row in rows[1:] if len(row) == len(EPISODE_COLUMNS) and int(row[0]) <= last_step]
-        with tempfile.NamedTemporaryFile("w", dir=self.path, delete=False, suffix=".tmp", newline="") as handle:
-            csv.writer(handle).writerows(kept)
-        os.replace(handle.name, path)
+        text = io.StringIO()
+        csv.writer(text).writerows(kept)
+        write_atomic(path, text.getvalue())
 
     # --- checkpoints ----------------------------------------------------------------
     def save_checkpoint(self, step: int, state: dict, save_model=None, final: bool = False) -> Path:

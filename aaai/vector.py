@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv
 
+from aaai.config import env_part
 from aaai.curriculum import Curriculum
 
 EPISODE_INFO_KEYS = ("food_eaten", "wall_hits", "fell", "blew_up", "max_reward")
@@ -54,14 +55,7 @@ class AssignedCell(gym.Wrapper):
 def _make_worker(index: int, config: dict) -> gym.Env:
     from aaai.env import AnimalAIEnv
 
-    return AssignedCell(AnimalAIEnv(config=_env_config(config)), index)
-
-
-def _env_config(config: dict) -> dict:
-    """The environment's part of a resolved config, with the training workers' reward shaping."""
-    env_config = {key: value for key, value in config.items() if key not in ("curriculum", "train", "eval")}
-    env_config["episode"] = {**env_config["episode"], "shaping": config["train"]["reward_shaping"]}
-    return env_config
+    return AssignedCell(AnimalAIEnv(config=env_part(config, config["train"]["reward_shaping"])), index)
 
 
 class CurriculumVecEnv:

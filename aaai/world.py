@@ -90,7 +90,7 @@ class World:
         self.food: dict[int, ObjectSpec] = {}
         self.walkers: dict[int, list[float]] = {}  # body id -> [x, y, z, heading]
         self.movers: dict[int, Sink | Slide] = {}  # sinking pillars and their food, sliding food
-        self.doors: dict[int, Door] = {}  # open doors; the env passes the head's position while any are
+        self.doors: dict[int, Door] = {}  # open doors, closed by the head position advance() is given
         self.time = 0.0  # simulated seconds since the build
         self.colours = {**COLOURS, **{kind: tuple(rgba) for kind, rgba in spec.extras.get("colours", {}).items()}}
         self._shapes: dict[tuple, tuple[int, int]] = {}

@@ -144,12 +144,9 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
                 mode=mode, levels=levels, difficulties=difficulty, total_steps=total_steps, num_envs=num_envs,
                 seed=seed, agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays))
             run_dir = run_dir or time.strftime("runs/run-%Y%m%d-%H%M%S")
-        with click.progressbar(length=1, label="training", show_pos=True) as bar:
-            def progress(steps, bar=bar):
-                if bar.length == 1:
-                    bar.length = total_steps or (config or RunFolder(run_dir).read_config())["train"]["total_steps"]
-                bar.update(steps)
-            result = train(run_dir, config, resume=bool(resume_dir), progress=progress,
+        total = total_steps or (config or RunFolder(run_dir).read_config())["train"]["total_steps"]
+        with click.progressbar(length=total, label="training", show_pos=True) as bar:
+            result = train(run_dir, config, resume=bool(resume_dir), progress=bar.update,
                            total_steps=total_steps if resume_dir else None)
     except (ConfigError, FileExistsError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
