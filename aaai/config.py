@@ -23,7 +23,7 @@ class Rule:
     kind: str  # int | float | bool | choice | set (integers, written "0-3,5")
     low: float | None = None
     high: float | None = None
-    choices: tuple[str, ...] = ()
+    choices: tuple[str, ...] = ()  # for int and float: words allowed besides the numbers
 
     def describe(self) -> str:
         if self.kind == "bool":
@@ -33,14 +33,15 @@ class Rule:
         if self.kind == "set":
             return f"integers from {self.low:g} to {self.high:g}, as a list or ranges like '0-3,5'"
         noun = "an integer" if self.kind == "int" else "a number"
-        return f"{noun} from {self.low:g} to {self.high:g}"
+        words = "".join(f"{word} or " for word in self.choices)
+        return f"{words}{noun} from {self.low:g} to {self.high:g}"
 
     def check(self, key: str, value: Any) -> Any:
         if self.kind == "set":
             return parse_int_set(value, key, int(self.low), int(self.high))
         if self.kind == "bool":
             ok = isinstance(value, bool)
-        elif self.kind == "choice":
+        elif self.kind == "choice" or isinstance(value, str):
             ok = isinstance(value, str) and value in self.choices
         else:
             is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
@@ -82,6 +83,8 @@ RULES: dict[str, Rule] = {
     "agent.body": Rule("choice", choices=BODIES),
     "agent.action_mode": Rule("choice", choices=("rotation", "velocity")),
     "agent.max_force": Rule("float", 1e-3, 1e5),
+    "agent.position_gain": Rule("float", 1e-4, 10),
+    "agent.velocity_gain": Rule("float", 0, 10),
     "agent.max_joint_velocity": Rule("float", 1e-3, 100),
     "agent.friction": Rule("float", 0, 10),
     "agent.limb_food_reward": Rule("choice", choices=("flat", "size", "none")),
@@ -95,7 +98,7 @@ RULES: dict[str, Rule] = {
     "sensors.joint_velocities": Rule("bool"),
     "sensors.head_orientation": Rule("bool"),
     "sensors.foot_contacts": Rule("bool"),
-    "episode.max_steps": Rule("int", 10, 10000),
+    "episode.max_steps": Rule("int", 10, 10000, choices=("auto",)),
     "episode.ground_penalty": Rule("bool"),
     "episode.shaping": Rule("float", 0, 1e3),
     "episode.shaping_gamma": Rule("float", 0, 1),

@@ -64,7 +64,8 @@ class AnimalAIEnv(gym.Env):
         # Instance metadata lists the modes this machine can show: no "human" without a display.
         self.metadata = {**self.metadata, "render_modes": ["rgb_array"] + (["human"] if display_available() else [])}
         self.level, self.difficulty = cfg["level"], cfg["difficulty"]
-        self.max_steps = cfg["episode"]["max_steps"]
+        self.max_steps_setting = cfg["episode"]["max_steps"]  # "auto": the level's own time limit
+        self.max_steps = 0  # T of the current episode, set by reset
         self.ground_penalty = cfg["episode"]["ground_penalty"]
         self.shaping = cfg["episode"]["shaping"]
         self.shaping_gamma = cfg["episode"]["shaping_gamma"]
@@ -76,7 +77,8 @@ class AnimalAIEnv(gym.Env):
         agent, sensors = cfg["agent"], cfg["sensors"]
         self.visuals = sensors["camera"] or render_mode is not None  # visual shapes only if anything draws
         self.body = Quadruped(self.client, agent["body"], agent["action_mode"], agent["max_force"],
-                              agent["max_joint_velocity"], agent["friction"], self.visuals)
+                              agent["max_joint_velocity"], agent["friction"], self.visuals,
+                              agent["position_gain"], agent["velocity_gain"])
         self.rays = Rays(self.client, sensors["rays_per_side"], sensors["ray_max_angle"],
                          sensors["ray_length"]) if sensors["rays"] else None
         self.camera = Camera(self.client, sensors["camera_resolution"],
@@ -142,6 +144,7 @@ class AnimalAIEnv(gym.Env):
         else:
             spec = generate(self.level, self.difficulty, episode_seed)
         self.level_spec = spec
+        self.max_steps = self.episode_steps(spec)
         _, motion_rng = episode_rngs(spec.level, spec.difficulty, spec.seed)
 
         self._reset_physics()
@@ -184,6 +187,12 @@ class AnimalAIEnv(gym.Env):
         observation = self._observe(angles, speeds, position, orientation)
         info = self._info(terms, fell=events.fell, blew_up=blew_up)
         return observation, float(sum(terms.values())), terminated, truncated, info
+
+    def episode_steps(self, spec: LevelSpec) -> int:
+        """T for a level instance: episode.max_steps, or with "auto" the level's time limit in steps."""
+        if self.max_steps_setting != "auto":
+            return self.max_steps_setting
+        return max(1, round(spec.time_limit / self.control_dt))
 
     def _nearest_food_distance(self, head: tuple[float, float, float]) -> float:
         """Horizontal distance from the head to the nearest food piece still in the world (0 if none)."""
@@ -292,6 +301,7 @@ class AnimalAIEnv(gym.Env):
             "seed": spec.seed,
             "max_food_reward": spec.max_food_reward,
             "max_reward": spec.max_food_reward - SCORE_ALLOWANCE,
+            "max_steps": self.max_steps,
             "reward_terms": terms,
             "food_eaten": self.food_eaten,
             "wall_hits": self.wall_hits,

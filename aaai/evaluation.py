@@ -97,9 +97,13 @@ def model_path(policy: str) -> Path | None:
 
 
 def load_policy(policy: str, env: AnimalAIEnv) -> Callable:
-    """'random', a model .zip, a run folder, or 'module:callable' called with the env to make the policy."""
+    """'random', 'reference', a model .zip, a run folder, or 'module:callable' called with the env to make the policy."""
     if policy == "random":
         return RandomPolicy(env)
+    if policy == "reference":
+        from aaai.reference import ReferenceController
+
+        return ReferenceController(env)
     path = model_path(policy)
     if path is not None:
         return ModelPolicy(path)
@@ -107,7 +111,7 @@ def load_policy(policy: str, env: AnimalAIEnv) -> Callable:
         return RandomPolicy(env)
     module_name, _, attribute = policy.partition(":")
     if not attribute:
-        raise ConfigError(f"--policy: got {policy!r}; allowed: random, a model .zip, a run folder, module:callable")
+        raise ConfigError(f"--policy: got {policy!r}; allowed: random, reference, a model .zip, a run folder, module:callable")
     try:
         target: Any = importlib.import_module(module_name)
         for part in attribute.split("."):

@@ -21,7 +21,10 @@ SHAPES = ("box", "sphere", "cylinder")
 # - door {"direction": [ux, uy], "distance"}: hidden below the arena until the agent's head is
 #   farther than distance along direction and inside that 90-degree sector, then stands at its
 #   position for good (L9 sector openings).
-BEHAVIOURS = ("random_walk", "sink", "slide", "door")
+# - hinge {"pivot": [[x, y, z], [x, y, z]]}: pinned to the world at these two points, so it can
+#   only turn about the line through them (the L10 plank: it tips over about its bottom edge on
+#   the trench's side and lands across the trench).
+BEHAVIOURS = ("random_walk", "sink", "slide", "door", "hinge")
 
 
 @dataclass(frozen=True)
@@ -85,6 +88,7 @@ class LevelSpec:
     # arena, or None for a flat floor.
     heightfield: tuple[tuple[float, ...], ...] | None = None
     max_food_reward: float = 0.0  # best food reward this instance can give
+    time_limit: float = 20.0  # seconds of simulated time an episode may last (T = this / control step)
     extras: dict = field(default_factory=dict)  # level-specific data (plain JSON types)
 
     def to_dict(self) -> dict:

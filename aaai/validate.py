@@ -10,6 +10,7 @@ the L10 plank lands when pushed over) is floor again.
 """
 from __future__ import annotations
 
+import heapq
 import math
 
 import cv2
@@ -145,26 +146,69 @@ def _fill(grid: np.ndarray, spec: LevelSpec, quad, value: int = 1) -> None:
     cv2.fillConvexPoly(grid, points, value, lineType=cv2.LINE_8, shift=shift)
 
 
+def clearance_map(spec: LevelSpec, grid: np.ndarray | None = None) -> np.ndarray:
+    """Distance (units) from each cell's centre to the nearest blocked cell or the arena's edge."""
+    grid = blocked_grid(spec) if grid is None else grid
+    padded = np.pad(grid, 1, constant_values=1)  # the arena's walls
+    clearance = cv2.distanceTransform((padded == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return clearance[1:-1, 1:-1] * GRID
+
+
+def walk_region(spec: LevelSpec, clearance: np.ndarray) -> np.ndarray | None:
+    """Where the body's centre can walk from the start (a bool grid): cells whose disc of
+    FOOTPRINT_RADIUS is clear, in the start's connected region; None if the start is not clear."""
+    free = (clearance > FOOTPRINT_RADIUS).astype(np.uint8)
+    _, labels = cv2.connectedComponents(free, connectivity=8)
+    row, col = _cell(spec, spec.agent.x, spec.agent.y, clearance.shape)
+    start = labels[row, col]
+    return None if start == 0 else labels == start
+
+
 def reachable_region(spec: LevelSpec, grid: np.ndarray | None = None) -> tuple[np.ndarray, bool]:
     """Where the head's centre can get to from the start (a bool grid), and whether the start is clear.
 
     The body walks where a disc of FOOTPRINT_RADIUS is clear, in the start's connected region;
     from there it can push its head on to any place with REACH_CLEARANCE.
     """
-    grid = blocked_grid(spec) if grid is None else grid
-    padded = np.pad(grid, 1, constant_values=1)  # the arena's walls
-    clearance = cv2.distanceTransform((padded == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    clearance = clearance[1:-1, 1:-1] * GRID
-    free = (clearance > FOOTPRINT_RADIUS).astype(np.uint8)
-    _, labels = cv2.connectedComponents(free, connectivity=8)
-    row, col = _cell(spec, spec.agent.x, spec.agent.y, grid.shape)
-    start = labels[row, col]
-    if start == 0:
-        return np.zeros_like(free, bool), False
-    walk = (labels == start).astype(np.uint8)
+    clearance = clearance_map(spec, grid)
+    walk = walk_region(spec, clearance)
+    if walk is None:
+        return np.zeros_like(clearance, bool), False
     lean = round((FOOTPRINT_RADIUS - REACH_CLEARANCE) / GRID) + 1
-    leaned = cv2.dilate(walk, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * lean + 1, 2 * lean + 1)))
+    leaned = cv2.dilate(walk.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * lean + 1, 2 * lean + 1)))
     return (leaned > 0) & (clearance > REACH_CLEARANCE), True
+
+
+def path_costs(region: np.ndarray, goals: np.ndarray, cell_cost: np.ndarray | None = None) -> np.ndarray:
+    """Cost of the cheapest 8-connected path inside ``region`` from every cell to the nearest goal
+    cell (inf where none leads there), in units: each move costs its length times the mean
+    ``cell_cost`` (default 1) of its two cells. Dijkstra's algorithm on the occupancy grid."""
+    rows, cols = region.shape
+    cost = np.ones(region.shape) if cell_cost is None else cell_cost
+    inside = region.ravel().tolist()
+    weight = cost.ravel().tolist()
+    best = [math.inf] * (rows * cols)
+    queue = []
+    for index in np.flatnonzero(goals & region).tolist():
+        best[index] = 0.0
+        queue.append((0.0, index))
+    heapq.heapify(queue)
+    moves = [(dr, dc, GRID * math.hypot(dr, dc)) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
+    while queue:
+        here, index = heapq.heappop(queue)
+        if here > best[index]:
+            continue
+        row, col = divmod(index, cols)
+        for dr, dc, length in moves:
+            r, c = row + dr, col + dc
+            if 0 <= r < rows and 0 <= c < cols:
+                other = r * cols + c
+                if inside[other]:
+                    total = here + length * 0.5 * (weight[index] + weight[other])
+                    if total < best[other]:
+                        best[other] = total
+                        heapq.heappush(queue, (total, other))
+    return np.array(best).reshape(rows, cols)
 
 
 def _cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:

@@ -209,7 +209,18 @@ class World:
             self.movers[body] = Slide(obj)
         elif kind == "door":
             self.doors[body] = Door(obj)
+        elif kind == "hinge":
+            self._pin(body, obj)
         return body
+
+    def _pin(self, body: int, obj: ObjectSpec) -> None:
+        """Pins a body to the world at its behaviour's two pivot points: a hinge about their line."""
+        c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+        for point in obj.behaviour["pivot"]:
+            dx, dy, dz = (point[i] - obj.position[i] for i in range(3))
+            local = (c * dx + s * dy, -s * dx + c * dy, dz)  # the point in the body's frame
+            p.createConstraint(body, -1, -1, -1, p.JOINT_POINT2POINT, (0, 0, 0), local, tuple(point),
+                               physicsClientId=self.client)
 
     # --- running --------------------------------------------------------------------
     def remove(self, body: int) -> None:

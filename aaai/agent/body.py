@@ -29,13 +29,15 @@ class Quadruped:
     """One body in one client. Load it with ``load`` after every resetSimulation."""
 
     def __init__(self, client: int, body: str, action_mode: str, max_force: float,
-                 max_joint_velocity: float, friction: float, visuals: bool = True):
+                 max_joint_velocity: float, friction: float, visuals: bool = True,
+                 position_gain: float = 0.1, velocity_gain: float = 1.0):
         self.client = client
         self.path = str(urdf_path(body, visuals))
         self.action_mode = action_mode
         self.max_force = max_force
         self.max_joint_velocity = max_joint_velocity
         self.friction = friction
+        self.position_gain, self.velocity_gain = position_gain, velocity_gain
         self.id = -1
         self._describe_joints()
 
@@ -58,6 +60,8 @@ class Quadruped:
         self.foot_slot = {link: i for i, link in enumerate(self.foot_links)}
         self.n_axes = len(self.joint_ids)
         self._forces = [self.max_force] * self.n_axes
+        self._position_gains = [self.position_gain] * self.n_axes
+        self._velocity_gains = [self.velocity_gain] * self.n_axes
         self._half_range = 0.5 * (self.upper - self.lower)
         self._middle = self.lower + self._half_range
 
@@ -81,6 +85,7 @@ class Quadruped:
             targets = self._middle + action * self._half_range
             p.setJointMotorControlArray(self.id, self.joint_ids, p.POSITION_CONTROL,
                                         targetPositions=targets.tolist(), forces=self._forces,
+                                        positionGains=self._position_gains, velocityGains=self._velocity_gains,
                                         physicsClientId=self.client)
         else:
             p.setJointMotorControlArray(self.id, self.joint_ids, p.VELOCITY_CONTROL,

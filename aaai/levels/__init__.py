@@ -12,6 +12,7 @@ import importlib
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 
@@ -21,7 +22,7 @@ from aaai.levels.common import PlacementError
 from aaai.levels.params import DIFFICULTIES, resolve
 from aaai.spec import AgentPose, LevelSpec
 
-LEVEL_FILE_KEYS = ("id", "name", "title", "generator", "params", "label")
+LEVEL_FILE_KEYS = ("id", "name", "title", "generator", "params", "time_limit", "label")
 OPTIONAL_KEYS = ("label",)  # label: how the level is shown, default "L<id>" (L2b has id 12)
 SEED_LIMIT = 2**32  # seeds are integers in [0, 2**32)
 MAX_ATTEMPTS = 50  # generations of one (level, difficulty, seed) before it is an error
@@ -40,6 +41,11 @@ class Level:
     params: dict
     source: str
     label: str
+    time_limit: Any  # seconds: a number, 11 numbers or an expression in d, as a parameter
+
+    def time_limit_at(self, difficulty: int) -> float:
+        """The episode's time limit (seconds of simulated time) at this difficulty."""
+        return float(resolve({"time_limit": self.time_limit}, difficulty, ("time_limit",), self.source)["time_limit"])
 
 
 def _load_level(path) -> Level:
@@ -51,8 +57,13 @@ def _load_level(path) -> Level:
         if key not in data and key not in OPTIONAL_KEYS:
             raise ConfigError(f"{path.name}: key '{key}' is missing")
     label = data.get("label", f"L{data['id']}")
-    return Level(data["id"], data["name"], data["title"], _generator(data["generator"], path.name),
-                 data["params"], path.name, label)
+    level = Level(data["id"], data["name"], data["title"], _generator(data["generator"], path.name),
+                  data["params"], path.name, label, data["time_limit"])
+    for difficulty in DIFFICULTIES:
+        if not 0.2 <= level.time_limit_at(difficulty) <= 200.0:
+            raise ConfigError(f"{path.name}: key 'time_limit': got {level.time_limit_at(difficulty)!r} at difficulty "
+                              f"{difficulty}; allowed: 0.2 to 200 seconds")
+    return level
 
 
 def _generator(name: str, source: str) -> ModuleType:
@@ -121,6 +132,7 @@ def generate(level: int | str, difficulty: int, seed: int) -> LevelSpec:
         except PlacementError as error:
             problem = str(error)
             continue
+        built.setdefault("time_limit", lvl.time_limit_at(difficulty))
         spec = _assemble(lvl, difficulty, seed, built, attempt)
         problems = validate.check(spec)
         if not problems:
@@ -164,6 +176,7 @@ def spec_fields(spec: LevelSpec) -> dict:
         "agent": (spec.agent.x, spec.agent.y, spec.agent.yaw),
         "objects": list(spec.objects),
         "max_food_reward": spec.max_food_reward,
+        "time_limit": spec.time_limit,
         "arena_size": spec.arena_size,
         "wall_height": spec.wall_height,
         "tiles": spec.tiles,

@@ -1,6 +1,7 @@
 """L10 Causal reasoning: a trench of missing floor (deadly below) across the arena; the green is
-on the far side; an upright plank stands at the trench's edge, and pushed over it falls across
-the trench as a bridge. Walls beside the plank from difficulty 4 (two from 8)."""
+on the far side; an upright plank stands at the trench's edge, hinged at its bottom edge on the
+trench's side, and pushed over it falls across the trench as a bridge. Walls beside the plank
+from difficulty 4 (two from 8)."""
 from __future__ import annotations
 
 import math
@@ -23,7 +24,9 @@ def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
     thick, across = float(p["plank_thickness"]), float(p["plank_width"])
     length = width + EDGE_GAP + float(p["plank_overhang"])  # standing height = fallen length
     face = south - EDGE_GAP  # the plank's north face; it tips north about its bottom edge here
-    plank = slab("plank", plank_x, face - thick / 2, across, thick, length, mass=float(p["plank_mass"]))
+    hinge = {"type": "hinge", "pivot": [[plank_x - across / 2, face, 0.0], [plank_x + across / 2, face, 0.0]]}
+    plank = slab("plank", plank_x, face - thick / 2, across, thick, length, mass=float(p["plank_mass"]),
+                 behaviour=hinge)
     bridge = [plank_x - across / 2, face, plank_x + across / 2, face + length]
     walls = _side_walls(rng, int(p["side_walls"]), plank_x, across, face, float(p["side_wall_length"]),
                         float(p["transparent_probability"]))

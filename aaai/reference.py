@@ -1,0 +1,279 @@
+"""The reference controller: a privileged policy that shows what this body can do in each level.
+
+It reads what no learning agent is given (the level spec, the live positions of food and
+planks) and plans on the solvability grid of ``aaai.validate``; it acts only through the
+ordinary action vector, by steering the gait of ``aaai.gait`` (no teleporting, no forces of its
+own). Its tactic is the same in every level, driven by what the level holds:
+
+- food: every yellow worth eating first (nearest first), then the best green; a green that is
+  not the target is given a wide berth, so it is not eaten by accident before the yellows;
+- a yellow on a sinking pillar (L2b): wait beside the pillar until the piece is down, eat it,
+  then the green;
+- a sliding piece (L8): go to where it will stop;
+- sectors with doors (L9): only the sector with the most food, and every piece in it;
+- a plank to tip over as a bridge (L10): walk round behind it, push it over, cross on it;
+- everything else (walls, holes, pits, mazes, terrain) is the planner's: the cheapest path on
+  the occupancy grid, kept away from walls and edges where there is room.
+
+Use it as any policy: ``aaai eval --policy reference``, ``aaai run --policy reference``,
+``aaai show --video out.mp4 --policy reference``, or ``ReferenceController(env)`` in Python.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as p
+
+from aaai import validate
+from aaai.agent.urdf_writer import HEAD_RADIUS
+from aaai.gait import SineGait, approach, steer
+from aaai.spec import ObjectSpec
+
+COMFORT = 8.0  # paths keep this far (units) from walls and edges where there is room ...
+CROWDING_COST = 4.0  # ... paying up to this many times a step's length where there is not
+GREEN_BERTH = 6.0  # extra clearance round a green that is not the target (while yellows remain)
+LOOKAHEAD = 4.0  # the body steers at the cheapest cell this close along the plan
+DIRECT = 7.0  # nearer than this (plus the food's radius) it steers straight at the food
+REPLAN_MOVE = 1.0  # a goal that moved this far gets a new plan (wandering, sliding food)
+PILLAR_WAIT = 8.0  # waits this far from a sinking pillar's axis until its food is down
+SETTLED = 0.3  # a sinking piece within this of its resting height counts as down
+PUSH_STAND_OFF = 6.0  # where the body starts its push, behind the plank
+PUSH_ALIGN_X = 1.5  # starts its push this close to the plank's middle line
+PUSH_ALIGN = math.radians(15)  # faces the plank this squarely before walking into it
+PUSH_LEAD = 6.0  # while pushing it steers at the plank's middle line this far ahead
+PUSHED_TILT = math.radians(60)  # a plank tilted this far is falling: the push is over
+PUSH_SECONDS = 12.0  # gives up pushing after this long and walks on
+REST_SEARCH = 12.0  # with nothing left to eat, it stands at the roomiest place this close
+STUCK_SECONDS = 3.0  # no progress for this long: back off for a moment
+BACK_OFF_SECONDS = 1.0
+
+
+class ReferenceController:
+    """A policy: ``action = controller(observation)``; ``reset(seed)`` at each episode start."""
+
+    def __init__(self, env):
+        self.env = env.unwrapped
+        self.gait = SineGait.for_env(self.env)
+        self.spec = None
+
+    def reset(self, seed: int | None = None) -> None:
+        self.spec = None  # plans are made at the first step, from the episode's spec
+
+    # --- planning -------------------------------------------------------------------
+    def _start_episode(self) -> None:
+        env = self.env
+        spec = self.spec = env.level_spec
+        self.gait.reset()
+        self.clearance = validate.clearance_map(spec)
+        walk = validate.walk_region(spec, self.clearance)
+        self.walk = walk if walk is not None else self.clearance > HEAD_RADIUS
+        self.crowding = 1.0 + CROWDING_COST * np.clip(1.0 - self.clearance / COMFORT, 0.0, 1.0)
+        rows, cols = self.walk.shape
+        self.cell_x = (np.arange(cols) + 0.5) * validate.GRID - spec.arena_size[0] / 2
+        self.cell_y = (np.arange(rows) + 0.5) * validate.GRID - spec.arena_size[1] / 2
+        self.plan_key, self.plan_goal, self.plan = None, None, None
+        self.sector = _best_sector(spec)
+        self.plank = _bridge_plank(env, spec)
+        self.push_started = None
+        self.standing, self.rest = False, None
+        self.best_progress, self.progress_time, self.back_off_until = math.inf, 0.0, -1.0
+
+    def _costs(self, goal: tuple[float, float], reach: float, avoid: list[tuple[float, float, float]]) -> np.ndarray:
+        """Path costs to the cells from which the head reaches ``goal`` (within ``reach``)."""
+        near = np.hypot(self.cell_x[None, :] - goal[0], self.cell_y[:, None] - goal[1])
+        goals = self.walk & (near <= reach)
+        grow = reach
+        while not goals.any() and grow < 4 * reach + 10:  # a goal off the walkable region: the nearest part
+            grow += validate.GRID
+            goals = self.walk & (near <= grow)
+        cost = self.crowding
+        if avoid:
+            cost = cost.copy()
+            for x, y, radius in avoid:
+                cost[np.hypot(self.cell_x[None, :] - x, self.cell_y[:, None] - y) < radius] += 50.0
+        return validate.path_costs(self.walk, goals, cost)
+
+    def _waypoint(self, head: np.ndarray, goal: tuple[float, float], reach: float, key,
+                  avoid: list[tuple[float, float, float]]) -> tuple[float, float]:
+        """Where to steer now: straight at a near goal, else the cheapest cell within LOOKAHEAD."""
+        if math.dist(head[:2], goal) < DIRECT + reach - HEAD_RADIUS and self._clear_line(head, goal):
+            return goal
+        if key != self.plan_key or self.plan_goal is None or math.dist(goal, self.plan_goal) > REPLAN_MOVE:
+            self.plan = self._costs(goal, reach, avoid)
+            self.plan_key, self.plan_goal = key, goal
+        dx = self.cell_x[None, :] - head[0]
+        dy = self.cell_y[:, None] - head[1]
+        window = np.hypot(dx, dy) <= LOOKAHEAD
+        here = np.where(window, self.plan, np.inf)
+        if not np.isfinite(here).any():  # off the plan: head for the nearest planned cell
+            distance = np.where(np.isfinite(self.plan), np.hypot(dx, dy), np.inf)
+            row, col = np.unravel_index(np.argmin(distance), distance.shape)
+        else:
+            row, col = np.unravel_index(np.argmin(here), here.shape)
+        return float(self.cell_x[col]), float(self.cell_y[row])
+
+    def _clear_line(self, head: np.ndarray, goal: tuple[float, float]) -> bool:
+        """No blocked cell on the straight line from the head to the goal."""
+        steps = max(2, int(math.dist(head[:2], goal) / validate.GRID))
+        for t in np.linspace(0.0, 1.0, steps):
+            x, y = head[0] + t * (goal[0] - head[0]), head[1] + t * (goal[1] - head[1])
+            row, col = validate._cell(self.spec, x, y, self.clearance.shape)
+            if self.clearance[row, col] < 1.0:
+                return False
+        return True
+
+    # --- what to do now -----------------------------------------------------------------
+    def _foods(self) -> list[tuple[int, ObjectSpec, tuple[float, float, float]]]:
+        env = self.env
+        foods = []
+        for body, food in env.world.food.items():
+            position = p.getBasePositionAndOrientation(body, physicsClientId=env.client)[0]
+            if self.sector is not None and _sector_of(position) != self.sector:
+                continue
+            foods.append((body, food, position))
+        return foods
+
+    def _target(self, head: np.ndarray):
+        """(goal x y, reach, plan key, things to avoid, wait): what the body goes for now."""
+        foods = self._foods()
+        yellows = [f for f in foods if f[1].kind == "food_yellow"]
+        greens = [f for f in foods if f[1].kind == "food_green"]
+        down = [f for f in yellows if not _still_sinking(f)]
+        sinking = [f for f in yellows if _still_sinking(f)]
+        avoid = [(pos[0], pos[1], food.size[0] / 2 + HEAD_RADIUS + GREEN_BERTH) for _, food, pos in greens]
+        if down:
+            body, food, position = min(down, key=lambda f: math.dist(head[:2], f[2][:2]))
+            return self._food_goal(food, position), HEAD_RADIUS + food.size[0] / 2, body, avoid, False
+        if sinking:
+            body, food, position = min(sinking, key=lambda f: math.dist(head[:2], f[2][:2]))
+            return position[:2], PILLAR_WAIT, ("wait", body), avoid, True
+        if greens:
+            body, food, position = max(greens, key=lambda f: (f[1].food_value, -math.dist(head[:2], f[2][:2])))
+            return self._food_goal(food, position), HEAD_RADIUS + food.size[0] / 2, body, [], False
+        return None
+
+    @staticmethod
+    def _food_goal(food: ObjectSpec, position) -> tuple[float, float]:
+        """Where the piece is, or where it will stop if it slides."""
+        if food.behaviour and food.behaviour["type"] == "slide":
+            return tuple(food.behaviour["to"])
+        return position[0], position[1]
+
+    # --- acting ---------------------------------------------------------------------
+    def __call__(self, observation=None) -> np.ndarray:
+        env = self.env
+        if self.spec is not env.level_spec or env.steps == 0 and self.plan_key is not None:
+            self._start_episode()
+        head, rotation = env.body.head_pose()
+        yaw = math.atan2(rotation[1, 0], rotation[0, 0])
+        now = env.steps * env.control_dt
+        if self.plank is not None and self._pushing(head, yaw, now):
+            return self.gait()
+        target = self._target(head)
+        if target is None:  # nothing left to eat: stand still in the open, clear of walls
+            rest = self._rest_spot(head)
+            if math.dist(head[:2], rest) < 1.0 or self.standing:
+                self.standing = True
+                return self.gait.stand()
+            target = rest, 0.5, "rest", [], False
+        goal, reach, key, avoid, wait = target
+        if wait and math.dist(head[:2], goal) <= reach + 1.0:
+            error = _angle(math.atan2(goal[1] - head[1], goal[0] - head[0]) - yaw)
+            self.gait.command(0.0, steer(error, 0.0)[1] * 0.5)
+            self._progress(0.0, now)
+            return self.gait()
+        point = self._waypoint(head, goal, reach, key, avoid)
+        if now < self.back_off_until:
+            self.gait.command(-1.0, 0.0)
+            return self.gait()
+        remaining = math.dist(head[:2], goal)
+        if self.plan is not None and self.plan_key == key:
+            remaining = min(remaining, self.plan[validate._cell(self.spec, head[0], head[1], self.plan.shape)])
+        if not self._progress(remaining, now):
+            self.back_off_until = now + BACK_OFF_SECONDS
+        error = _angle(math.atan2(point[1] - head[1], point[0] - head[0]) - yaw)
+        if point == goal:  # the final approach to a piece: crouch to reach it
+            self.gait.command(*approach(self.gait.parameters, error, math.dist(head[:2], goal), reach - HEAD_RADIUS))
+        else:
+            self.gait.command(*steer(error, math.dist(head[:2], point)))
+        return self.gait()
+
+    def _rest_spot(self, head: np.ndarray) -> tuple[float, float]:
+        """The roomiest walkable place within REST_SEARCH of the head (chosen once)."""
+        if self.rest is None:
+            near = np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]) <= REST_SEARCH
+            room = np.where(self.walk & near, self.clearance, -1.0)
+            row, col = np.unravel_index(np.argmax(room), room.shape)
+            self.rest = (float(self.cell_x[col]), float(self.cell_y[row])) if room[row, col] > 0 else tuple(head[:2])
+        return self.rest
+
+    def _progress(self, remaining: float, now: float) -> bool:
+        """Records progress toward the goal; False when none was made for STUCK_SECONDS."""
+        if remaining < self.best_progress - 0.5 or not math.isfinite(self.best_progress):
+            self.best_progress, self.progress_time = remaining, now
+            return True
+        if now - self.progress_time > STUCK_SECONDS:
+            self.best_progress, self.progress_time = remaining, now
+            return False
+        return True
+
+    def _pushing(self, head: np.ndarray, yaw: float, now: float) -> bool:
+        """L10: gets behind the standing plank and walks it over; False once it is down (or never will be)."""
+        env, (body, base_x, face) = self.env, self.plank
+        position, orientation = p.getBasePositionAndOrientation(body, physicsClientId=env.client)
+        up = p.getMatrixFromQuaternion(orientation)[8]
+        if up < math.cos(PUSHED_TILT) or (self.push_started is not None and now - self.push_started > PUSH_SECONDS):
+            self.plank = None
+            self.plan_key = None
+            return False
+        stand = (base_x, face - PUSH_STAND_OFF - HEAD_RADIUS)
+        if self.push_started is None:
+            if abs(head[0] - stand[0]) > PUSH_ALIGN_X or abs(head[1] - stand[1]) > 3.0:  # round to its back
+                point = self._waypoint(head, stand, 1.0, "push", [])
+                error = _angle(math.atan2(point[1] - head[1], point[0] - head[0]) - yaw)
+                self.gait.command(*steer(error, math.dist(head[:2], point), arrive=2.0))
+                return True
+            error = _angle(math.pi / 2 - yaw)
+            if abs(error) > PUSH_ALIGN:  # face the plank
+                self.gait.command(0.0, steer(error, 0.0)[1])
+                return True
+            self.push_started = now
+        # walk into it along its middle, facing the trench
+        error = _angle(math.atan2(PUSH_LEAD, base_x - head[0]) - yaw)
+        self.gait.command(*steer(error, PUSH_LEAD))
+        return True
+
+
+def _angle(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def _still_sinking(food) -> bool:
+    _, obj, position = food
+    return bool(obj.behaviour and obj.behaviour["type"] == "sink") and position[2] > obj.size[0] / 2 + SETTLED
+
+
+def _best_sector(spec) -> tuple[float, float] | None:
+    """L9: the direction of the sector with the most food, or None in a level without sectors."""
+    name = spec.extras.get("best_sector")
+    return {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}[name] if name else None
+
+
+def _sector_of(position) -> tuple[float, float]:
+    x, y = position[0], position[1]
+    if abs(x) > abs(y):
+        return (1.0, 0.0) if x > 0 else (-1.0, 0.0)
+    return (0.0, 1.0) if y > 0 else (0.0, -1.0)
+
+
+def _bridge_plank(env, spec):
+    """L10: (body, x, y of the face it tips over) of the standing plank that bridges the trench, or None."""
+    bridge = spec.extras.get("bridge")
+    if not bridge:
+        return None
+    x0, y0, x1, _ = bridge
+    for body, obj in env.world.objects.items():
+        if obj.kind == "plank" and obj.mass > 0 and abs(obj.position[0] - (x0 + x1) / 2) < 1e-6:
+            return body, (x0 + x1) / 2, y0
+    return None
