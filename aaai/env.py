@@ -181,7 +181,8 @@ class AnimalAIEnv(gym.Env):
         terms = step_reward(events, self.max_steps, self.ground_penalty, self.limb_food_reward)
         if self.shaping:
             terms["shaping"] = self._shaping_reward(position)
-        terminated = green_eaten or events.fell
+        # the episode also ends when no food is left that the agent can still reach
+        terminated = green_eaten or events.fell or not self.world.food_in_reach()
         truncated = not terminated and (blew_up or self.steps >= self.max_steps)
         self._head = position
         observation = self._observe(angles, speeds, position, orientation)

@@ -18,6 +18,7 @@ from typing import Any, Callable
 import numpy as np
 
 from aaai.config import ConfigError, env_part
+from aaai.gait import SineGait
 from aaai.env import AnimalAIEnv
 from aaai.levels import get_level
 from aaai.runs import RunFolder, write_atomic
@@ -97,13 +98,15 @@ def model_path(policy: str) -> Path | None:
 
 
 def load_policy(policy: str, env: AnimalAIEnv) -> Callable:
-    """'random', 'reference', a model .zip, a run folder, or 'module:callable' called with the env to make the policy."""
+    """'random', 'reference', 'gait', a model .zip, a run folder, or 'module:callable' called with the env to make the policy."""
     if policy == "random":
         return RandomPolicy(env)
     if policy == "reference":
         from aaai.reference import ReferenceController
 
         return ReferenceController(env)
+    if policy == "gait":
+        return SineGait.for_env(env)
     path = model_path(policy)
     if path is not None:
         return ModelPolicy(path)
@@ -111,7 +114,7 @@ def load_policy(policy: str, env: AnimalAIEnv) -> Callable:
         return RandomPolicy(env)
     module_name, _, attribute = policy.partition(":")
     if not attribute:
-        raise ConfigError(f"--policy: got {policy!r}; allowed: random, reference, a model .zip, a run folder, module:callable")
+        raise ConfigError(f"--policy: got {policy!r}; allowed: random, reference, gait, a model .zip, a run folder, module:callable")
     try:
         target: Any = importlib.import_module(module_name)
         for part in attribute.split("."):

@@ -26,6 +26,7 @@ from aaai.config import ConfigError, config_dir, read_yaml
 LEG_PHASE = {"fl": 0.0, "br": 0.0, "fr": math.pi, "bl": math.pi}
 # +1 where a growing sideways angle moves that foot backward (legs lie on the diagonals).
 BACKWARD_SIGN = {"fl": 1.0, "fr": -1.0, "bl": 1.0, "br": -1.0}
+STEER_SHARPNESS = 2  # steer: forward = cos(heading error) ** this; turning while walking skids
 BACK_UP = 4.0  # steer: a point this close behind is reached walking backward
 DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0), "right": (0.0, -1.0)}
 
@@ -148,7 +149,7 @@ def steer(heading_error: float, distance: float, arrive: float = 0.0) -> tuple[f
         behind = (heading_error % (2 * math.pi)) - math.pi  # the error as seen from the tail
         return -math.cos(behind) ** 2, min(max(behind / (math.pi / 4), -1.0), 1.0)
     turn = min(max(heading_error / (math.pi / 4), -1.0), 1.0)
-    forward = max(0.0, math.cos(heading_error)) ** 2
+    forward = max(0.0, math.cos(heading_error)) ** STEER_SHARPNESS
     if arrive > 0:
         forward *= min(1.0, distance / arrive)
     return forward, turn

@@ -26,12 +26,16 @@ import numpy as np
 import pybullet as p
 
 from aaai import validate
+from aaai.validate import FOOTPRINT_RADIUS
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.gait import SineGait, approach, steer
 from aaai.spec import ObjectSpec
 
 COMFORT = 8.0  # paths keep this far (units) from walls and edges where there is room ...
-CROWDING_COST = 4.0  # ... paying up to this many times a step's length where there is not
+CROWDING_COST = 4.0  # ... paying up to this many times a step's length where there is not,
+CLOSE = 6.5  # and far more (CLOSE_COST) nearer than this, where a sweeping foot may touch a wall
+CLOSE_COST = 30.0
+SLOW = 0.4  # the fraction of full speed it walks at where a wall is within FOOTPRINT_RADIUS
 GREEN_BERTH = 6.0  # extra clearance round a green that is not the target (while yellows remain)
 LOOKAHEAD = 4.0  # the body steers at the cheapest cell this close along the plan
 DIRECT = 7.0  # nearer than this (plus the food's radius) it steers straight at the food
@@ -47,6 +51,9 @@ PUSH_SECONDS = 12.0  # gives up pushing after this long and walks on
 REST_SEARCH = 12.0  # with nothing left to eat, it stands at the roomiest place this close
 STUCK_SECONDS = 3.0  # no progress for this long: back off for a moment
 BACK_OFF_SECONDS = 1.0
+APPROACH_GAP = 4.0  # the approach point lies this far beyond head-to-food contact distance
+DETOUR_REACHED = 1.5
+RETRY_TURN = math.radians(50)  # a stuck approach is tried again from a side turned this far
 
 
 class ReferenceController:
@@ -68,7 +75,8 @@ class ReferenceController:
         self.clearance = validate.clearance_map(spec)
         walk = validate.walk_region(spec, self.clearance)
         self.walk = walk if walk is not None else self.clearance > HEAD_RADIUS
-        self.crowding = 1.0 + CROWDING_COST * np.clip(1.0 - self.clearance / COMFORT, 0.0, 1.0)
+        self.crowding = (1.0 + CROWDING_COST * np.clip(1.0 - self.clearance / COMFORT, 0.0, 1.0)
+                         + CLOSE_COST * np.clip((CLOSE - self.clearance) / (CLOSE - FOOTPRINT_RADIUS), 0.0, 1.0))
         rows, cols = self.walk.shape
         self.cell_x = (np.arange(cols) + 0.5) * validate.GRID - spec.arena_size[0] / 2
         self.cell_y = (np.arange(rows) + 0.5) * validate.GRID - spec.arena_size[1] / 2
@@ -77,6 +85,7 @@ class ReferenceController:
         self.plank = _bridge_plank(env, spec)
         self.push_started = None
         self.standing, self.rest = False, None
+        self.detour, self.approached, self.tries = None, set(), 0
         self.best_progress, self.progress_time, self.back_off_until = math.inf, 0.0, -1.0
 
     def _costs(self, goal: tuple[float, float], reach: float, avoid: list[tuple[float, float, float]]) -> np.ndarray:
@@ -150,7 +159,8 @@ class ReferenceController:
             return position[:2], PILLAR_WAIT, ("wait", body), avoid, True
         if greens:
             body, food, position = max(greens, key=lambda f: (f[1].food_value, -math.dist(head[:2], f[2][:2])))
-            return self._food_goal(food, position), HEAD_RADIUS + food.size[0] / 2, body, [], False
+            others = [berth for berth, green in zip(avoid, greens) if green[0] != body]
+            return self._food_goal(food, position), HEAD_RADIUS + food.size[0] / 2, body, others, False
         return None
 
     @staticmethod
@@ -183,21 +193,59 @@ class ReferenceController:
             self.gait.command(0.0, steer(error, 0.0)[1] * 0.5)
             self._progress(0.0, now)
             return self.gait()
-        point = self._waypoint(head, goal, reach, key, avoid)
         if now < self.back_off_until:
             self.gait.command(-1.0, 0.0)
             return self.gait()
+        eating = reach > HEAD_RADIUS and key != "rest"
+        close = eating and math.dist(head[:2], goal) < DIRECT + reach - HEAD_RADIUS
+        if close and key not in self.approached:  # first time near this piece: pick the open side
+            self.approached.add(key)
+            self.detour = self._approach_point(head, goal, reach, 0.0)
+        if self.detour is not None:
+            if math.dist(head[:2], self.detour) < DETOUR_REACHED:
+                self.detour = None
+            else:
+                goal, reach, key, close = self.detour, 0.5, ("detour", self.detour), False
+        point = self._waypoint(head, goal, reach, key, avoid)
         remaining = math.dist(head[:2], goal)
         if self.plan is not None and self.plan_key == key:
             remaining = min(remaining, self.plan[validate._cell(self.spec, head[0], head[1], self.plan.shape)])
-        if not self._progress(remaining, now):
+        if not self._progress(remaining, now):  # stuck: back off, and come at food from another side
             self.back_off_until = now + BACK_OFF_SECONDS
+            self.detour = None
+            if close:
+                self.tries += 1
+                self.detour = self._approach_point(head, goal, reach, (-1) ** self.tries * RETRY_TURN)
         error = _angle(math.atan2(point[1] - head[1], point[0] - head[0]) - yaw)
-        if point == goal:  # the final approach to a piece: crouch to reach it
+        if close and point == goal:  # the final approach to a piece: crouch to reach it
             self.gait.command(*approach(self.gait.parameters, error, math.dist(head[:2], goal), reach - HEAD_RADIUS))
         else:
-            self.gait.command(*steer(error, math.dist(head[:2], point)))
+            forward, turn = steer(error, math.dist(head[:2], point), arrive=2.0 if self.detour else 0.0)
+            row, col = validate._cell(self.spec, head[0], head[1], self.clearance.shape)
+            room = (self.clearance[row, col] - FOOTPRINT_RADIUS) / (CLOSE - FOOTPRINT_RADIUS)
+            self.gait.command(forward * min(1.0, max(SLOW, room)) if forward > 0 else forward, turn)
         return self.gait()
+
+    def _approach_point(self, head: np.ndarray, food: tuple[float, float], reach: float,
+                        turn: float) -> tuple[float, float] | None:
+        """Where to stand before the last few steps to a piece: on the side from which the head
+        comes (turned by ``turn`` rad), or the roomiest side near it if that side is cramped;
+        None when the head can go straight on."""
+        towards = math.atan2(head[1] - food[1], head[0] - food[0]) + turn
+        gap = reach + APPROACH_GAP
+        best, best_score = None, -math.inf
+        for k in range(-4, 5):
+            angle = towards + k * math.pi / 8
+            x, y = food[0] + gap * math.cos(angle), food[1] + gap * math.sin(angle)
+            row, col = validate._cell(self.spec, x, y, self.clearance.shape)
+            if not self.walk[row, col]:
+                continue
+            score = min(self.clearance[row, col], COMFORT) - abs(k) * 0.5
+            if score > best_score:
+                best, best_score = (x, y, k), score
+        if best is None or (best[2] == 0 and turn == 0.0):
+            return None
+        return best[0], best[1]
 
     def _rest_spot(self, head: np.ndarray) -> tuple[float, float]:
         """The roomiest walkable place within REST_SEARCH of the head (chosen once)."""

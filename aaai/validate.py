@@ -18,18 +18,18 @@ import numpy as np
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.kinds import SOLID_KINDS
-from aaai.levels.common import AGENT_RADIUS, TOLERANCE, corners, footprints_overlap
+from aaai.levels.common import TOLERANCE, corners, footprints_overlap
 from aaai.spec import LevelSpec, ObjectSpec
 
 GRID = 0.5  # occupancy grid cell, units
 # The footprint a walking body needs: the resting X reaches 4.5 from the head's centre and the
-# example gait's feet stay within about that (measured: 4.5 to 5 at the capsules' outer
-# edges), so a passage must be wider than 9.
-FOOTPRINT_RADIUS = AGENT_RADIUS
-# Facing an obstacle the X's legs point 45 degrees aside, so the front feet reach only
-# 4.5 cos 45 + 0.5 (the capsule) = 3.7 ahead: from its walking region the body can bring its head
-# that close to a wall to eat food lying against it.
-REACH_CLEARANCE = 3.7
+# trot's feet sweep out to about 5, so a passage must be wider than 10 for the body to walk
+# through it without a foot touching a wall (a wall touched costs 1).
+FOOTPRINT_RADIUS = 5.0
+# Where the head can be to eat: the same places. A body that leans closer to a wall to reach food
+# lying against it (with the X's front feet 3.7 ahead, it could bring the head that close) touches
+# the wall with a sweeping foot on the way, so food must be reachable from the walking region.
+REACH_CLEARANCE = FOOTPRINT_RADIUS
 PASSABLE_BEHAVIOURS = ("sink", "door")
 
 

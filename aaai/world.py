@@ -91,6 +91,7 @@ class World:
         self.walkers: dict[int, list[float]] = {}  # body id -> [x, y, z, heading]
         self.movers: dict[int, Sink | Slide] = {}  # sinking pillars and their food, sliding food
         self.doors: dict[int, Door] = {}  # open doors, closed by the head position advance() is given
+        self.closed: list[Door] = []  # doors that have closed: food outside their sectors is out of reach
         self.time = 0.0  # simulated seconds since the build
         self.colours = {**COLOURS, **{kind: tuple(rgba) for kind, rgba in spec.extras.get("colours", {}).items()}}
         self._shapes: dict[tuple, tuple[int, int]] = {}
@@ -262,7 +263,19 @@ class World:
             if door.entered(head[0], head[1]):
                 p.resetBasePositionAndOrientation(body, door.position, p.getQuaternionFromEuler((0, 0, door.yaw)),
                                                   physicsClientId=self.client)
+                self.closed.append(door)
                 del self.doors[body]
+
+    def food_in_reach(self) -> bool:
+        """Is any food left that the agent can still get to? Food shut out of the sector the
+        agent is in (L9: behind a closed door) cannot be."""
+        if not self.closed:
+            return bool(self.food)
+        for body in self.food:
+            x, y, _ = p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0]
+            if all(door.entered(x, y) for door in self.closed):
+                return True
+        return False
 
     def _walk(self, body: int, state: list[float], dt: float) -> None:
         obj = self.objects[body]

@@ -9,12 +9,13 @@ import numpy as np
 
 from aaai.config import ConfigError, load_config, parse_int_set
 from aaai.env import AnimalAIEnv
-from aaai.gait import SineGait
+from aaai.evaluation import load_policy
 from aaai.levels import all_levels, generate, get_level
 from aaai.registration import level_env_id
 from aaai.runs import RunFolder
 
-POLICIES = ("random", "gait")
+POLICY_HELP = ("random, reference (the privileged reference controller), gait (the example trot), "
+               "a model .zip, a run folder or module:callable")
 
 
 def parse_range(text: str, name: str, low: int, high: int) -> list[int]:
@@ -66,13 +67,13 @@ def spec_command(level, difficulty, seed, as_json):
 @click.option("--difficulty", "difficulty_text", default="0", show_default=True, help="Difficulties, e.g. '0-4'.")
 @click.option("--episodes", type=click.IntRange(1), default=1, show_default=True, help="Episodes per cell.")
 @click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="First episode seed.")
-@click.option("--policy", type=click.Choice(POLICIES), default="random", show_default=True)
+@click.option("--policy", default="random", show_default=True, help=POLICY_HELP)
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
-@click.option("--max-steps", type=int, help="Episode length T (overrides the config).")
+@click.option("--max-steps", type=int, help="Episode length T (overrides the config and the level's time limit).")
 @click.option("--camera/--no-camera", default=None, help="Turn the head camera on or off.")
 @click.option("--rays/--no-rays", default=None, help="Turn the rays on or off.")
 def run_command(levels_text, difficulty_text, episodes, seed, policy, config_path, max_steps, camera, rays):
-    """Run episodes with a random policy or the example gait and print a summary of each."""
+    """Run episodes with a policy (random actions by default) and print a summary of each."""
     levels = parse_range(levels_text, "--levels", 0, 12)
     difficulties = parse_range(difficulty_text, "--difficulty", 0, 10)
     overrides = {k: v for k, v in dict(max_steps=max_steps, camera=camera, rays=rays).items() if v is not None}
@@ -80,6 +81,7 @@ def run_command(levels_text, difficulty_text, episodes, seed, policy, config_pat
         for level in levels:
             get_level(level)
         env = AnimalAIEnv(level=levels[0], config=config_path, **overrides)
+        actor = load_policy(policy, env)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     click.echo(f"{'level':<20} {'diff':>4} {'seed':>6} {'return':>8} {'max':>6} {'steps':>6} "
@@ -88,19 +90,19 @@ def run_command(levels_text, difficulty_text, episodes, seed, policy, config_pat
     for level in levels:
         for difficulty in difficulties:
             for _ in range(episodes):
-                summary = run_episode(env, level, difficulty, seed + episode, policy)
+                summary = run_episode(env, level, difficulty, seed + episode, actor)
                 episode += 1
                 click.echo(summary)
     env.close()
 
 
-def run_episode(env: AnimalAIEnv, level: int, difficulty: int, seed: int, policy: str) -> str:
+def run_episode(env: AnimalAIEnv, level: int, difficulty: int, seed: int, policy) -> str:
     observation, info = env.reset(seed=seed, options={"level": level, "difficulty": difficulty})
-    env.action_space.seed(seed)
-    gait = SineGait.for_env(env) if policy == "gait" else None
+    if hasattr(policy, "reset"):
+        policy.reset(seed)
     total, started = 0.0, time.perf_counter()
     while True:
-        action = gait(observation) if gait else env.action_space.sample()
+        action = policy(observation)
         observation, reward, terminated, truncated, info = env.step(action)
         total += reward
         if terminated or truncated:

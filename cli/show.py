@@ -9,7 +9,6 @@ from aaai.config import ConfigError
 from aaai.levels import check_difficulty, check_seed, get_level
 from aaai.viewer import VIDEO_CODECS, VideoWriter, compose, draw_top_down, draw_world, save_png, video_extension_error
 
-POLICIES = ("random", "gait")
 CAMERA_RESOLUTION = 128
 MAP_SIZE = 640  # pixels across the longer side of the top-down map
 
@@ -26,8 +25,9 @@ def frame_every(fps: float, control_dt: float) -> int:
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
               help="PNG to write [default: <label>_d<D>_s<S>.png, e.g. L1_d0_s0.png; with --video, only if given].")
 @click.option("--video", type=click.Path(dir_okay=False), help="Record an episode to this .mp4 or .avi.")
-@click.option("--policy", type=click.Choice(POLICIES), default="random", show_default=True,
-              help="Who moves the agent in the video.")
+@click.option("--policy", default="random", show_default=True,
+              help="Who moves the agent in the video: random, reference, gait, a model .zip, a run folder or "
+                   "module:callable.")
 @click.option("--steps", type=click.IntRange(1), default=500, show_default=True,
               help="Control steps to record (fewer if the episode ends first).")
 @click.option("--fps", type=click.IntRange(1, 500), default=25, show_default=True,
@@ -57,10 +57,12 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
             raise click.UsageError(f"output {path!r}: the folder {str(Path(path).absolute().parent)!r} does not exist")
 
     from aaai.env import AnimalAIEnv  # after the checks: bad input fails fast
+    from aaai.evaluation import load_policy
 
     try:
         env = AnimalAIEnv(level=lvl.id, difficulty=difficulty, config=config_path, camera=True,
                           camera_resolution=CAMERA_RESOLUTION)
+        actor = load_policy(policy, env) if video is not None else None
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     try:
@@ -69,22 +71,21 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
             picture = compose(draw_top_down(env.level_spec, size), observation["camera"])
             click.echo(f"wrote {save_png(picture, output)} ({picture.shape[1]} x {picture.shape[0]})")
         if video is not None:
-            record(env, observation, video, policy, steps, fps, size)
+            record(env, observation, video, actor, steps, fps, size)
     finally:
         env.close()
 
 
-def record(env, observation, path: str, policy: str, steps: int, fps: int, size: int) -> int:
-    """Runs up to ``steps`` control steps and writes a frame every few of them; returns the frames."""
-    from aaai.gait import SineGait
-
-    gait = SineGait.for_env(env) if policy == "gait" else None
-    env.action_space.seed(env.level_spec.seed)
+def record(env, observation, path: str, policy, steps: int, fps: int, size: int) -> int:
+    """Runs up to ``steps`` control steps of ``policy`` and writes a frame every few of them;
+    returns the frames."""
+    if hasattr(policy, "reset"):
+        policy.reset(env.level_spec.seed)
     every = frame_every(fps, env.control_dt)
     end = None
     with VideoWriter(path, fps) as writer:
         for step in range(1, steps + 1):
-            action = gait(observation) if gait else env.action_space.sample()
+            action = policy(observation)
             observation, _, terminated, truncated, info = env.step(action)
             if step % every == 0:
                 writer.write(compose(draw_world(env, size), observation["camera"]))

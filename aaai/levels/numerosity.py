@@ -14,6 +14,8 @@ ARENA = (50.0, 50.0)
 DIRECTIONS = {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}
 SPOKE_END = ARENA[0] / 2 - 0.5  # a spoke's end, short of the arena's corner so it stays inside
 TRIES = 200
+FOOD_WALL_GAP = 3.5  # a piece's centre stays this far from the arena's wall (validate: the head
+# must reach it from where the body walks, with FOOTPRINT_RADIUS to spare)
 
 
 def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
@@ -65,7 +67,7 @@ def _door(direction: tuple[float, float], hub: float, height: float, depth: floa
 def _sector_food(rng: np.random.Generator, direction, count: int, near: float, size: float) -> list[ObjectSpec]:
     """``count`` yellow pieces in a sector, past the door's trigger line, apart from each other."""
     ux, uy = direction
-    far = ARENA[0] / 2 - size / 2 - 1.5
+    far = ARENA[0] / 2 - FOOD_WALL_GAP  # the head eats it from the open side, clear of the wall
     pieces: list[tuple[float, float]] = []
     for _ in range(count):
         for _ in range(TRIES):
