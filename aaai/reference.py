@@ -26,6 +26,7 @@ import numpy as np
 import pybullet as p
 
 from aaai import validate
+from aaai.levels.common import corners
 from aaai.validate import FOOTPRINT_RADIUS
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.gait import SineGait, approach, steer
@@ -47,12 +48,15 @@ PUSH_ALIGN_X = 1.5  # starts its push this close to the plank's middle line
 PUSH_ALIGN = math.radians(15)  # faces the plank this squarely before walking into it
 PUSH_LEAD = 6.0  # while pushing it steers at the plank's middle line this far ahead
 PUSHED_TILT = math.radians(60)  # a plank tilted this far is falling: the push is over
-PUSH_SECONDS = 12.0  # gives up pushing after this long and walks on
+PUSH_SECONDS = 15.0  # gives up pushing after this long and walks on
+CROSS_SECONDS = 25.0
+CROSS_ALIGN_X = 3.0  # starts across this close to the fallen plank's middle line (it is 11 wide)  # ... and crossing after this long
+CROSSED = 2.0  # across once the head is this close to the fallen plank's far end
 REST_SEARCH = 12.0  # with nothing left to eat, it stands at the roomiest place this close
 STUCK_SECONDS = 3.0  # no progress for this long: back off for a moment
 BACK_OFF_SECONDS = 1.0
 APPROACH_GAP = 4.0  # the approach point lies this far beyond head-to-food contact distance
-DETOUR_REACHED = 1.5
+DETOUR_REACHED = 2.5
 RETRY_TURN = math.radians(50)  # a stuck approach is tried again from a side turned this far
 
 
@@ -72,21 +76,40 @@ class ReferenceController:
         env = self.env
         spec = self.spec = env.level_spec
         self.gait.reset()
-        self.clearance = validate.clearance_map(spec)
-        walk = validate.walk_region(spec, self.clearance)
-        self.walk = walk if walk is not None else self.clearance > HEAD_RADIUS
-        self.crowding = (1.0 + CROWDING_COST * np.clip(1.0 - self.clearance / COMFORT, 0.0, 1.0)
-                         + CLOSE_COST * np.clip((CLOSE - self.clearance) / (CLOSE - FOOTPRINT_RADIUS), 0.0, 1.0))
+        self.grid = validate.blocked_grid(spec)
+        self.doors_closed = 0
+        self._map()
         rows, cols = self.walk.shape
         self.cell_x = (np.arange(cols) + 0.5) * validate.GRID - spec.arena_size[0] / 2
         self.cell_y = (np.arange(rows) + 0.5) * validate.GRID - spec.arena_size[1] / 2
         self.plan_key, self.plan_goal, self.plan = None, None, None
         self.sector = _best_sector(spec)
         self.plank = _bridge_plank(env, spec)
-        self.push_started = None
+        self.bridge_phase, self.phase_started, self.lined_up = "push", 0.0, False
         self.standing, self.rest = False, None
         self.detour, self.approached, self.tries = None, set(), 0
         self.best_progress, self.progress_time, self.back_off_until = math.inf, 0.0, -1.0
+
+    def _map(self, start: tuple[float, float] | None = None) -> None:
+        """Clearance, the region walkable from ``start`` (default: the agent's start) and crowding
+        cost from the occupancy grid."""
+        self.clearance = validate.clearance_map(self.spec, self.grid)
+        walk = validate.walk_region(self.spec, self.clearance, start)
+        self.walk = walk if walk is not None else self.clearance > HEAD_RADIUS
+        self.crowding = (1.0 + CROWDING_COST * np.clip(1.0 - self.clearance / COMFORT, 0.0, 1.0)
+                         + CLOSE_COST * np.clip((CLOSE - self.clearance) / (CLOSE - FOOTPRINT_RADIUS), 0.0, 1.0))
+        self.plan_key = None
+
+    def _doors(self, head: np.ndarray) -> None:
+        """A sector door that has closed (L9) is a wall from now on: the map is made again, with
+        the walking region the one the head is in."""
+        closed = self.env.world.closed
+        if len(closed) == self.doors_closed:
+            return
+        for door in closed[self.doors_closed:]:
+            validate.fill(self.grid, self.spec, corners(door.obj))
+        self.doors_closed = len(closed)
+        self._map((float(head[0]), float(head[1])))
 
     def _costs(self, goal: tuple[float, float], reach: float, avoid: list[tuple[float, float, float]]) -> np.ndarray:
         """Path costs to the cells from which the head reaches ``goal`` (within ``reach``)."""
@@ -178,7 +201,8 @@ class ReferenceController:
         head, rotation = env.body.head_pose()
         yaw = math.atan2(rotation[1, 0], rotation[0, 0])
         now = env.steps * env.control_dt
-        if self.plank is not None and self._pushing(head, yaw, now):
+        self._doors(head)
+        if self.plank is not None and self._bridging(head, yaw, now):
             return self.gait()
         target = self._target(head)
         if target is None:  # nothing left to eat: stand still in the open, clear of walls
@@ -211,7 +235,8 @@ class ReferenceController:
         if self.plan is not None and self.plan_key == key:
             remaining = min(remaining, self.plan[validate._cell(self.spec, head[0], head[1], self.plan.shape)])
         if not self._progress(remaining, now):  # stuck: back off, and come at food from another side
-            self.back_off_until = now + BACK_OFF_SECONDS
+            if self._room_behind(head, yaw):
+                self.back_off_until = now + BACK_OFF_SECONDS
             self.detour = None
             if close:
                 self.tries += 1
@@ -240,12 +265,18 @@ class ReferenceController:
             row, col = validate._cell(self.spec, x, y, self.clearance.shape)
             if not self.walk[row, col]:
                 continue
-            score = min(self.clearance[row, col], COMFORT) - abs(k) * 0.5
+            score = min(self.clearance[row, col], CLOSE) - abs(k) * 0.3
             if score > best_score:
                 best, best_score = (x, y, k), score
         if best is None or (best[2] == 0 and turn == 0.0):
             return None
         return best[0], best[1]
+
+    def _room_behind(self, head: np.ndarray, yaw: float) -> bool:
+        """Is there room to back off (no wall within the footprint of a place 2.5 behind)?"""
+        x, y = head[0] - 2.5 * math.cos(yaw), head[1] - 2.5 * math.sin(yaw)
+        row, col = validate._cell(self.spec, x, y, self.clearance.shape)
+        return bool(self.clearance[row, col] > FOOTPRINT_RADIUS)
 
     def _rest_spot(self, head: np.ndarray) -> tuple[float, float]:
         """The roomiest walkable place within REST_SEARCH of the head (chosen once)."""
@@ -266,28 +297,32 @@ class ReferenceController:
             return False
         return True
 
-    def _pushing(self, head: np.ndarray, yaw: float, now: float) -> bool:
-        """L10: gets behind the standing plank and walks it over; False once it is down (or never will be)."""
-        env, (body, base_x, face) = self.env, self.plank
-        position, orientation = p.getBasePositionAndOrientation(body, physicsClientId=env.client)
-        up = p.getMatrixFromQuaternion(orientation)[8]
-        if up < math.cos(PUSHED_TILT) or (self.push_started is not None and now - self.push_started > PUSH_SECONDS):
-            self.plank = None
-            self.plan_key = None
+    def _bridging(self, head: np.ndarray, yaw: float, now: float) -> bool:
+        """L10: lines up behind the standing plank and walks it over, then lines up again and
+        walks straight across on it; False once across (or when either part takes too long)."""
+        env, (body, base_x, face, far_end) = self.env, self.plank
+        if self.bridge_phase == "push":
+            orientation = p.getBasePositionAndOrientation(body, physicsClientId=env.client)[1]
+            if p.getMatrixFromQuaternion(orientation)[8] < math.cos(PUSHED_TILT) or now - self.phase_started > PUSH_SECONDS:
+                self.bridge_phase, self.phase_started, self.lined_up = "cross", now, False
+        elif head[1] > far_end - CROSSED or now - self.phase_started > CROSS_SECONDS:
+            self.plank, self.plan_key = None, None
             return False
-        stand = (base_x, face - PUSH_STAND_OFF - HEAD_RADIUS)
-        if self.push_started is None:
-            if abs(head[0] - stand[0]) > PUSH_ALIGN_X or abs(head[1] - stand[1]) > 3.0:  # round to its back
+        if not self.lined_up:
+            stand = (base_x, face - PUSH_STAND_OFF - HEAD_RADIUS)
+            slack = PUSH_ALIGN_X if self.bridge_phase == "push" else CROSS_ALIGN_X
+            on_line = abs(head[0] - base_x) < slack and stand[1] - 3.0 < head[1] < face
+            if not on_line:  # round to the back of the plank
                 point = self._waypoint(head, stand, 1.0, "push", [])
                 error = _angle(math.atan2(point[1] - head[1], point[0] - head[0]) - yaw)
                 self.gait.command(*steer(error, math.dist(head[:2], point), arrive=2.0))
                 return True
             error = _angle(math.pi / 2 - yaw)
-            if abs(error) > PUSH_ALIGN:  # face the plank
+            if abs(error) > PUSH_ALIGN:  # face the trench
                 self.gait.command(0.0, steer(error, 0.0)[1])
                 return True
-            self.push_started = now
-        # walk into it along its middle, facing the trench
+            self.lined_up = True
+        # straight on along the plank's middle line, facing the trench
         error = _angle(math.atan2(PUSH_LEAD, base_x - head[0]) - yaw)
         self.gait.command(*steer(error, PUSH_LEAD))
         return True
@@ -316,12 +351,13 @@ def _sector_of(position) -> tuple[float, float]:
 
 
 def _bridge_plank(env, spec):
-    """L10: (body, x, y of the face it tips over) of the standing plank that bridges the trench, or None."""
+    """L10: (body, x, y where it stands, y where its far end lands) of the standing plank that
+    bridges the trench, or None."""
     bridge = spec.extras.get("bridge")
     if not bridge:
         return None
-    x0, y0, x1, _ = bridge
+    x0, y0, x1, y1 = bridge
     for body, obj in env.world.objects.items():
         if obj.kind == "plank" and obj.mass > 0 and abs(obj.position[0] - (x0 + x1) / 2) < 1e-6:
-            return body, (x0 + x1) / 2, y0
+            return body, (x0 + x1) / 2, y0, y1
     return None

@@ -123,7 +123,7 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
             continue
         if obj.position[2] - obj.size[2] / 2 > 2 * HEAD_RADIUS:  # high above the body (none yet)
             continue
-        _fill(grid, spec, corners(obj))
+        fill(grid, spec, corners(obj))
     if spec.holes:  # every cell whose centre lies over a missing tile
         nx, ny = spec.tiles
         missing = np.zeros((ny, nx), bool)
@@ -134,11 +134,11 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
         grid[missing[tile_row][:, tile_col]] = 1
     if bridge:  # the L10 plank, pushed over, is floor across the trench
         x0, y0, x1, y1 = bridge
-        _fill(grid, spec, np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)]), value=0)
+        fill(grid, spec, np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)]), value=0)
     return grid
 
 
-def _fill(grid: np.ndarray, spec: LevelSpec, quad, value: int = 1) -> None:
+def fill(grid: np.ndarray, spec: LevelSpec, quad, value: int = 1) -> None:
     """Marks the cells whose centres a quadrilateral (world x, y) covers."""
     shift = 4
     pixels = (np.asarray(quad) + np.array(spec.arena_size) / 2) / GRID - 0.5  # cell centres at integers
@@ -154,12 +154,14 @@ def clearance_map(spec: LevelSpec, grid: np.ndarray | None = None) -> np.ndarray
     return clearance[1:-1, 1:-1] * GRID
 
 
-def walk_region(spec: LevelSpec, clearance: np.ndarray) -> np.ndarray | None:
-    """Where the body's centre can walk from the start (a bool grid): cells whose disc of
-    FOOTPRINT_RADIUS is clear, in the start's connected region; None if the start is not clear."""
+def walk_region(spec: LevelSpec, clearance: np.ndarray, start: tuple[float, float] | None = None) -> np.ndarray | None:
+    """Where the body's centre can walk from ``start`` (default: the agent's start) as a bool grid:
+    cells whose disc of FOOTPRINT_RADIUS is clear, in the start's connected region; None if the
+    start is not clear."""
     free = (clearance > FOOTPRINT_RADIUS).astype(np.uint8)
     _, labels = cv2.connectedComponents(free, connectivity=8)
-    row, col = _cell(spec, spec.agent.x, spec.agent.y, clearance.shape)
+    x, y = (spec.agent.x, spec.agent.y) if start is None else start
+    row, col = _cell(spec, x, y, clearance.shape)
     start = labels[row, col]
     return None if start == 0 else labels == start
 

@@ -67,6 +67,7 @@ class Door:
     that direction's 90-degree sector; then it stands at its place for good."""
 
     def __init__(self, obj: ObjectSpec):
+        self.obj = obj
         self.position, self.yaw = obj.position, obj.yaw
         self.ux, self.uy = obj.behaviour["direction"]
         self.distance = obj.behaviour["distance"]
