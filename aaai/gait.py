@@ -140,12 +140,14 @@ class SineGait:
         return np.clip(action, -1.0, 1.0)
 
 
-def steer(heading_error: float, distance: float, arrive: float = 0.0) -> tuple[float, float]:
+def steer(heading_error: float, distance: float, arrive: float = 0.0, reverse: bool | None = None
+          ) -> tuple[float, float]:
     """(forward, turn) commands toward a point ``heading_error`` rad to the left and ``distance``
     away: turn in proportion to the error (full at 45 degrees), walk forward only while facing
-    within 90 degrees of it, slowing within ``arrive`` of it; a point close behind (within
-    BACK_UP, more than 120 degrees off) is reached walking backward."""
-    if distance < BACK_UP and abs(heading_error) > 2 * math.pi / 3:
+    within 90 degrees of it, slowing within ``arrive`` of it. A point close behind (within
+    BACK_UP, more than 120 degrees off) is reached walking backward; ``reverse`` overrides that
+    choice (e.g. False when the point is only the next step of a long way)."""
+    if (distance < BACK_UP if reverse is None else reverse) and abs(heading_error) > 2 * math.pi / 3:
         behind = (heading_error % (2 * math.pi)) - math.pi  # the error as seen from the tail
         return -math.cos(behind) ** 2, min(max(behind / (math.pi / 4), -1.0), 1.0)
     turn = min(max(heading_error / (math.pi / 4), -1.0), 1.0)

@@ -29,7 +29,7 @@ from aaai import validate
 from aaai.levels.common import corners
 from aaai.validate import FOOTPRINT_RADIUS
 from aaai.agent.urdf_writer import HEAD_RADIUS
-from aaai.gait import SineGait, approach, steer
+from aaai.gait import BACK_UP, SineGait, approach, steer
 from aaai.spec import ObjectSpec
 
 COMFORT = 8.0  # paths keep this far (units) from walls and edges where there is room ...
@@ -220,6 +220,8 @@ class ReferenceController:
         if now < self.back_off_until:
             self.gait.command(-1.0, 0.0)
             return self.gait()
+        if self._cramped(head, yaw, goal):
+            return self.gait()
         eating = reach > HEAD_RADIUS and key != "rest"
         close = eating and math.dist(head[:2], goal) < DIRECT + reach - HEAD_RADIUS
         if close and key not in self.approached:  # first time near this piece: pick the open side
@@ -245,7 +247,8 @@ class ReferenceController:
         if close and point == goal:  # the final approach to a piece: crouch to reach it
             self.gait.command(*approach(self.gait.parameters, error, math.dist(head[:2], goal), reach - HEAD_RADIUS))
         else:
-            forward, turn = steer(error, math.dist(head[:2], point), arrive=2.0 if self.detour else 0.0)
+            forward, turn = steer(error, math.dist(head[:2], point), arrive=2.0 if self.detour else 0.0,
+                                  reverse=remaining < BACK_UP)
             row, col = validate._cell(self.spec, head[0], head[1], self.clearance.shape)
             room = (self.clearance[row, col] - FOOTPRINT_RADIUS) / (CLOSE - FOOTPRINT_RADIUS)
             self.gait.command(forward * min(1.0, max(SLOW, room)) if forward > 0 else forward, turn)
@@ -253,24 +256,39 @@ class ReferenceController:
 
     def _approach_point(self, head: np.ndarray, food: tuple[float, float], reach: float,
                         turn: float) -> tuple[float, float] | None:
-        """Where to stand before the last few steps to a piece: on the side from which the head
-        comes (turned by ``turn`` rad), or the roomiest side near it if that side is cramped;
-        None when the head can go straight on."""
+        """Where to stand before the last few steps to a piece: the side with the most room for
+        the head as it eats (so that it can back out straight) and on the way in, preferring the
+        side the head comes from (turned by ``turn`` rad); None when the head can go straight on."""
         towards = math.atan2(head[1] - food[1], head[0] - food[0]) + turn
         gap = reach + APPROACH_GAP
         best, best_score = None, -math.inf
-        for k in range(-4, 5):
+        for k in range(-8, 8):
             angle = towards + k * math.pi / 8
-            x, y = food[0] + gap * math.cos(angle), food[1] + gap * math.sin(angle)
-            row, col = validate._cell(self.spec, x, y, self.clearance.shape)
-            if not self.walk[row, col]:
+            cos, sin = math.cos(angle), math.sin(angle)
+            stand = validate._cell(self.spec, food[0] + gap * cos, food[1] + gap * sin, self.clearance.shape)
+            if not self.walk[stand]:
                 continue
-            score = min(self.clearance[row, col], CLOSE) - abs(k) * 0.3
+            eat = validate._cell(self.spec, food[0] + reach * cos, food[1] + reach * sin, self.clearance.shape)
+            # room where the head will be as it eats (to back out straight), then on the way in
+            score = min(self.clearance[eat], COMFORT) + 0.5 * min(self.clearance[stand], CLOSE) - 0.3 * abs(k)
             if score > best_score:
-                best, best_score = (x, y, k), score
+                best, best_score = (food[0] + gap * cos, food[1] + gap * sin, k), score
         if best is None or (best[2] == 0 and turn == 0.0):
             return None
         return best[0], best[1]
+
+    def _cramped(self, head: np.ndarray, yaw: float, goal: tuple[float, float]) -> bool:
+        """Too near a wall to turn without a foot touching it (after eating food by a wall): walk
+        straight out, forward or backward, whichever leads to more room. False when there is room."""
+        row, col = validate._cell(self.spec, head[0], head[1], self.clearance.shape)
+        if self.clearance[row, col] >= FOOTPRINT_RADIUS or math.dist(head[:2], goal) < DIRECT:
+            return False
+        step = 2.0
+        ahead = validate._cell(self.spec, head[0] + step * math.cos(yaw), head[1] + step * math.sin(yaw), self.clearance.shape)
+        behind = validate._cell(self.spec, head[0] - step * math.cos(yaw), head[1] - step * math.sin(yaw), self.clearance.shape)
+        forward = 1.0 if self.clearance[ahead] >= self.clearance[behind] else -1.0
+        self.gait.command(forward * SLOW, 0.0)
+        return True
 
     def _room_behind(self, head: np.ndarray, yaw: float) -> bool:
         """Is there room to back off (no wall within the footprint of a place 2.5 behind)?"""

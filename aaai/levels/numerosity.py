@@ -10,12 +10,14 @@ from aaai.levels.common import PlacementError, arena_walls, slab, sphere
 from aaai.spec import ObjectSpec
 
 PARAMETERS = ("hub", "max_pieces", "food_size", "door_depth", "wall_height")
-ARENA = (50.0, 50.0)
+ARENA = (70.0, 70.0)  # room for the body to turn in a sector without a foot touching its walls
 DIRECTIONS = {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}
 SPOKE_END = ARENA[0] / 2 - 0.5  # a spoke's end, short of the arena's corner so it stays inside
 TRIES = 200
-FOOD_WALL_GAP = 3.5  # a piece's centre stays this far from the arena's wall (validate: the head
-# must reach it from where the body walks, with FOOTPRINT_RADIUS to spare)
+# A piece's centre stays FOOD_WALL_GAP from the arena's wall and SPOKE_GAP / sqrt(2) from a spoke's
+# middle, so that the head eats it, and backs away, clear of the walls.
+FOOD_WALL_GAP = 5.0
+SPOKE_GAP = 9.0
 
 
 def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
@@ -33,6 +35,7 @@ def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
         "objects": objects + foods,
         "max_food_reward": counts[best] * value,  # the agent can eat in one sector only
         "wall_height": height,
+        "arena_size": ARENA,
         "extras": {"sector_food": dict(zip(DIRECTIONS, counts)), "best_sector": list(DIRECTIONS)[best]},
     }
 
@@ -72,7 +75,7 @@ def _sector_food(rng: np.random.Generator, direction, count: int, near: float, s
     for _ in range(count):
         for _ in range(TRIES):
             along = float(rng.uniform(near + 4.0, far))  # eaten only from inside the trigger line
-            across = float(rng.uniform(-(along - 6.0), along - 6.0))  # clear of the spokes
+            across = float(rng.uniform(-(along - SPOKE_GAP), along - SPOKE_GAP))  # clear of the spokes
             x, y = ux * along - uy * across, uy * along + ux * across
             if all(math.hypot(x - a, y - b) >= size + 1.5 for a, b in pieces):
                 pieces.append((x, y))
