@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: install install-train test test-long demo bench clean
+.PHONY: install install-train test test-long demo baselines gait tune-gait bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -39,6 +39,21 @@ demo: install-train
 	rm -rf $(DEMO_RUN)
 	$(BIN)/aaai train --curriculum --run $(DEMO_RUN)
 	$(BIN)/aaai eval --seeds reserved --policy $(DEMO_RUN)
+
+# The baseline table in the README: random actions, the reference controller and the demo's PPO
+# policy on the reserved seeds of all 13 levels x 11 difficulties (10 seeds each); runs the demo
+# first if its run is missing. Prints how long it took.
+baselines: install-train
+	test -f $(DEMO_RUN)/final/model.zip || $(MAKE) demo
+	$(BIN)/aaai baselines --demo-run $(DEMO_RUN) --out baselines
+
+# The gait: measure its speeds (README, "The body"), or tune it again (CMA-ES, the tune extra).
+gait: install
+	$(BIN)/python -m aaai.gait_tuning --measure
+
+tune-gait: install
+	$(BIN)/python -m pip install --quiet -e ".[dev,tune]"
+	$(BIN)/python -m aaai.gait_tuning --drive --write
 
 bench: install
 	$(BIN)/python -m pip install --quiet -e ".[dev,bench]"

@@ -96,7 +96,7 @@ class Curriculum:
     def write_heatmap(self, path: str | Path) -> None:
         """A PNG of mean return, z and p per cell (rows: levels, columns: difficulties)."""
         panels = [("mean return", self.mean_returns()), ("z", self.z_scores()), ("p", self.probabilities())]
-        images = [_panel(title, values, self.cells) for title, values in panels]
+        images = [heatmap_panel(title, values, self.cells) for title, values in panels]
         picture = np.concatenate(images, axis=1)
         path = Path(path)
         temporary = path.with_name(path.name + ".tmp.png")
@@ -107,27 +107,31 @@ class Curriculum:
 CELL_PX, MARGIN_PX = 44, 40
 
 
-def _panel(title: str, values: np.ndarray, cells: list[Cell]) -> np.ndarray:
+def heatmap_panel(title: str, values: np.ndarray, cells: list[Cell], limits: tuple[float, float] | None = None,
+                  text: list[str] | None = None) -> np.ndarray:
+    """One picture of a value per (level, difficulty) cell: rows levels, columns difficulties,
+    coloured from ``limits`` (default: the values' own range), each cell labelled with its
+    value (or with ``text``)."""
     levels = sorted({level for level, _ in cells})
     difficulties = sorted({d for _, d in cells})
     height = MARGIN_PX + CELL_PX * len(levels) + 10
     width = MARGIN_PX + CELL_PX * len(difficulties) + 10
     image = np.full((height, width, 3), 255, np.uint8)
     finite = values[np.isfinite(values)]
-    low, high = (finite.min(), finite.max()) if finite.size else (0.0, 1.0)
+    low, high = limits or ((finite.min(), finite.max()) if finite.size else (0.0, 1.0))
     scale = (high - low) or 1.0
     cv2.putText(image, title, (4, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
-    for (level, d), value in zip(cells, values):
+    for index, ((level, d), value) in enumerate(zip(cells, values)):
         row, col = levels.index(level), difficulties.index(d)
         y, x = MARGIN_PX + row * CELL_PX, MARGIN_PX + col * CELL_PX
         if np.isfinite(value):
-            shade = np.uint8(255 * (value - low) / scale)
+            shade = np.uint8(255 * min(max((value - low) / scale, 0.0), 1.0))
             colour = cv2.applyColorMap(np.array([[shade]], np.uint8), cv2.COLORMAP_VIRIDIS)[0, 0].tolist()
-            text = f"{value:.2f}"
+            label = f"{value:.2f}" if text is None else text[index]
         else:
-            colour, text = [220, 220, 220], "-"
+            colour, label = [220, 220, 220], "-"
         cv2.rectangle(image, (x, y), (x + CELL_PX - 2, y + CELL_PX - 2), colour, -1)
-        cv2.putText(image, text, (x + 2, y + CELL_PX // 2 + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.33, (255, 255, 255), 1,
+        cv2.putText(image, label, (x + 2, y + CELL_PX // 2 + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.33, (255, 255, 255), 1,
                     cv2.LINE_AA)
     for row, level in enumerate(levels):
         cv2.putText(image, get_level(level).label, (4, MARGIN_PX + row * CELL_PX + CELL_PX // 2 + 4),

@@ -25,7 +25,7 @@ from aaai.runs import RunFolder, write_atomic
 from aaai.seeds import TRAIN_SEEDS, reserved_seeds
 
 COLUMNS = ["level", "level_name", "difficulty", "seed", "return", "max_reward", "ratio", "outcome", "steps",
-           "food_eaten", "wall_hits", "fell", "wall_seconds"]
+           "max_steps", "food_eaten", "wall_hits", "fell", "wall_seconds"]
 PASS_RATIO, SUCCESS_RATIO = 0.8, 1.0
 TRAIN_EVAL_KEY = 7  # seeds `--seeds train` picks: fixed draws from the training range
 
@@ -147,7 +147,8 @@ def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int,
     return {
         "level": level, "level_name": info["level_name"], "difficulty": difficulty, "seed": seed,
         "return": round(total, 6), "max_reward": round(info["max_reward"], 6), "ratio": round(ratio, 6),
-        "outcome": outcome(ratio), "steps": info["steps"], "food_eaten": info["food_eaten"],
+        "outcome": outcome(ratio), "steps": info["steps"], "max_steps": info["max_steps"],
+        "food_eaten": info["food_eaten"],
         "wall_hits": info["wall_hits"], "fell": info["fell"],
         "wall_seconds": round(time.perf_counter() - started, 3),
     }

@@ -36,7 +36,8 @@ COMFORT = 8.0  # paths keep this far (units) from walls and edges where there is
 CROWDING_COST = 4.0  # ... paying up to this many times a step's length where there is not,
 CLOSE = 6.5  # and far more (CLOSE_COST) nearer than this, where a sweeping foot may touch a wall
 CLOSE_COST = 30.0
-SLOW = 0.4  # the fraction of full speed it walks at where a wall is within FOOTPRINT_RADIUS
+SLOW = 0.4
+ARC = 0.5  # the least forward command while getting out from beside a wall  # the fraction of full speed it walks at where a wall is within FOOTPRINT_RADIUS
 GREEN_BERTH = 6.0  # extra clearance round a green that is not the target (while yellows remain)
 LOOKAHEAD = 4.0  # the body steers at the cheapest cell this close along the plan
 DIRECT = 7.0  # nearer than this (plus the food's radius) it steers straight at the food
@@ -278,16 +279,23 @@ class ReferenceController:
         return best[0], best[1]
 
     def _cramped(self, head: np.ndarray, yaw: float, goal: tuple[float, float]) -> bool:
-        """Too near a wall to turn without a foot touching it (after eating food by a wall): walk
-        straight out, forward or backward, whichever leads to more room. False when there is room."""
+        """Too near a wall to turn on the spot without a foot touching it (after eating food by a
+        wall): walk out toward more room, backward if that is behind, arcing away from a wall
+        beside. False when there is room."""
         row, col = validate._cell(self.spec, head[0], head[1], self.clearance.shape)
         if self.clearance[row, col] >= FOOTPRINT_RADIUS or math.dist(head[:2], goal) < DIRECT:
             return False
-        step = 2.0
-        ahead = validate._cell(self.spec, head[0] + step * math.cos(yaw), head[1] + step * math.sin(yaw), self.clearance.shape)
-        behind = validate._cell(self.spec, head[0] - step * math.cos(yaw), head[1] - step * math.sin(yaw), self.clearance.shape)
-        forward = 1.0 if self.clearance[ahead] >= self.clearance[behind] else -1.0
-        self.gait.command(forward * SLOW, 0.0)
+        best, roomiest = yaw, -1.0
+        for k in range(16):  # the way out: the direction in which there is most room 2 units on
+            angle = yaw + k * math.pi / 8
+            room = self.clearance[validate._cell(self.spec, head[0] + 2.0 * math.cos(angle),
+                                                 head[1] + 2.0 * math.sin(angle), self.clearance.shape)]
+            if room > roomiest:
+                best, roomiest = angle, room
+        forward, turn = steer(_angle(best - yaw), 2.0, reverse=True)
+        if 0.0 <= forward < ARC:  # a wall beside: arc away from it rather than turn on the spot
+            forward = ARC
+        self.gait.command(forward * SLOW, turn)
         return True
 
     def _room_behind(self, head: np.ndarray, yaw: float) -> bool:

@@ -202,6 +202,30 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
     click.echo(f"scoreboard {output} ({len(rows)} episodes); summary {summary_path}")
 
 
+@cli.command("baselines")
+@click.option("--demo-run", type=click.Path(file_okay=False), default="runs/demo", show_default=True,
+              help="The trained run scored as ppo_demo (make demo writes it).")
+@click.option("--out", "folder", type=click.Path(file_okay=False), default="baselines", show_default=True)
+@click.option("--levels", default="0-12", show_default=True)
+@click.option("--difficulty", default="0-10", show_default=True)
+@click.option("--seeds-per-cell", "-k", "count", type=click.IntRange(1), default=10, show_default=True)
+@click.option("--workers", type=click.IntRange(1), default=2, show_default=True, help="Worker processes.")
+def baselines_command(demo_run, folder, levels, difficulty, count, workers):
+    """Score random actions, the reference controller and a trained run on the reserved seeds of
+    every cell: three scoreboards, a pass-rate table and a heatmap (make baselines)."""
+    from aaai.baselines import run
+    from aaai.evaluation import model_path
+
+    try:
+        model_path(demo_run) if Path(demo_run).is_dir() else None
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    if not Path(demo_run).is_dir():
+        raise click.UsageError(f"--demo-run: got {demo_run!r}, which is not a run folder; run `make demo` first")
+    run(Path(folder), Path(demo_run), parse_range(levels, "--levels", 0, 12),
+        parse_range(difficulty, "--difficulty", 0, 10), count, workers, echo=click.echo)
+
+
 @cli.command("seeds")
 @click.option("--levels", default="0-12", show_default=True)
 @click.option("--difficulty", default="0-10", show_default=True)

@@ -1,0 +1,132 @@
+"""The baseline table: random actions, the reference controller and a trained PPO policy, each
+scored on the reserved seeds of every level and difficulty (``make baselines``).
+
+Each policy's scoreboard is the ordinary ``aaai eval`` CSV (``baselines/<name>.csv``); the
+episodes are shared out over worker processes one (policy, level) at a time, each writing its own
+part (``baselines/parts/``), so an interrupted run resumes where it stopped. From the three
+scoreboards come ``baselines/table.md`` (pass rates per level, overall and at difficulties 0, 5
+and 10) and ``baselines/heatmap.png`` (the pass rate of every cell, one panel per policy).
+"""
+from __future__ import annotations
+
+import csv
+import io
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from aaai.config import load_config
+from aaai.curriculum import heatmap_panel
+from aaai.evaluation import COLUMNS, cells_for, evaluate, scored_episodes
+from aaai.levels import all_levels, get_level
+from aaai.runs import RunFolder, write_atomic
+
+SHOWN_DIFFICULTIES = (0, 5, 10)
+
+
+def policies(demo_run: Path) -> dict[str, str]:
+    """Name in the table -> what ``--policy`` takes."""
+    return {"random": "random", "reference": "reference", "ppo_demo": str(demo_run)}
+
+
+def _config(policy: str) -> dict:
+    """A run is scored with the config it was trained with (its sensors); the others with the defaults."""
+    return load_config(RunFolder(Path(policy)).read_config()) if Path(policy).is_dir() else load_config(None)
+
+
+def _score_part(policy: str, level: int, difficulties: list[int], count: int, part: Path) -> tuple[Path, float]:
+    started = time.perf_counter()
+    evaluate(policy, cells_for([level], difficulties, "reserved", count), part, _config(policy))
+    return part, time.perf_counter() - started
+
+
+def run(out: Path, demo_run: Path, levels: list[int] | None = None, difficulties: list[int] | None = None,
+        count: int = 10, workers: int = 2, echo=print) -> dict[str, Path]:
+    """Scores every policy on ``count`` reserved seeds per cell; returns the merged scoreboards."""
+    levels = sorted(all_levels()) if levels is None else levels
+    difficulties = list(range(11)) if difficulties is None else difficulties
+    named = policies(demo_run)
+    parts = out / "parts"
+    parts.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    seconds: dict[str, float] = {name: 0.0 for name in named}
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        jobs = {pool.submit(_score_part, policy, level, difficulties, count, parts / f"{name}_L{level}.csv"): name
+                for name, policy in named.items() for level in levels}
+        for job in jobs:
+            part, spent = job.result()
+            seconds[jobs[job]] += spent
+            echo(f"  {part.name}: {spent:.0f} s")
+    scoreboards = {}
+    for name in named:
+        rows = [row for level in levels for row in scored_episodes(parts / f"{name}_L{level}.csv")]
+        rows.sort(key=lambda r: (int(r["level"]), int(r["difficulty"]), int(r["seed"])))
+        scoreboards[name] = out / f"{name}.csv"
+        write_atomic(scoreboards[name], _csv_text(rows))
+    wall = time.perf_counter() - started
+    write_atomic(out / "table.md", table_markdown({name: _read(path) for name, path in scoreboards.items()}))
+    write_heatmap({name: _read(path) for name, path in scoreboards.items()}, levels, difficulties, out / "heatmap.png")
+    echo(f"baselines written to {out} in {wall / 60:.1f} min on {workers} workers ("
+         + ", ".join(f"{name} {spent / 60:.1f} min" for name, spent in seconds.items()) + " of worker time)")
+    return scoreboards
+
+
+def _csv_text(rows: list[dict]) -> str:
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=COLUMNS)
+    writer.writeheader()
+    writer.writerows(rows)
+    return text.getvalue()
+
+
+def _read(path: Path) -> list[dict]:
+    with open(path, newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def passed(row: dict) -> bool:
+    return row["outcome"] != "failed"
+
+
+def table_markdown(boards: dict[str, list[dict]]) -> str:
+    """Pass rates (passed or succeeded, ratio >= 0.8) per level and policy: overall and at
+    difficulties 0, 5 and 10."""
+    names = list(boards)
+    head = "| level | " + " | ".join(f"{name}: all | d0 / d5 / d10" for name in names) + " |"
+    lines = [head, "|---|" + "---:|---:|" * len(names)]
+    levels = sorted({int(row["level"]) for rows in boards.values() for row in rows})
+    for level in levels + [None]:
+        label = "**all levels**" if level is None else f"{get_level(level).label} {get_level(level).name}"
+        cells = []
+        for name in names:
+            rows = [row for row in boards[name] if level is None or int(row["level"]) == level]
+            cells.append(_rate(rows))
+            cells.append(" / ".join(_rate([r for r in rows if int(r["difficulty"]) == d]) for d in SHOWN_DIFFICULTIES))
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _rate(rows: list[dict]) -> str:
+    if not rows:
+        return "-"
+    return f"{100.0 * sum(map(passed, rows)) / len(rows):.0f}%"
+
+
+def write_heatmap(boards: dict[str, list[dict]], levels: list[int], difficulties: list[int], path: Path) -> None:
+    """One panel per policy: the fraction of episodes passed in each (level, difficulty) cell."""
+    cells = [(level, d) for level in levels for d in difficulties]
+    panels = []
+    for name, rows in boards.items():
+        rates, labels = [], []
+        for level, d in cells:
+            here = [row for row in rows if int(row["level"]) == level and int(row["difficulty"]) == d]
+            rates.append(sum(map(passed, here)) / len(here) if here else np.nan)
+            labels.append(f"{sum(map(passed, here))}/{len(here)}")
+        panels.append(heatmap_panel(f"{name}: passed", np.array(rates), cells, limits=(0.0, 1.0), text=labels))
+    picture = np.concatenate(panels, axis=1)
+    temporary = path.with_name(path.name + ".tmp.png")
+    cv2.imwrite(str(temporary), picture)
+    temporary.replace(path)
