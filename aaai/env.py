@@ -182,7 +182,7 @@ class AnimalAIEnv(gym.Env):
         if self.shaping:
             terms["shaping"] = self._shaping_reward(position)
         # the episode also ends when no food is left that the agent can still reach
-        terminated = green_eaten or events.fell or not self.world.food_in_reach()
+        terminated = green_eaten or events.fell or self.world.all_eaten()
         truncated = not terminated and (blew_up or self.steps >= self.max_steps)
         self._head = position
         observation = self._observe(angles, speeds, position, orientation)

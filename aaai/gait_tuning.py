@@ -107,7 +107,9 @@ def follow(env, gait: SineGait, spec: LevelSpec, waypoints, seconds: float) -> d
         ground += info["reward_terms"]["ground"] != 0
         position, yaw, up = _pose(env)
         lowest = min(lowest, up)
-        if terminated or truncated:
+        if eat and info["food_eaten"] == len(waypoints):  # the last piece ends the episode
+            return {"progress": done + legs[target], "ground": ground / steps, "upright": lowest, "seconds": seconds}
+        if terminated or truncated:  # fell or blew up
             return {"progress": done, "ground": 1.0, "upright": -1.0, "seconds": seconds}
     if target < len(waypoints):
         done += max(0.0, legs[target] - math.dist(position[:2], waypoints[target]))

@@ -100,6 +100,7 @@ class World:
         self._build_deadly_floor()
         for obj in spec.objects:
             self._build_object(obj)
+        self.had_food = bool(self.food)
         self._obstacles = [  # footprints that random walkers steer clear of
             footprint(obj) for obj in spec.objects
             if not obj.is_food and obj.mass == 0 and _inside_arena(obj, spec)
@@ -267,16 +268,18 @@ class World:
                 self.closed.append(door)
                 del self.doors[body]
 
-    def food_in_reach(self) -> bool:
-        """Is any food left that the agent can still get to? Food shut out of the sector the
-        agent is in (L9: behind a closed door) cannot be."""
+    def all_eaten(self) -> bool:
+        """Is no food left that the agent can still get to, in a level that had some? (Food shut
+        out of the sector the agent is in, L9's behind a closed door, cannot be got to.)"""
+        if not self.had_food:
+            return False
         if not self.closed:
-            return bool(self.food)
+            return not self.food
         for body in self.food:
             x, y, _ = p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0]
             if all(door.entered(x, y) for door in self.closed):
-                return True
-        return False
+                return False
+        return True
 
     def _walk(self, body: int, state: list[float], dt: float) -> None:
         obj = self.objects[body]

@@ -35,13 +35,29 @@ def test_green_food_eaten_by_the_head_pays_its_size_and_ends_the_episode(make_en
 
 def test_yellow_food_pays_half_its_size_disappears_and_the_episode_goes_on(make_env):
     env = make_env(limb_food_reward="none")
-    spec = open_arena(sphere("food_yellow", 5.0, 0.0, 3.0))
+    spec = open_arena(sphere("food_yellow", 5.0, 0.0, 3.0), sphere("food_yellow", -15.0, 15.0, 2.0))
     history = walk_until(env, spec, lambda info: info["food_eaten"] > 0)
     reward, terminated, truncated, info = history[-1]
     assert info["reward_terms"]["food"] == 1.5 and not terminated
-    assert not env.world.food  # the piece is gone
+    assert len(env.world.food) == 1  # the piece is gone, the other is left
     _, _, terminated, _, info = env.step(np.zeros(8))
     assert not terminated and info["reward_terms"]["food"] == 0.0
+
+
+def test_eating_the_last_piece_ends_the_episode(make_env):
+    env = make_env(limb_food_reward="none")
+    history = walk_until(env, open_arena(sphere("food_yellow", 5.0, 0.0, 3.0)), lambda info: info["food_eaten"] > 0)
+    _, terminated, truncated, info = history[-1]
+    assert info["reward_terms"]["food"] == 1.5 and terminated and not truncated
+
+
+def test_a_level_without_food_runs_to_its_time_limit(make_env):
+    env = make_env(max_steps=30)
+    env.reset(options={"spec": open_arena()})
+    for step in range(30):
+        _, _, terminated, truncated, _ = env.step(env.body.rest_action())
+        assert not terminated
+    assert truncated
 
 
 def test_a_leg_touching_food_pays_the_flat_limb_reward(make_env):
