@@ -90,6 +90,7 @@ class ReferenceController:
         self.standing, self.rest = False, None
         self.detour, self.approached, self.tries = None, set(), 0
         self.best_progress, self.progress_time, self.back_off_until = math.inf, 0.0, -1.0
+        self.progress_key = None
 
     def _map(self, start: tuple[float, float] | None = None) -> None:
         """Clearance, the region walkable from ``start`` (default: the agent's start) and crowding
@@ -216,7 +217,7 @@ class ReferenceController:
         if wait and math.dist(head[:2], goal) <= reach + 1.0:
             error = _angle(math.atan2(goal[1] - head[1], goal[0] - head[0]) - yaw)
             self.gait.command(0.0, steer(error, 0.0)[1] * 0.5)
-            self._progress(0.0, now)
+            self._progress(0.0, now, key)
             return self.gait()
         if now < self.back_off_until:
             self.gait.command(-1.0, 0.0)
@@ -237,7 +238,7 @@ class ReferenceController:
         remaining = math.dist(head[:2], goal)
         if self.plan is not None and self.plan_key == key:
             remaining = min(remaining, self.plan[validate._cell(self.spec, head[0], head[1], self.plan.shape)])
-        if not self._progress(remaining, now):  # stuck: back off, and come at food from another side
+        if not self._progress(remaining, now, key):  # stuck: back off, and come at food from another side
             if self._room_behind(head, yaw):
                 self.back_off_until = now + BACK_OFF_SECONDS
             self.detour = None
@@ -313,8 +314,10 @@ class ReferenceController:
             self.rest = (float(self.cell_x[col]), float(self.cell_y[row])) if room[row, col] > 0 else tuple(head[:2])
         return self.rest
 
-    def _progress(self, remaining: float, now: float) -> bool:
-        """Records progress toward the goal; False when none was made for STUCK_SECONDS."""
+    def _progress(self, remaining: float, now: float, key=None) -> bool:
+        """Records progress toward the goal ``key``; False when none was made for STUCK_SECONDS."""
+        if key != self.progress_key:  # a new goal: progress is counted afresh
+            self.progress_key, self.best_progress = key, math.inf
         if remaining < self.best_progress - 0.5 or not math.isfinite(self.best_progress):
             self.best_progress, self.progress_time = remaining, now
             return True
