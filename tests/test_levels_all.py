@@ -87,7 +87,10 @@ def test_a_plain_level_is_valid():
     (arena(sphere("food_green", 0, 24.5, 2)), "outside the arena"),
     (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, -15, 6, 1, 4)), "start"),
     (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 50, 1, 4)), "cannot be reached"),
-    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 34, 1, 4)), "cannot be reached"),  # gaps of 8 < 9
+    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 34, 1, 4)), "cannot be reached"),  # gaps of 8
+    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 30, 1, 4)), "cannot be reached"),  # gaps of 10
+    # food the head could reach only by leaning in against the wall, a foot touching it
+    (arena(sphere("food_green", 0, 23.4, 2)), "cannot be reached"),
     (arena(sphere("food_green", 0, 10, 2), tiles=(50, 50), holes=tuple((i, 24) for i in range(50))),
      "cannot be reached"),
     (arena(ObjectSpec("food_green", "sphere", (0, 10, 3), (2, 2, 2))), "not on solid ground"),
@@ -97,8 +100,12 @@ def test_the_checks_find_each_kind_of_problem(spec, problem):
     assert any(problem in text for text in problems), problems
 
 
-def test_a_gap_wide_enough_for_the_body_is_passable():
-    assert validate.check(arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 26, 1, 4))) == []  # gaps of 12
+def test_a_gap_wide_enough_for_the_walking_body_is_passable():
+    assert validate.check(arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 28, 1, 4))) == []  # gaps of 11
+
+
+def test_food_by_a_wall_is_valid_when_the_head_reaches_it_from_the_open_side():
+    assert validate.check(arena(sphere("food_green", 0, 21.0, 2))) == []  # 4 from the wall: the head 6.5 away
 
 
 def test_the_l10_trench_is_crossable_only_by_the_plank():

@@ -1,0 +1,49 @@
+"""The reference controller: every level solvable by this body within its time limit."""
+import numpy as np
+import pytest
+
+from aaai.env import AnimalAIEnv
+from aaai.evaluation import run_episode
+from aaai.levels import all_levels
+from aaai.reference import ReferenceController
+from aaai.seeds import reserved_seeds
+
+
+@pytest.fixture(scope="module")
+def reference():
+    env = AnimalAIEnv()  # the default senses and each level's own time limit
+    yield env, ReferenceController(env)
+    env.close()
+
+
+@pytest.mark.parametrize("difficulty", [0, 10])
+@pytest.mark.parametrize("level", sorted(all_levels()))
+def test_the_reference_controller_passes_a_reserved_seed_of_every_level(reference, level, difficulty):
+    env, controller = reference
+    seed = reserved_seeds(level, difficulty, 1)[0]
+    row = run_episode(env, controller, level, difficulty, seed)
+    assert row["outcome"] != "failed", row
+    assert row["steps"] < row["max_steps"]  # done (the food eaten) within the level's time limit
+
+
+def test_the_reference_controller_acts_only_through_its_actions():
+    """Its actions replayed in a fresh environment give the very same episode: it moves nothing
+    itself and it only sends actions from the action space."""
+    first, second = AnimalAIEnv(), AnimalAIEnv()
+    try:
+        controller = ReferenceController(first)
+        seed = reserved_seeds(10, 5, 1)[0]  # L10: it must push the plank over with its body
+        observation, _ = first.reset(seed=seed, options={"level": 10, "difficulty": 5})
+        second.reset(seed=seed, options={"level": 10, "difficulty": 5})
+        for _ in range(600):
+            action = controller(observation)
+            assert first.action_space.contains(np.asarray(action, np.float32))
+            observation, reward, terminated, truncated, _ = first.step(action)
+            replayed, replayed_reward, *_ = second.step(action)
+            assert reward == replayed_reward
+            assert all(np.array_equal(observation[key], replayed[key]) for key in observation)
+            if terminated or truncated:
+                break
+    finally:
+        first.close()
+        second.close()
