@@ -136,16 +136,20 @@ class ReferenceController:
         if key != self.plan_key or self.plan_goal is None or math.dist(goal, self.plan_goal) > REPLAN_MOVE:
             self.plan = self._costs(goal, reach, avoid)
             self.plan_key, self.plan_goal = key, goal
-        dx = self.cell_x[None, :] - head[0]
-        dy = self.cell_y[:, None] - head[1]
-        window = np.hypot(dx, dy) <= LOOKAHEAD
-        here = np.where(window, self.plan, np.inf)
-        if not np.isfinite(here).any():  # off the plan: head for the nearest planned cell
-            distance = np.where(np.isfinite(self.plan), np.hypot(dx, dy), np.inf)
-            row, col = np.unravel_index(np.argmin(distance), distance.shape)
-        else:
-            row, col = np.unravel_index(np.argmin(here), here.shape)
-        return float(self.cell_x[col]), float(self.cell_y[row])
+        row, col = validate._cell(self.spec, head[0], head[1], self.plan.shape)
+        span = int(LOOKAHEAD / validate.GRID) + 1
+        r0, c0 = max(row - span, 0), max(col - span, 0)
+        rows, cols = slice(r0, row + span + 1), slice(c0, col + span + 1)
+        near = np.hypot(self.cell_x[None, cols] - head[0], self.cell_y[rows, None] - head[1]) <= LOOKAHEAD
+        here = np.where(near, self.plan[rows, cols], np.inf)
+        if np.isfinite(here).any():
+            r, c = np.unravel_index(np.argmin(here), here.shape)
+            return float(self.cell_x[c0 + c]), float(self.cell_y[r0 + r])
+        # off the plan: head for the nearest planned cell
+        distance = np.where(np.isfinite(self.plan), np.hypot(self.cell_x[None, :] - head[0],
+                                                               self.cell_y[:, None] - head[1]), np.inf)
+        r, c = np.unravel_index(np.argmin(distance), distance.shape)
+        return float(self.cell_x[c]), float(self.cell_y[r])
 
     def _clear_line(self, head: np.ndarray, goal: tuple[float, float]) -> bool:
         """No blocked cell on the straight line from the head to the goal."""

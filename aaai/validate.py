@@ -214,8 +214,9 @@ def path_costs(region: np.ndarray, goals: np.ndarray, cell_cost: np.ndarray | No
 
 
 def _cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
-    col = int(np.clip(np.floor((x + spec.arena_size[0] / 2) / GRID), 0, shape[1] - 1))
-    row = int(np.clip(np.floor((y + spec.arena_size[1] / 2) / GRID), 0, shape[0] - 1))
+    """The grid cell (row, column) holding the point (x, y), clamped to the grid."""
+    col = min(max(math.floor((x + spec.arena_size[0] / 2) / GRID), 0), shape[1] - 1)
+    row = min(max(math.floor((y + spec.arena_size[1] / 2) / GRID), 0), shape[0] - 1)
     return row, col
 
 
