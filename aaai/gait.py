@@ -18,6 +18,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -62,9 +63,10 @@ class GaitParameters:
 
 
 @functools.cache
-def load_parameters() -> GaitParameters:
-    """The shipped parameters, configs/gait.yaml (written by ``python -m aaai.gait_tuning --write``)."""
-    path = config_dir() / "gait.yaml"
+def load_parameters(path: Path | None = None) -> GaitParameters:
+    """Gait parameters from a YAML file; by default the shipped ones, configs/gait.yaml (written
+    by ``python -m aaai.gait_tuning --write``)."""
+    path = config_dir() / "gait.yaml" if path is None else Path(path)
     data = read_yaml(path)
     allowed = [f.name for f in fields(GaitParameters)]
     for key, value in data.items():

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 import yaml
@@ -221,7 +222,8 @@ def main(argv=None) -> int:
     parser.add_argument("--evaluations", type=int, default=1500, help="CMA-ES evaluations (default 1500)")
     parser.add_argument("--drive", action="store_true", help="tune the joint drive as well")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--write", action="store_true", help="write the result to configs/gait.yaml")
+    parser.add_argument("--write", nargs="?", const=str(config_dir() / "gait.yaml"), metavar="PATH",
+                        help="write the result to PATH (default configs/gait.yaml)")
     args = parser.parse_args(argv)
     from aaai.env import AnimalAIEnv
 
@@ -239,7 +241,7 @@ def main(argv=None) -> int:
     finally:
         env.close()
     if args.write:
-        path = config_dir() / "gait.yaml"
+        path = Path(args.write)
         text = yaml.safe_dump({k: round(v, 4) for k, v in parameters.to_dict().items()}, sort_keys=False)
         path.write_text("# Written by `python -m aaai.gait_tuning --write`: the shipped gait's parameters.\n" + text)
         print(f"wrote {path}" + (f"; set agent drive {drive_values} in configs/default.yaml" if drive_values else ""))

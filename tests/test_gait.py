@@ -98,3 +98,27 @@ def test_approach_crouches_only_near_the_food():
     parameters = load_parameters()
     assert approach(parameters, 0.0, 20.0, 1.0)[2] == 0.0
     assert approach(parameters, 0.0, 1.0 + parameters.crouch_distance / 2, 1.0)[2] == 1.0
+
+
+@pytest.mark.parametrize("text, words", [
+    ("frequency: 2\nstride: 1\n", ["'stride'", "does not exist", "frequency"]),
+    ("frequency: fast\n", ["'frequency'", "'fast'", "a finite number"]),
+])
+def test_a_bad_gait_file_fails_with_one_clear_message(tmp_path, text, words):
+    from aaai.config import ConfigError
+
+    path = tmp_path / "gait.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as error:
+        load_parameters(path)
+    assert all(word in str(error.value) for word in words)
+
+
+@pytest.mark.long
+def test_the_tuner_writes_parameters_the_gait_loads(tmp_path):
+    from aaai.gait_tuning import main
+
+    path = tmp_path / "gait.yaml"
+    assert main(["--evaluations", "12", "--write", str(path)]) == 0
+    tuned = load_parameters(path)
+    assert tuned != load_parameters() and 0.5 <= tuned.frequency <= 4.0

@@ -47,3 +47,13 @@ def test_the_reference_controller_acts_only_through_its_actions():
     finally:
         first.close()
         second.close()
+
+
+def test_aaai_run_plays_the_reference_controller():
+    from click.testing import CliRunner
+
+    from aaai_cli.main import cli
+
+    result = CliRunner().invoke(cli, ["run", "--policy", "reference", "--levels", "0", "--difficulty", "0,4"])
+    assert result.exit_code == 0, result.output
+    assert result.output.count("ate green") == 2

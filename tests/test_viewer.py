@@ -153,7 +153,16 @@ def test_gait_video_to_avi_a_frame_every_second_step(tmp_path):
     assert (tmp_path / "also.png").is_file()
 
 
+def test_reference_video_records_the_episode_to_its_end(tmp_path):
+    out = tmp_path / "reference.mp4"
+    result = run_show("L0", "-d", 0, "-s", 1, "--video", out, "--steps", 1000, "--fps", 50, "--policy", "reference")
+    assert result.exit_code == 0, result.output
+    assert "ate green food" in result.output  # the reference eats the food before 1000 steps
+    assert 0 < count_frames(out) < 1000
+
+
 @pytest.mark.parametrize("args, words", [
+    (["L0", "--video", "x.mp4", "--policy", "nobody"], ["'nobody'", "reference", "random"]),
     (["L0", "-o", "x.jpg"], ["'x.jpg'", ".png"]),
     (["L0", "--video", "x.gif"], ["'x.gif'", ".mp4 or .avi", "GIF"]),
     (["L0", "--video", "x.mov"], ["'x.mov'", ".mp4 or .avi"]),

@@ -1,0 +1,42 @@
+"""make baselines: three scoreboards, a pass-rate table and a heatmap, on the reserved seeds."""
+import csv
+
+import cv2
+from click.testing import CliRunner
+
+from aaai.evaluation import COLUMNS
+from aaai.seeds import reserved_seeds
+from aaai_cli.main import cli
+
+
+def test_aaai_baselines_scores_three_policies_and_tabulates_them(tmp_path):
+    run = tmp_path / "demo"
+    trained = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "200", "--envs", "1",
+                                       "--run", str(run)])
+    assert trained.exit_code == 0, trained.output
+    out = tmp_path / "baselines"
+    result = CliRunner().invoke(cli, ["baselines", "--demo-run", str(run), "--out", str(out), "--levels", "0,8",
+                                      "--difficulty", "0,10", "-k", "2", "--workers", "2"])
+    assert result.exit_code == 0, result.output
+    assert "min on 2 workers" in result.output  # how long it took
+    boards = {}
+    for name in ("random", "reference", "ppo_demo"):
+        with open(out / f"{name}.csv", newline="") as handle:
+            rows = list(csv.DictReader(handle))
+        assert list(rows[0]) == COLUMNS
+        assert [(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows] == [
+            (level, d, seed) for level in (0, 8) for d in (0, 10) for seed in sorted(reserved_seeds(level, d, 2))]
+        boards[name] = rows
+    passed = {name: sum(r["outcome"] != "failed" for r in rows) for name, rows in boards.items()}
+    assert passed["reference"] > passed["random"]
+    table = (out / "table.md").read_text()
+    assert "| L8 object_permanence |" in table and "**all levels**" in table
+    reference_share = 100 * passed["reference"] // 8
+    assert f"{reference_share}%" in table
+    picture = cv2.imread(str(out / "heatmap.png"))
+    assert picture is not None and picture.shape[1] > 3 * picture.shape[0] / 2  # three panels side by side
+
+
+def test_aaai_baselines_needs_a_trained_run(tmp_path):
+    result = CliRunner().invoke(cli, ["baselines", "--demo-run", str(tmp_path / "missing"), "--out", str(tmp_path)])
+    assert result.exit_code == 2 and "make demo" in result.output
