@@ -273,3 +273,30 @@ def test_every_level_runs_headless_with_rays_and_camera_at_every_difficulty(make
         for _ in range(3):
             observation, _, _, _, info = env.step(env.action_space.sample())
         assert env.observation_space.contains(observation) and not info["blew_up"]
+
+
+@pytest.mark.parametrize("level", [6, 7])
+def test_every_reserved_seed_of_l6_and_l7_builds_its_inner_level_from_a_reserved_seed(level):
+    from aaai.seeds import RESERVED_SEEDS, reserved_seeds
+
+    for difficulty in range(11):
+        for seed in reserved_seeds(level, difficulty, 10):
+            assert generate(level, difficulty, seed).extras["inner"]["seed"] in RESERVED_SEEDS
+
+
+def _inner_seeds_stay_in_training(count: int) -> None:
+    from aaai.seeds import TRAIN_SEEDS
+
+    rng = np.random.default_rng(5)
+    for index, seed in enumerate(rng.integers(TRAIN_SEEDS.start, TRAIN_SEEDS.stop, size=count)):
+        level, difficulty = 6 + index % 2, index % 11
+        assert generate(level, difficulty, int(seed)).extras["inner"]["seed"] in TRAIN_SEEDS
+
+
+def test_training_seeds_of_l6_and_l7_build_their_inner_levels_from_training_seeds():
+    _inner_seeds_stay_in_training(1000)
+
+
+@pytest.mark.long
+def test_10000_training_seeds_of_l6_and_l7_build_inner_levels_from_training_seeds():
+    _inner_seeds_stay_in_training(10000)

@@ -6,11 +6,12 @@ the diagonals. Geometry follows the original build: head radius 1.5 (mass
 thigh centres 2.0 and shin centres 3.5 from the head centre.
 
 Two bodies are written:
-- ``quadruped.urdf`` (8 axes): each hip turns sideways (yaw, about the body's
-  vertical axis, [-45, 45] deg); each knee turns up/down (about the horizontal
-  axis across the leg, [-90, 90] deg, positive = down).
-- ``quadruped16.urdf`` (16 axes): every hip and knee has both an up/down and a
-  sideways axis, joined by a massless-in-effect connector link.
+- ``quadruped.urdf`` (8 axes, the default): each hip turns up/down (about the
+  horizontal axis across the leg, [-90, 90] deg, positive = down), which lifts
+  the head off the floor; each knee turns sideways (about the thigh's own
+  vertical axis, [-45, 45] deg), which sweeps the foot to walk and turn.
+- ``quadruped16.urdf`` (16 axes, the paper's body): every hip and knee has both
+  an up/down and a sideways axis, joined by a massless-in-effect connector link.
 
 Run ``python -m aaai.agent.urdf_writer`` to regenerate the files.
 """

@@ -20,6 +20,7 @@ from aaai import validate
 from aaai.config import ConfigError, config_dir, read_yaml
 from aaai.levels.common import PlacementError
 from aaai.levels.params import DIFFICULTIES, resolve
+from aaai.seeds import seed_range
 from aaai.spec import AgentPose, LevelSpec
 
 LEVEL_FILE_KEYS = ("id", "name", "title", "generator", "params", "time_limit", "label")
@@ -128,7 +129,11 @@ def generate(level: int | str, difficulty: int, seed: int) -> LevelSpec:
     problem = ""
     for attempt in range(MAX_ATTEMPTS):
         try:
-            built = lvl.generator.generate(params, difficulty, attempt_rng(lvl.id, difficulty, seed, attempt))
+            rng = attempt_rng(lvl.id, difficulty, seed, attempt)
+            if getattr(lvl.generator, "WRAPS_OTHER_LEVELS", False):  # the inner seed stays in the seed's range
+                built = lvl.generator.generate(params, difficulty, rng, seeds=seed_range(seed))
+            else:
+                built = lvl.generator.generate(params, difficulty, rng)
         except PlacementError as error:
             problem = str(error)
             continue
@@ -159,15 +164,17 @@ def _assemble(lvl: Level, difficulty: int, seed: int, built: dict, attempt: int)
     )
 
 
-def other_level(rng: np.random.Generator, exclude: tuple[int, ...]) -> LevelSpec:
+def other_level(rng: np.random.Generator, exclude: tuple[int, ...], seeds: range) -> LevelSpec:
     """A random other level and cell (L6, L7): the spec of an rng-drawn (level, difficulty, seed).
 
-    The inner seed comes from rng, so the result is a pure function of the outer level's seed.
+    The inner seed comes from rng, within ``seeds`` (the outer seed's range: aaai.seeds.seed_range),
+    so the result is a pure function of the outer level's seed and a reserved seed builds only
+    from reserved seeds.
     """
     choices = [level_id for level_id in all_levels() if level_id not in exclude]
     level_id = int(rng.choice(choices))
     difficulty = int(rng.integers(DIFFICULTIES.start, DIFFICULTIES.stop))
-    return generate(level_id, difficulty, int(rng.integers(0, SEED_LIMIT)))
+    return generate(level_id, difficulty, int(rng.integers(seeds.start, seeds.stop)))
 
 
 def spec_fields(spec: LevelSpec) -> dict:

@@ -8,10 +8,10 @@ PARAMETERS = ("light_seconds", "dark_seconds")
 WRAPS_OTHER_LEVELS = True
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, d: int, rng: np.random.Generator, seeds: range) -> dict:
     from aaai.levels import other_level, spec_fields  # the registry imports this module
 
-    fields = spec_fields(other_level(rng, exclude=(6, 7)))
+    fields = spec_fields(other_level(rng, exclude=(6, 7), seeds=seeds))
     # the environment blanks the camera on this schedule (aaai.env), in simulated time
     fields["extras"]["blackout"] = {"light": float(p["light_seconds"]), "dark": float(p["dark_seconds"])}
     return fields

@@ -13,10 +13,10 @@ WRAPS_OTHER_LEVELS = True
 WALL_KINDS = ("wall", "transparent_wall")
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, d: int, rng: np.random.Generator, seeds: range) -> dict:
     from aaai.levels import other_level, spec_fields  # the registry imports this module
 
-    inner = other_level(rng, exclude=(6, 7))
+    inner = other_level(rng, exclude=(6, 7), seeds=seeds)
     palette = rng.uniform(0.0, 1.0, (int(p["colours"]), 3))
     # each kind keeps its own opacity, so transparent walls stay see-through
     colours = {kind: (*map(float, palette[int(rng.integers(len(palette)))]), COLOURS[kind][3]) for kind in KINDS}
