@@ -50,8 +50,8 @@ PUSH_ALIGN = math.radians(15)  # faces the plank this squarely before walking in
 PUSH_LEAD = 6.0  # while pushing it steers at the plank's middle line this far ahead
 PUSHED_TILT = math.radians(60)  # a plank tilted this far is falling: the push is over
 PUSH_SECONDS = 15.0  # gives up pushing after this long and walks on
-CROSS_SECONDS = 25.0
-CROSS_ALIGN_X = 3.0  # starts across this close to the fallen plank's middle line (it is 11 wide)  # ... and crossing after this long
+CROSS_SECONDS = 25.0  # ... and crossing after this long
+CROSS_ALIGN_X = 4.5  # starts across this close to the fallen plank's middle line (it is 11 wide)
 CROSSED = 2.0  # across once the head is this close to the fallen plank's far end
 REST_SEARCH = 12.0  # with nothing left to eat, it stands at the roomiest place this close
 STUCK_SECONDS = 3.0  # no progress for this long: back off for a moment
@@ -290,6 +290,16 @@ class ReferenceController:
         row, col = validate._cell(self.spec, head[0], head[1], self.clearance.shape)
         if self.clearance[row, col] >= FOOTPRINT_RADIUS or math.dist(head[:2], goal) < DIRECT:
             return False
+        here = self.clearance[row, col]
+        straight = []  # straight out, ahead or behind, turns no leg toward the wall
+        for sign in (1.0, -1.0):
+            cell = validate._cell(self.spec, head[0] + sign * 2.0 * math.cos(yaw), head[1] + sign * 2.0 * math.sin(yaw),
+                                  self.clearance.shape)
+            straight.append((self.clearance[cell], sign))
+        room, sign = max(straight)
+        if room > here + 0.3:
+            self.gait.command(sign * SLOW, 0.0)
+            return True
         best, roomiest = yaw, -1.0
         for k in range(16):  # the way out: the direction in which there is most room 2 units on
             angle = yaw + k * math.pi / 8
@@ -336,9 +346,10 @@ class ReferenceController:
         env, (body, base_x, face, far_end) = self.env, self.plank
         if self.bridge_phase == "push":
             orientation = p.getBasePositionAndOrientation(body, physicsClientId=env.client)[1]
-            if p.getMatrixFromQuaternion(orientation)[8] < math.cos(PUSHED_TILT) or now - self.phase_started > PUSH_SECONDS:
+            pushed_long = self.lined_up and now - self.phase_started > PUSH_SECONDS
+            if p.getMatrixFromQuaternion(orientation)[8] < math.cos(PUSHED_TILT) or pushed_long:
                 self.bridge_phase, self.phase_started, self.lined_up = "cross", now, False
-        elif head[1] > far_end - CROSSED or now - self.phase_started > CROSS_SECONDS:
+        elif head[1] > far_end - CROSSED or (self.lined_up and now - self.phase_started > CROSS_SECONDS):
             self.plank, self.plan_key = None, None
             return False
         if not self.lined_up:
@@ -354,7 +365,7 @@ class ReferenceController:
             if abs(error) > PUSH_ALIGN:  # face the trench
                 self.gait.command(0.0, steer(error, 0.0)[1])
                 return True
-            self.lined_up = True
+            self.lined_up, self.phase_started = True, now
         # straight on along the plank's middle line, facing the trench
         error = _angle(math.atan2(PUSH_LEAD, base_x - head[0]) - yaw)
         self.gait.command(*steer(error, PUSH_LEAD))

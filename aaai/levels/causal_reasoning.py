@@ -13,6 +13,8 @@ from aaai.levels.common import AGENT_RADIUS, MAX_TRIES, PlacementError, arena_wa
 PARAMETERS = ("trench_width", "trench_south", "plank_width", "plank_thickness", "plank_overhang", "plank_mass",
               "plank_x_range", "side_walls", "side_wall_length", "transparent_probability", "food_size")
 ARENA = (50.0, 50.0)
+LANE_MARGIN = 2.5  # a side wall's middle this far beyond the plank's edge: a lane 15 wide, so
+# the trotting body (feet out to 5) walks up to the plank without touching either wall
 EDGE_GAP = 3.0  # between the standing plank and the trench's edge: the fallen plank rests on this much floor
 
 
@@ -53,7 +55,7 @@ def _side_walls(rng, count: int, plank_x: float, across: float, face: float, len
     walls = []
     for side in sides:
         kind = "transparent_wall" if rng.random() < transparent_probability else "wall"
-        x = plank_x + side * (across / 2 + 1.5)
+        x = plank_x + side * (across / 2 + LANE_MARGIN)
         walls.append(slab(kind, x, face - length / 2, length, 1.0, 4.0, yaw=math.pi / 2))
     return walls
 
