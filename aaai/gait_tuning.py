@@ -1,7 +1,7 @@
 """Measures the steerable gait and tunes its parameters with CMA-ES.
 
     python -m aaai.gait_tuning --measure          # speeds of the shipped parameters
-    python -m aaai.gait_tuning --evaluations 1500 --write   # re-tune; write configs/gait.yaml
+    python -m aaai.gait_tuning --drive --evaluations 1800 --write   # re-tune gait and drive (make tune-gait)
 
 The score of a parameter set is how fast the body, steered by ``aaai.gait.approach`` straight at
 each piece in turn, eats its way along random courses of food pieces (sizes 2 to 4) on flat

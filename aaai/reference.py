@@ -26,18 +26,18 @@ import numpy as np
 import pybullet as p
 
 from aaai import validate
-from aaai.levels.common import corners
-from aaai.validate import FOOTPRINT_RADIUS
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.gait import BACK_UP, SineGait, approach, steer
+from aaai.levels.common import corners
 from aaai.spec import ObjectSpec
+from aaai.validate import FOOTPRINT_RADIUS
 
 COMFORT = 8.0  # paths keep this far (units) from walls and edges where there is room ...
 CROWDING_COST = 4.0  # ... paying up to this many times a step's length where there is not,
 CLOSE = 6.5  # and far more (CLOSE_COST) nearer than this, where a sweeping foot may touch a wall
 CLOSE_COST = 30.0
-SLOW = 0.4
-ARC = 0.5  # the least forward command while getting out from beside a wall  # the fraction of full speed it walks at where a wall is within FOOTPRINT_RADIUS
+SLOW = 0.4  # the fraction of full speed it walks at where a wall is within FOOTPRINT_RADIUS
+ARC = 0.5  # the least forward command while getting out from beside a wall
 GREEN_BERTH = 6.0  # extra clearance round a green that is not the target (while yellows remain)
 LOOKAHEAD = 4.0  # the body steers at the cheapest cell this close along the plan
 DIRECT = 7.0  # nearer than this (plus the food's radius) it steers straight at the food
@@ -136,7 +136,7 @@ class ReferenceController:
         if key != self.plan_key or self.plan_goal is None or math.dist(goal, self.plan_goal) > REPLAN_MOVE:
             self.plan = self._costs(goal, reach, avoid)
             self.plan_key, self.plan_goal = key, goal
-        row, col = validate._cell(self.spec, head[0], head[1], self.plan.shape)
+        row, col = validate.cell(self.spec, head[0], head[1], self.plan.shape)
         span = int(LOOKAHEAD / validate.GRID) + 1
         r0, c0 = max(row - span, 0), max(col - span, 0)
         rows, cols = slice(r0, row + span + 1), slice(c0, col + span + 1)
@@ -156,7 +156,7 @@ class ReferenceController:
         steps = max(2, int(math.dist(head[:2], goal) / validate.GRID))
         for t in np.linspace(0.0, 1.0, steps):
             x, y = head[0] + t * (goal[0] - head[0]), head[1] + t * (goal[1] - head[1])
-            row, col = validate._cell(self.spec, x, y, self.clearance.shape)
+            row, col = validate.cell(self.spec, x, y, self.clearance.shape)
             if self.clearance[row, col] < 1.0:
                 return False
         return True
@@ -241,7 +241,7 @@ class ReferenceController:
         point = self._waypoint(head, goal, reach, key, avoid)
         remaining = math.dist(head[:2], goal)
         if self.plan is not None and self.plan_key == key:
-            remaining = min(remaining, self.plan[validate._cell(self.spec, head[0], head[1], self.plan.shape)])
+            remaining = min(remaining, self.plan[validate.cell(self.spec, head[0], head[1], self.plan.shape)])
         if not self._progress(remaining, now, key):  # stuck: back off, and come at food from another side
             if self._room_behind(head, yaw):
                 self.back_off_until = now + BACK_OFF_SECONDS
@@ -255,7 +255,7 @@ class ReferenceController:
         else:
             forward, turn = steer(error, math.dist(head[:2], point), arrive=2.0 if self.detour else 0.0,
                                   reverse=remaining < BACK_UP)
-            row, col = validate._cell(self.spec, head[0], head[1], self.clearance.shape)
+            row, col = validate.cell(self.spec, head[0], head[1], self.clearance.shape)
             room = (self.clearance[row, col] - FOOTPRINT_RADIUS) / (CLOSE - FOOTPRINT_RADIUS)
             self.gait.command(forward * min(1.0, max(SLOW, room)) if forward > 0 else forward, turn)
         return self.gait()
@@ -271,10 +271,10 @@ class ReferenceController:
         for k in range(-8, 8):
             angle = towards + k * math.pi / 8
             cos, sin = math.cos(angle), math.sin(angle)
-            stand = validate._cell(self.spec, food[0] + gap * cos, food[1] + gap * sin, self.clearance.shape)
+            stand = validate.cell(self.spec, food[0] + gap * cos, food[1] + gap * sin, self.clearance.shape)
             if not self.walk[stand]:
                 continue
-            eat = validate._cell(self.spec, food[0] + reach * cos, food[1] + reach * sin, self.clearance.shape)
+            eat = validate.cell(self.spec, food[0] + reach * cos, food[1] + reach * sin, self.clearance.shape)
             # room where the head will be as it eats (to back out straight), then on the way in
             score = min(self.clearance[eat], COMFORT) + 0.5 * min(self.clearance[stand], CLOSE) - 0.3 * abs(k)
             if score > best_score:
@@ -287,13 +287,13 @@ class ReferenceController:
         """Too near a wall to turn on the spot without a foot touching it (after eating food by a
         wall): walk out toward more room, backward if that is behind, arcing away from a wall
         beside. False when there is room."""
-        row, col = validate._cell(self.spec, head[0], head[1], self.clearance.shape)
+        row, col = validate.cell(self.spec, head[0], head[1], self.clearance.shape)
         if self.clearance[row, col] >= FOOTPRINT_RADIUS or math.dist(head[:2], goal) < DIRECT:
             return False
         here = self.clearance[row, col]
         straight = []  # straight out, ahead or behind, turns no leg toward the wall
         for sign in (1.0, -1.0):
-            cell = validate._cell(self.spec, head[0] + sign * 2.0 * math.cos(yaw), head[1] + sign * 2.0 * math.sin(yaw),
+            cell = validate.cell(self.spec, head[0] + sign * 2.0 * math.cos(yaw), head[1] + sign * 2.0 * math.sin(yaw),
                                   self.clearance.shape)
             straight.append((self.clearance[cell], sign))
         room, sign = max(straight)
@@ -303,7 +303,7 @@ class ReferenceController:
         best, roomiest = yaw, -1.0
         for k in range(16):  # the way out: the direction in which there is most room 2 units on
             angle = yaw + k * math.pi / 8
-            room = self.clearance[validate._cell(self.spec, head[0] + 2.0 * math.cos(angle),
+            room = self.clearance[validate.cell(self.spec, head[0] + 2.0 * math.cos(angle),
                                                  head[1] + 2.0 * math.sin(angle), self.clearance.shape)]
             if room > roomiest:
                 best, roomiest = angle, room
@@ -316,7 +316,7 @@ class ReferenceController:
     def _room_behind(self, head: np.ndarray, yaw: float) -> bool:
         """Is there room to back off (no wall within the footprint of a place 2.5 behind)?"""
         x, y = head[0] - 2.5 * math.cos(yaw), head[1] - 2.5 * math.sin(yaw)
-        row, col = validate._cell(self.spec, x, y, self.clearance.shape)
+        row, col = validate.cell(self.spec, x, y, self.clearance.shape)
         return bool(self.clearance[row, col] > FOOTPRINT_RADIUS)
 
     def _rest_spot(self, head: np.ndarray) -> tuple[float, float]:

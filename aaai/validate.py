@@ -161,7 +161,7 @@ def walk_region(spec: LevelSpec, clearance: np.ndarray, start: tuple[float, floa
     free = (clearance > FOOTPRINT_RADIUS).astype(np.uint8)
     _, labels = cv2.connectedComponents(free, connectivity=8)
     x, y = (spec.agent.x, spec.agent.y) if start is None else start
-    row, col = _cell(spec, x, y, clearance.shape)
+    row, col = cell(spec, x, y, clearance.shape)
     start = labels[row, col]
     return None if start == 0 else labels == start
 
@@ -213,7 +213,7 @@ def path_costs(region: np.ndarray, goals: np.ndarray, cell_cost: np.ndarray | No
     return np.array(best).reshape(rows, cols)
 
 
-def _cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
+def cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
     """The grid cell (row, column) holding the point (x, y), clamped to the grid."""
     col = min(max(math.floor((x + spec.arena_size[0] / 2) / GRID), 0), shape[1] - 1)
     row = min(max(math.floor((y + spec.arena_size[1] / 2) / GRID), 0), shape[0] - 1)
@@ -224,8 +224,8 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     """Can the head, its centre in the agent's region, touch the piece where it comes to rest?"""
     x, y, _ = food_places(food)[-1]
     reach = HEAD_RADIUS + food.size[0] / 2 + GRID
-    row0, col0 = _cell(spec, x - reach, y - reach, region.shape)
-    row1, col1 = _cell(spec, x + reach, y + reach, region.shape)
+    row0, col0 = cell(spec, x - reach, y - reach, region.shape)
+    row1, col1 = cell(spec, x + reach, y + reach, region.shape)
     window = region[row0:row1 + 1, col0:col1 + 1]
     cols = (np.arange(col0, col1 + 1) + 0.5) * GRID - spec.arena_size[0] / 2
     rows = (np.arange(row0, row1 + 1) + 0.5) * GRID - spec.arena_size[1] / 2
