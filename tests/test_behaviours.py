@@ -224,3 +224,21 @@ def test_moving_parts_and_terrain_repeat_bit_for_bit(make_env, level):
     first = run_random(make_env(**sensors), seed=7, steps=300, level=level)
     second = run_random(make_env(**sensors), seed=7, steps=300, level=level)
     assert_identical(first, second)
+
+
+@pytest.mark.parametrize("with_food", [False, True])
+def test_shut_in_an_l9_sector_the_episode_ends_when_no_food_is_left_in_it(make_env, with_food):
+    spec = next(s for s in (generate(9, 5, seed) for seed in range(50)) if 0 in s.extras["sector_food"].values())
+    name = next(n for n, count in spec.extras["sector_food"].items() if (count > 0) == with_food)
+    ux, uy = {"north": (0, 1), "east": (1, 0), "south": (0, -1), "west": (-1, 0)}[name]
+    env = make_env()
+    env.reset(options={"spec": spec})
+    for _ in range(20):  # in the hub every sector's food can still be got to
+        _, _, terminated, _, _ = env.step(env.body.rest_action())
+        assert not terminated
+    p.resetBasePositionAndOrientation(env.body.id, (16.0 * ux, 16.0 * uy, 1.5), (0, 0, 0, 1), physicsClientId=env.client)
+    for _ in range(5):  # past the trigger line: the door closes behind the head
+        _, _, terminated, truncated, info = env.step(env.body.rest_action())
+        if terminated:
+            break
+    assert terminated == (not with_food) and info["food_eaten"] == 0
