@@ -1,7 +1,7 @@
 import pytest
 
 from aaai.agent.body import urdf_path
-from aaai.config import ConfigError, load_config
+from aaai.config import ConfigError, config_dir, load_config
 from aaai.env import AnimalAIEnv
 from aaai.levels import generate
 from aaai.levels.params import LevelParamError, resolve, resolve_value
@@ -84,3 +84,34 @@ def test_level_parameters_follow_difficulty():
 def test_bad_seed_is_rejected():
     with pytest.raises(ConfigError, match="seed: got -1"):
         generate(0, 0, -1)
+
+
+@pytest.mark.parametrize("time_limit, words", [
+    ("500", ["time_limit", "500", "0.2 to 200 seconds"]),
+    ('"10 * d"', ["time_limit", "0.0", "difficulty 0"]),
+])
+def test_a_level_file_with_a_bad_time_limit_is_refused(tmp_path, time_limit, words):
+    from aaai.levels import _load_level
+
+    text = (config_dir() / "levels" / "L0.yaml").read_text()
+    path = tmp_path / "L0.yaml"
+    path.write_text("\n".join(f"time_limit: {time_limit}" if line.startswith("time_limit:") else line
+                              for line in text.splitlines()))
+    with pytest.raises(ConfigError) as error:
+        _load_level(path)
+    assert all(word in str(error.value) for word in words)
+
+
+def test_an_episode_lasts_its_levels_time_limit_unless_max_steps_is_set(make_env):
+    from aaai.levels import get_level
+
+    for level, difficulty in ((0, 0), (11, 10)):
+        env = make_env()
+        _, info = env.reset(seed=1, options={"level": level, "difficulty": difficulty})
+        seconds = get_level(level).time_limit_at(difficulty)
+        assert info["max_steps"] == round(seconds / env.control_dt) and seconds > 15
+    env = make_env(max_steps=40)
+    env.reset(seed=1)
+    for step in range(1, 41):
+        _, _, terminated, truncated, info = env.step(env.action_space.sample())
+        assert truncated == (step == 40) and not terminated and info["max_steps"] == 40
