@@ -20,7 +20,7 @@ import numpy as np
 
 from aaai.config import load_config
 from aaai.curriculum import heatmap_panel
-from aaai.evaluation import COLUMNS, cells_for, evaluate, scored_episodes
+from aaai.evaluation import COLUMNS, cells_for, evaluate, policy_record, scored_episodes
 from aaai.levels import all_levels, get_level
 from aaai.runs import RunFolder, write_atomic
 
@@ -39,7 +39,8 @@ def _config(policy: str) -> dict:
 
 def _score_part(policy: str, level: int, difficulties: list[int], count: int, part: Path) -> tuple[Path, float]:
     started = time.perf_counter()
-    evaluate(policy, cells_for([level], difficulties, "reserved", count), part, _config(policy))
+    evaluate(policy, cells_for([level], difficulties, "reserved", count), part, _config(policy),
+             record=policy_record(policy, "reserved"))
     return part, time.perf_counter() - started
 
 

@@ -7,7 +7,9 @@ instance can give minus 0.5 (allowing for step costs). Outcome: failed (ratio < 
 from __future__ import annotations
 
 import csv
+import hashlib
 import importlib
+import json
 import math
 import os
 import time
@@ -22,7 +24,7 @@ from aaai.gait import SineGait
 from aaai.env import AnimalAIEnv
 from aaai.levels import get_level
 from aaai.runs import RunFolder, write_atomic
-from aaai.seeds import TRAIN_SEEDS, reserved_seeds
+from aaai.seeds import TRAIN_SEEDS, key_record, reserved_seeds
 
 COLUMNS = ["level", "level_name", "difficulty", "seed", "return", "max_reward", "ratio", "outcome", "steps",
            "max_steps", "food_eaten", "wall_hits", "fell", "wall_seconds"]
@@ -36,10 +38,13 @@ def outcome(ratio: float) -> str:
     return "passed" if ratio >= PASS_RATIO else "failed"
 
 
-def seeds_for(mode: str, level: int, difficulty: int, count: int) -> list[int]:
-    """'reserved', 'train' (fixed draws from the training range) or an explicit list '1,2,3'."""
+def seeds_for(mode: str, level: int, difficulty: int, count: int, key: str | None = None) -> list[int]:
+    """'reserved' (the hidden list of ``key`` if given), 'train' (fixed draws from the training
+    range) or an explicit list '1,2,3'."""
+    if key is not None and mode != "reserved":
+        raise ConfigError(f"--seeds: got {mode!r} with a seed key; allowed: a seed key only with --seeds reserved")
     if mode == "reserved":
-        return reserved_seeds(level, difficulty, count)
+        return reserved_seeds(level, difficulty, count, key)
     if mode == "train":
         rng = np.random.default_rng([TRAIN_EVAL_KEY, level, difficulty])
         return [int(s) for s in rng.choice(TRAIN_SEEDS.stop, size=count, replace=False)]
@@ -170,9 +175,12 @@ def scored_episodes(path: Path) -> list[dict]:
 
 
 def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
-             on_episode: Callable[[dict], None] | None = None) -> list[dict]:
-    """Plays every (cell, seed) not yet in ``output`` and appends its row, flushed per episode."""
+             on_episode: Callable[[dict], None] | None = None, record: dict | None = None) -> list[dict]:
+    """Plays every (cell, seed) not yet in ``output`` and appends its row, flushed per episode.
+    ``record`` (default: the policy on listed seeds) is what the scoreboard is scored with; it is
+    kept beside it, and resuming with a different one is refused."""
     output.parent.mkdir(parents=True, exist_ok=True)
+    check_record(output, record if record is not None else policy_record(policy_name, "list"))
     rows = scored_episodes(output)
     done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows}
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))  # scores count the task's own reward
@@ -237,7 +245,40 @@ def write_summary(summary: list[dict], output: Path) -> Path:
     return path
 
 
-def cells_for(levels: list[int], difficulties: list[int], seeds: str, count: int) -> list[Cell]:
+def cells_for(levels: list[int], difficulties: list[int], seeds: str, count: int, key: str | None = None) -> list[Cell]:
     for level in levels:
         get_level(level)
-    return [Cell(level, d, seeds_for(seeds, level, d, count)) for level in levels for d in difficulties]
+    return [Cell(level, d, seeds_for(seeds, level, d, count, key)) for level in levels for d in difficulties]
+
+
+def policy_record(policy: str, seeds: str, key: str | None = None) -> dict:
+    """What a scoreboard was scored with: the policy (and its model file's hash), the seeds and the
+    seed key's record. An eval that resumes a scoreboard must match it."""
+    record = {"policy": policy, "seeds": seeds, "seed_key": key_record(key)}
+    path = None if policy in ("random", "reference", "gait") or ":" in policy else model_path(policy)
+    if path is not None:
+        record["model"] = str(path)
+        record["model_sha256"] = hashlib.sha256(path.read_bytes()).hexdigest()
+    return record
+
+
+def record_path(output: Path) -> Path:
+    return output.with_name(output.stem + "_scored_with.json")
+
+
+def check_record(output: Path, record: dict) -> None:
+    """Writes the record beside a new scoreboard; refuses to add to one scored with anything else."""
+    path = record_path(output)
+    if path.exists():
+        try:
+            earlier = json.loads(path.read_text())
+        except (OSError, ValueError):
+            earlier = None
+        if earlier != record:
+            raise ConfigError(f"--out: {str(output)!r} holds episodes scored with {earlier}; refusing to add episodes "
+                              f"of {record}: choose another --out, or delete both files to start again")
+    elif output.exists() and output.stat().st_size > 0:
+        raise ConfigError(f"--out: {str(output)!r} holds episodes of an unknown policy (no {path.name}); "
+                          "choose another --out, or delete it to start again")
+    else:
+        write_atomic(path, json.dumps(record, indent=1, sort_keys=True) + "\n")

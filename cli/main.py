@@ -172,9 +172,18 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
 @click.option("--seeds-per-cell", "-k", type=click.IntRange(1), help="K seeds per cell (default: eval.seeds_per_cell).")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
 @click.option("--out", "output", type=click.Path(), help="Scoreboard CSV (default: scoreboard_<seeds>.csv in the run).")
-def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output):
+@click.option("--seed-key-file", type=click.Path(dir_okay=False),
+              help="A file holding a secret key: score the hidden reserved list it stands for "
+                   "(or set AAAI_SEED_KEY). The scoreboard records a hash of the key, never the key.")
+def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output, seed_key_file):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
-    from aaai.evaluation import cells_for, evaluate, summarise, summary_markdown, write_summary
+    from aaai.evaluation import cells_for, evaluate, policy_record, summarise, summary_markdown, write_summary
+    from aaai.seeds import read_seed_key
+
+    try:
+        key = read_seed_key(seed_key_file)
+    except ValueError as error:
+        raise click.UsageError(str(error)) from None
 
     run_folder = Path(policy) if Path(policy).is_dir() else None
     try:
@@ -186,12 +195,13 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
         difficulty_list = (parse_range(difficulty, "--difficulty", 0, 10) if difficulty
                            else config["curriculum"]["difficulties"])
         count = seeds_per_cell or config["eval"]["seeds_per_cell"]
-        cells = cells_for(level_list, difficulty_list, seeds_mode, count)
+        cells = cells_for(level_list, difficulty_list, seeds_mode, count, key)
         label = seeds_mode if seeds_mode in ("reserved", "train") else "list"
         output = Path(output) if output else (run_folder or Path(".")) / f"scoreboard_{label}.csv"
+        record = policy_record(policy, seeds_mode, key)
         episodes = sum(len(cell.seeds) for cell in cells)
         with click.progressbar(length=episodes, label=f"scoring {episodes} episodes", show_pos=True) as bar:
-            rows = evaluate(policy, cells, output, config, on_episode=lambda row: bar.update(1))
+            rows = evaluate(policy, cells, output, config, on_episode=lambda row: bar.update(1), record=record)
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except ImportError as error:
@@ -230,13 +240,21 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers):
 @click.option("--levels", default="0-12", show_default=True)
 @click.option("--difficulty", default="0-10", show_default=True)
 @click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=10, show_default=True)
-def seeds_command(levels, difficulty, count):
+@click.option("--seed-key-file", type=click.Path(dir_okay=False),
+              help="A file holding a secret key: print the hidden list it stands for (or set AAAI_SEED_KEY).")
+def seeds_command(levels, difficulty, count, seed_key_file):
     """Print the reserved evaluation seeds of each (level, difficulty) cell."""
-    from aaai.seeds import reserved_seeds
+    from aaai.seeds import key_record, read_seed_key, reserved_seeds
 
+    try:
+        key = read_seed_key(seed_key_file)
+    except ValueError as error:
+        raise click.UsageError(str(error)) from None
+    click.echo(f"seed key: {key_record(key)}")
     for level in parse_range(levels, "--levels", 0, 12):
         for d in parse_range(difficulty, "--difficulty", 0, 10):
-            click.echo(f"{get_level(level).label} d{d}: " + ",".join(str(s) for s in reserved_seeds(level, d, count)))
+            seeds = reserved_seeds(level, d, count, key)
+            click.echo(f"{get_level(level).label} d{d}: " + ",".join(str(s) for s in seeds))
 
 
 @cli.command("bench")

@@ -10,8 +10,10 @@ from pathlib import Path
 
 import pytest
 import yaml
+from click.testing import CliRunner
 
 from aaai.evaluation import COLUMNS
+from aaai_cli.main import cli
 
 AAAI = [sys.executable, "-m", "aaai_cli.main"]
 
@@ -158,3 +160,42 @@ def test_eval_on_training_seeds_and_on_a_seed_list(tmp_path):
     with open(train) as handle:
         seeds = [int(row["seed"]) for row in csv.DictReader(handle)]
     assert len(seeds) == 2 and all(0 <= s < 1288490240 for s in seeds)
+
+
+def test_a_secret_seed_key_gives_a_hidden_reproducible_list_and_is_recorded_not_revealed(tmp_path, monkeypatch):
+    from aaai.seeds import RESERVED_SEEDS, reserved_seeds
+
+    key_file = tmp_path / "key.txt"
+    key_file.write_text("a secret only the organisers hold\n")
+    public = CliRunner().invoke(cli, ["seeds", "--levels", "0", "--difficulty", "0", "-k", "3"])
+    hidden = CliRunner().invoke(cli, ["seeds", "--levels", "0", "--difficulty", "0", "-k", "3",
+                                      "--seed-key-file", str(key_file)])
+    monkeypatch.setenv("AAAI_SEED_KEY", "a secret only the organisers hold")
+    from_variable = CliRunner().invoke(cli, ["seeds", "--levels", "0", "--difficulty", "0", "-k", "3"])
+    assert public.exit_code == hidden.exit_code == from_variable.exit_code == 0
+    assert hidden.output == from_variable.output != public.output
+    seeds = [int(s) for s in hidden.output.splitlines()[-1].split(": ")[1].split(",")]
+    assert all(seed in RESERVED_SEEDS for seed in seeds) and seeds != reserved_seeds(0, 0, 3)
+
+    out = tmp_path / "hidden.csv"
+    scored = CliRunner().invoke(cli, ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0", "-k", "3",
+                                      "--out", str(out)])
+    assert scored.exit_code == 0, scored.output
+    with open(out) as handle:
+        assert sorted(int(row["seed"]) for row in csv.DictReader(handle)) == sorted(seeds)
+    record = (tmp_path / "hidden_scored_with.json").read_text()
+    assert '"seed_key": "sha256:' in record and "organisers" not in record
+    assert "organisers" not in out.read_text()
+
+
+def test_a_scoreboard_refuses_episodes_of_another_policy(tmp_path):
+    out = tmp_path / "board.csv"
+    args = ["eval", "--levels", "0", "--difficulty", "0", "-k", "1", "--out", str(out)]
+    first = CliRunner().invoke(cli, args + ["--policy", "random"])
+    assert first.exit_code == 0, first.output
+    before = out.read_text()
+    other = CliRunner().invoke(cli, args + ["-k", "2", "--policy", "reference"])
+    assert other.exit_code == 2 and "refusing to add episodes" in other.output and "'reference'" in other.output
+    assert out.read_text() == before
+    resumed = CliRunner().invoke(cli, args + ["-k", "2", "--policy", "random"])  # the same policy resumes
+    assert resumed.exit_code == 0 and len(out.read_text().splitlines()) == 3
