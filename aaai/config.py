@@ -68,9 +68,12 @@ def parse_int_set(value: Any, key: str, low: int, high: int) -> list[int]:
                 values.append(part)
                 continue
             first, _, last = str(part).strip().partition("-")
-            values.extend(range(int(first), int(last or first) + 1))
+            start, stop = int(first), int(last or first)
+            if not low <= start <= stop <= high:  # checked before a list is built: '0-3000000000' is refused
+                raise ValueError
+            values.extend(range(start, stop + 1))
     except ValueError:
-        raise ConfigError(f"config key '{key}': got {value!r}; allowed: {allowed}") from None
+        raise ConfigError(f"config key '{key}': got {value!r}; allowed: {allowed} (a range runs low to high)") from None
     if not values or any(not low <= v <= high for v in values):
         raise ConfigError(f"config key '{key}': got {value!r}; allowed: {allowed}")
     return sorted(set(values))
@@ -142,6 +145,13 @@ def env_part(config: dict, shaping: float) -> dict:
     part = {key: value for key, value in config.items() if key not in TRAINING_SECTIONS}
     part["episode"] = {**part["episode"], "shaping": shaping}
     return part
+
+
+def env_keywords() -> set[str]:
+    """The keyword arguments the environment takes for configuration: the short names of the
+    environment's keys and its section names (not the training sections)."""
+    env_keys = [key for key in RULES if key.split(".")[0] not in TRAINING_SECTIONS]
+    return {key.rsplit(".", 1)[-1] for key in env_keys} | {key.split(".")[0] for key in env_keys if "." in key}
 
 
 def config_dir() -> Path:

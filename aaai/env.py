@@ -12,7 +12,7 @@ import pybullet as p
 from gymnasium import spaces
 
 from aaai.agent.body import Quadruped
-from aaai.config import ConfigError, load_config
+from aaai.config import ConfigError, env_keywords, load_config
 from aaai.kinds import KIND_INDEX
 from aaai.levels import check_difficulty, episode_rngs, generate, get_level
 from aaai.rewards import TERMS, StepEvents, limb_eats, step_reward
@@ -53,6 +53,10 @@ class AnimalAIEnv(gym.Env):
 
     def __init__(self, level: int | str | None = None, difficulty: int | None = None,
                  config: Any = None, render_mode: str | None = None, **overrides: Any):
+        unexpected = sorted(set(overrides) - env_keywords())
+        if unexpected:  # worded as Python's own error, which libraries that probe keywords expect
+            raise TypeError(f"AnimalAIEnv.__init__() got an unexpected keyword argument '{unexpected[0]}'; allowed: "
+                            f"level, difficulty, config, render_mode, {', '.join(sorted(env_keywords()))}")
         if level is not None:
             overrides["level"] = get_level(level).id
         if difficulty is not None:

@@ -115,3 +115,29 @@ def test_an_episode_lasts_its_levels_time_limit_unless_max_steps_is_set(make_env
     for step in range(1, 41):
         _, _, terminated, truncated, info = env.step(env.action_space.sample())
         assert truncated == (step == 40) and not terminated and info["max_steps"] == 40
+
+
+@pytest.mark.parametrize("keyword", ["frameskip", "seed", "total_steps", "levels", "camra"])
+def test_the_env_refuses_an_unknown_or_training_keyword_as_python_does(keyword):
+    import gymnasium as gym
+
+    import aaai  # noqa: F401  (registers the ids)
+
+    with pytest.raises(TypeError, match=rf"__init__\(\) got an unexpected keyword argument '{keyword}'; allowed: .*camera"):
+        gym.make("aaai/L0-FoodContact-v0", **{keyword: 1})
+
+
+@pytest.mark.parametrize("text", ["5-2", "0-3000000000", "0-13", "-1", "x"])
+def test_a_bad_range_is_refused_before_any_list_is_built(text):
+    from aaai.config import parse_int_set
+
+    with pytest.raises(ConfigError, match=rf"got '{text}'; allowed: integers from 0 to 12"):
+        parse_int_set(text, "curriculum.levels", 0, 12)
+
+
+def test_importing_aaai_prints_nothing():
+    import subprocess
+    import sys
+
+    result = subprocess.run([sys.executable, "-c", "import aaai"], capture_output=True, text=True)
+    assert result.returncode == 0 and result.stdout == "" and result.stderr == ""
