@@ -329,6 +329,17 @@ class AnimalAIEnv(gym.Env):
         projection = p.computeProjectionMatrixFOV(60.0, width / height, 0.1, 200.0)
         return render_rgb(self.client, width, height, view, projection)
 
+    # --- copies ---------------------------------------------------------------------
+    def __getstate__(self) -> dict:
+        """A pickled environment is its configuration (at its current level and difficulty): the
+        PyBullet client cannot travel. The copy is a new environment; reset it before stepping."""
+        return {"config": self.config, "level": self.level, "difficulty": self.difficulty,
+                "render_mode": self.render_mode}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(level=state["level"], difficulty=state["difficulty"], config=state["config"],
+                      render_mode=state["render_mode"])
+
     def close(self):
         if getattr(self, "client", None) is not None and p.isConnected(self.client):
             p.disconnect(self.client)

@@ -142,3 +142,27 @@ def test_bad_actions_are_refused(make_env):
         env.step(np.zeros(3))
     with pytest.raises(ValueError, match="non-finite"):
         env.step(np.full(8, np.nan))
+
+
+def test_an_env_pickles_to_its_configuration_and_copies_are_independent():
+    import copy
+    import pickle
+    import subprocess
+    import sys
+
+    from aaai.env import AnimalAIEnv
+
+    env = AnimalAIEnv(camera=True, camera_resolution=16)
+    env.reset(seed=3, options={"level": 2, "difficulty": 4})
+    duplicate = copy.deepcopy(env)
+    duplicate.close()  # closing a copy leaves the original running
+    observation, _ = env.reset(seed=5)
+    assert env.step(np.zeros(8))[0]["camera"].shape == (16, 16, 3)
+    code = ("import pickle, sys, numpy as np\n"
+            "env = pickle.loads(sys.stdin.buffer.read())\n"
+            "observation, info = env.reset(seed=5)\n"
+            "print(env.level, env.difficulty, info['level_name'], observation['camera'].shape)\n")
+    result = subprocess.run([sys.executable, "-c", code], input=pickle.dumps(env), capture_output=True)
+    assert result.returncode == 0, result.stderr.decode()
+    assert result.stdout.decode().split() == ["2", "4", "y_maze", "(16,", "16,", "3)"]
+    env.close()
