@@ -11,6 +11,7 @@ import numpy as np
 import pybullet as p
 from gymnasium import spaces
 
+from aaai import validate
 from aaai.agent.body import Quadruped
 from aaai.config import ConfigError, env_keywords, load_config
 from aaai.kinds import KIND_INDEX
@@ -26,7 +27,7 @@ WALL = KIND_INDEX["wall"]
 DEADLY = KIND_INDEX["deadly_floor"]
 GREEN = KIND_INDEX["food_green"]
 YELLOW = KIND_INDEX["food_yellow"]
-RESET_OPTIONS = ("level", "difficulty", "spec")
+RESET_OPTIONS = ("level", "difficulty", "spec", "check")
 RENDER_SIZE = (320, 240)
 SCORE_ALLOWANCE = 0.5  # max_reward = best food reward - this, allowing for step costs
 BLOWUP_JOINT_SPEED = 90.0  # rad/s; Bullet clamps joint speeds at 100
@@ -141,10 +142,14 @@ class AnimalAIEnv(gym.Env):
         if "difficulty" in options:
             self.difficulty = check_difficulty(options["difficulty"])
         episode_seed = seed if seed is not None else int(self.np_random.integers(TRAIN_SEEDS.start, TRAIN_SEEDS.stop))
-        if "spec" in options:  # a hand-made level
+        if "spec" in options:  # a hand-made level, checked as a generated one is unless check=False
             if not isinstance(options["spec"], LevelSpec):
                 raise ConfigError(f"reset option 'spec': got {type(options['spec']).__name__}; allowed: a LevelSpec")
             spec = options["spec"]
+            problems = validate.check(spec, require_food=False) if options.get("check", True) else []
+            if problems:
+                raise ConfigError("reset option 'spec': the level is not valid: " + "; ".join(problems)
+                                  + " (options={'check': False} runs it all the same)")
         else:
             spec = generate(self.level, self.difficulty, episode_seed)
         self.level_spec = spec

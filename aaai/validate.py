@@ -233,8 +233,51 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     return bool(np.any(window & near))
 
 
-def check(spec: LevelSpec) -> list[str]:
-    """Every problem found in a spec; an empty list means the level is valid."""
+BEHAVIOUR_FIELDS = {"random_walk": ("speed",), "sink": ("depth", "duration"), "slide": ("to", "speed"),
+                    "door": ("direction", "distance"), "hinge": ("pivot",)}
+MAX_ARENA = 1000.0  # units across: far beyond any level, short of a grid that would not fit in memory
+
+
+def malformed(spec: LevelSpec) -> list[str]:
+    """Numbers and fields no level can be built from: non-finite or non-positive sizes, positions
+    that are not finite, holes outside the tiles, behaviours missing their fields."""
+    problems = []
+
+    def finite(values, what: str) -> bool:
+        try:
+            ok = all(math.isfinite(float(v)) for v in values)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            problems.append(f"{what} is not a list of finite numbers: {values!r}")
+        return ok
+
+    if finite(spec.arena_size, "the arena size") and not all(0 < v <= MAX_ARENA for v in spec.arena_size):
+        problems.append(f"the arena size {spec.arena_size!r} must lie between 0 and {MAX_ARENA:g} on each side")
+    finite((spec.agent.x, spec.agent.y, spec.agent.yaw), "the agent's pose")
+    nx, ny = spec.tiles
+    if not (isinstance(nx, int) and isinstance(ny, int) and 1 <= nx <= 400 and 1 <= ny <= 400):
+        problems.append(f"the floor tiles {spec.tiles!r} must be two integers from 1 to 400")
+    elif any(not (0 <= i < nx and 0 <= j < ny) for i, j in spec.holes):
+        problems.append(f"a hole lies outside the {nx} x {ny} floor tiles: {spec.holes!r}")
+    for index, obj in enumerate(spec.objects):
+        what = f"object {index} ({obj.kind})"
+        if finite(obj.size, f"{what}'s size") and min(obj.size) <= 0:
+            problems.append(f"{what}'s size {obj.size!r} must be positive")
+        finite((*obj.position, obj.yaw, obj.mass), f"{what}'s position, yaw and mass")
+        if obj.behaviour:
+            missing = [f for f in BEHAVIOUR_FIELDS.get(obj.behaviour.get("type"), ()) if f not in obj.behaviour]
+            if missing:
+                problems.append(f"{what}'s behaviour {obj.behaviour['type']!r} lacks {', '.join(missing)}")
+    return problems
+
+
+def check(spec: LevelSpec, require_food: bool = True) -> list[str]:
+    """Every problem found in a spec; an empty list means the level is valid. A hand-made spec
+    may leave food out (``require_food=False``); a generated level may not."""
+    problems = malformed(spec)
+    if problems:  # nothing else can be measured on it
+        return problems
     problems = overlapping_solids(spec)
     for food in spec.foods:
         problems += food_problems(spec, food)
@@ -246,7 +289,7 @@ def check(spec: LevelSpec) -> list[str]:
     for food in spec.foods:
         if not food_reachable(spec, region, food):
             problems.append(f"{food.kind} at {_xy(food_places(food)[-1])} cannot be reached from the start")
-    if not spec.foods:
+    if require_food and not spec.foods:
         problems.append("the level has no food")
     return problems
 

@@ -122,7 +122,8 @@ def test_falling_into_a_hole_pit_or_trench_costs_one_and_ends_the_episode(make_e
         x = -15.0 if plank.position[0] > 0 else 15.0
         y = sum(spec.extras["trench"]) / 2
     env = make_env()
-    env.reset(options={"spec": replace(spec, agent=AgentPose(x, y, 0.0))})
+    # an agent started over the gap is no valid level: run it all the same
+    env.reset(options={"spec": replace(spec, agent=AgentPose(x, y, 0.0)), "check": False})
     for _ in range(200):
         _, reward, terminated, truncated, info = env.step(env.body.rest_action())
         if terminated or truncated:

@@ -166,3 +166,31 @@ def test_an_env_pickles_to_its_configuration_and_copies_are_independent():
     assert result.returncode == 0, result.stderr.decode()
     assert result.stdout.decode().split() == ["2", "4", "y_maze", "(16,", "16,", "3)"]
     env.close()
+
+
+@pytest.mark.parametrize("change, words", [
+    (dict(agent=(30.0, 0.0, 0.0)), ["not clear"]),
+    (dict(arena_size=(float("nan"), 50.0)), ["arena size", "finite"]),
+    (dict(tiles=(5, 5), holes=((9, 9),)), ["hole lies outside"]),
+])
+def test_a_hand_made_spec_is_checked_before_it_is_run(change, words):
+    from dataclasses import replace
+
+    from aaai.config import ConfigError
+    from aaai.env import AnimalAIEnv
+    from aaai.spec import AgentPose
+    from conftest import open_arena
+
+    if "agent" in change:
+        change["agent"] = AgentPose(*change["agent"])
+    spec = replace(open_arena(), **change)
+    env = AnimalAIEnv(rays=False)
+    try:
+        with pytest.raises(ConfigError) as error:
+            env.reset(options={"spec": spec})
+        assert "not valid" in str(error.value) and all(word in str(error.value) for word in words)
+        if "agent" in change:  # an explicit opt-out runs it all the same
+            env.reset(options={"spec": spec, "check": False})
+            env.step(np.zeros(8))
+    finally:
+        env.close()
