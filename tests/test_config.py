@@ -141,3 +141,23 @@ def test_importing_aaai_prints_nothing():
 
     result = subprocess.run([sys.executable, "-c", "import aaai"], capture_output=True, text=True)
     assert result.returncode == 0 and result.stdout == "" and result.stderr == ""
+
+
+@pytest.mark.parametrize("content, words", [
+    (b"a: &x [1, 2]\nb: *x\n", ["alias", "not allowed"]),
+    (b"lol1: &l1 [a, a, a, a, a, a, a, a, a]\nlol2: &l2 [*l1, *l1, *l1, *l1, *l1, *l1]\n", ["alias"]),
+    (b"episode:\n  max_steps: 500\n\xff\xfe\n", ["not UTF-8"]),
+    (b"[" * 5000 + b"]" * 5000, ["nests too deeply"]),
+    (b"- 1\n- 2\n", ["top level must be a mapping"]),
+])
+def test_a_hostile_yaml_file_gets_one_clear_message(tmp_path, content, words):
+    path = tmp_path / "bad.yaml"
+    path.write_bytes(content)
+    with pytest.raises(ConfigError) as error:
+        load_config(path)
+    assert str(path) in str(error.value) and all(word in str(error.value) for word in words)
+
+
+def test_a_config_that_is_neither_a_path_nor_a_mapping_is_refused():
+    with pytest.raises(ConfigError, match="got 123; allowed: a YAML file's path or a mapping"):
+        load_config(123)
