@@ -138,6 +138,14 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
     """Train on a curriculum of (level, difficulty) cells; checkpoints and logs go to the run folder."""
     from aaai.training import train
 
+    ignored = {name: value for name, value in {
+        mode or "curriculum": mode, "config": config_path, **dict( levels=levels, difficulty=difficulty, envs=num_envs, seed=seed,
+        agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays, run=run_dir)}.items()
+        if value is not None}
+    if resume_dir and ignored:  # a resumed run keeps its own config: say so rather than ignore the option
+        options = ", ".join(f"--{name.replace('_', '-')}" for name in ignored)
+        raise click.UsageError(f"--resume continues a run with the config it was started with; {options} cannot "
+                               "change on resume (allowed with --resume: --steps, to move the run's end)")
     try:
         if resume_dir:  # --steps may move the run's end; other options come from the run's config
             run_dir, config = resume_dir, None

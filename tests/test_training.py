@@ -199,3 +199,14 @@ def test_a_scoreboard_refuses_episodes_of_another_policy(tmp_path):
     assert out.read_text() == before
     resumed = CliRunner().invoke(cli, args + ["-k", "2", "--policy", "random"])  # the same policy resumes
     assert resumed.exit_code == 0 and len(out.read_text().splitlines()) == 3
+
+
+@pytest.mark.parametrize("extra", [["--levels", "5-7"], ["--camera"], ["--random"], ["--envs", "4"]])
+def test_resume_refuses_options_it_cannot_honour(tmp_path, extra):
+    run = tmp_path / "run"
+    started = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "100", "--envs", "1", "--run", str(run)])
+    assert started.exit_code == 0, started.output
+    before = (run / "config.yaml").read_text()
+    resumed = CliRunner().invoke(cli, ["train", "--resume", str(run), "--steps", "200", *extra])
+    assert resumed.exit_code == 2 and extra[0] in resumed.output and "cannot change on resume" in resumed.output
+    assert (run / "config.yaml").read_text() == before
