@@ -20,7 +20,7 @@ from aaai.rewards import TERMS, StepEvents, limb_eats, step_reward
 from aaai.seeds import TRAIN_SEEDS
 from aaai.spec import LevelSpec
 from aaai.sensors import Camera, Rays, render_rgb
-from aaai.world import World
+from aaai.world import World, missing_floor
 
 FLOOR = KIND_INDEX["floor"]
 WALL = KIND_INDEX["wall"]
@@ -158,6 +158,8 @@ class AnimalAIEnv(gym.Env):
 
         self._reset_physics()
         self.world = World(self.client, spec, motion_rng, self.visuals)
+        if self.rays:
+            self.rays.set_holes(missing_floor(spec))
         self._blackout = self._blackout_steps(spec)
         self.body.load(spec.agent.x, spec.agent.y, spec.agent.yaw)
         self.steps = 0

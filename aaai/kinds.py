@@ -10,8 +10,11 @@ KINDS = (
     "deadly_floor",  # ends the episode with -1
     "plank",  # pushable
     "pillar",
+    "hole",  # seen by rays only: the edge of missing floor (a hole, pit or trench) in a ray's direction
 )
 KIND_INDEX = {kind: index for index, kind in enumerate(KINDS)}
+RAY_ONLY_KINDS = ("hole",)
+OBJECT_KINDS = tuple(kind for kind in KINDS if kind not in RAY_ONLY_KINDS)
 FOOD_KINDS = ("food_green", "food_yellow")
 SOLID_KINDS = ("wall", "transparent_wall", "plank", "pillar")
 
@@ -25,10 +28,12 @@ COLOURS = {
     "deadly_floor": (0.8, 0.1, 0.1, 1.0),
     "plank": (0.55, 0.35, 0.15, 1.0),
     "pillar": (0.4, 0.4, 0.45, 1.0),
+    "hole": (0.15, 0.1, 0.1, 1.0),
 }
 
 
 def check_kind(kind: str) -> str:
-    if kind not in KIND_INDEX:
-        raise ValueError(f"object kind {kind!r} is not known; allowed: {', '.join(KINDS)}")
+    """An object's kind: one of OBJECT_KINDS (a hole is missing floor tiles, not an object)."""
+    if kind not in OBJECT_KINDS:
+        raise ValueError(f"object kind {kind!r} is not known; allowed: {', '.join(OBJECT_KINDS)}")
     return kind

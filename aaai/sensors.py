@@ -8,7 +8,9 @@ from gymnasium import spaces
 
 from aaai.agent.body import RAY_MASK
 from aaai.agent.urdf_writer import HEAD_RADIUS
-from aaai.kinds import KINDS
+from aaai.kinds import KIND_INDEX, KINDS
+
+HOLE = KIND_INDEX["hole"]
 
 CAMERA_FOV = 60.0
 CAMERA_NEAR, CAMERA_FAR = 0.05, 120.0
@@ -20,6 +22,13 @@ class Rays:
 
     Each ray reports a one-hot of the kind hit (aaai.kinds.KINDS order), a hit-nothing flag,
     and the hit distance over the ray length (1 when nothing is hit).
+
+    Holes: rays in the head's plane pass over missing floor, so the level's holes, pits and
+    trenches (``set_holes``: rectangles of missing tiles) are cast against analytically, in the
+    floor plane: a ray whose ground track enters missing floor before anything stops it reports
+    the kind ``hole`` at that distance (0 once the head is over the gap). Rays are lines, not the
+    original's sphere casts of radius 0.5: an object narrower than the gap between two rays at its
+    distance can lie unseen between them.
     """
 
     def __init__(self, client: int, rays_per_side: int, max_angle: float, length: float):
@@ -31,6 +40,12 @@ class Rays:
         self.n_kinds = len(KINDS)
         self.space = spaces.Box(0.0, 1.0, (self.n_rays, self.n_kinds + 2), np.float32)
         self._nothing = self.n_kinds
+        self._holes = None  # (m, 4) rectangles x0, y0, x1, y1 of missing floor, or None
+
+    def set_holes(self, rectangles) -> None:
+        """The level's missing floor as world rectangles (x0, y0, x1, y1); empty for none."""
+        rectangles = np.asarray(rectangles, dtype=np.float64).reshape(-1, 4)
+        self._holes = rectangles if len(rectangles) else None
 
     def observe(self, head_pos: np.ndarray, head_rot: np.ndarray, kind_index: np.ndarray) -> np.ndarray:
         dirs = self.local_dirs @ head_rot.T
@@ -50,7 +65,27 @@ class Rays:
             else:
                 obs[row, self._nothing] = 1.0
                 obs[row, -1] = 1.0
+        if self._holes is not None:
+            self._see_holes(obs, starts, dirs)
         return obs
+
+    def _see_holes(self, obs: np.ndarray, starts: np.ndarray, dirs: np.ndarray) -> None:
+        """Marks each ray whose ground track enters missing floor before its hit as seeing a hole."""
+        x0, y0, x1, y1 = self._holes.T  # (m,)
+        ground = dirs[:, :2].copy()
+        ground[ground == 0.0] = 1e-12  # no division by zero: a ray parallel to a side meets it 'very far'
+        inverse = 1.0 / ground
+        tx0, tx1 = (x0 - starts[:, 0:1]) * inverse[:, 0:1], (x1 - starts[:, 0:1]) * inverse[:, 0:1]  # (n, m)
+        ty0, ty1 = (y0 - starts[:, 1:2]) * inverse[:, 1:2], (y1 - starts[:, 1:2]) * inverse[:, 1:2]
+        enter = np.maximum(np.minimum(tx0, tx1), np.minimum(ty0, ty1))  # the slab method
+        leave = np.minimum(np.maximum(tx0, tx1), np.maximum(ty0, ty1))
+        enter = np.maximum(enter, 0.0)  # a head over the gap sees it at once
+        distance = np.where(leave >= enter, enter, np.inf).min(axis=1) / self.length  # (n,)
+        rows = distance < obs[:, -1]
+        if rows.any():
+            obs[rows, :-1] = 0.0
+            obs[rows, HOLE] = 1.0
+            obs[rows, -1] = distance[rows]
 
 
 class Camera:

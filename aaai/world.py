@@ -329,6 +329,18 @@ def merge_tiles(nx: int, ny: int, holes: set[tuple[int, int]]) -> list[tuple[int
     return sorted(rectangles, key=lambda r: (r[1], r[0]))
 
 
+def missing_floor(spec: LevelSpec) -> list[tuple[float, float, float, float]]:
+    """The level's holes, pits and trenches as few world rectangles (x0, y0, x1, y1)."""
+    if not spec.holes or spec.heightfield is not None:
+        return []
+    nx, ny = spec.tiles
+    tile_x, tile_y = spec.arena_size[0] / nx, spec.arena_size[1] / ny
+    present = {(i, j) for i in range(nx) for j in range(ny)} - set(map(tuple, spec.holes))
+    left, bottom = -spec.arena_size[0] / 2, -spec.arena_size[1] / 2
+    return [(left + i0 * tile_x, bottom + j0 * tile_y, left + i1 * tile_x, bottom + j1 * tile_y)
+            for i0, j0, i1, j1 in merge_tiles(nx, ny, present)]
+
+
 def footprint(obj: ObjectSpec) -> tuple[float, float, float, float]:
     """Centre and half extents (x, y) of the axis-aligned box around an object's footprint."""
     cos, sin = abs(math.cos(obj.yaw)), abs(math.sin(obj.yaw))

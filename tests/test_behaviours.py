@@ -10,6 +10,7 @@ import pytest
 from aaai.gait import SineGait
 from aaai.levels import generate
 from aaai.spec import AgentPose
+from aaai.sensors import EYE_OFFSET
 from aaai.world import HIDDEN_Z
 from test_env import assert_identical, run_random
 
@@ -243,3 +244,66 @@ def test_shut_in_an_l9_sector_the_episode_ends_when_no_food_is_left_in_it(make_e
         if terminated:
             break
     assert terminated == (not with_food) and info["food_eaten"] == 0
+
+
+def first_hole_sighting(env, lane_x, gap_y, steps=2500):
+    """Walks the body north on a lane toward missing floor that begins at gap_y; returns how far
+    the head still was from the gap when the forward ray first reported a hole, and how far the
+    ray said it was (None: never)."""
+    from aaai.kinds import KIND_INDEX
+
+    gait, observation = SineGait.for_env(env, "forward"), None
+    forward = env.unwrapped.rays.n_rays // 2
+    for _ in range(steps):
+        head, rotation = env.body.head_pose()
+        velocity, spin = p.getBaseVelocity(env.body.id, physicsClientId=env.client)
+        p.applyExternalForce(env.body.id, -1, (20.0 * (lane_x - head[0]) - 10.0 * velocity[0], 0.0, 0.0),
+                             head.tolist(), p.WORLD_FRAME, physicsClientId=env.client)
+        turn = math.remainder(math.pi / 2 - math.atan2(rotation[1, 0], rotation[0, 0]), 2 * math.pi)
+        p.applyExternalTorque(env.body.id, -1, (0.0, 0.0, 40.0 * turn - 8.0 * spin[2]), p.WORLD_FRAME,
+                              physicsClientId=env.client)
+        observation, _, terminated, truncated, _ = env.step(gait(observation))
+        ray = observation["rays"][forward]
+        if ray[KIND_INDEX["hole"]] == 1.0:
+            return gap_y - env.body.head_pose()[0][1], ray[-1] * env.unwrapped.rays.length + EYE_OFFSET
+        if terminated or truncated:
+            return None
+    return None
+
+
+@pytest.mark.parametrize("level", [4, 10])
+def test_the_forward_ray_sees_a_hole_well_before_the_head_is_over_it(make_env, level):
+    spec = generate(level, 10, 2)
+    env = make_env(rays=True, max_steps=5000)
+    if level == 10:  # walk at the trench away from the plank
+        plank = next(o for o in spec.objects if o.kind == "plank")
+        lane_x, gap_y = (-15.0 if plank.position[0] > 0 else 15.0), spec.extras["trench"][0]
+        start = AgentPose(lane_x, -22.0, math.pi / 2)
+    else:  # walk at the southern edge of a hole from the tile south of it
+        nx, ny = spec.tiles
+        i, j = next((i, j) for i, j in sorted(spec.holes, key=lambda t: t[1]) if j > 0 and (i, j - 1) not in spec.holes)
+        lane_x, tile_y = hole_centre(spec, (i, j))
+        gap_y = tile_y - spec.arena_size[1] / ny / 2
+        start = AgentPose(lane_x, gap_y - 16.0, math.pi / 2)
+    env.reset(options={"spec": replace(spec, agent=start), "check": False})
+    sighting = first_hole_sighting(env, lane_x, gap_y)
+    assert sighting is not None
+    distance, reported = sighting
+    assert distance >= 3.0 and reported == pytest.approx(distance, abs=1.0)  # seen where it is
+
+
+@pytest.mark.parametrize("between, seen", [(True, False), (False, True)])
+def test_a_thin_post_between_two_rays_is_missed_as_the_readme_says(make_env, between, seen):
+    """Rays are lines, not sphere casts: a post 0.3 wide, 10 away, midway between two rays
+    (which are 2 x 10 sin(5.6 / 2 deg) = 0.98 apart there) is not seen; on a ray it is."""
+    from aaai.levels.common import slab
+    from conftest import open_arena
+
+    env = make_env(rays=True)  # 8 rays a side over 45 degrees: 5.6 degrees apart
+    step = math.radians(45.0 / 8)
+    angle = step / 2 if between else step
+    post = slab("wall", 10.0 * math.cos(angle), 10.0 * math.sin(angle), 0.3, 0.3, 4.0)
+    observation, _ = env.reset(options={"spec": open_arena(post)})
+    sees_wall = observation["rays"][:, 2] == 1.0  # the wall kind, in any ray
+    near = observation["rays"][:, -1] * 15 < 10.0  # ... nearer than the arena's walls
+    assert bool((sees_wall & near).any()) == seen

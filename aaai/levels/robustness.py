@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from aaai.kinds import COLOURS, KINDS
+from aaai.kinds import COLOURS, OBJECT_KINDS
 
 PARAMETERS = ("colours", "wall_height")
 WRAPS_OTHER_LEVELS = True
@@ -19,7 +19,7 @@ def generate(p: dict, d: int, rng: np.random.Generator, seeds: range) -> dict:
     inner = other_level(rng, exclude=(6, 7), seeds=seeds)
     palette = rng.uniform(0.0, 1.0, (int(p["colours"]), 3))
     # each kind keeps its own opacity, so transparent walls stay see-through
-    colours = {kind: (*map(float, palette[int(rng.integers(len(palette)))]), COLOURS[kind][3]) for kind in KINDS}
+    colours = {kind: (*map(float, palette[int(rng.integers(len(palette)))]), COLOURS[kind][3]) for kind in OBJECT_KINDS}
     fields = spec_fields(inner)
     fields["objects"] = [_restyle(obj, colours, p["wall_height"]) for obj in inner.objects]
     fields["wall_height"] = max(inner.wall_height, float(p["wall_height"]))
