@@ -67,10 +67,11 @@ def limit_rate(level: int, steps: int, difficulty: int = 5) -> float:
     actions = _actions(body.n_axes, steps)
     targets = body.lower + (actions + 1.0) * 0.5 * (body.upper - body.lower)
     forces = [body.max_force] * body.n_axes
+    kp, kd = [body.position_gain] * body.n_axes, [body.velocity_gain] * body.n_axes
     started = time.perf_counter()
     for target in targets:
         p.setJointMotorControlArray(body.id, body.joint_ids, p.POSITION_CONTROL, targetPositions=target.tolist(),
-                                    forces=forces, physicsClientId=c)
+                                    forces=forces, positionGains=kp, velocityGains=kd, physicsClientId=c)
         p.stepSimulation(physicsClientId=c)
         p.getJointStates(body.id, body.joint_ids, physicsClientId=c)
     rate = steps / (time.perf_counter() - started)
