@@ -57,3 +57,14 @@ def test_aaai_run_plays_the_reference_controller():
     result = CliRunner().invoke(cli, ["run", "--policy", "reference", "--levels", "0", "--difficulty", "0,4"])
     assert result.exit_code == 0, result.output
     assert result.output.count("ate green") == 2
+
+
+@pytest.mark.parametrize("seed", [1636220867, 1579660318])
+def test_the_known_l1_d5_failures_are_a_green_eaten_before_the_yellows(reference, seed):
+    """Pins the two reserved L1 d5 episodes the README names as failed: wandering food (4 units/s,
+    faster than the body) brings the green into the head's way before the yellows are eaten. If
+    the controller learns to avoid this, this test fails: update the README's list."""
+    env, controller = reference
+    row = run_episode(env, controller, 1, 5, seed)
+    pieces = len(env.level_spec.foods)
+    assert row["outcome"] == "failed" and row["steps"] < row["max_steps"] and row["food_eaten"] < pieces
