@@ -37,6 +37,9 @@ def write_atomic(path: Path, text: str) -> None:
         handle.write(text)
         handle.flush()
         os.fsync(handle.fileno())
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(handle.name, 0o666 & ~umask)  # as open() would make it, not the temporary file's 0600
     os.replace(handle.name, path)
 
 
