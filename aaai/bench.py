@@ -86,6 +86,24 @@ def env_rate(level: int, sensors: dict, steps: int) -> float:
     return rate
 
 
+def hole_casting_rates(level: int, steps: int) -> dict | None:
+    """Steps/s with rays on a level with missing floor, with the hole casting and without it (the
+    rays as they were before they saw holes), in the same run; None for a level without holes."""
+    rates = {}
+    for name in ("with", "without"):
+        env = AnimalAIEnv(level=level, difficulty=5, max_steps=10000, **SENSOR_SETTINGS["joints+rays"])
+        env.reset(seed=0)
+        if env.rays._holes is None:
+            env.close()
+            return None
+        if name == "without":
+            env.rays.set_holes = lambda rectangles: None  # never told of the holes: no casting
+            env.rays._holes = None
+        rates[name] = _timed_episode_steps(env, _actions(env.body.n_axes, steps), seed=0)
+        env.close()
+    return rates
+
+
 def reset_times_ms(level: int, resets: int) -> tuple[float, float]:
     env = AnimalAIEnv(level=level, difficulty=5)
     env.reset(seed=0)  # warm-up
@@ -169,6 +187,9 @@ def run(levels: list[int] | None = None, steps: int = 3000, resets: int = 50, wo
         label = get_level(level).label
         log(f"{label} ...")
         results["env"][label] = {name: env_rate(level, sensors, steps) for name, sensors in SENSOR_SETTINGS.items()}
+        holes = hole_casting_rates(level, steps)
+        if holes:
+            results.setdefault("hole_casting", {})[label] = holes
         median, p95 = reset_times_ms(level, resets)
         results["env"][label]["reset_median_ms"] = median
         results["env"][label]["reset_p95_ms"] = p95
@@ -213,6 +234,10 @@ def markdown(results: dict) -> str:
                      f"{row['joints+rays']:.0f} | {100 * (row['joints'] / row['joints+rays'] - 1):+.0f}% | "
                      f"{row['joints+cam64rgb']:.0f} | {row['joints+cam84gray']:.0f} | "
                      f"{row['reset_median_ms']:.1f} | {row['reset_p95_ms']:.1f} |")
+    for level, rates in results.get("hole_casting", {}).items():
+        lines.append(f"- {level} rays seeing holes: {rates['with']:.0f} steps/s; the same rays without the hole "
+                     f"casting: {rates['without']:.0f} steps/s ({100 * (rates['without'] / rates['with'] - 1):+.0f}% "
+                     "for seeing holes)")
     workers = results["workers"]
     ant = results["ant_v5"]
     memory = results["memory"]

@@ -6,7 +6,7 @@ import sys
 
 def test_bench_writes_every_figure(tmp_path):
     result = subprocess.run(
-        [sys.executable, "-m", "aaai_cli.main", "bench", "--levels", "0", "--steps", "200", "--resets", "5",
+        [sys.executable, "-m", "aaai_cli.main", "bench", "--levels", "0,10", "--steps", "200", "--resets", "5",
          "--worker-steps", "100", "--memory-steps", "1000", "--out", str(tmp_path)],
         capture_output=True, text=True, check=True)
     results = json.loads((tmp_path / "bench.json").read_text())
@@ -18,3 +18,6 @@ def test_bench_writes_every_figure(tmp_path):
     assert "L0 joints / limit" in results["ratios"] and "2 workers / 1" in results["ratios"]
     assert results["memory"]["rss_after_mb"] > 0
     assert "| L0 |" in (tmp_path / "bench.md").read_text() and "| L0 |" in result.stdout
+    assert set(results["hole_casting"]) == {"L10"}  # only a level with missing floor casts for holes
+    assert all(rate > 0 for rate in results["hole_casting"]["L10"].values())
+    assert "L10 rays seeing holes" in (tmp_path / "bench.md").read_text()
