@@ -132,6 +132,7 @@ class AnimalAIEnv(gym.Env):
 
     # --- the Gymnasium API ------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        self._check_open()
         super().reset(seed=seed)
         options = dict(options or {})
         unknown = sorted(set(options) - set(RESET_OPTIONS))
@@ -175,6 +176,9 @@ class AnimalAIEnv(gym.Env):
         return self._observe(angles, speeds, position, orientation), info
 
     def step(self, action):
+        self._check_open()
+        if self.world is None:
+            raise gym.error.ResetNeeded("step() before reset(): call reset() to build a level first")
         action = np.asarray(action, dtype=np.float64)
         if action.shape != self.action_space.shape:
             raise ValueError(f"action: got shape {action.shape}; allowed: shape {self.action_space.shape}")
@@ -325,6 +329,7 @@ class AnimalAIEnv(gym.Env):
         }
 
     def render(self):
+        self._check_open()
         if self.render_mode != "rgb_array" or self.world is None:
             return None
         head_pos, head_rot = self.body.head_pose()
@@ -335,6 +340,10 @@ class AnimalAIEnv(gym.Env):
         view = p.computeViewMatrix(eye.tolist(), head_pos.tolist(), [0, 0, 1])
         projection = p.computeProjectionMatrixFOV(60.0, width / height, 0.1, 200.0)
         return render_rgb(self.client, width, height, view, projection)
+
+    def _check_open(self) -> None:
+        if self.client is None:
+            raise gym.error.ClosedEnvironmentError("the environment is closed; make a new one to go on")
 
     # --- copies ---------------------------------------------------------------------
     def __getstate__(self) -> dict:

@@ -194,3 +194,17 @@ def test_a_hand_made_spec_is_checked_before_it_is_run(change, words):
             env.step(np.zeros(8))
     finally:
         env.close()
+
+
+def test_step_before_reset_and_use_after_close_get_clear_errors():
+    from aaai.env import AnimalAIEnv
+
+    env = AnimalAIEnv(rays=False, render_mode="rgb_array")
+    with pytest.raises(gym.error.ResetNeeded, match="reset"):
+        env.step(np.zeros(8))
+    env.reset(seed=1)
+    env.close()
+    env.close()  # closing twice is harmless
+    for call in (lambda: env.step(np.zeros(8)), lambda: env.reset(seed=1), env.render):
+        with pytest.raises(gym.error.ClosedEnvironmentError, match="closed"):
+            call()
