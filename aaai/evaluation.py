@@ -23,7 +23,7 @@ from aaai.config import ConfigError, env_part
 from aaai.gait import SineGait
 from aaai.env import AnimalAIEnv
 from aaai.levels import get_level
-from aaai.runs import RunFolder, write_atomic
+from aaai.runs import RunFolder, check_writable, write_atomic
 from aaai.seeds import TRAIN_SEEDS, key_record, reserved_seeds
 
 COLUMNS = ["level", "level_name", "difficulty", "seed", "return", "max_reward", "ratio", "outcome", "steps",
@@ -179,6 +179,7 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
     """Plays every (cell, seed) not yet in ``output`` and appends its row, flushed per episode.
     ``record`` (default: the policy on listed seeds) is what the scoreboard is scored with; it is
     kept beside it, and resuming with a different one is refused."""
+    check_writable(output, "--out")
     output.parent.mkdir(parents=True, exist_ok=True)
     check_record(output, record if record is not None else policy_record(policy_name, "list"))
     rows = scored_episodes(output)

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import yaml
 
+from aaai.config import ConfigError
+
 from aaai.vector import Episode
 
 PACKAGES = ("aaai", "pybullet", "numpy", "gymnasium", "stable-baselines3", "torch", "opencv-python-headless")
@@ -41,6 +43,21 @@ def write_atomic(path: Path, text: str) -> None:
     os.umask(umask)
     os.chmod(handle.name, 0o666 & ~umask)  # as open() would make it, not the temporary file's 0600
     os.replace(handle.name, path)
+
+
+def check_writable(path: Path, option: str, folder: bool = False) -> None:
+    """Refuses, before any work, an output that cannot be written: a file that is a folder (or a
+    folder that is a file), or a place without write permission."""
+    path = Path(path)
+    if path.exists() and path.is_dir() != folder:
+        raise ConfigError(f"{option}: got {str(path)!r}, which is a {'file' if folder else 'folder'}; "
+                          f"allowed: {'a folder' if folder else 'a file'} path")
+    existing = path if path.exists() else next((p for p in path.absolute().parents if p.exists()), Path("/"))
+    if not os.access(existing, os.W_OK) or (existing.is_dir() and not os.access(existing, os.X_OK)):
+        raise ConfigError(f"{option}: got {str(path)!r}; {str(existing)!r} cannot be written to")
+    for inside in ((path / "checkpoints", path / "episodes.csv") if folder and path.exists() else ()):
+        if inside.exists() and not os.access(inside, os.W_OK):
+            raise ConfigError(f"{option}: got {str(path)!r}; {str(inside)!r} cannot be written to")
 
 
 def package_versions() -> dict[str, str]:

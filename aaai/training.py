@@ -13,7 +13,7 @@ import numpy as np
 
 from aaai.config import ConfigError, load_config
 from aaai.curriculum import Curriculum
-from aaai.runs import RunFolder
+from aaai.runs import RunFolder, check_writable
 from aaai.vector import CurriculumVecEnv, Episode
 
 MIN_CNN_RESOLUTION = 36  # the smallest image stable-baselines3's NatureCNN accepts
@@ -87,6 +87,7 @@ def train(run_dir: str | Path, config: dict | None = None, resume: bool = False,
     On resume, ``total_steps`` (if given) moves the run's end; the run folder's config records it.
     """
     run = RunFolder(run_dir)
+    check_writable(run.path, "--resume" if resume else "--run", folder=True)  # before any work is done
     if resume:
         config = load_config(run.read_config())
         if total_steps is not None:

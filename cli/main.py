@@ -234,8 +234,11 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers):
     from aaai.baselines import run
     from aaai.evaluation import model_path
 
+    from aaai.runs import check_writable
+
     try:
         model_path(demo_run) if Path(demo_run).is_dir() else None
+        check_writable(Path(folder), "--out", folder=True)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     if not Path(demo_run).is_dir():

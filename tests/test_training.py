@@ -210,3 +210,23 @@ def test_resume_refuses_options_it_cannot_honour(tmp_path, extra):
     resumed = CliRunner().invoke(cli, ["train", "--resume", str(run), "--steps", "200", *extra])
     assert resumed.exit_code == 2 and extra[0] in resumed.output and "cannot change on resume" in resumed.output
     assert (run / "config.yaml").read_text() == before
+
+
+def test_outputs_that_cannot_be_written_are_refused_before_any_work(tmp_path, monkeypatch):
+    folder = tmp_path / "a_folder"
+    folder.mkdir()
+    into_folder = CliRunner().invoke(cli, ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0", "-k", "1",
+                                           "--out", str(folder)])
+    assert into_folder.exit_code == 2 and "which is a folder" in into_folder.output
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    # a folder without write permission (as root, which writes anywhere, the permission is denied here)
+    real_access = os.access
+    monkeypatch.setattr("aaai.runs.os.access",
+                        lambda path, mode: False if str(path).startswith(str(locked)) else real_access(path, mode))
+    result = CliRunner().invoke(cli, ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0", "-k", "1",
+                                      "--out", str(locked / "board.csv")])
+    assert result.exit_code == 2 and "cannot be written to" in result.output
+    run = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "50", "--run", str(locked / "run")])
+    assert run.exit_code == 2 and "cannot be written to" in run.output
+    assert list(locked.iterdir()) == []  # nothing was started
