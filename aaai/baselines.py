@@ -18,11 +18,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from aaai.config import load_config
 from aaai.curriculum import heatmap_panel
-from aaai.evaluation import COLUMNS, cells_for, evaluate, policy_record, scored_episodes
+from aaai.evaluation import COLUMNS, cells_for, evaluate, policy_config, policy_record, scored_episodes
 from aaai.levels import all_levels, get_level
-from aaai.runs import RunFolder, write_atomic
+from aaai.runs import write_atomic
 
 SHOWN_DIFFICULTIES = (0, 5, 10)
 
@@ -32,14 +31,9 @@ def policies(demo_run: Path) -> dict[str, str]:
     return {"random": "random", "reference": "reference", "ppo_demo": str(demo_run)}
 
 
-def _config(policy: str) -> dict:
-    """A run is scored with the config it was trained with (its sensors); the others with the defaults."""
-    return load_config(RunFolder(Path(policy)).read_config()) if Path(policy).is_dir() else load_config(None)
-
-
 def _score_part(policy: str, level: int, difficulties: list[int], count: int, part: Path) -> tuple[Path, float]:
     started = time.perf_counter()
-    evaluate(policy, cells_for([level], difficulties, "reserved", count), part, _config(policy),
+    evaluate(policy, cells_for([level], difficulties, "reserved", count), part, policy_config(policy),
              record=policy_record(policy, "reserved"))
     return part, time.perf_counter() - started
 

@@ -19,7 +19,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from aaai.config import ConfigError, env_part
+from aaai.config import ConfigError, env_part, load_config
 from aaai.gait import SineGait
 from aaai.env import AnimalAIEnv
 from aaai.levels import get_level
@@ -250,6 +250,14 @@ def cells_for(levels: list[int], difficulties: list[int], seeds: str, count: int
     for level in levels:
         get_level(level)
     return [Cell(level, d, seeds_for(seeds, level, d, count, key)) for level in levels for d in difficulties]
+
+
+def policy_config(policy: str, config_path: str | None = None) -> dict:
+    """The config a policy is scored with: ``config_path`` if given, else a run's own (the senses
+    it was trained with), else the defaults."""
+    if config_path or not Path(policy).is_dir():
+        return load_config(config_path)
+    return load_config(RunFolder(Path(policy)).read_config())
 
 
 def policy_record(policy: str, seeds: str, key: str | None = None) -> dict:

@@ -10,8 +10,9 @@ head to reach food on the floor. Commands are blended: each moves toward its new
 ``GaitParameters.blend_rate`` per second, and the cycle's phase runs on without a jump, so a new
 command never jerks the legs.
 
-The parameters (configs/gait.yaml) come from ``python -m aaai.gait_tuning`` (CMA-ES over them, scored by
-how fast the body follows a course of waypoints); the README gives the speeds they reach.
+The parameters (configs/gait.yaml) come from ``python -m aaai.gait_tuning`` (CMA-ES over them and
+the joint drive, scored by how fast the body eats its way along random courses of food); the
+README gives the speeds they reach.
 """
 from __future__ import annotations
 
@@ -114,8 +115,7 @@ class SineGait:
     def command(self, forward: float, turn: float, crouch: float = 0.0) -> None:
         """Steers: forward in [-1, 1] (+ forward), turn in [-1, 1] (+ left, anticlockwise),
         crouch in [0, 1] (1: the head low)."""
-        self.target = (min(max(float(forward), -1.0), 1.0), min(max(float(turn), -1.0), 1.0),
-                       min(max(float(crouch), 0.0), 1.0))
+        self.target = (_clamp(float(forward), -1.0, 1.0), _clamp(float(turn), -1.0, 1.0), _clamp(float(crouch), 0.0, 1.0))
 
     def stand(self) -> np.ndarray:
         """The action that stands still: every hip pressing down as in the stance, knees at rest."""
@@ -127,9 +127,9 @@ class SineGait:
     def __call__(self, observation=None) -> np.ndarray:
         g, dt = self.parameters, self.control_dt
         step = g.blend_rate * dt
-        self.forward += min(max(self.target[0] - self.forward, -step), step)
-        self.turn += min(max(self.target[1] - self.turn, -step), step)
-        self.crouch += min(max(self.target[2] - self.crouch, -step), step)
+        self.forward += _clamp(self.target[0] - self.forward, -step, step)
+        self.turn += _clamp(self.target[1] - self.turn, -step, step)
+        self.crouch += _clamp(self.target[2] - self.crouch, -step, step)
         stance = g.stance_down + self.crouch * (g.crouch_stance - g.stance_down)
         phase = self.phase
         self.phase = (phase + 2 * math.pi * g.frequency * dt) % (2 * math.pi)
@@ -142,6 +142,10 @@ class SineGait:
         return np.clip(action, -1.0, 1.0)
 
 
+def _clamp(value: float, low: float, high: float) -> float:
+    return min(max(value, low), high)
+
+
 def steer(heading_error: float, distance: float, arrive: float = 0.0, reverse: bool | None = None
           ) -> tuple[float, float]:
     """(forward, turn) commands toward a point ``heading_error`` rad to the left and ``distance``
@@ -151,8 +155,8 @@ def steer(heading_error: float, distance: float, arrive: float = 0.0, reverse: b
     choice (e.g. False when the point is only the next step of a long way)."""
     if (distance < BACK_UP if reverse is None else reverse) and abs(heading_error) > 2 * math.pi / 3:
         behind = (heading_error % (2 * math.pi)) - math.pi  # the error as seen from the tail
-        return -math.cos(behind) ** 2, min(max(behind / (math.pi / 4), -1.0), 1.0)
-    turn = min(max(heading_error / (math.pi / 4), -1.0), 1.0)
+        return -math.cos(behind) ** 2, _clamp(behind / (math.pi / 4), -1.0, 1.0)
+    turn = _clamp(heading_error / (math.pi / 4), -1.0, 1.0)
     forward = max(0.0, math.cos(heading_error)) ** STEER_SHARPNESS
     if arrive > 0:
         forward *= min(1.0, distance / arrive)

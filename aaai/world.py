@@ -101,6 +101,7 @@ class World:
         for obj in spec.objects:
             self._build_object(obj)
         self.had_food = bool(self.food)
+        self._eaten: bool | None = None  # all_eaten's answer, until food is eaten or a door closes
         self._obstacles = [  # footprints that random walkers steer clear of
             footprint(obj) for obj in spec.objects
             if not obj.is_food and obj.mass == 0 and _inside_arena(obj, spec)
@@ -235,6 +236,7 @@ class World:
         self.walkers.pop(body, None)
         self.movers.pop(body, None)
         self.doors.pop(body, None)
+        self._eaten = None
 
     def advance(self, dt: float, head: tuple[float, float] | None = None) -> None:
         """Moves the moving parts by dt of simulated time. ``head`` (x, y) is needed while any
@@ -267,19 +269,18 @@ class World:
                                                   physicsClientId=self.client)
                 self.closed.append(door)
                 del self.doors[body]
+                self._eaten = None
 
     def all_eaten(self) -> bool:
         """Is no food left that the agent can still get to, in a level that had some? (Food shut
-        out of the sector the agent is in, L9's behind a closed door, cannot be got to.)"""
-        if not self.had_food:
-            return False
-        if not self.closed:
-            return not self.food
-        for body in self.food:
-            x, y, _ = p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0]
-            if all(door.entered(x, y) for door in self.closed):
-                return False
-        return True
+        out of the sector the agent is in, L9's behind a closed door, cannot be got to.) The answer
+        changes only when food is eaten or a door closes, so it is worked out only then."""
+        if self._eaten is None:
+            self._eaten = self.had_food and not any(
+                all(door.entered(*p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0][:2])
+                    for door in self.closed)
+                for body in self.food)
+        return self._eaten
 
     def _walk(self, body: int, state: list[float], dt: float) -> None:
         obj = self.objects[body]

@@ -185,7 +185,8 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
                    "(or set AAAI_SEED_KEY). The scoreboard records a hash of the key, never the key.")
 def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output, seed_key_file):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
-    from aaai.evaluation import cells_for, evaluate, policy_record, summarise, summary_markdown, write_summary
+    from aaai.evaluation import (cells_for, evaluate, policy_config, policy_record, summarise, summary_markdown,
+                                 write_summary)
     from aaai.seeds import read_seed_key
 
     try:
@@ -195,10 +196,7 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
 
     run_folder = Path(policy) if Path(policy).is_dir() else None
     try:
-        if config_path or run_folder is None:
-            config = load_config(config_path)
-        else:
-            config = load_config(RunFolder(run_folder).read_config())
+        config = policy_config(policy, config_path)
         level_list = parse_range(levels, "--levels", 0, 12) if levels else config["curriculum"]["levels"]
         difficulty_list = (parse_range(difficulty, "--difficulty", 0, 10) if difficulty
                            else config["curriculum"]["difficulties"])
