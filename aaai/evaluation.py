@@ -23,7 +23,7 @@ from aaai.config import ConfigError, env_part, load_config
 from aaai.gait import SineGait
 from aaai.env import AnimalAIEnv
 from aaai.levels import get_level
-from aaai.runs import RunFolder, check_writable, write_atomic
+from aaai.runs import RunFolder, model_problem, check_writable, write_atomic
 from aaai.seeds import TRAIN_SEEDS, key_record, reserved_seeds
 
 COLUMNS = ["level", "level_name", "difficulty", "seed", "return", "max_reward", "ratio", "outcome", "steps",
@@ -74,7 +74,11 @@ class ModelPolicy:
     def __init__(self, path: Path):
         from stable_baselines3 import PPO
 
-        self.model = PPO.load(path, device="cpu")
+        try:
+            self.model = PPO.load(path, device="cpu")
+        except Exception as error:  # noqa: BLE001 - any failure inside the archive is the file's fault
+            raise ConfigError(f"--policy: model file {str(path)!r} cannot be loaded by stable-baselines3: "
+                              f"{type(error).__name__}: {error}") from None
 
     def reset(self, seed: int) -> None:
         pass
@@ -85,23 +89,31 @@ class ModelPolicy:
 
 
 def model_path(policy: str) -> Path | None:
-    """The model file a --policy names: a .zip, or a run folder's final (else latest) model."""
+    """The model file a --policy names: a .zip, or a run folder's newest saved model (final/ when
+    it is the newest). A damaged model is refused, never swapped for an older one."""
     path = Path(policy)
     if path.suffix == ".zip":
         if not path.is_file():
             raise ConfigError(f"--policy: model file {policy!r} does not exist")
+        problem = model_problem(path)
+        if problem:
+            raise ConfigError(f"--policy: model file {policy!r} cannot be loaded: {problem}")
         return path
     if path.is_dir():
         run = RunFolder(path)
         if run.read_config()["train"]["agent"] == "random":
             return None  # a run of the random agent: scored with the random policy
-        for folder in (run.final, run.latest_checkpoint()):
-            if folder is not None and (folder / "model.zip").is_file():
-                return folder / "model.zip"
-        raise ConfigError(f"--policy: run folder {policy!r} holds no model (final/ or checkpoints/*/model.zip)")
+        newest = run.latest_checkpoint()
+        if newest is None:
+            raise ConfigError(f"--policy: run folder {policy!r} holds no model (final/ or checkpoints/*/model.zip)")
+        problem = model_problem(newest / "model.zip")
+        if problem:
+            older = next((f for f in run.saved()[1:] if model_problem(f / "model.zip") is None), None)
+            hint = f"; to score an older one, pass --policy {older / 'model.zip'}" if older else ""
+            raise ConfigError(f"--policy: the newest model of run {policy!r} ({newest.relative_to(path)}) cannot be "
+                              f"loaded: {problem}{hint}")
+        return newest / "model.zip"
     return None
-
-
 def load_policy(policy: str, env: AnimalAIEnv) -> Callable:
     """'random', 'reference', 'gait', a model .zip, a run folder, or 'module:callable' called with the env to make the policy."""
     if policy == "random":

@@ -5,8 +5,9 @@ runs/NAME/
   versions.json       Python and package versions
   episodes.csv        one row per finished training episode, flushed as it finishes
   curriculum.png      heatmap of mean return, z and p per cell
-  checkpoints/step_000020000/{state.json, model.zip}
+  checkpoints/step_000000020000/{state.json, model.zip}   (the step in 12 digits)
   final/{state.json, model.zip}
+  resume.log          what a resume skipped (unreadable checkpoints), one line each
   tb/                 TensorBoard logs (PPO)
 """
 from __future__ import annotations
@@ -18,14 +19,14 @@ import os
 import platform
 import shutil
 import tempfile
+import zipfile
 from dataclasses import asdict, fields
 from importlib import metadata
 from pathlib import Path
 
 import yaml
 
-from aaai.config import ConfigError
-
+from aaai.config import ConfigError, read_yaml
 from aaai.vector import Episode
 
 PACKAGES = ("aaai", "pybullet", "numpy", "gymnasium", "stable-baselines3", "torch", "opencv-python-headless")
@@ -93,7 +94,7 @@ class RunFolder:
     def read_config(self) -> dict:
         if not self.config_path.is_file():
             raise FileNotFoundError(f"{str(self.path)!r} is not a run folder: {self.config_path.name} is missing")
-        return yaml.safe_load(self.config_path.read_text())
+        return read_yaml(self.config_path)
 
     # --- episodes -------------------------------------------------------------------
     def log_episodes(self, step: int, episodes: list[Episode]) -> None:
@@ -133,10 +134,84 @@ class RunFolder:
         os.replace(staging, target)
         return target
 
-    def latest_checkpoint(self) -> Path | None:
+    def saved(self) -> list[Path]:
+        """Every saved point of the run, newest first: final/ and checkpoints/step_*, ordered by the
+        step their state records (final/ first on a tie; one whose state cannot be read is tried
+        where its folder name puts it, final/ first)."""
         found = sorted(self.checkpoints.glob("step_*")) if self.checkpoints.exists() else []
-        return found[-1] if found else None
+        points = [(self._step_of(folder), 1, folder) for folder in found]
+        if self.final.is_dir():
+            points.append((self._step_of(self.final, unreadable=float("inf")), 2, self.final))
+        return [folder for *_, folder in sorted(points, key=lambda p: (p[0], p[1]), reverse=True)]
+
+    @staticmethod
+    def _step_of(folder: Path, unreadable: float = -1.0) -> float:
+        try:
+            return int(json.loads((folder / "state.json").read_text())["step"])
+        except (OSError, ValueError, KeyError, TypeError):
+            if folder.name.startswith("step_") and folder.name[5:].isdigit():
+                return int(folder.name[5:])
+            return unreadable
+
+    def latest_checkpoint(self) -> Path | None:
+        """The newest saved point (final/ included), readable or not."""
+        saved = self.saved()
+        return saved[0] if saved else None
+
+    def resume_point(self, needs_model: bool, say=print) -> tuple[Path, dict] | None:
+        """The newest saved point that can be read, with its state; None for a run with none.
+
+        An unreadable point (a state.json that does not parse, a model.zip that is not a whole
+        stable-baselines3 archive) is skipped: ``say`` is told why, and so is resume.log.
+        """
+        saved = self.saved()
+        for folder in saved:
+            problem = self.unreadable(folder, needs_model)
+            if problem is None:
+                return folder, self.read_state(folder)
+            message = f"skipping {folder.relative_to(self.path)}: {problem}; falling back to an older checkpoint"
+            say(message)
+            with open(self.path / "resume.log", "a") as log:
+                log.write(message + "\n")
+        if saved:
+            raise ConfigError(f"--resume: no checkpoint of {str(self.path)!r} can be read "
+                              f"(tried {', '.join(str(f.relative_to(self.path)) for f in saved)})")
+        return None
+
+    @staticmethod
+    def unreadable(folder: Path, needs_model: bool) -> str | None:
+        """Why a saved point cannot be resumed from, or None when it can."""
+        try:
+            state = json.loads((folder / "state.json").read_text())
+        except FileNotFoundError:
+            return "state.json is missing"
+        except (OSError, ValueError) as error:
+            return f"state.json cannot be read ({error})"
+        if not isinstance(state, dict) or not isinstance(state.get("step"), int) or "curriculum" not in state:
+            return "state.json lacks its step or curriculum"
+        if needs_model:
+            return model_problem(folder / "model.zip")
+        return None
 
     @staticmethod
     def read_state(checkpoint: Path) -> dict:
         return json.loads((checkpoint / "state.json").read_text())
+
+
+def model_problem(path: Path) -> str | None:
+    """Why ``path`` is not a whole stable-baselines3 model archive, or None when it is one."""
+    if not path.is_file():
+        return f"{path.name} is missing"
+    if path.stat().st_size == 0:
+        return f"{path.name} is empty"
+    try:
+        with zipfile.ZipFile(path) as archive:
+            broken = archive.testzip()
+            names = set(archive.namelist())
+    except (zipfile.BadZipFile, OSError, EOFError) as error:
+        return f"{path.name} is not a whole zip archive ({error})"
+    if broken is not None:
+        return f"{path.name} is damaged ({broken} fails its checksum)"
+    if not {"data", "policy.pth"} <= names:
+        return f"{path.name} is not a stable-baselines3 model (it lacks data and policy.pth)"
+    return None

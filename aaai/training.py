@@ -81,16 +81,26 @@ def check_trainable(config: dict) -> None:
 
 def train(run_dir: str | Path, config: dict | None = None, resume: bool = False,
           progress: Callable[[int], None] | None = None, asynchronous: bool = True,
-          total_steps: int | None = None) -> TrainResult:
+          total_steps: int | None = None, say: Callable[[str], None] = print) -> TrainResult:
     """Starts a run in ``run_dir`` with ``config`` (a resolved config), or resumes the run there.
 
-    On resume, ``total_steps`` (if given) moves the run's end; the run folder's config records it.
+    A resume continues from the newest readable saved point (``final/`` included); a damaged one is
+    skipped and ``say`` is told so. ``total_steps`` (if given) moves the run's end; the run
+    folder's config records it. It may not fall below the steps already done.
     """
     run = RunFolder(run_dir)
     check_writable(run.path, "--resume" if resume else "--run", folder=True)  # before any work is done
+    checkpoint = state = None
     if resume:
         config = load_config(run.read_config())
+        point = run.resume_point(needs_model=config["train"]["agent"] == "ppo", say=say)
+        if point is not None:
+            checkpoint, state = point
         if total_steps is not None:
+            done = state["step"] if state else 0
+            if total_steps <= done:
+                raise ConfigError(f"--steps: got {total_steps}; the run already has {done} steps "
+                                  f"({checkpoint.relative_to(run.path)}); allowed: more than {done}")
             config = load_config(config, total_steps=total_steps)
             run.update_config(config)
     else:
@@ -98,8 +108,6 @@ def train(run_dir: str | Path, config: dict | None = None, resume: bool = False,
         check_trainable(config)  # before the run folder exists: a refused config leaves nothing behind
         run.create(config)
     curriculum = Curriculum.from_config(config)
-    checkpoint = run.latest_checkpoint() if resume else None
-    state = RunFolder.read_state(checkpoint) if checkpoint else None
     start_step = state["step"] if state else 0
     if state:
         curriculum.load_state_dict(state["curriculum"])

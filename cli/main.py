@@ -157,7 +157,8 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
         total = total_steps or (config or RunFolder(run_dir).read_config())["train"]["total_steps"]
         with click.progressbar(length=total, label="training", show_pos=True) as bar:
             result = train(run_dir, config, resume=bool(resume_dir), progress=bar.update,
-                           total_steps=total_steps if resume_dir else None)
+                           total_steps=total_steps if resume_dir else None,
+                           say=lambda message: click.echo(message, err=True))
     except (ConfigError, FileExistsError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except ImportError as error:
