@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: install install-train test test-long demo baselines gait tune-gait bench clean
+.PHONY: install install-train install-all test test-long demo baselines gait tune-gait bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -22,14 +22,23 @@ $(VENV)/.installed-train: $(VENV)/.installed
 	$(BIN)/python -m pip install --quiet -e ".[dev,train]"
 	touch $@
 
+# Everything the tests use: the train extra and the RL libraries of examples/ (RLlib, TorchRL,
+# RL Zoo3). ray[rllib] pins its own gymnasium; `pip check` proves the result is consistent.
+$(VENV)/.installed-all: $(VENV)/.installed-train
+	$(BIN)/python -m pip install --quiet -e ".[dev,train,ray,torchrl,zoo]"
+	$(BIN)/python -m pip check
+	touch $@
+
 install: $(VENV)/.installed
 
 install-train: $(VENV)/.installed-train
 
-test: install-train
+install-all: $(VENV)/.installed-all
+
+test: install-all
 	$(BIN)/python -m pytest -q -m "not long" $(PYTEST_ARGS)
 
-test-long: install-train
+test-long: install-all
 	$(BIN)/python -m pytest -q -m long $(PYTEST_ARGS)
 
 # The main job on the shipped default config: a short curriculum training run, then its

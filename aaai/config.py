@@ -93,6 +93,7 @@ RULES: dict[str, Rule] = {
     "agent.limb_food_reward": Rule("choice", choices=("flat", "size", "none")),
     "sensors.rays": Rule("bool"),
     "sensors.rays_per_side": Rule("int", 1, 20),
+    "sensors.rays_flat": Rule("bool"),
     "sensors.ray_max_angle": Rule("float", 5, 180),
     "sensors.ray_length": Rule("float", 1, 100),
     "sensors.camera": Rule("bool"),

@@ -85,7 +85,7 @@ class AnimalAIEnv(gym.Env):
                               agent["max_joint_velocity"], agent["friction"], self.visuals,
                               agent["position_gain"], agent["velocity_gain"])
         self.rays = Rays(self.client, sensors["rays_per_side"], sensors["ray_max_angle"],
-                         sensors["ray_length"]) if sensors["rays"] else None
+                         sensors["ray_length"], sensors["rays_flat"]) if sensors["rays"] else None
         self.camera = Camera(self.client, sensors["camera_resolution"],
                              sensors["camera_grayscale"]) if sensors["camera"] else None
 

@@ -31,14 +31,17 @@ class Rays:
     distance can lie unseen between them.
     """
 
-    def __init__(self, client: int, rays_per_side: int, max_angle: float, length: float):
+    def __init__(self, client: int, rays_per_side: int, max_angle: float, length: float, flat: bool = False):
         self.client = client
+        self.flat = flat
         self.length = length
         angles = np.radians(np.linspace(-max_angle, max_angle, 2 * rays_per_side + 1))
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
         self.n_rays = len(angles)
         self.n_kinds = len(KINDS)
-        self.space = spaces.Box(0.0, 1.0, (self.n_rays, self.n_kinds + 2), np.float32)
+        self.grid_shape = (self.n_rays, self.n_kinds + 2)
+        shape = (self.n_rays * (self.n_kinds + 2),) if flat else self.grid_shape
+        self.space = spaces.Box(0.0, 1.0, shape, np.float32)
         self._nothing = self.n_kinds
         self._holes = None  # (m, 4) rectangles x0, y0, x1, y1 of missing floor, or None
 
@@ -54,7 +57,7 @@ class Rays:
         hits = p.rayTestBatch(starts.tolist(), ends.tolist(), numThreads=1, collisionFilterMask=RAY_MASK,
                               physicsClientId=self.client)
         # A plain loop: for a few dozen rays it is several times faster than numpy's fancy indexing.
-        obs = np.zeros(self.space.shape, np.float32)
+        obs = np.zeros(self.grid_shape, np.float32)
         known = len(kind_index)
         for row, hit in enumerate(hits):
             body = hit[0]
@@ -67,7 +70,7 @@ class Rays:
                 obs[row, -1] = 1.0
         if self._holes is not None:
             self._see_holes(obs, starts, dirs)
-        return obs
+        return obs.reshape(-1) if self.flat else obs
 
     def _see_holes(self, obs: np.ndarray, starts: np.ndarray, dirs: np.ndarray) -> None:
         """Marks each ray whose ground track enters missing floor before its hit as seeing a hole."""

@@ -41,6 +41,19 @@ def test_spaces_follow_the_sensor_config(make_env):
     assert set(plain.observation_space.spaces) == {"joints"}
 
 
+def test_flat_rays_are_the_grid_row_by_row(make_env):
+    grid, flat = make_env(rays=True, rays_per_side=3), make_env(rays=True, rays_per_side=3, rays_flat=True)
+    assert flat.observation_space["rays"].shape == (7 * (len(KINDS) + 2),)
+    for env in (grid, flat):
+        env.reset(seed=4, options={"level": 0, "difficulty": 0})
+    action = np.full(8, 0.3, np.float32)
+    for _ in range(5):
+        seen_grid, seen_flat = grid.step(action)[0]["rays"], flat.step(action)[0]["rays"]
+    assert flat.observation_space.contains(flat.step(action)[0])
+    np.testing.assert_array_equal(seen_flat, seen_grid.reshape(-1))
+    assert seen_grid[:, :-1].sum() == 7  # every ray saw exactly one kind (or nothing)
+
+
 def run_random(env, seed, steps, level):
     observation, _ = env.reset(seed=seed, options={"level": level, "difficulty": 5})
     rng = np.random.default_rng(seed)
