@@ -28,7 +28,7 @@ import pybullet as p
 from aaai import validate
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.gait import BACK_UP, SineGait, approach, steer
-from aaai.levels.common import corners
+from aaai.geometry import corners
 from aaai.spec import ObjectSpec
 from aaai.validate import FOOTPRINT_RADIUS
 

@@ -1,4 +1,5 @@
-"""What the agent senses from its head: rays (one rayTestBatch per step) and a camera."""
+"""What the agent senses: rays (one rayTestBatch per step) and a camera in its head, its joints,
+feet and tilt; gathered each step into one Dict observation."""
 from __future__ import annotations
 
 import cv2
@@ -6,9 +7,11 @@ import numpy as np
 import pybullet as p
 from gymnasium import spaces
 
-from aaai.agent.body import RAY_MASK
+from aaai.agent.body import RAY_MASK, Quadruped
 from aaai.agent.urdf_writer import HEAD_RADIUS
+from aaai.geometry import missing_floor
 from aaai.kinds import KIND_INDEX, KINDS
+from aaai.spec import LevelSpec
 
 HOLE = KIND_INDEX["hole"]
 
@@ -112,6 +115,82 @@ class Camera:
 
     def blank(self) -> np.ndarray:
         return np.zeros(self.space.shape, np.uint8)
+
+
+class Blackout:
+    """L7's schedule: the camera sees for ``light`` seconds, then is dark for ``dark``, repeating.
+    Held in whole control steps; a level without one is never dark."""
+
+    def __init__(self, schedule: dict | None = None, control_dt: float = 1.0):
+        self.steps = None
+        if schedule:
+            light = round(schedule["light"] / control_dt)
+            self.steps = light, light + round(schedule["dark"] / control_dt)
+
+    def dark(self, step: int) -> bool:
+        return self.steps is not None and step % self.steps[1] >= self.steps[0]
+
+
+class Senses:
+    """The body's senses as the config's ``sensors`` section sets them, and their Dict space."""
+
+    def __init__(self, client: int, sensors: dict, body: Quadruped):
+        self.rays = Rays(client, sensors["rays_per_side"], sensors["ray_max_angle"],
+                         sensors["ray_length"], sensors["rays_flat"]) if sensors["rays"] else None
+        self.camera = Camera(client, sensors["camera_resolution"],
+                             sensors["camera_grayscale"]) if sensors["camera"] else None
+        self.blackout = Blackout()
+        self.foot_slot = body.foot_slot
+        self.feet = np.zeros(len(body.foot_links), np.float32)
+        n = body.n_axes
+        space = {"joints": spaces.Box(-1.0, 1.0, (n,), np.float32)}
+        if self.rays:
+            space["rays"] = self.rays.space
+        if self.camera:
+            space["camera"] = self.camera.space
+        if sensors["joint_velocities"]:
+            space["joint_velocities"] = spaces.Box(-np.inf, np.inf, (n,), np.float32)
+        if sensors["head_orientation"]:
+            space["head_orientation"] = spaces.Box(-1.0, 1.0, (3,), np.float32)
+        if sensors["foot_contacts"]:
+            space["foot_contacts"] = spaces.Box(0.0, 1.0, (len(self.feet),), np.float32)
+        self.space = spaces.Dict(space)
+        self.joint_velocities = "joint_velocities" in space
+        self.head_orientation = "head_orientation" in space
+        self.foot_contacts = "foot_contacts" in space
+
+    def start(self, spec: LevelSpec, control_dt: float) -> None:
+        """Readies the senses for a new level: the rays learn its missing floor, the camera its blackout."""
+        if self.rays:
+            self.rays.set_holes(missing_floor(spec))
+        self.blackout = Blackout(spec.extras.get("blackout"), control_dt)
+        self.feet[:] = 0.0
+
+    def feel(self, contacts) -> None:
+        """Which feet touch anything, from the step's contacts of the body."""
+        self.feet[:] = 0.0
+        slot = self.foot_slot
+        for contact in contacts:
+            if contact[3] in slot:
+                self.feet[slot[contact[3]]] = 1.0
+
+    def observe(self, angles: np.ndarray, speeds: np.ndarray, position, orientation, kind_index: np.ndarray,
+                dark: bool) -> dict[str, np.ndarray]:
+        observation = {"joints": angles.astype(np.float32)}
+        if self.rays or self.camera or self.head_orientation:
+            head_pos = np.array(position)
+            head_rot = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+        if self.rays:
+            observation["rays"] = self.rays.observe(head_pos, head_rot, kind_index)
+        if self.camera:
+            observation["camera"] = self.camera.blank() if dark else self.camera.observe(head_pos, head_rot)
+        if self.joint_velocities:
+            observation["joint_velocities"] = speeds.astype(np.float32)
+        if self.head_orientation:
+            observation["head_orientation"] = (-head_rot[2, :]).astype(np.float32)  # gravity in the head frame
+        if self.foot_contacts:
+            observation["foot_contacts"] = self.feet.copy()
+        return observation
 
 
 def render_rgb(client: int, width: int, height: int, view, projection, grayscale: bool = False) -> np.ndarray:

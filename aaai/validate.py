@@ -18,7 +18,7 @@ import numpy as np
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.kinds import SOLID_KINDS
-from aaai.levels.common import TOLERANCE, corners, footprints_overlap
+from aaai.geometry import TOLERANCE, corners, footprints_overlap
 from aaai.spec import LevelSpec, ObjectSpec
 
 GRID = 0.5  # occupancy grid cell, units
@@ -296,29 +296,3 @@ def check(spec: LevelSpec, require_food: bool = True) -> list[str]:
 
 def _xy(position) -> str:
     return f"({position[0]:.1f}, {position[1]:.1f})"
-
-
-def survey(level: int, difficulty: int, seeds) -> dict:
-    """Generates (level, difficulty, seed) for every seed and checks each spec once more.
-
-    Returns the counts for one row of ``aaai validate``: seeds checked, regenerated (valid only
-    after a regeneration), failed (no valid level, or a returned spec with problems), and the
-    first failures' messages.
-    """
-    from aaai.levels import InvalidLevelError, generate  # the registry imports this module
-
-    row = {"checked": 0, "regenerated": 0, "failed": 0, "errors": []}
-    for seed in seeds:
-        row["checked"] += 1
-        try:
-            spec = generate(level, difficulty, seed)
-            problems = check(spec)
-        except InvalidLevelError as error:
-            problems = [str(error)]
-        else:
-            problems = [f"level {level} difficulty {difficulty} seed {seed}: {problem}" for problem in problems]
-            row["regenerated"] += bool(spec.extras.get("regenerated"))
-        if problems:
-            row["failed"] += 1
-            row["errors"] += problems[:1]
-    return row

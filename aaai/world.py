@@ -13,6 +13,7 @@ import math
 import numpy as np
 import pybullet as p
 
+from aaai.geometry import footprint, merge_tiles
 from aaai.kinds import COLOURS, KIND_INDEX
 from aaai.spec import LevelSpec, ObjectSpec
 
@@ -227,6 +228,17 @@ class World:
                                physicsClientId=self.client)
 
     # --- running --------------------------------------------------------------------
+    def eat(self, eaten: dict[int, tuple[ObjectSpec, bool]]) -> None:
+        """Takes the eaten yellow pieces (body -> (food, by the head)) out of the world; a green
+        one ends the episode and stays."""
+        for body, (food, _) in eaten.items():
+            if food.kind != "food_green":
+                self.remove(body)
+
+    def food_positions(self) -> list[tuple[float, float, float]]:
+        """Where each piece of food still in the world is now."""
+        return [p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0] for body in self.food]
+
     def remove(self, body: int) -> None:
         """Takes an object (an eaten food piece) out of the world."""
         p.removeBody(body, physicsClientId=self.client)
@@ -300,54 +312,6 @@ class World:
         if not (-half_x <= x <= half_x and -half_y <= y <= half_y):
             return True
         return any(abs(x - ox) < hx + radius and abs(y - oy) < hy + radius for ox, oy, hx, hy in self._obstacles)
-
-
-def merge_tiles(nx: int, ny: int, holes: set[tuple[int, int]]) -> list[tuple[int, int, int, int]]:
-    """Covers the present tiles with few rectangles (i0, j0, i1, j1), end-exclusive.
-
-    Each row's runs of present tiles are found, then a run is stretched over the next rows
-    while they hold the very same run.
-    """
-    runs_by_row = []
-    for j in range(ny):
-        runs, i = [], 0
-        while i < nx:
-            if (i, j) in holes:
-                i += 1
-                continue
-            start = i
-            while i < nx and (i, j) not in holes:
-                i += 1
-            runs.append((start, i))
-        runs_by_row.append(runs)
-    rectangles, open_runs = [], {}  # (i0, i1) -> first row
-    for j in range(ny + 1):
-        row = set(runs_by_row[j]) if j < ny else set()
-        for run in [r for r in open_runs if r not in row]:
-            rectangles.append((run[0], open_runs.pop(run), run[1], j))
-        for run in row:
-            open_runs.setdefault(run, j)
-    return sorted(rectangles, key=lambda r: (r[1], r[0]))
-
-
-def missing_floor(spec: LevelSpec) -> list[tuple[float, float, float, float]]:
-    """The level's holes, pits and trenches as few world rectangles (x0, y0, x1, y1)."""
-    if not spec.holes or spec.heightfield is not None:
-        return []
-    nx, ny = spec.tiles
-    tile_x, tile_y = spec.arena_size[0] / nx, spec.arena_size[1] / ny
-    present = {(i, j) for i in range(nx) for j in range(ny)} - set(map(tuple, spec.holes))
-    left, bottom = -spec.arena_size[0] / 2, -spec.arena_size[1] / 2
-    return [(left + i0 * tile_x, bottom + j0 * tile_y, left + i1 * tile_x, bottom + j1 * tile_y)
-            for i0, j0, i1, j1 in merge_tiles(nx, ny, present)]
-
-
-def footprint(obj: ObjectSpec) -> tuple[float, float, float, float]:
-    """Centre and half extents (x, y) of the axis-aligned box around an object's footprint."""
-    cos, sin = abs(math.cos(obj.yaw)), abs(math.sin(obj.yaw))
-    half_x = 0.5 * (cos * obj.size[0] + sin * obj.size[1])
-    half_y = 0.5 * (sin * obj.size[0] + cos * obj.size[1])
-    return obj.position[0], obj.position[1], half_x, half_y
 
 
 def _inside_arena(obj: ObjectSpec, spec: LevelSpec) -> bool:

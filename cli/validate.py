@@ -3,6 +3,9 @@ from __future__ import annotations
 
 import click
 
+from aaai.levels import InvalidLevelError, generate
+from aaai.validate import check
+
 
 @click.command("validate")
 @click.option("--levels", "levels_text", default=None, help="Levels, e.g. '0-3,5' (default: all).")
@@ -15,7 +18,6 @@ def validate(levels_text, difficulty_text, seeds, first_seed):
     of the agent's footprint. Prints seeds checked, regenerated and failed per (level, difficulty);
     exits with status 1 if any failed."""
     from aaai.levels import all_levels
-    from aaai.validate import survey
     from aaai_cli.main import parse_range  # here, not at the top: main imports this module
 
     known = all_levels()
@@ -39,3 +41,27 @@ def validate(levels_text, difficulty_text, seeds, first_seed):
         click.echo(f"FAILED {error}", err=True)
     if totals[2]:
         raise SystemExit(1)
+
+
+def survey(level: int, difficulty: int, seeds) -> dict:
+    """Generates (level, difficulty, seed) for every seed and checks each spec once more.
+
+    Returns the counts for one row of ``aaai validate``: seeds checked, regenerated (valid only
+    after a regeneration), failed (no valid level, or a returned spec with problems), and the
+    first failures' messages.
+    """
+    row = {"checked": 0, "regenerated": 0, "failed": 0, "errors": []}
+    for seed in seeds:
+        row["checked"] += 1
+        try:
+            spec = generate(level, difficulty, seed)
+            problems = check(spec)
+        except InvalidLevelError as error:
+            problems = [str(error)]
+        else:
+            problems = [f"level {level} difficulty {difficulty} seed {seed}: {problem}" for problem in problems]
+            row["regenerated"] += bool(spec.extras.get("regenerated"))
+        if problems:
+            row["failed"] += 1
+            row["errors"] += problems[:1]
+    return row

@@ -48,7 +48,6 @@ def main(iterations: int = 2, batch: int = 400, max_steps: int = 200, env_runner
     from ray.tune.registry import register_env
 
     # Local use: only this machine's CPUs, no dashboard; the environment is single-threaded.
-    os.environ.setdefault("RAY_DEDUP_LOGS", "0")
     ray.init(num_cpus=max(2, env_runners + 1), include_dashboard=False, log_to_driver=False,
              configure_logging=False)
     try:

@@ -158,13 +158,69 @@ def test_shaping_pays_the_progress_towards_food_and_is_off_by_default(make_env):
     assert info["reward_terms"]["shaping"] == 0.0
     env = make_env(shaping=2.0)
     observation, _ = env.reset(options={"spec": spec})
-    start = env.food_distance
+    start = env.task.food_distance
     gait = SineGait.for_env(env, "forward")
     total = 0.0
     for _ in range(150):
         observation, _, terminated, _, info = env.step(gait(observation))
         total += info["reward_terms"]["shaping"]
     head, _ = env.body.head_pose()
-    assert env.food_distance == pytest.approx(math.dist(head[:2], (12.0, 0.0)), abs=1e-6)
-    assert total == pytest.approx(2.0 * (start - env.food_distance))  # with gamma 1 the potential telescopes
+    assert env.task.food_distance == pytest.approx(math.dist(head[:2], (12.0, 0.0)), abs=1e-6)
+    assert total == pytest.approx(2.0 * (start - env.task.food_distance))  # with gamma 1 the potential telescopes
     assert total > 4.0  # the gait walked towards the food
+
+
+# A piece of food resting on the front-left shin (the leg lies along the diagonal), away from the head,
+# touched at the first step; with a size of 1.5 the three limb modes pay three different amounts.
+ON_THE_LEG = (2.6, 2.6, 2.6)
+
+
+@pytest.mark.parametrize("mode, paid", [("none", 0.0), ("flat", 1.0), ("size", 1.5)])
+def test_a_leg_touching_green_food_pays_as_limb_food_reward_says(make_env, mode, paid):
+    env = make_env(limb_food_reward=mode)
+    spec = open_arena(ObjectSpec("food_green", "sphere", ON_THE_LEG, (1.5, 1.5, 1.5)))
+    env.reset(options={"spec": spec, "check": False})  # food floating over the leg is no valid level
+    _, _, terminated, _, info = env.step(env.body.rest_action())
+    assert info["reward_terms"]["food"] == paid
+    eaten = mode != "none"  # with none the leg does not eat: the piece stays and the episode goes on
+    assert terminated == eaten and info["food_eaten"] == int(eaten)
+
+
+@pytest.mark.parametrize("mode, paid", [("none", 0.0), ("flat", 0.5), ("size", 0.75)])
+def test_a_leg_touching_yellow_food_pays_as_limb_food_reward_says_and_eats_it(make_env, mode, paid):
+    env = make_env(limb_food_reward=mode)
+    spec = open_arena(ObjectSpec("food_yellow", "sphere", ON_THE_LEG, (1.5, 1.5, 1.5)),
+                      sphere("food_yellow", -15.0, 15.0, 2.0))  # another piece: eating one does not end it
+    env.reset(options={"spec": spec, "check": False})
+    _, _, terminated, _, info = env.step(env.body.rest_action())
+    assert info["reward_terms"]["food"] == paid and not terminated
+    assert info["food_eaten"] == (0 if mode == "none" else 1)
+    _, _, terminated, _, info = env.step(env.body.rest_action())  # an eaten piece is gone: nothing more
+    assert info["reward_terms"]["food"] == 0.0 and not terminated
+    assert info["food_eaten"] == (0 if mode == "none" else 1)
+
+
+def test_shaping_gamma_discounts_the_distance_now(make_env):
+    """shaping = k x (distance before - gamma x distance now), distances from the head to the food's centre."""
+    k, gamma, food = 2.0, 0.9, (12.0, 0.0)
+    env = make_env(shaping=k, shaping_gamma=gamma)
+    observation, _ = env.reset(options={"spec": open_arena(sphere("food_green", *food, 2.0))})
+
+    def distance():
+        return math.dist(env.body.head_pose()[0][:2], food)
+
+    before = distance()
+    gait = SineGait.for_env(env, "forward")
+    paid = []
+    for _ in range(60):
+        observation, _, terminated, _, info = env.step(gait(observation))
+        now = distance()
+        paid.append(info["reward_terms"]["shaping"])
+        assert paid[-1] == pytest.approx(k * (before - gamma * now), abs=1e-6)
+        before = now
+    assert sum(paid) > k * (1 - gamma) * 9.0 * len(paid)  # 10 units away, each step pays about 2
+    standing = make_env(shaping=k)  # gamma 1: standing still far from the food pays next to nothing
+    standing.reset(options={"spec": open_arena(sphere("food_green", *food, 2.0))})
+    for _ in range(10):
+        _, _, _, _, info = standing.step(standing.body.rest_action())
+    assert abs(info["reward_terms"]["shaping"]) < 0.05

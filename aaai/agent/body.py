@@ -1,4 +1,4 @@
-"""The quadruped in a PyBullet client: loading, driving its axes, reading its joints."""
+"""The quadruped in a PyBullet client: loading, driving its axes, reading its joints and contacts."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -14,6 +14,7 @@ BODIES = ("quadruped", "quadruped16")
 SPAWN_HEIGHT = 1.5
 AGENT_GROUP = 64  # collision group of the body's parts; rays leave it out
 RAY_MASK = 0xFFFF & ~AGENT_GROUP
+BLOWUP_JOINT_SPEED = 90.0  # rad/s; Bullet clamps joint speeds at 100
 
 
 def urdf_path(body: str, visuals: bool = True) -> Path:
@@ -104,3 +105,18 @@ class Quadruped:
         position, orientation = p.getBasePositionAndOrientation(self.id, physicsClientId=self.client)
         rotation = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
         return np.array(position), rotation
+
+    def contacts(self) -> list[tuple]:
+        """This step's contact points of the body with anything (PyBullet's tuples: [2] the other
+        body, [3] this body's link, -1 the head). Read once per step; rewards and touch share it."""
+        return p.getContactPoints(bodyA=self.id, physicsClientId=self.client)
+
+    def blew_up(self, joint_speeds: np.ndarray, position, bound: float, max_speed_sq: float) -> bool:
+        """A physics blow-up: a non-finite state, a body moving impossibly fast, or beyond ``bound``
+        (a half-size) from the origin. Comparisons are written so that NaN fails them."""
+        (vx, vy, vz), _ = p.getBaseVelocity(self.id, physicsClientId=self.client)
+        fastest_joint = float(np.abs(joint_speeds).max())
+        x, y, z = position
+        healthy = (vx * vx + vy * vy + vz * vz <= max_speed_sq and fastest_joint <= BLOWUP_JOINT_SPEED
+                   and -bound <= x <= bound and -bound <= y <= bound and z <= bound)
+        return not healthy

@@ -1,16 +1,16 @@
-"""Pieces that level generators share: arena walls, footprint geometry and collision-free placement."""
+"""Pieces that level generators share: arena walls, slabs, spheres and collision-free placement."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
+from aaai.geometry import TOLERANCE, Quad, corners, distance_to_footprint, footprints_overlap  # noqa: F401
 from aaai.spec import ObjectSpec
 
 WALL_THICKNESS = 1.0
 AGENT_RADIUS = 4.5  # the resting X reaches 4.5 from the head's centre
 MAX_TRIES = 1000
-TOLERANCE = 1e-3  # faces that touch do not overlap
 
 
 class PlacementError(RuntimeError):
@@ -40,47 +40,6 @@ def slab(kind: str, x: float, y: float, length: float, thickness: float, height:
          yaw: float = 0.0, **extra) -> ObjectSpec:
     """An upright box standing on the floor: ``length`` along its yaw, ``thickness`` across it."""
     return ObjectSpec(kind, "box", (x, y, height / 2), (length, thickness, height), yaw=yaw, **extra)
-
-
-Quad = tuple[tuple[float, float], ...]
-
-
-def corners(obj: ObjectSpec) -> Quad:
-    """The four (x, y) corners of an object's footprint (a sphere's or cylinder's bounding square)."""
-    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
-    hx, hy = obj.size[0] / 2, obj.size[1] / 2
-    x, y = obj.position[0], obj.position[1]
-    return tuple((x + u * c - v * s, y + u * s + v * c) for u, v in ((-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)))
-
-
-def footprints_overlap(a: Quad, b: Quad, gap: float = 0.0) -> bool:
-    """Separating-axis test of two convex quadrilaterals: closer than ``gap`` (or overlapping by
-    more than TOLERANCE when gap is 0)? Plain floats: this runs at every reset, on a few points."""
-    margin = gap if gap > 0 else -TOLERANCE
-    a = [(float(x), float(y)) for x, y in a]
-    b = [(float(x), float(y)) for x, y in b]
-    for axis in (0, 1):  # the bounding boxes first: most pairs are far apart
-        if (max(p[axis] for p in a) + margin <= min(p[axis] for p in b)
-                or max(p[axis] for p in b) + margin <= min(p[axis] for p in a)):
-            return False
-    for quad in (a, b):
-        for i in range(4):
-            (x0, y0), (x1, y1) = quad[i], quad[(i + 1) % 4]
-            length = math.hypot(x1 - x0, y1 - y0)
-            ax, ay = -(y1 - y0) / length, (x1 - x0) / length
-            pa = [x * ax + y * ay for x, y in a]
-            pb = [x * ax + y * ay for x, y in b]
-            if max(pa) + margin <= min(pb) or max(pb) + margin <= min(pa):
-                return False
-    return True
-
-
-def distance_to_footprint(obj: ObjectSpec, x: float, y: float) -> float:
-    """Distance from (x, y) to an object's footprint rectangle (0 inside it)."""
-    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
-    dx, dy = x - obj.position[0], y - obj.position[1]
-    u, v = c * dx + s * dy, -s * dx + c * dy
-    return math.hypot(max(abs(u) - obj.size[0] / 2, 0.0), max(abs(v) - obj.size[1] / 2, 0.0))
 
 
 def place_slabs(rng: np.random.Generator, size: tuple[float, float], slabs: list[dict],

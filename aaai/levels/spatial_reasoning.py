@@ -9,7 +9,7 @@ import numpy as np
 
 from aaai.levels.common import AGENT_RADIUS, arena_walls, place_slabs, sphere
 from aaai.spec import ObjectSpec
-from aaai.world import merge_tiles
+from aaai.geometry import merge_tiles
 
 PARAMETERS = ("chunks", "chunk_size", "wall_height", "obstacles", "obstacle_length_min", "obstacle_length_max",
               "food_size")
