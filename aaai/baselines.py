@@ -21,7 +21,7 @@ import numpy as np
 from aaai.curriculum import heatmap_panel
 from aaai.evaluation import COLUMNS, cells_for, evaluate, policy_config, policy_record, scored_episodes
 from aaai.levels import all_levels, get_level
-from aaai.runs import write_atomic
+from aaai.files import atomic_path, write_atomic
 
 SHOWN_DIFFICULTIES = (0, 5, 10)
 
@@ -122,6 +122,6 @@ def write_heatmap(boards: dict[str, list[dict]], levels: list[int], difficulties
             labels.append(f"{sum(map(passed, here))}/{len(here)}")
         panels.append(heatmap_panel(f"{name}: passed", np.array(rates), cells, limits=(0.0, 1.0), text=labels))
     picture = np.concatenate(panels, axis=1)
-    temporary = path.with_name(path.name + ".tmp.png")
-    cv2.imwrite(str(temporary), picture)
-    temporary.replace(path)
+    with atomic_path(path) as temporary:
+        if not cv2.imwrite(str(temporary), picture):
+            raise OSError(f"OpenCV could not write {path}")

@@ -21,7 +21,8 @@ import pybullet as p
 
 from aaai.env import AnimalAIEnv
 from aaai.levels import all_levels, get_level
-from aaai.runs import package_versions, write_atomic
+from aaai.files import write_atomic
+from aaai.runs import package_versions
 
 SENSOR_SETTINGS = {
     "joints": dict(rays=False, camera=False),

@@ -9,13 +9,36 @@ import copy
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import yaml
+
+from aaai.agent.urdf_writer import BODIES
 
 
 class ConfigError(ValueError):
     """A configuration key or value that is not allowed."""
+
+
+_level_ids: Callable[[], list[int]] | None = None  # the level registry's ids, once aaai.levels is imported
+
+
+def use_level_ids(provider: Callable[[], list[int]]) -> None:
+    """Lets the level registry (which imports this module) say which level ids exist."""
+    global _level_ids
+    _level_ids = provider
+
+
+def describe_ids(ids: list[int]) -> str:
+    """[0, 1, 2, 5] -> '0 to 2, 5'."""
+    parts, start = [], None
+    for i, value in enumerate(ids):
+        if start is None:
+            start = value
+        if i + 1 == len(ids) or ids[i + 1] != value + 1:
+            parts.append(f"{start}" if start == value else f"{start} to {value}")
+            start = None
+    return ", ".join(parts)
 
 
 @dataclass(frozen=True)
@@ -24,6 +47,7 @@ class Rule:
     low: float | None = None
     high: float | None = None
     choices: tuple[str, ...] = ()  # for int and float: words allowed besides the numbers
+    levels: bool = False  # the values are level ids: each must be a registered level
 
     def describe(self) -> str:
         if self.kind == "bool":
@@ -37,6 +61,16 @@ class Rule:
         return f"{words}{noun} from {self.low:g} to {self.high:g}"
 
     def check(self, key: str, value: Any) -> Any:
+        checked = self._check(key, value)
+        if self.levels and _level_ids is not None:
+            known = _level_ids()
+            missing = [v for v in (checked if isinstance(checked, list) else [checked]) if v not in known]
+            if missing:
+                raise ConfigError(f"config key '{key}': got {value!r}, and level {missing[0]} does not exist; "
+                                  f"allowed: registered level ids {describe_ids(known)}")
+        return checked
+
+    def _check(self, key: str, value: Any) -> Any:
         if self.kind == "set":
             return parse_int_set(value, key, int(self.low), int(self.high))
         if self.kind == "bool":
@@ -79,9 +113,9 @@ def parse_int_set(value: Any, key: str, low: int, high: int) -> list[int]:
     return sorted(set(values))
 
 
-BODIES = ("quadruped", "quadruped16")
+MAX_LEVEL_ID = 999  # level ids are 0..999; which exist, the level registry says (aaai.levels)
 RULES: dict[str, Rule] = {
-    "level": Rule("int", 0, 12),  # 12 is L2b (delayed gratification)
+    "level": Rule("int", 0, MAX_LEVEL_ID, levels=True),  # a registered level's id (aaai.levels); 12 is L2b
     "difficulty": Rule("int", 0, 10),
     "agent.body": Rule("choice", choices=BODIES),
     "agent.action_mode": Rule("choice", choices=("rotation", "velocity")),
@@ -112,7 +146,7 @@ RULES: dict[str, Rule] = {
     "physics.gravity": Rule("float", 0, 100),
     "physics.blowup_speed": Rule("float", 1, 1e5),
     "curriculum.mode": Rule("choice", choices=("curriculum", "random")),
-    "curriculum.levels": Rule("set", 0, 12),
+    "curriculum.levels": Rule("set", 0, MAX_LEVEL_ID, levels=True),  # registered levels' ids
     "curriculum.difficulties": Rule("set", 0, 10),
     "curriculum.window": Rule("int", 2, 1000),
     "curriculum.c": Rule("float", 1e-9, 1e3),

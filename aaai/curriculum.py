@@ -13,6 +13,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from aaai.files import atomic_path
 from aaai.levels import get_level
 from aaai.seeds import training_seed
 
@@ -98,10 +99,9 @@ class Curriculum:
         panels = [("mean return", self.mean_returns()), ("z", self.z_scores()), ("p", self.probabilities())]
         images = [heatmap_panel(title, values, self.cells) for title, values in panels]
         picture = np.concatenate(images, axis=1)
-        path = Path(path)
-        temporary = path.with_name(path.name + ".tmp.png")
-        cv2.imwrite(str(temporary), picture)
-        temporary.replace(path)
+        with atomic_path(path) as temporary:
+            if not cv2.imwrite(str(temporary), picture):
+                raise OSError(f"OpenCV could not write {path}")
 
 
 CELL_PX, MARGIN_PX = 44, 40

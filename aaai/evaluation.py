@@ -23,7 +23,8 @@ from aaai.config import ConfigError, env_part, load_config
 from aaai.gait import SineGait
 from aaai.env import AnimalAIEnv
 from aaai.levels import get_level
-from aaai.runs import RunFolder, model_problem, check_writable, write_atomic
+from aaai.files import write_atomic
+from aaai.runs import RunFolder, model_problem, check_writable
 from aaai.seeds import TRAIN_SEEDS, key_record, reserved_seeds
 
 COLUMNS = ["level", "level_name", "difficulty", "seed", "return", "max_reward", "ratio", "outcome", "steps",

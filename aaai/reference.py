@@ -28,6 +28,7 @@ import pybullet as p
 from aaai import validate
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.gait import BACK_UP, SineGait, approach, steer
+from aaai.behaviours import Sink, behaviour_class
 from aaai.geometry import corners
 from aaai.spec import ObjectSpec
 from aaai.validate import FOOTPRINT_RADIUS
@@ -195,9 +196,9 @@ class ReferenceController:
     @staticmethod
     def _food_goal(food: ObjectSpec, position) -> tuple[float, float]:
         """Where the piece is, or where it will stop if it slides."""
-        if food.behaviour and food.behaviour["type"] == "slide":
-            return tuple(food.behaviour["to"])
-        return position[0], position[1]
+        moving = behaviour_class(food)
+        ahead = moving.places(food) if moving else []
+        return (ahead[-1][0], ahead[-1][1]) if ahead else (position[0], position[1])
 
     # --- acting ---------------------------------------------------------------------
     def __call__(self, observation=None) -> np.ndarray:
@@ -378,7 +379,7 @@ def _angle(a: float) -> float:
 
 def _still_sinking(food) -> bool:
     _, obj, position = food
-    return bool(obj.behaviour and obj.behaviour["type"] == "sink") and position[2] > obj.size[0] / 2 + SETTLED
+    return behaviour_class(obj) is Sink and position[2] > obj.size[0] / 2 + SETTLED
 
 
 def _best_sector(spec) -> tuple[float, float] | None:

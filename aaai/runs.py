@@ -27,23 +27,11 @@ from pathlib import Path
 import yaml
 
 from aaai.config import ConfigError, read_yaml
+from aaai.files import write_atomic  # also re-exported: code outside the package imports it from here
 from aaai.vector import Episode
 
 PACKAGES = ("aaai", "pybullet", "numpy", "gymnasium", "stable-baselines3", "torch", "opencv-python-headless")
 EPISODE_COLUMNS = ["step"] + [f.name for f in fields(Episode)]
-
-
-def write_atomic(path: Path, text: str) -> None:
-    """Writes a file so that a reader (or a crash) sees either the old or the new whole file."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile("w", dir=path.parent, delete=False, suffix=".tmp") as handle:
-        handle.write(text)
-        handle.flush()
-        os.fsync(handle.fileno())
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(handle.name, 0o666 & ~umask)  # as open() would make it, not the temporary file's 0600
-    os.replace(handle.name, path)
 
 
 def check_writable(path: Path, option: str, folder: bool = False) -> None:

@@ -10,21 +10,10 @@ import hashlib
 import json
 from dataclasses import asdict, dataclass, field
 
+from aaai.behaviours import names as behaviour_names
 from aaai.kinds import COLOURS, FOOD_KINDS, check_kind
 
 SHAPES = ("box", "sphere", "cylinder")
-# Moving parts, run by aaai.world in simulated time:
-# - random_walk {"speed"}: wanders at speed, turning back at walls (L1 food);
-# - sink {"depth", "duration"}: moves straight down by depth over duration seconds (L2b pillar
-#   and the food on it);
-# - slide {"to": [x, y], "speed"}: moves in a straight line to (x, y), then stops (L8 food);
-# - door {"direction": [ux, uy], "distance"}: hidden below the arena until the agent's head is
-#   farther than distance along direction and inside that 90-degree sector, then stands at its
-#   position for good (L9 sector openings).
-# - hinge {"pivot": [[x, y, z], [x, y, z]]}: pinned to the world at these two points, so it can
-#   only turn about the line through them (the L10 plank: it tips over about its bottom edge on
-#   the trench's side and lands across the trench).
-BEHAVIOURS = ("random_walk", "sink", "slide", "door", "hinge")
 
 
 @dataclass(frozen=True)
@@ -36,7 +25,7 @@ class ObjectSpec:
     yaw: float = 0.0
     colour: tuple[float, float, float, float] | None = None  # None: the kind's colour
     mass: float = 0.0  # 0: static
-    behaviour: dict | None = None  # e.g. {"type": "random_walk", "speed": 4.0}
+    behaviour: dict | None = None  # a moving part (aaai.behaviours), e.g. {"type": "random_walk", "speed": 4.0}
 
     def __post_init__(self):
         check_kind(self.kind)
@@ -44,8 +33,8 @@ class ObjectSpec:
             raise ValueError(f"object shape {self.shape!r} is not known; allowed: {', '.join(SHAPES)}")
         if min(self.size) <= 0:
             raise ValueError(f"object size {self.size} must be positive")
-        if self.behaviour is not None and self.behaviour.get("type") not in BEHAVIOURS:
-            raise ValueError(f"object behaviour {self.behaviour!r}; allowed types: {', '.join(BEHAVIOURS)}")
+        if self.behaviour is not None and self.behaviour.get("type") not in behaviour_names():
+            raise ValueError(f"object behaviour {self.behaviour!r}; allowed types: {', '.join(behaviour_names())}")
 
     @property
     def rgba(self) -> tuple[float, float, float, float]:
@@ -104,3 +93,20 @@ class LevelSpec:
     @property
     def foods(self) -> list[ObjectSpec]:
         return [obj for obj in self.objects if obj.is_food]
+
+
+def generator_fields(spec: LevelSpec) -> dict:
+    """A spec as the dict a generator returns, to wrap one level in another."""
+    return {
+        "agent": (spec.agent.x, spec.agent.y, spec.agent.yaw),
+        "objects": list(spec.objects),
+        "max_food_reward": spec.max_food_reward,
+        "time_limit": spec.time_limit,
+        "arena_size": spec.arena_size,
+        "wall_height": spec.wall_height,
+        "tiles": spec.tiles,
+        "holes": spec.holes,
+        "heightfield": spec.heightfield,
+        "extras": {key: value for key, value in spec.extras.items() if key != "regenerated"}
+        | {"inner": {"level": spec.level, "name": spec.name, "difficulty": spec.difficulty, "seed": spec.seed}},
+    }

@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
+from aaai.behaviours import REGISTRY, behaviour_class
 from aaai.kinds import SOLID_KINDS
 from aaai.geometry import TOLERANCE, corners, footprints_overlap
 from aaai.spec import LevelSpec, ObjectSpec
@@ -30,7 +31,6 @@ FOOTPRINT_RADIUS = 5.0
 # lying against it (with the X's front feet 3.7 ahead, it could bring the head that close) touches
 # the wall with a sweeping foot on the way, so food must be reachable from the walking region.
 REACH_CLEARANCE = FOOTPRINT_RADIUS
-PASSABLE_BEHAVIOURS = ("sink", "door")
 
 
 def z_range(obj: ObjectSpec, z: float | None = None) -> tuple[float, float]:
@@ -64,10 +64,8 @@ def overlapping_solids(spec: LevelSpec) -> list[str]:
 
 def food_places(food: ObjectSpec) -> list[tuple[float, float, float]]:
     """Where a piece of food will be: its start, and where a sliding piece stops."""
-    places = [food.position]
-    if food.behaviour and food.behaviour["type"] == "slide":
-        places.append((*food.behaviour["to"], food.position[2]))
-    return places
+    moving = behaviour_class(food)
+    return [food.position, *(moving.places(food) if moving else [])]
 
 
 def food_problems(spec: LevelSpec, food: ObjectSpec) -> list[str]:
@@ -117,7 +115,8 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
     grid = np.zeros((rows, cols), np.uint8)
     bridge = spec.extras.get("bridge")
     for obj in solids(spec):
-        if obj.behaviour and obj.behaviour["type"] in PASSABLE_BEHAVIOURS:
+        moving = behaviour_class(obj)
+        if moving and moving.passable:
             continue
         if bridge and obj.kind == "plank" and obj.mass > 0:  # it becomes the bridge
             continue
@@ -233,8 +232,6 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     return bool(np.any(window & near))
 
 
-BEHAVIOUR_FIELDS = {"random_walk": ("speed",), "sink": ("depth", "duration"), "slide": ("to", "speed"),
-                    "door": ("direction", "distance"), "hinge": ("pivot",)}
 MAX_ARENA = 1000.0  # units across: far beyond any level, short of a grid that would not fit in memory
 
 
@@ -266,7 +263,11 @@ def malformed(spec: LevelSpec) -> list[str]:
             problems.append(f"{what}'s size {obj.size!r} must be positive")
         finite((*obj.position, obj.yaw, obj.mass), f"{what}'s position, yaw and mass")
         if obj.behaviour:
-            missing = [f for f in BEHAVIOUR_FIELDS.get(obj.behaviour.get("type"), ()) if f not in obj.behaviour]
+            moving = REGISTRY.get(obj.behaviour.get("type")) if isinstance(obj.behaviour, dict) else None
+            if moving is None:
+                problems.append(f"{what}'s behaviour {obj.behaviour!r} is not one of {', '.join(REGISTRY)}")
+                continue
+            missing = [f for f in moving.fields if f not in obj.behaviour]
             if missing:
                 problems.append(f"{what}'s behaviour {obj.behaviour['type']!r} lacks {', '.join(missing)}")
     return problems

@@ -3,7 +3,7 @@
 Every body carries a kind (aaai.kinds); rays and rewards read it from ``kind_index``.
 The floor is one body made of tiles (holes are tiles left out), or a heightfield for rough
 terrain; a deadly floor far below the arena catches anything that falls. Moving parts (the
-behaviours of aaai.spec) advance by simulated time only; one with nothing left to do is dropped,
+behaviours of aaai.behaviours) advance by simulated time only; one with nothing left to do is dropped,
 so a level without moving parts costs nothing per step.
 """
 from __future__ import annotations
@@ -13,6 +13,7 @@ import math
 import numpy as np
 import pybullet as p
 
+from aaai.behaviours import Behaviour, Door, behaviour_class
 from aaai.geometry import footprint, merge_tiles
 from aaai.kinds import COLOURS, KIND_INDEX
 from aaai.spec import LevelSpec, ObjectSpec
@@ -22,61 +23,10 @@ DEADLY_FLOOR_TOP = -6.0
 DEADLY_FLOOR_SIZE = 400.0
 NO_KIND = -1
 MAX_COMPOUND_SHAPES = 16  # PyBullet's limit on shapes in one createCollisionShapeArray
-RANDOM_WALK_TURN = 2.0  # heading noise of a random walk, rad per sqrt(s)
 # Bullet multiplies the two bodies' frictions; the floor's default is 0.5. A plank must grip the
 # floor (1.0 combined) or a body climbing onto the L10 bridge shoves it into the trench.
 PLANK_FRICTION = 2.0
 HIDDEN_Z = -30.0  # where an open door waits: below the deadly floor, out of sight and reach
-
-
-class Sink:
-    """Moves a body straight down by ``depth`` over ``duration`` simulated seconds."""
-
-    def __init__(self, obj: ObjectSpec):
-        self.start, self.yaw = obj.position, obj.yaw
-        self.depth, self.duration = obj.behaviour["depth"], obj.behaviour["duration"]
-
-    def pose(self, time: float, dt: float) -> tuple[tuple[float, float, float], bool]:
-        """The position at ``time`` and whether it has arrived."""
-        done = time >= self.duration
-        fraction = 1.0 if done else time / self.duration
-        x, y, z = self.start
-        return (x, y, z - self.depth * fraction), done
-
-
-class Slide:
-    """Moves a body in a straight line to a target at a constant speed, then stops."""
-
-    def __init__(self, obj: ObjectSpec):
-        self.x, self.y, self.z = obj.position
-        self.yaw = obj.yaw
-        self.target = tuple(obj.behaviour["to"])
-        self.speed = obj.behaviour["speed"]
-
-    def pose(self, time: float, dt: float) -> tuple[tuple[float, float, float], bool]:
-        dx, dy = self.target[0] - self.x, self.target[1] - self.y
-        remaining, step = math.hypot(dx, dy), self.speed * dt
-        if remaining <= step:
-            self.x, self.y = self.target
-            return (self.x, self.y, self.z), True
-        self.x, self.y = self.x + dx / remaining * step, self.y + dy / remaining * step
-        return (self.x, self.y, self.z), False
-
-
-class Door:
-    """A wall hidden until the agent's head is past ``distance`` along ``direction`` and inside
-    that direction's 90-degree sector; then it stands at its place for good."""
-
-    def __init__(self, obj: ObjectSpec):
-        self.obj = obj
-        self.position, self.yaw = obj.position, obj.yaw
-        self.ux, self.uy = obj.behaviour["direction"]
-        self.distance = obj.behaviour["distance"]
-
-    def entered(self, head_x: float, head_y: float) -> bool:
-        along = head_x * self.ux + head_y * self.uy
-        across = abs(head_y * self.ux - head_x * self.uy)
-        return along > self.distance and across < along
 
 
 class World:
@@ -90,9 +40,7 @@ class World:
         self.kind_index = np.full(64, NO_KIND, dtype=np.int64)  # body id -> index into KINDS
         self.objects: dict[int, ObjectSpec] = {}
         self.food: dict[int, ObjectSpec] = {}
-        self.walkers: dict[int, list[float]] = {}  # body id -> [x, y, z, heading]
-        self.movers: dict[int, Sink | Slide] = {}  # sinking pillars and their food, sliding food
-        self.doors: dict[int, Door] = {}  # open doors, closed by the head position advance() is given
+        self.running: dict[int, Behaviour] = {}  # body id -> its moving part, while it has work left
         self.closed: list[Door] = []  # doors that have closed: food outside their sectors is out of reach
         self.time = 0.0  # simulated seconds since the build
         self.colours = {**COLOURS, **{kind: tuple(rgba) for kind, rgba in spec.extras.get("colours", {}).items()}}
@@ -194,8 +142,8 @@ class World:
         c = self.client
         collision, visual = self._shape(obj)
         orientation = p.getQuaternionFromEuler((0, 0, obj.yaw))
-        kind = obj.behaviour["type"] if obj.behaviour else None
-        position = (*obj.position[:2], HIDDEN_Z) if kind == "door" else obj.position
+        moving = behaviour_class(obj)
+        position = (*obj.position[:2], HIDDEN_Z) if moving and moving.starts_hidden else obj.position
         # Static bodies in maximal coordinates: plain rigid bodies, about twice as fast to create.
         body = p.createMultiBody(obj.mass, collision, visual, basePosition=position, baseOrientation=orientation,
                                  useMaximalCoordinates=obj.mass == 0, physicsClientId=c)
@@ -205,27 +153,42 @@ class World:
         self.objects[body] = obj
         if obj.is_food:
             self.food[body] = obj
-        if kind == "random_walk":
-            heading = float(self.motion_rng.uniform(-math.pi, math.pi))
-            self.walkers[body] = [*obj.position, heading]
-        elif kind == "sink":
-            self.movers[body] = Sink(obj)
-        elif kind == "slide":
-            self.movers[body] = Slide(obj)
-        elif kind == "door":
-            self.doors[body] = Door(obj)
-        elif kind == "hinge":
-            self._pin(body, obj)
+        if moving:
+            part = moving(obj)
+            part.start(self, body)
+            if moving.runs:
+                self.running[body] = part
         return body
 
-    def _pin(self, body: int, obj: ObjectSpec) -> None:
-        """Pins a body to the world at its behaviour's two pivot points: a hinge about their line."""
+    # --- what behaviours ask of the world -------------------------------------------
+    def place(self, body: int, position, yaw: float | None) -> None:
+        """Puts a body at ``position``, turned to ``yaw`` about z (None: unturned)."""
+        orientation = (0, 0, 0, 1) if yaw is None else p.getQuaternionFromEuler((0, 0, yaw))
+        p.resetBasePositionAndOrientation(body, position, orientation, physicsClientId=self.client)
+
+    def pin(self, body: int, points) -> None:
+        """Pins a body to the world at two points: a hinge about the line through them."""
+        obj = self.objects[body]
         c, s = math.cos(obj.yaw), math.sin(obj.yaw)
-        for point in obj.behaviour["pivot"]:
+        for point in points:
             dx, dy, dz = (point[i] - obj.position[i] for i in range(3))
             local = (c * dx + s * dy, -s * dx + c * dy, dz)  # the point in the body's frame
             p.createConstraint(body, -1, -1, -1, p.JOINT_POINT2POINT, (0, 0, 0), local, tuple(point),
                                physicsClientId=self.client)
+
+    def door_closed(self, door: Door) -> None:
+        self.closed.append(door)
+        self._eaten = None
+
+    @property
+    def doors(self) -> dict[int, Door]:
+        """The doors still open."""
+        return {body: part for body, part in self.running.items() if isinstance(part, Door)}
+
+    @property
+    def movers(self) -> dict[int, Behaviour]:
+        """The moving parts other than open doors that still have work left."""
+        return {body: part for body, part in self.running.items() if not isinstance(part, Door)}
 
     # --- running --------------------------------------------------------------------
     def eat(self, eaten: dict[int, tuple[ObjectSpec, bool]]) -> None:
@@ -245,43 +208,16 @@ class World:
         self.kind_index[body] = NO_KIND
         self.objects.pop(body, None)
         self.food.pop(body, None)
-        self.walkers.pop(body, None)
-        self.movers.pop(body, None)
-        self.doors.pop(body, None)
+        self.running.pop(body, None)
         self._eaten = None
 
     def advance(self, dt: float, head: tuple[float, float] | None = None) -> None:
         """Moves the moving parts by dt of simulated time. ``head`` (x, y) is needed while any
-        door is open (``self.doors``)."""
+        door is open."""
         self.time += dt
-        for body, state in self.walkers.items():
-            self._walk(body, state, dt)
-        if self.movers:
-            self._move(dt)
-        if self.doors and head is not None:
-            self._close_doors(head)
-
-    def _move(self, dt: float) -> None:
-        """Sinking and sliding bodies to their poses at the new time; arrived ones stop."""
-        arrived = []
-        for body, mover in self.movers.items():
-            position, done = mover.pose(self.time, dt)
-            p.resetBasePositionAndOrientation(body, position, p.getQuaternionFromEuler((0, 0, mover.yaw)),
-                                              physicsClientId=self.client)
-            if done:
-                arrived.append(body)
-        for body in arrived:
-            del self.movers[body]
-
-    def _close_doors(self, head: tuple[float, float]) -> None:
-        """Stands up the door of any sector the head has entered."""
-        for body, door in list(self.doors.items()):
-            if door.entered(head[0], head[1]):
-                p.resetBasePositionAndOrientation(body, door.position, p.getQuaternionFromEuler((0, 0, door.yaw)),
-                                                  physicsClientId=self.client)
-                self.closed.append(door)
-                del self.doors[body]
-                self._eaten = None
+        done = [body for body, part in self.running.items() if part.advance(self, body, dt, head)]
+        for body in done:
+            del self.running[body]
 
     def all_eaten(self) -> bool:
         """Is no food left that the agent can still get to, in a level that had some? (Food shut
@@ -294,19 +230,7 @@ class World:
                 for body in self.food)
         return self._eaten
 
-    def _walk(self, body: int, state: list[float], dt: float) -> None:
-        obj = self.objects[body]
-        x, y, z, heading = state
-        heading += RANDOM_WALK_TURN * math.sqrt(dt) * float(self.motion_rng.standard_normal())
-        step = obj.behaviour["speed"] * dt
-        nx, ny = x + step * math.cos(heading), y + step * math.sin(heading)
-        if self._blocked(nx, ny, obj.size[0] / 2):
-            heading += math.pi  # turn back; stay put this step
-            nx, ny = x, y
-        state[:] = [nx, ny, z, heading]
-        p.resetBasePositionAndOrientation(body, (nx, ny, z), (0, 0, 0, 1), physicsClientId=self.client)
-
-    def _blocked(self, x: float, y: float, radius: float) -> bool:
+    def blocked(self, x: float, y: float, radius: float) -> bool:
         """Would a disc at (x, y) leave the arena or overlap a static solid's footprint?"""
         half_x, half_y = self.spec.arena_size[0] / 2 - radius, self.spec.arena_size[1] / 2 - radius
         if not (-half_x <= x <= half_x and -half_y <= y <= half_y):

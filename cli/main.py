@@ -10,7 +10,7 @@ import numpy as np
 from aaai.config import ConfigError, load_config, parse_int_set
 from aaai.env import AnimalAIEnv
 from aaai.evaluation import load_policy
-from aaai.levels import all_levels, generate, get_level
+from aaai.levels import all_levels, generate, get_level, level_ids
 from aaai.registration import level_env_id
 from aaai.runs import RunFolder
 
@@ -24,6 +24,19 @@ def parse_range(text: str, name: str, low: int, high: int) -> list[int]:
         return parse_int_set(text, name, low, high)
     except ConfigError as error:
         raise click.BadParameter(str(error).split(": ", 1)[1], param_hint=name) from None
+
+
+def parse_levels(text: str | None, name: str = "--levels") -> list[int]:
+    """'0-3,5' -> those level ids, each a registered level; None or 'all' -> every registered level."""
+    known = level_ids()
+    if text is None or text == "all":
+        return known
+    levels = parse_range(text, name, 0, max(known))
+    missing = [level for level in levels if level not in known]
+    if missing:
+        raise click.BadParameter(f"got {text!r}, and level {missing[0]} does not exist; allowed: all, or ids "
+                                 f"among {', '.join(map(str, known))}", param_hint=name)
+    return levels
 
 
 @click.group()
@@ -74,7 +87,7 @@ def spec_command(level, difficulty, seed, as_json):
 @click.option("--rays/--no-rays", default=None, help="Turn the rays on or off.")
 def run_command(levels_text, difficulty_text, episodes, seed, policy, config_path, max_steps, camera, rays):
     """Run episodes with a policy (random actions by default) and print a summary of each."""
-    levels = parse_range(levels_text, "--levels", 0, 12)
+    levels = parse_levels(levels_text)
     difficulties = parse_range(difficulty_text, "--difficulty", 0, 10)
     overrides = {k: v for k, v in dict(max_steps=max_steps, camera=camera, rays=rays).items() if v is not None}
     try:
@@ -198,7 +211,7 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
     run_folder = Path(policy) if Path(policy).is_dir() else None
     try:
         config = policy_config(policy, config_path)
-        level_list = parse_range(levels, "--levels", 0, 12) if levels else config["curriculum"]["levels"]
+        level_list = parse_levels(levels) if levels else config["curriculum"]["levels"]
         difficulty_list = (parse_range(difficulty, "--difficulty", 0, 10) if difficulty
                            else config["curriculum"]["difficulties"])
         count = seeds_per_cell or config["eval"]["seeds_per_cell"]
@@ -223,7 +236,7 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
 @click.option("--demo-run", type=click.Path(file_okay=False), default="runs/demo", show_default=True,
               help="The trained run scored as ppo_demo (make demo writes it).")
 @click.option("--out", "folder", type=click.Path(file_okay=False), default="baselines", show_default=True)
-@click.option("--levels", default="0-12", show_default=True)
+@click.option("--levels", default="all", show_default=True, help="Levels, e.g. '0-3,5', or all.")
 @click.option("--difficulty", default="0-10", show_default=True)
 @click.option("--seeds-per-cell", "-k", "count", type=click.IntRange(1), default=10, show_default=True)
 @click.option("--workers", type=click.IntRange(1), default=2, show_default=True, help="Worker processes.")
@@ -242,12 +255,12 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers):
         raise click.UsageError(str(error)) from None
     if not Path(demo_run).is_dir():
         raise click.UsageError(f"--demo-run: got {demo_run!r}, which is not a run folder; run `make demo` first")
-    run(Path(folder), Path(demo_run), parse_range(levels, "--levels", 0, 12),
+    run(Path(folder), Path(demo_run), parse_levels(levels),
         parse_range(difficulty, "--difficulty", 0, 10), count, workers, echo=click.echo)
 
 
 @cli.command("seeds")
-@click.option("--levels", default="0-12", show_default=True)
+@click.option("--levels", default="all", show_default=True, help="Levels, e.g. '0-3,5', or all.")
 @click.option("--difficulty", default="0-10", show_default=True)
 @click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=10, show_default=True)
 @click.option("--seed-key-file", type=click.Path(dir_okay=False),
@@ -261,7 +274,7 @@ def seeds_command(levels, difficulty, count, seed_key_file):
     except ValueError as error:
         raise click.UsageError(str(error)) from None
     click.echo(f"seed key: {key_record(key)}")
-    for level in parse_range(levels, "--levels", 0, 12):
+    for level in parse_levels(levels):
         for d in parse_range(difficulty, "--difficulty", 0, 10):
             seeds = reserved_seeds(level, d, count, key)
             click.echo(f"{get_level(level).label} d{d}: " + ",".join(str(s) for s in seeds))
@@ -280,7 +293,7 @@ def bench_command(levels, steps, resets, worker_steps, memory_steps, folder):
     """Measure steps/s against a bare PyBullet loop and MuJoCo Ant-v5, resets, workers and memory."""
     from aaai import bench
 
-    level_list = parse_range(levels, "--levels", 0, 12) if levels else None
+    level_list = parse_levels(levels) if levels else None
     results = bench.run(level_list, steps=steps, resets=resets, worker_steps=worker_steps, memory_steps=memory_steps,
                         log=lambda text: click.echo(text, err=True))
     json_path, md_path = bench.write(results, Path(folder))

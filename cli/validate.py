@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from aaai.levels import InvalidLevelError, generate
+from aaai.levels import InvalidLevelError, all_levels, generate
 from aaai.validate import check
 
 
@@ -17,15 +17,10 @@ def validate(levels_text, difficulty_text, seeds, first_seed):
     food piece inside the arena, on solid ground and clear of walls; every piece reachable by a body
     of the agent's footprint. Prints seeds checked, regenerated and failed per (level, difficulty);
     exits with status 1 if any failed."""
-    from aaai.levels import all_levels
-    from aaai_cli.main import parse_range  # here, not at the top: main imports this module
+    from aaai_cli.main import parse_levels, parse_range  # here, not at the top: main imports this module
 
     known = all_levels()
-    levels = sorted(known) if levels_text is None else parse_range(levels_text, "--levels", 0, max(known))
-    missing = [level for level in levels if level not in known]
-    if missing:
-        raise click.BadParameter(f"got {levels_text!r}; allowed: levels {', '.join(map(str, known))}",
-                                 param_hint="--levels")
+    levels = parse_levels(levels_text)
     difficulties = parse_range(difficulty_text, "--difficulty", 0, 10)
     click.echo(f"{'level':<28} {'diff':>4} {'checked':>8} {'regenerated':>12} {'failed':>7}")
     totals, errors = [0, 0, 0], []

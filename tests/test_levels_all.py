@@ -26,7 +26,7 @@ def test_every_level_is_registered_with_its_label_and_gymnasium_id():
     assert get_level("L2b").name == "delayed_gratification" and get_level("y_maze").id == 2
     assert "aaai/L2b-DelayedGratification-v0" in gym.registry and "aaai/L11-BodyAwareness-v0" in gym.registry
     assert load_config(level=12)["level"] == 12
-    with pytest.raises(ConfigError, match="config key 'level': got 13; allowed: an integer from 0 to 12"):
+    with pytest.raises(ConfigError, match="config key 'level': got 13, and level 13 does not exist; allowed: registered level ids 0 to 12"):
         load_config(level=13)
 
 
@@ -133,10 +133,16 @@ def test_a_level_that_fails_the_check_is_regenerated_deterministically(monkeypat
     monkeypatch.setattr(validate, "check", fails_first)
     first = generate(3, 6, 5)
     again = generate(3, 6, 5)
-    assert first == again and first.extras["regenerated"] == 1
-    assert calls[0] != first  # the second attempt differs from the first
+    rejected = calls[0]  # the first attempt of the first call, refused by the made-up problem
+    assert first.extras["regenerated"] == 1 and "regenerated" not in rejected.extras
+    assert first == again and first.digest() == again.digest()  # regenerating is deterministic too
     monkeypatch.setattr(validate, "check", real)
-    assert "regenerated" not in generate(3, 6, 5).extras
+    plain = generate(3, 6, 5)
+    assert plain == rejected and "regenerated" not in plain.extras  # a first attempt that passes is kept
+    assert real(first) == []  # the regenerated level is a valid one...
+    # ... and another layout, not the rejected one with a counter added (extras aside, specs compare whole)
+    assert replace(first, extras=rejected.extras) != rejected
+    assert (first.agent, first.objects) != (rejected.agent, rejected.objects)
 
 
 def test_a_level_that_cannot_be_made_valid_names_its_seed(monkeypatch):

@@ -1,0 +1,1 @@
+"""The quadruped: its URDF writer and the body in a PyBullet client."""

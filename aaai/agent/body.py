@@ -6,11 +6,10 @@ from pathlib import Path
 import numpy as np
 import pybullet as p
 
-from aaai.agent.urdf_writer import file_name
+from aaai.agent.urdf_writer import BODIES, LEGS, SEGMENT_TIP, file_name
 from aaai.config import ConfigError
 
 URDF_DIR = Path(__file__).resolve().parent.parent / "urdf"
-BODIES = ("quadruped", "quadruped16")
 SPAWN_HEIGHT = 1.5
 AGENT_GROUP = 64  # collision group of the body's parts; rays leave it out
 RAY_MASK = 0xFFFF & ~AGENT_GROUP
@@ -105,6 +104,22 @@ class Quadruped:
         position, orientation = p.getBasePositionAndOrientation(self.id, physicsClientId=self.client)
         rotation = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
         return np.array(position), rotation
+
+    def leg_points(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Each leg's (fl, fr, bl, br) hip, knee and foot in the world, (3,) each: the thigh's and
+        the shin's link frames and the shin's far end; [] for a body without those links."""
+        links = dict(zip(self.link_names, self.links))
+        legs = []
+        for leg, _ in LEGS:
+            thigh, shin = links.get(f"{leg}_thigh"), links.get(f"{leg}_shin")
+            if thigh is None or shin is None:
+                return []
+            hip_state, knee_state = p.getLinkStates(self.id, [thigh, shin], computeForwardKinematics=True,
+                                                    physicsClientId=self.client)
+            hip, knee = np.array(hip_state[4]), np.array(knee_state[4])
+            along = np.array(p.getMatrixFromQuaternion(knee_state[5])).reshape(3, 3)[:, 0]
+            legs.append((hip, knee, knee + SEGMENT_TIP * along))
+        return legs
 
     def contacts(self) -> list[tuple]:
         """This step's contact points of the body with anything (PyBullet's tuples: [2] the other

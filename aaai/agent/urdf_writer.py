@@ -25,8 +25,11 @@ HEAD_MASS = 0.5
 SEGMENT_RADIUS = 0.5
 SEGMENT_LENGTH = 2.0  # total, caps included
 SEGMENT_MASS = 1.0
+SEGMENT_CENTRE = SEGMENT_LENGTH / 2 - SEGMENT_RADIUS  # from a segment's pivot: its near cap is centred on the pivot
+SEGMENT_TIP = SEGMENT_CENTRE + SEGMENT_LENGTH / 2  # from a segment's pivot to its far end
 HIP_DISTANCE = 1.5  # hip pivot on the head's surface
 KNEE_DISTANCE = 3.0  # knee pivot at the thigh's far end
+LEG_REACH = KNEE_DISTANCE + SEGMENT_TIP  # a resting leg's tip from the head's centre
 UPDOWN_LIMIT = math.radians(90)
 SIDEWAYS_LIMIT = math.radians(45)
 CONNECTOR_MASS = 1e-3
@@ -52,12 +55,12 @@ def _segment_link(name: str, colour: str, visuals: bool) -> str:
     # A URDF capsule lies along its local z axis; rotate it onto the leg's x axis.
     cylinder_length = SEGMENT_LENGTH - 2 * SEGMENT_RADIUS
     ixx, iyy, izz = _capsule_inertia(SEGMENT_MASS, SEGMENT_RADIUS, SEGMENT_LENGTH)
-    origin = f'<origin xyz="{_fmt(0.5, 0, 0)}" rpy="0 {_fmt(math.pi / 2)} 0"/>'
+    origin = f'<origin xyz="{_fmt(SEGMENT_CENTRE, 0, 0)}" rpy="0 {_fmt(math.pi / 2)} 0"/>'
     geometry = f'<geometry><capsule radius="{SEGMENT_RADIUS}" length="{cylinder_length}"/></geometry>'
     visual = (f'\n    <visual>{origin}{geometry}<material name="{name}_m"><color rgba="{colour}"/></material></visual>'
               if visuals else "")
     return f"""  <link name="{name}">
-    <inertial><origin xyz="0.5 0 0"/><mass value="{SEGMENT_MASS}"/>
+    <inertial><origin xyz="{_fmt(SEGMENT_CENTRE, 0, 0)}"/><mass value="{SEGMENT_MASS}"/>
       <inertia ixx="{ixx:.6g}" iyy="{iyy:.6g}" izz="{izz:.6g}" ixy="0" ixz="0" iyz="0"/></inertial>{visual}
     <collision>{origin}{geometry}</collision>
   </link>
@@ -131,6 +134,7 @@ def quadruped_urdf(axes_per_joint: int, visuals: bool = True) -> str:
 
 URDF_DIR = Path(__file__).resolve().parent.parent / "urdf"
 AXES_PER_JOINT = {"quadruped": 1, "quadruped16": 2}
+BODIES = tuple(AXES_PER_JOINT)  # the bodies config key agent.body may name
 
 
 def file_name(body: str, visuals: bool) -> str:

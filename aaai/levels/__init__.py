@@ -1,14 +1,22 @@
-"""The level registry: configs/levels/L*.yaml joined to the generators in this package.
+"""The level registry: level files (configs/levels/L*.yaml) joined to their generators.
 
 A level is a pure function of (difficulty, seed, parameters) that returns a LevelSpec. Every
 generated spec is checked (aaai.validate); one that fails is generated again from a generator
 derived from the same (seed, level, difficulty) and the attempt number, so the result is still a
 pure function of the inputs.
+
+Levels are plug-ins: a level file names its generator, a module of this package ("obstacles") or
+any importable module ("mylab.levels.spiral"); folders listed in the environment variable
+AAAI_LEVELS (separated as PATH is) add their L*.yaml files to the shipped ones. A generator module
+has PARAMETERS (the names its level file's params must give) and ``generate(params, rng)``
+returning the spec's fields; with ``WRAPS_OTHER_LEVELS = True`` it is ``generate(params, rng,
+inner)`` and ``inner(rng)`` makes it a random level that wraps no other.
 """
 from __future__ import annotations
 
 import functools
 import importlib
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -17,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from aaai import validate
-from aaai.config import ConfigError, config_dir, read_yaml
+from aaai.config import ConfigError, config_dir, read_yaml, use_level_ids
 from aaai.levels.common import PlacementError
 from aaai.levels.params import DIFFICULTIES, resolve
 from aaai.seeds import seed_range
@@ -44,6 +52,11 @@ class Level:
     label: str
     time_limit: Any  # seconds: a number, 11 numbers or an expression in d, as a parameter
 
+    @property
+    def wraps(self) -> bool:
+        """Does this level wrap a random other level (L6, L7)?"""
+        return bool(getattr(self.generator, "WRAPS_OTHER_LEVELS", False))
+
     def time_limit_at(self, difficulty: int) -> float:
         """The episode's time limit (seconds of simulated time) at this difficulty."""
         return float(resolve({"time_limit": self.time_limit}, difficulty, ("time_limit",), self.source)["time_limit"])
@@ -68,18 +81,54 @@ def _load_level(path) -> Level:
 
 
 def _generator(name: str, source: str) -> ModuleType:
-    """The generator module aaai/levels/<name>.py named by a level file."""
-    available = sorted(p.stem for p in Path(__file__).parent.glob("*.py") if not p.stem.startswith("_"))
-    if name not in available or name in ("common", "params"):
-        raise ConfigError(f"{source}: generator {name!r} does not exist; allowed: a module of aaai/levels/")
-    return importlib.import_module(f"aaai.levels.{name}")
+    """The generator module a level file names: aaai/levels/<name>.py, or a dotted module path."""
+    ours = sorted(p.stem for p in Path(__file__).parent.glob("*.py") if not p.stem.startswith("_"))
+    if name in ("common", "params"):
+        name = ""
+    try:
+        module = importlib.import_module(f"aaai.levels.{name}" if name in ours else name)
+    except (ImportError, ValueError, TypeError) as error:
+        raise ConfigError(f"{source}: generator {name!r} cannot be imported ({error}); allowed: a module of "
+                          f"aaai/levels/ ({', '.join(n for n in ours if n not in ('common', 'params'))}) or an "
+                          "importable module path") from None
+    if not callable(getattr(module, "generate", None)) or not hasattr(module, "PARAMETERS"):
+        raise ConfigError(f"{source}: generator {name!r} needs PARAMETERS and a generate() function")
+    return module
+
+
+def level_folders() -> list[Path]:
+    """configs/levels/ and every folder in AAAI_LEVELS."""
+    extra = [Path(part) for part in os.environ.get("AAAI_LEVELS", "").split(os.pathsep) if part]
+    for folder in extra:
+        if not folder.is_dir():
+            raise ConfigError(f"AAAI_LEVELS: got {str(folder)!r}, which is not a folder; allowed: folders of L*.yaml files")
+    return [config_dir() / "levels", *extra]
 
 
 @functools.cache
+def _levels(folders: tuple[Path, ...]) -> dict[int, Level]:
+    found: dict[int, Level] = {}
+    for folder in folders:
+        for path in sorted(folder.glob("L*.yaml")):
+            level = _load_level(path)
+            clash = found.get(level.id)
+            if clash is not None:
+                raise ConfigError(f"{path}: level id {level.id} is taken by {clash.source} ({clash.name}); "
+                                  "allowed: an id no other level file has")
+            found[level.id] = level
+    return dict(sorted(found.items()))
+
+
 def all_levels() -> dict[int, Level]:
-    """Every level shipped in configs/levels/, by id."""
-    found = [_load_level(path) for path in sorted((config_dir() / "levels").glob("L*.yaml"))]
-    return {level.id: level for level in sorted(found, key=lambda level: level.id)}
+    """Every registered level, by id: the shipped ones and those of AAAI_LEVELS's folders."""
+    return _levels(tuple(level_folders()))
+
+
+def level_ids() -> list[int]:
+    return list(all_levels())
+
+
+use_level_ids(level_ids)  # config files and keywords name levels by these ids
 
 
 def get_level(ref: int | str) -> Level:
@@ -130,10 +179,10 @@ def generate(level: int | str, difficulty: int, seed: int) -> LevelSpec:
     for attempt in range(MAX_ATTEMPTS):
         try:
             rng = attempt_rng(lvl.id, difficulty, seed, attempt)
-            if getattr(lvl.generator, "WRAPS_OTHER_LEVELS", False):  # the inner seed stays in the seed's range
-                built = lvl.generator.generate(params, difficulty, rng, seeds=seed_range(seed))
+            if lvl.wraps:  # the inner seed stays in the outer seed's range
+                built = lvl.generator.generate(params, rng, inner=functools.partial(other_level, seeds=seed_range(seed)))
             else:
-                built = lvl.generator.generate(params, difficulty, rng)
+                built = lvl.generator.generate(params, rng)
         except PlacementError as error:
             problem = str(error)
             continue
@@ -164,31 +213,15 @@ def _assemble(lvl: Level, difficulty: int, seed: int, built: dict, attempt: int)
     )
 
 
-def other_level(rng: np.random.Generator, exclude: tuple[int, ...], seeds: range) -> LevelSpec:
-    """A random other level and cell (L6, L7): the spec of an rng-drawn (level, difficulty, seed).
+def other_level(rng: np.random.Generator, seeds: range) -> LevelSpec:
+    """A random level that wraps no other, and cell (for L6, L7): the spec of an rng-drawn
+    (level, difficulty, seed).
 
     The inner seed comes from rng, within ``seeds`` (the outer seed's range: aaai.seeds.seed_range),
     so the result is a pure function of the outer level's seed and a reserved seed builds only
     from reserved seeds.
     """
-    choices = [level_id for level_id in all_levels() if level_id not in exclude]
+    choices = [level.id for level in all_levels().values() if not level.wraps]
     level_id = int(rng.choice(choices))
     difficulty = int(rng.integers(DIFFICULTIES.start, DIFFICULTIES.stop))
     return generate(level_id, difficulty, int(rng.integers(seeds.start, seeds.stop)))
-
-
-def spec_fields(spec: LevelSpec) -> dict:
-    """A spec as the dict a generator returns, to wrap one level in another."""
-    return {
-        "agent": (spec.agent.x, spec.agent.y, spec.agent.yaw),
-        "objects": list(spec.objects),
-        "max_food_reward": spec.max_food_reward,
-        "time_limit": spec.time_limit,
-        "arena_size": spec.arena_size,
-        "wall_height": spec.wall_height,
-        "tiles": spec.tiles,
-        "holes": spec.holes,
-        "heightfield": spec.heightfield,
-        "extras": {key: value for key, value in spec.extras.items() if key != "regenerated"}
-        | {"inner": {"level": spec.level, "name": spec.name, "difficulty": spec.difficulty, "seed": spec.seed}},
-    }

@@ -12,7 +12,7 @@ PARAMETERS = ("tiles", "holes", "walls", "wall_length_min", "wall_length_max", "
 ARENA = (50.0, 50.0)
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, rng: np.random.Generator) -> dict:
     n = int(p["tiles"])
     tile = ARENA[0] / n
     agent_tile = (int(rng.integers(1, n - 1)), int(rng.integers(1, n - 1)))  # not against a wall

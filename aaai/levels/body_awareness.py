@@ -35,7 +35,7 @@ def height_at(heights: np.ndarray, x: float, y: float) -> float:
     return float(top * (1 - fv) + bottom * fv)
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, rng: np.random.Generator) -> dict:
     amplitude = float(p["amplitude"])
     heights = terrain(rng, int(p["roughness"]), int(p["samples"]), amplitude)
     agent_x, agent_y = sample_clear_point(rng, ARENA, AGENT_RADIUS + 1.0, [])

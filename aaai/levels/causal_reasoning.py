@@ -18,7 +18,7 @@ LANE_MARGIN = 2.5  # a side wall's middle this far beyond the plank's edge: a la
 EDGE_GAP = 3.0  # between the standing plank and the trench's edge: the fallen plank rests on this much floor
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, rng: np.random.Generator) -> dict:
     width, south = int(p["trench_width"]), int(p["trench_south"])  # whole 1 x 1 tiles
     north = south + width
     holes = tuple((i, j) for i in range(int(ARENA[0])) for j in range(south + 25, north + 25))

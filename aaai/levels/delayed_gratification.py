@@ -14,7 +14,7 @@ PARAMETERS = ("agent_y", "green_distance", "green_size", "yellow_size", "pillar_
 ARENA = (50.0, 50.0)
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, rng: np.random.Generator) -> dict:
     green = sphere("food_green", 0.0, p["agent_y"] + p["green_distance"], p["green_size"])
     side = 1 if rng.random() < 0.5 else -1
     x = side * float(rng.uniform(p["pillar_offset_min"], p["pillar_offset_max"]))

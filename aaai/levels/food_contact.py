@@ -10,7 +10,7 @@ from aaai.levels.common import arena_walls, sphere
 PARAMETERS = ("agent_y", "food_distance", "food_offset", "food_size")
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, rng: np.random.Generator) -> dict:
     size = float(p["food_size"])
     offset = float(rng.uniform(-p["food_offset"], p["food_offset"]))
     food = sphere("food_green", offset, p["agent_y"] + p["food_distance"], size)

@@ -11,7 +11,7 @@ PARAMETERS = ("pieces", "size_min", "size_max", "move_probability", "speed", "mi
 ARENA = (50.0, 50.0)
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, rng: np.random.Generator) -> dict:
     agent_x, agent_y = sample_clear_point(rng, ARENA, AGENT_RADIUS + 1.0, [])
     heading = float(rng.uniform(-math.pi, math.pi))
     foods = []

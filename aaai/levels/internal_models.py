@@ -2,16 +2,18 @@
 while every few seconds (the rays stay on), so the agent must keep a model of where things are."""
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 
+from aaai.spec import LevelSpec, generator_fields
+
 PARAMETERS = ("light_seconds", "dark_seconds")
-WRAPS_OTHER_LEVELS = True
+WRAPS_OTHER_LEVELS = True  # the registry hands generate() an ``inner`` level maker
 
 
-def generate(p: dict, d: int, rng: np.random.Generator, seeds: range) -> dict:
-    from aaai.levels import other_level, spec_fields  # the registry imports this module
-
-    fields = spec_fields(other_level(rng, exclude=(6, 7), seeds=seeds))
-    # the environment blanks the camera on this schedule (aaai.env), in simulated time
+def generate(p: dict, rng: np.random.Generator, inner: Callable[[np.random.Generator], LevelSpec]) -> dict:
+    fields = generator_fields(inner(rng))
+    # the camera goes dark on this schedule (aaai.sensors.Blackout), in simulated time
     fields["extras"]["blackout"] = {"light": float(p["light_seconds"]), "dark": float(p["dark_seconds"])}
     return fields

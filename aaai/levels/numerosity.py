@@ -20,7 +20,7 @@ FOOD_WALL_GAP = 5.0
 SPOKE_GAP = 9.0
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, rng: np.random.Generator) -> dict:
     hub, height = float(p["hub"]), float(p["wall_height"])
     counts = _counts(rng, int(p["max_pieces"]))
     objects = arena_walls(ARENA, height) + _spokes(hub, height)

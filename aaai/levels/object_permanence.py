@@ -13,7 +13,7 @@ PARAMETERS = ("arena_x", "arena_y", "tile", "agent_y", "agent_x_range", "occlude
               "food_size", "food_y", "food_start_x", "food_stop_x", "speed", "pit_depth")
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, rng: np.random.Generator) -> dict:
     arena = (float(p["arena_x"]), float(p["arena_y"]))
     half_y = arena[1] / 2
     side = 1 if rng.random() < 0.5 else -1  # the food's side: east (+1) or west

@@ -14,7 +14,7 @@ PARAMETERS = ("agent_y", "agent_x_range", "wall_distance", "wall_width", "wall_h
 ARENA = (50.0, 50.0)
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, rng: np.random.Generator) -> dict:
     agent_x = float(rng.uniform(-p["agent_x_range"], p["agent_x_range"]))
     wall_y = p["agent_y"] + p["wall_distance"]
     glass = slab("transparent_wall", agent_x, wall_y, p["wall_width"], 1.0, p["wall_height"])

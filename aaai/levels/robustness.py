@@ -4,23 +4,24 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from typing import Callable
+
 import numpy as np
 
 from aaai.kinds import COLOURS, OBJECT_KINDS
+from aaai.spec import LevelSpec, generator_fields
 
 PARAMETERS = ("colours", "wall_height")
-WRAPS_OTHER_LEVELS = True
+WRAPS_OTHER_LEVELS = True  # the registry hands generate() an ``inner`` level maker
 WALL_KINDS = ("wall", "transparent_wall")
 
 
-def generate(p: dict, d: int, rng: np.random.Generator, seeds: range) -> dict:
-    from aaai.levels import other_level, spec_fields  # the registry imports this module
-
-    inner = other_level(rng, exclude=(6, 7), seeds=seeds)
+def generate(p: dict, rng: np.random.Generator, inner: Callable[[np.random.Generator], LevelSpec]) -> dict:
+    inner = inner(rng)
     palette = rng.uniform(0.0, 1.0, (int(p["colours"]), 3))
     # each kind keeps its own opacity, so transparent walls stay see-through
     colours = {kind: (*map(float, palette[int(rng.integers(len(palette)))]), COLOURS[kind][3]) for kind in OBJECT_KINDS}
-    fields = spec_fields(inner)
+    fields = generator_fields(inner)
     fields["objects"] = [_restyle(obj, colours, p["wall_height"]) for obj in inner.objects]
     fields["wall_height"] = max(inner.wall_height, float(p["wall_height"]))
     fields["extras"]["colours"] = {kind: list(rgba) for kind, rgba in colours.items()}

@@ -17,7 +17,7 @@ THICKNESS = 1.0
 OBSTACLE_KINDS = ("plank", "transparent_wall", "wall")
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, rng: np.random.Generator) -> dict:
     count, chunk, height = int(p["chunks"]), float(p["chunk_size"]), float(p["wall_height"])
     columns = math.ceil(math.sqrt(count))
     rows = math.ceil(count / columns)

@@ -14,7 +14,7 @@ ARENA = (50.0, 50.0)
 HEIGHT = 4.0
 
 
-def generate(p: dict, d: int, rng: np.random.Generator) -> dict:
+def generate(p: dict, rng: np.random.Generator) -> dict:
     half = ARENA[1] / 2
     stem_x = p["stem_width"] / 2 + 0.5  # wall centres; the corridor between them is stem_width wide
     stem_y = -half + p["stem_length"] / 2

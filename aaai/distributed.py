@@ -1,0 +1,250 @@
+"""`aaai eval --backend ray`: the scoreboard's episodes played as Ray tasks, on this machine or a cluster.
+
+Scores exactly as :func:`aaai.evaluation.evaluate` does (the same ``run_episode`` on an environment
+without shaping, the same policies, the same CSV and the same record beside it), but each episode is
+a Ray task. A task builds its own environment and policy (kept for the next task in the same worker
+process) and returns the episode's row; the driver appends rows to the CSV as they arrive (flushed
+and fsynced per row) and, when all are in, rewrites the file atomically so that it reads as the
+local backend's would: the rows that were there before, then this run's rows in cell and seed
+order. An interrupted eval leaves every row that had arrived; running it again scores only the
+missing (level, difficulty, seed) episodes. A task whose worker process dies (killed, out of
+memory, its node lost) is run again (``max_retries``), so no episode is lost and none is written
+twice.
+
+A trained model is read once by the driver and shipped through Ray's object store, so the nodes of
+a cluster need no shared file system; every node needs ``aaai`` (and, for models, the ``train``
+extra) installed, and a ``module:callable`` policy must be importable there.
+
+Ray's token authentication is opted out of (``RAY_AUTH_MODE=disabled``, unless the variable is set
+already): otherwise ``ray.init`` writes a token to ``~/.ray/auth_token``. To join a cluster that
+uses tokens, set ``RAY_AUTH_MODE=token`` yourself.
+"""
+from __future__ import annotations
+
+import csv
+import hashlib
+import importlib
+import io
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from aaai.config import ConfigError, env_part
+from aaai.evaluation import (COLUMNS, Cell, check_record, load_policy, model_path, policy_record, run_episode,
+                             scored_episodes)
+from aaai.runs import check_writable, write_atomic
+
+DEFAULT_RETRIES = 3
+BUILTIN_POLICIES = ("random", "reference", "gait")
+
+Key = tuple[int, int, int]  # (level, difficulty, seed)
+
+
+def ray_environment() -> None:
+    """Environment variables Ray must see before it starts: no auth token written to the home folder."""
+    os.environ.setdefault("RAY_AUTH_MODE", "disabled")
+
+
+@dataclass(frozen=True)
+class PolicySpec:
+    """What a task needs to rebuild the policy: a name load_policy takes, or a model's bytes (by reference)."""
+    name: str  # 'random', 'reference', 'gait', 'module:callable'; or 'model' with ``model`` set
+    model_sha256: str | None = None
+    model: Any = None  # [ObjectRef] of the model file's bytes (in a list: Ray resolves bare refs)
+
+    @property
+    def key(self) -> str:
+        return self.model_sha256 or self.name
+
+
+def policy_spec(policy: str, put: Callable[[bytes], Any] | None = None) -> PolicySpec:
+    """Resolves a --policy as load_policy would, in the driver; a bad one fails here, before any task.
+
+    A model (a .zip or a run folder's newest model) is read once; ``put`` (ray.put) ships its bytes.
+    """
+    if policy in BUILTIN_POLICIES:
+        return PolicySpec(policy)
+    path = model_path(policy)  # raises ConfigError for a missing or damaged model
+    if path is not None:
+        data = path.read_bytes()
+        return PolicySpec("model", hashlib.sha256(data).hexdigest(), [put(data) if put else data])
+    if Path(policy).is_dir():
+        return PolicySpec("random")  # a run of the random agent (load_policy does the same)
+    module_name, _, attribute = policy.partition(":")
+    if not attribute:
+        raise ConfigError(f"--policy: got {policy!r}; allowed: random, reference, gait, a model .zip, a run folder, "
+                          "module:callable")
+    try:
+        target: Any = importlib.import_module(module_name)
+        for part in attribute.split("."):
+            target = getattr(target, part)
+    except (ImportError, AttributeError) as error:
+        raise ConfigError(f"--policy: cannot load {policy!r}: {error}") from None
+    return PolicySpec(policy)
+
+
+# --- in the worker processes -----------------------------------------------------------------
+_WORKER: dict = {}  # the environment and policy of this worker process, kept between tasks
+
+
+def _worker_env_and_policy(spec: PolicySpec, config: dict):
+    import json
+
+    key = (spec.key, json.dumps(config, sort_keys=True, default=str))
+    if _WORKER.get("key") != key:
+        from aaai.env import AnimalAIEnv
+
+        if "env" in _WORKER:
+            _WORKER.pop("env").close()
+        _WORKER.clear()
+        env = AnimalAIEnv(config=env_part(config, shaping=0.0))  # scores count the task's own reward
+        if spec.name == "model":
+            import ray
+
+            data = spec.model[0]
+            data = ray.get(data) if isinstance(data, ray.ObjectRef) else data
+            with tempfile.TemporaryDirectory(prefix="aaai-model-") as folder:
+                path = Path(folder) / "model.zip"
+                path.write_bytes(data)
+                policy = load_policy(str(path), env)  # read whole at load: the file may go
+        else:
+            policy = load_policy(spec.name, env)
+        _WORKER.update(key=key, env=env, policy=policy)
+    return _WORKER["env"], _WORKER["policy"]
+
+
+def play_episodes(spec: PolicySpec, config: dict, episodes: list[Key]) -> tuple[list[dict], dict]:
+    """The body of a Ray task: plays ``episodes`` with the worker's environment and policy; returns
+    their rows and where they ran (node id, host, pid)."""
+    import socket
+
+    import ray
+
+    env, policy = _worker_env_and_policy(spec, config)
+    rows = [run_episode(env, policy, level, difficulty, seed) for level, difficulty, seed in episodes]
+    where = {"node_id": ray.get_runtime_context().get_node_id(), "host": socket.gethostname(), "pid": os.getpid()}
+    return rows, where
+
+
+# --- in the driver --------------------------------------------------------------------------
+class RaySession:
+    """``ray.init`` on entry (a new local instance of ``workers`` CPUs, or joining ``address``) and
+    ``ray.shutdown`` on exit. If Ray is already initialised in this process it is used as it is, and
+    left running."""
+
+    def __init__(self, address: str | None = None, workers: int = 2):
+        self.address, self.workers, self.owned = address, workers, False
+
+    def __enter__(self):
+        ray_environment()
+        import ray
+
+        if ray.is_initialized():
+            return self
+        options = dict(include_dashboard=False, log_to_driver=False, configure_logging=False)
+        if self.address is None:
+            # "local": always a new instance; never one found in RAY_ADDRESS or /tmp/ray/ray_current_cluster.
+            ray.init(address="local", num_cpus=self.workers, **options)
+        else:
+            options.pop("include_dashboard")  # only for a new cluster
+            ray.init(address=self.address, **options)
+        self.owned = True
+        return self
+
+    def __exit__(self, *exc):
+        import ray
+
+        if self.owned:
+            ray.shutdown()
+        return False
+
+
+def _format_rows(rows: list[dict], header: bool) -> str:
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=COLUMNS)
+    if header:
+        writer.writeheader()
+    writer.writerows(rows)
+    return text.getvalue()
+
+
+def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: dict, address: str | None = None,
+                    workers: int = 2, on_episode: Callable[[dict], None] | None = None, record: dict | None = None,
+                    max_retries: int = DEFAULT_RETRIES, episodes_per_task: int = 1,
+                    on_task: Callable[[list[dict], dict], None] | None = None) -> list[dict]:
+    """:func:`aaai.evaluation.evaluate` with its episodes played as Ray tasks; same arguments, same result.
+
+    ``address``: None starts a local Ray of ``workers`` CPUs for this call (and stops it after);
+    an address ("host:port", "auto", "ray://...") joins that cluster, whose CPUs then set the
+    parallelism (``workers`` is not used). Each task plays ``episodes_per_task`` episodes (1: rows
+    arrive one by one) and is retried up to ``max_retries`` times if its worker process dies.
+    ``on_episode(row)`` is called for every new row as it is written (in the order they finish);
+    ``on_task(rows, where)`` with each task's rows and where it ran ({node_id, host, pid}).
+    Returns every row of the scoreboard (those there before, then this run's in cell and seed order),
+    as strings, as ``evaluate`` does.
+    """
+    output = Path(output)
+    check_writable(output, "--out")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    check_record(output, record if record is not None else policy_record(policy_name, "list"))
+    rows = scored_episodes(output)  # also cuts a torn last line
+    done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows}
+    plan: list[Key] = []
+    for cell in cells:
+        for seed in cell.seeds:
+            key = (cell.level, cell.difficulty, int(seed))
+            if key not in done:
+                plan.append(key)
+                done.add(key)
+    if not plan:
+        return rows
+    policy_spec(policy_name)  # a bad policy is refused before Ray starts (the model is read again below)
+    before = output.read_text() if output.exists() else ""
+    finished: dict[Key, dict] = {}
+    with RaySession(address, workers):
+        import ray
+
+        spec = policy_spec(policy_name, put=ray.put)
+        config_ref = ray.put(config)
+        task = ray.remote(play_episodes).options(num_cpus=1, max_retries=max_retries, retry_exceptions=False,
+                                                 scheduling_strategy="SPREAD")
+        chunks = [plan[i:i + episodes_per_task] for i in range(0, len(plan), max(1, episodes_per_task))]
+        window = 2 * max(1, int(ray.cluster_resources().get("CPU", workers)))
+        pending: dict = {}
+        with open(output, "a", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+            if not before:
+                writer.writeheader()
+                handle.flush()
+            try:
+                while chunks or pending:
+                    while chunks and len(pending) < window:
+                        chunk = chunks.pop(0)
+                        pending[task.remote(spec, config_ref, chunk)] = chunk
+                    ready, _ = ray.wait(list(pending), num_returns=1)
+                    pending.pop(ready[0])
+                    try:
+                        new_rows, where = ray.get(ready[0])
+                    except ray.exceptions.RayTaskError as error:
+                        cause = error.cause
+                        if isinstance(cause, ConfigError):
+                            raise ConfigError(str(cause)) from None
+                        raise
+                    for row in new_rows:
+                        writer.writerow(row)
+                        handle.flush()
+                        os.fsync(handle.fileno())
+                        finished[(row["level"], row["difficulty"], row["seed"])] = row
+                        if on_episode:
+                            on_episode(row)
+                    if on_task:
+                        on_task(new_rows, where)
+            finally:
+                for ref in pending:  # an error or an interrupt: nothing more is started for this eval
+                    ray.cancel(ref, force=True)
+    ordered = [finished[key] for key in plan]
+    prefix = before if before else _format_rows([], header=True)
+    write_atomic(output, prefix + _format_rows(ordered, header=False))  # as the local backend would have it
+    return rows + [{k: str(v) for k, v in row.items()} for row in ordered]

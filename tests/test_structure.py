@@ -1,0 +1,76 @@
+"""The package's shape: no import circle among its modules, and each module opens by naming its job."""
+import ast
+from pathlib import Path
+
+import pytest
+
+import aaai
+
+ROOT = Path(aaai.__file__).parent
+MODULES = {
+    ".".join(("aaai", *path.relative_to(ROOT).with_suffix("").parts)).removesuffix(".__init__"): path
+    for path in sorted(ROOT.rglob("*.py"))
+}
+
+
+def imported(name: str, path: Path) -> set[str]:
+    """The aaai modules a module imports, at the top or inside functions (a lazy import is still a
+    dependency), each with the packages Python runs first on the way (aaai.levels for
+    aaai.levels.common). The root package, which only registers the ids, is left out."""
+    package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                base = ".".join(package.split(".")[: len(package.split(".")) - node.level + 1] + ([base] if base else []))
+            targets = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in MODULES else base for alias in node.names]
+        else:
+            continue
+        for target in targets:
+            parts = target.split(".")
+            for end in range(2, len(parts) + 1):
+                if ".".join(parts[:end]) in MODULES:
+                    found.add(".".join(parts[:end]))
+    found.discard(name)
+    return found
+
+
+def test_no_import_circle():
+    graph = {name: imported(name, path) for name, path in MODULES.items() if name != "aaai"}
+    state: dict[str, int] = {}  # 1: on the current path, 2: done
+
+    def visit(node, path):
+        state[node] = 1
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                cycle = path[path.index(nxt):] + [nxt]
+                pytest.fail("import circle: " + " -> ".join(cycle))
+            if nxt not in state:
+                visit(nxt, path + [nxt])
+        state[node] = 2
+
+    for start in sorted(graph):
+        if start not in state:
+            visit(start, [start])
+
+
+def test_lazy_and_submodule_imports_are_dependencies(tmp_path):
+    """What would make a circle with the registry (which imports validate) is seen: a lazy import
+    inside a function, and a submodule import that runs its package first."""
+    lazy = tmp_path / "lazy.py"
+    lazy.write_text("def f():\n    from aaai.levels import generate\n")
+    assert imported("aaai.validate", lazy) == {"aaai.levels"}
+    deep = tmp_path / "deep.py"
+    deep.write_text("from aaai.levels.common import sphere\n")
+    assert imported("aaai.validate", deep) == {"aaai.levels", "aaai.levels.common"}
+    assert "aaai.validate" in imported("aaai.levels", MODULES["aaai.levels"])
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_each_module_opens_by_naming_its_job(name):
+    docstring = ast.get_docstring(ast.parse(MODULES[name].read_text()))
+    assert docstring, f"{name} has no module docstring"
+    assert len(docstring.splitlines()[0]) <= 110, f"{name}: keep the opening line to one line"
