@@ -164,7 +164,7 @@ class Door(Behaviour):
         if head is None or not self.entered(head[0], head[1]):
             return False
         world.place(body, self.obj.position, self.obj.yaw)
-        world.door_closed(self)
+        world.door_closed(self, body)
         return True
 
 

@@ -20,8 +20,8 @@ import numpy as np
 import pybullet as p
 
 from aaai.env import AnimalAIEnv
-from aaai.levels import all_levels, get_level
 from aaai.files import write_atomic
+from aaai.levels import all_levels, get_level
 from aaai.runs import package_versions
 
 SENSOR_SETTINGS = {
@@ -29,16 +29,6 @@ SENSOR_SETTINGS = {
     "joints+rays": dict(rays=True, rays_per_side=8, camera=False),
     "joints+cam64rgb": dict(rays=False, camera=True, camera_resolution=64, camera_grayscale=False),
     "joints+cam84gray": dict(rays=False, camera=True, camera_resolution=84, camera_grayscale=True),
-}
-TARGETS = {
-    "L0 joints / limit": 0.9,
-    "L0 joints / Ant-v5": 1.0,
-    "rays overhead": 0.10,
-    "L0 cam64rgb steps/s": 550,
-    "reset median ms": 10,
-    "L11 reset median ms": 30,
-    "2 workers / 1": 1.7,
-    "memory growth": 0.05,
 }
 
 

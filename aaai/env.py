@@ -6,6 +6,7 @@ which turns contacts into rewards and ends episodes (aaai.rewards).
 """
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -21,6 +22,7 @@ from aaai.rewards import TERMS, FoodTask
 from aaai.seeds import TRAIN_SEEDS
 from aaai.sensors import Senses, render_rgb
 from aaai.simulation import Simulation, display_available
+from aaai.snapshot import Leg, Pose, Snapshot
 from aaai.spec import LevelSpec
 from aaai.world import World
 
@@ -209,6 +211,19 @@ class AnimalAIEnv(gym.Env):
         view = p.computeViewMatrix(eye.tolist(), head_pos.tolist(), [0, 0, 1])
         projection = p.computeProjectionMatrixFOV(60.0, width / height, 0.1, 200.0)
         return render_rgb(self.client, width, height, view, projection)
+
+    def snapshot(self) -> Snapshot:
+        """The episode as it is now, as plain data (aaai.snapshot) to draw with ``level_spec``: the
+        simulated time, the head's pose, each leg's hip, knee and foot, where every object of the
+        spec is (None once eaten) and which doors have risen."""
+        self._check_open()
+        if self.world is None:
+            raise gym.error.ResetNeeded("snapshot() before reset(): call reset() to build a level first")
+        position, rotation = self.body.head_pose()
+        head = Pose(*(float(v) for v in position), math.atan2(rotation[1, 0], rotation[0, 0]))
+        legs = tuple(Leg(*(tuple(float(v) for v in point) for point in leg)) for leg in self.body.leg_points())
+        objects, closed_doors = self.world.object_poses()
+        return Snapshot(self.steps * self.control_dt, head, legs, tuple(objects), frozenset(closed_doors))
 
     def _check_open(self) -> None:
         self.sim.check_open()

@@ -12,7 +12,6 @@ import importlib
 import json
 import math
 import os
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -22,8 +21,9 @@ import numpy as np
 from aaai.config import ConfigError, env_part, load_config
 from aaai.gait import SineGait
 from aaai.env import AnimalAIEnv
-from aaai.levels import get_level
+from aaai.episodes import play
 from aaai.files import write_atomic
+from aaai.levels import get_level
 from aaai.runs import RunFolder, model_problem, check_writable
 from aaai.seeds import TRAIN_SEEDS, key_record, reserved_seeds
 
@@ -151,16 +151,9 @@ class Cell:
 
 
 def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int, seed: int) -> dict:
-    started = time.perf_counter()
-    observation, info = env.reset(seed=seed, options={"level": level, "difficulty": difficulty})
-    if hasattr(policy, "reset"):
-        policy.reset(seed)
-    total = 0.0
-    while True:
-        observation, reward, terminated, truncated, info = env.step(policy(observation))
-        total += reward
-        if terminated or truncated:
-            break
+    """Plays one episode of the cell to its end; its scoreboard row."""
+    result = play(env, policy, seed, options={"level": level, "difficulty": difficulty})
+    total, info = result.episode_return, result.info
     ratio = total / info["max_reward"] if info["max_reward"] > 0 else math.nan
     return {
         "level": level, "level_name": info["level_name"], "difficulty": difficulty, "seed": seed,
@@ -168,7 +161,7 @@ def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int,
         "outcome": outcome(ratio), "steps": info["steps"], "max_steps": info["max_steps"],
         "food_eaten": info["food_eaten"],
         "wall_hits": info["wall_hits"], "fell": info["fell"],
-        "wall_seconds": round(time.perf_counter() - started, 3),
+        "wall_seconds": round(result.wall_seconds, 3),
     }
 
 

@@ -27,7 +27,7 @@ from pathlib import Path
 import yaml
 
 from aaai.config import ConfigError, read_yaml
-from aaai.files import write_atomic  # also re-exported: code outside the package imports it from here
+from aaai.files import write_atomic  # also re-exported: some modules import it from here
 from aaai.vector import Episode
 
 PACKAGES = ("aaai", "pybullet", "numpy", "gymnasium", "stable-baselines3", "torch", "opencv-python-headless")

@@ -1,5 +1,6 @@
-"""Pictures of a level: a top-down map drawn from its spec (or from a running world) and the
-agent's camera view beside it. Pure drawing with OpenCV; images are H x W x 3 uint8 RGB.
+"""Pictures of a level: a top-down map drawn from its spec (and a snapshot of a running one) and the
+agent's camera view beside it. Pure drawing with OpenCV; images are H x W x 3 uint8 RGB. PNGs and
+videos are written atomically (aaai.files).
 
 World to picture: x grows to the right, y grows upward (north at the top); ``Mapping``
 (from ``mapping_for``) turns world coordinates into pixel (column, row).
@@ -8,21 +9,22 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from aaai.agent.urdf_writer import COLOURS as BODY_COLOURS
+from aaai.agent.urdf_writer import HEAD_RADIUS, LEG_REACH, LEGS, SEGMENT_RADIUS
+from aaai.files import PendingFile, atomic_path
+from aaai.behaviours import behaviour_class
 from aaai.kinds import COLOURS
+from aaai.snapshot import Snapshot
 from aaai.spec import LevelSpec, ObjectSpec
 
-HEAD_RADIUS = 1.5  # aaai/agent/urdf_writer.py
-LEG_REACH = 4.5  # a resting leg's tip, from the head's centre
-LEG_WIDTH = 1.0  # a leg capsule's diameter
-LEG_ANGLES = (45.0, -45.0, 135.0, -135.0)  # fl, fr, bl, br, degrees from the heading
-SHIN_TIP = 1.5  # from the knee (the shin link's frame) along the shin
+LEG_WIDTH = 2 * SEGMENT_RADIUS  # a leg capsule's diameter
+LEG_ANGLES = tuple(angle for _, angle in LEGS)  # fl, fr, bl, br, degrees from the heading
 HEADING_LENGTH = 7.5  # the heading arrow's length from the head's centre
 
 MARGIN = 2.5  # world units shown around the arena (walls are 1 thick outside it)
@@ -35,8 +37,6 @@ ONE = 1 << SHIFT
 
 BACKGROUND = (32, 32, 36)
 TEXT = (235, 235, 235)
-HEAD_COLOUR = (217, 140, 64)  # as the URDF's head (0.85 0.55 0.25)
-LEG_COLOUR = (153, 89, 38)  # as the URDF's shins (0.6 0.35 0.15)
 HEADING_COLOUR = (20, 60, 210)
 MOVING_COLOUR = (255, 255, 255)
 BACKGROUND_RGBA = tuple(c / 255 for c in BACKGROUND) + (1.0,)
@@ -48,6 +48,10 @@ VIDEO_CODECS = {".mp4": "mp4v", ".avi": "MJPG"}
 def rgb(colour) -> tuple[int, int, int]:
     """An RGB(A) colour in [0, 1] as a uint8 RGB triple."""
     return tuple(int(round(255 * max(0.0, min(1.0, c)))) for c in colour[:3])
+
+
+HEAD_COLOUR = rgb(tuple(map(float, BODY_COLOURS["head"].split())))  # as the URDF's head: (217, 140, 64)
+LEG_COLOUR = rgb(tuple(map(float, BODY_COLOURS["shin"].split())))  # as the URDF's shins: (153, 89, 38)
 
 
 @dataclass(frozen=True)
@@ -109,28 +113,14 @@ def resting_agent(x: float, y: float, yaw: float) -> AgentShape:
     return AgentShape(x, y, yaw, tuple(legs))
 
 
-def live_agent(env) -> AgentShape:
-    """The agent of a running environment as it is now: head pose and each leg's links."""
-    import pybullet as p
-
-    base = env.unwrapped
-    body, client = base.body, base.client
-    head, rotation = body.head_pose()
-    heading = math.atan2(rotation[1, 0], rotation[0, 0])
-    links = dict(zip(body.link_names, body.links))
-    legs = []
-    for leg in ("fl", "fr", "bl", "br"):
-        thigh, shin = links.get(f"{leg}_thigh"), links.get(f"{leg}_shin")
-        if thigh is None or shin is None:
-            return resting_agent(float(head[0]), float(head[1]), heading)
-        hip_state, knee_state = p.getLinkStates(body.id, [thigh, shin], computeForwardKinematics=True,
-                                                physicsClientId=client)
-        hip, knee = np.array(hip_state[4]), np.array(knee_state[4])
-        along = np.array(p.getMatrixFromQuaternion(knee_state[5])).reshape(3, 3)[:, 0]
-        foot = knee + SHIN_TIP * along
-        legs.append(((float(head[0]), float(head[1])), (float(hip[0]), float(hip[1])),
-                     (float(knee[0]), float(knee[1])), (float(foot[0]), float(foot[1]))))
-    return AgentShape(float(head[0]), float(head[1]), heading, tuple(legs))
+def live_agent(snapshot: Snapshot) -> AgentShape:
+    """The agent of a snapshot: head pose and each leg from the head's centre through its hip and
+    knee to its foot (a resting X if the snapshot has no legs)."""
+    head = snapshot.head
+    if not snapshot.legs:
+        return resting_agent(head.x, head.y, head.yaw)
+    legs = tuple(((head.x, head.y), leg.hip[:2], leg.knee[:2], leg.foot[:2]) for leg in snapshot.legs)
+    return AgentShape(head.x, head.y, head.yaw, legs)
 
 
 # --- drawing -----------------------------------------------------------------------------
@@ -138,7 +128,7 @@ def draw_top_down(spec: LevelSpec, size_px: int = 640, agent: AgentShape | None 
                   objects: list[ObjectSpec] | None = None, note: str = "") -> np.ndarray:
     """The level seen from above, from the spec alone (no physics): H x W x 3 uint8 RGB.
 
-    ``agent`` and ``objects`` replace the spec's agent pose and objects (``draw_world`` passes
+    ``agent`` and ``objects`` replace the spec's agent pose and objects (``draw_snapshot`` passes
     the current ones: then an object whose top is below the floor is shown as a dashed outline,
     as a door is in the spec's own picture); ``note`` is appended to the title line.
     """
@@ -156,21 +146,21 @@ def draw_top_down(spec: LevelSpec, size_px: int = 640, agent: AgentShape | None 
     return image
 
 
-def draw_world(env, size_px: int = 640) -> np.ndarray:
-    """``draw_top_down`` of a running environment: objects and food where they are now (eaten
-    pieces gone), the agent's head and legs as they are; the title shows the simulated time."""
-    base = env.unwrapped
-    if base.world is None:
-        raise RuntimeError("draw_world needs an environment that has been reset")
-    import pybullet as p
+def draw_snapshot(spec: LevelSpec, snapshot: Snapshot, size_px: int = 640) -> np.ndarray:
+    """``draw_top_down`` of a level as a snapshot of it has it: objects and food where they are
+    (eaten pieces gone), the agent's head and legs as they are; the title shows the simulated time."""
+    objects = [replace(obj, position=(pose.x, pose.y, pose.z), yaw=pose.yaw)
+               for obj, pose in zip(spec.objects, snapshot.objects) if pose is not None]
+    note = f"t {snapshot.time:5.2f} s"
+    return draw_top_down(spec, size_px, agent=live_agent(snapshot), objects=objects, note=note)
 
-    objects = []
-    for body, obj in base.world.objects.items():
-        position, orientation = p.getBasePositionAndOrientation(body, physicsClientId=base.client)
-        yaw = p.getEulerFromQuaternion(orientation)[2]
-        objects.append(replace(obj, position=tuple(float(v) for v in position), yaw=float(yaw)))
-    note = f"t {base.steps * base.control_dt:5.2f} s"
-    return draw_top_down(base.level_spec, size_px, agent=live_agent(base), objects=objects, note=note)
+
+def draw_world(env, size_px: int = 640) -> np.ndarray:
+    """``draw_snapshot`` of a running environment as it is now (``env.snapshot()``)."""
+    base = env.unwrapped
+    if base.level_spec is None:
+        raise RuntimeError("draw_world needs an environment that has been reset")
+    return draw_snapshot(base.level_spec, base.snapshot(), size_px)
 
 
 def _arena_corners(m: Mapping, spec: LevelSpec) -> tuple[tuple[int, int], tuple[int, int]]:
@@ -250,13 +240,14 @@ def _is_hidden(obj: ObjectSpec, live: bool) -> bool:
     or, in a running world, anything whose top is below the floor."""
     if live:
         return obj.position[2] + obj.size[2] / 2 <= 0.0
-    return bool(obj.behaviour) and obj.behaviour.get("type") == "door"
+    moving = behaviour_class(obj)
+    return bool(moving and moving.starts_hidden)
 
 
 def _draw_object(image: np.ndarray, m: Mapping, obj: ObjectSpec, live: bool = False) -> None:
     r, g, b, alpha = obj.rgba
     colour = rgb((r, g, b))
-    behaviour = obj.behaviour or {}
+    moving = behaviour_class(obj)
     if _is_hidden(obj, live):  # only a dashed outline where it will appear
         _dashed(image, _outline_points(m, obj), colour)
         return
@@ -278,8 +269,9 @@ def _draw_object(image: np.ndarray, m: Mapping, obj: ObjectSpec, live: bool = Fa
         cv2.polylines(image, [corners], True, outline, thickness, cv2.LINE_AA, SHIFT)
     else:
         cv2.circle(image, centre, radius, outline, thickness, cv2.LINE_AA, SHIFT)
-    if behaviour.get("type") == "slide" and "to" in behaviour:  # where it is heading
-        tx, ty = behaviour["to"][:2]
+    target = moving.heading_to(obj) if moving else None
+    if target is not None:  # where it is heading
+        tx, ty = target
         x, y = obj.position[:2]
         distance = math.hypot(tx - x, ty - y)
         reach = math.hypot(obj.size[0], obj.size[1]) / 2 if obj.shape == "box" else obj.size[0] / 2
@@ -288,7 +280,7 @@ def _draw_object(image: np.ndarray, m: Mapping, obj: ObjectSpec, live: bool = Fa
             start = m.to_float(x + edge * (tx - x), y + edge * (ty - y))
             _dashed(image, [start, m.to_float(tx, ty)], MOVING_COLOUR, closed=False)
             cv2.drawMarker(image, m.to_px(tx, ty), MOVING_COLOUR, cv2.MARKER_TILTED_CROSS, 8, 1, cv2.LINE_AA)
-    if behaviour and behaviour.get("type") != "door":  # a moving part: a white ring
+    if moving and moving.marked:  # a moving part: a white ring
         reach = math.hypot(obj.size[0], obj.size[1]) / 2 if obj.shape == "box" else obj.size[0] / 2
         ring = int(round(m.length(reach + 0.6) * ONE))
         cv2.circle(image, centre, ring, MOVING_COLOUR, 1, cv2.LINE_AA, SHIFT)
@@ -350,7 +342,8 @@ def _draw_footer(image: np.ndarray, m: Mapping, spec: LevelSpec, objects: list[O
     shown: dict[str, tuple] = {}
     for obj in sorted(objects, key=lambda o: not o.is_food):
         shown.setdefault(obj.kind, obj.rgba)
-        if obj.behaviour and obj.behaviour.get("type") != "door":
+        moving = behaviour_class(obj)
+        if moving and moving.marked:
             shown.setdefault("moving (ring)", (1.0, 1.0, 1.0, 1.0))
         if _is_hidden(obj, live):
             shown.setdefault("hidden (dashed)", BACKGROUND_RGBA)
@@ -396,35 +389,20 @@ def compose(top_down: np.ndarray, camera_view: np.ndarray, labels: tuple[str, st
 
 
 # --- writing files -----------------------------------------------------------------------
-def _temporary(path: Path) -> Path:
-    """An empty file beside ``path`` (same folder, so the final rename is atomic), with the
-    permissions a newly created file would get."""
-    handle, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(handle)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(name, 0o666 & ~umask)
-    return Path(name)
-
-
 def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
-    """Writes an RGB image as PNG atomically (a temporary file in the same folder, then a rename)."""
+    """Writes an RGB image as PNG atomically (aaai.files: a temporary file beside it, then a rename)."""
     path = Path(path)
     ok, data = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
     if not ok:
         raise RuntimeError(f"could not encode {path} as PNG")
-    temporary = _temporary(path)
-    try:
+    with atomic_path(path) as temporary:
         temporary.write_bytes(data.tobytes())
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
     return path
 
 
 class VideoWriter:
-    """Writes RGB frames of one size to .mp4 (mp4v) or .avi (MJPG) with OpenCV, atomically:
-    frames go to a temporary file in the same folder, renamed to ``path`` on ``close``."""
+    """Writes RGB frames of one size to .mp4 (mp4v) or .avi (MJPG) with OpenCV, atomically
+    (aaai.files): frames go to a temporary file beside ``path``, renamed to it on ``close``."""
 
     def __init__(self, path: str | os.PathLike, fps: float):
         self.path = Path(path)
@@ -433,7 +411,8 @@ class VideoWriter:
             raise ValueError(video_extension_error(str(path)))
         self.fps = fps
         self.codec = VIDEO_CODECS[suffix]
-        self.temporary = _temporary(self.path)
+        self.pending = PendingFile(self.path)
+        self.temporary = self.pending.temporary
         self.writer = None
         self.size = None
         self.frames = 0
@@ -453,16 +432,15 @@ class VideoWriter:
 
     def close(self) -> Path:
         if self.writer is None:
-            self.temporary.unlink(missing_ok=True)
+            self.pending.discard()
             raise RuntimeError(f"no frames were written to {self.path}")
         self.writer.release()
-        os.replace(self.temporary, self.path)
-        return self.path
+        return self.pending.commit()
 
     def abort(self) -> None:
         if self.writer is not None:
             self.writer.release()
-        self.temporary.unlink(missing_ok=True)
+        self.pending.discard()
 
     def __enter__(self):
         return self

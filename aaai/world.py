@@ -16,6 +16,7 @@ import pybullet as p
 from aaai.behaviours import Behaviour, Door, behaviour_class
 from aaai.geometry import footprint, merge_tiles
 from aaai.kinds import COLOURS, KIND_INDEX
+from aaai.snapshot import Pose
 from aaai.spec import LevelSpec, ObjectSpec
 
 FLOOR_THICKNESS = 1.0
@@ -42,13 +43,15 @@ class World:
         self.food: dict[int, ObjectSpec] = {}
         self.running: dict[int, Behaviour] = {}  # body id -> its moving part, while it has work left
         self.closed: list[Door] = []  # doors that have closed: food outside their sectors is out of reach
+        self.closed_bodies: list[int] = []  # their bodies
         self.time = 0.0  # simulated seconds since the build
         self.colours = {**COLOURS, **{kind: tuple(rgba) for kind, rgba in spec.extras.get("colours", {}).items()}}
         self._shapes: dict[tuple, tuple[int, int]] = {}
         self._build_floor()
         self._build_deadly_floor()
-        for obj in spec.objects:
-            self._build_object(obj)
+        self.index: dict[int, int] = {}  # body id -> the object's index in spec.objects
+        for i, obj in enumerate(spec.objects):
+            self.index[self._build_object(obj)] = i
         self.had_food = bool(self.food)
         self._eaten: bool | None = None  # all_eaten's answer, until food is eaten or a door closes
         self._obstacles = [  # footprints that random walkers steer clear of
@@ -176,8 +179,9 @@ class World:
             p.createConstraint(body, -1, -1, -1, p.JOINT_POINT2POINT, (0, 0, 0), local, tuple(point),
                                physicsClientId=self.client)
 
-    def door_closed(self, door: Door) -> None:
+    def door_closed(self, door: Door, body: int) -> None:
         self.closed.append(door)
+        self.closed_bodies.append(body)
         self._eaten = None
 
     @property
@@ -197,6 +201,16 @@ class World:
         for body, (food, _) in eaten.items():
             if food.kind != "food_green":
                 self.remove(body)
+
+    def object_poses(self) -> tuple[list[Pose | None], set[int]]:
+        """Where every object of the spec is now, by its index (None once taken out), and the
+        indices of the doors that have risen."""
+        poses: list[Pose | None] = [None] * len(self.spec.objects)
+        for body, i in self.index.items():
+            if body in self.objects:
+                position, orientation = p.getBasePositionAndOrientation(body, physicsClientId=self.client)
+                poses[i] = Pose(*(float(v) for v in position), float(p.getEulerFromQuaternion(orientation)[2]))
+        return poses, {self.index[body] for body in self.closed_bodies}
 
     def food_positions(self) -> list[tuple[float, float, float]]:
         """Where each piece of food still in the world is now."""

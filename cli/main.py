@@ -1,4 +1,4 @@
-"""The ``aaai`` command: run, inspect and list levels from the shell."""
+"""The ``aaai`` command group and most of its commands (``show`` and ``validate`` have their own files)."""
 from __future__ import annotations
 
 import time
@@ -9,6 +9,7 @@ import numpy as np
 
 from aaai.config import ConfigError, load_config, parse_int_set
 from aaai.env import AnimalAIEnv
+from aaai.episodes import play
 from aaai.evaluation import load_policy
 from aaai.levels import all_levels, generate, get_level, level_ids
 from aaai.registration import level_env_id
@@ -110,21 +111,13 @@ def run_command(levels_text, difficulty_text, episodes, seed, policy, config_pat
 
 
 def run_episode(env: AnimalAIEnv, level: int, difficulty: int, seed: int, policy) -> str:
-    observation, info = env.reset(seed=seed, options={"level": level, "difficulty": difficulty})
-    if hasattr(policy, "reset"):
-        policy.reset(seed)
-    total, started = 0.0, time.perf_counter()
-    while True:
-        action = policy(observation)
-        observation, reward, terminated, truncated, info = env.step(action)
-        total += reward
-        if terminated or truncated:
-            break
-    rate = info["steps"] / max(time.perf_counter() - started, 1e-9)
-    end = "fell" if info["fell"] else "blew up" if info["blew_up"] else "ate green" if terminated else "time"
+    """Plays one episode to its end; its line of the `aaai run` table."""
+    result = play(env, policy, seed, options={"level": level, "difficulty": difficulty})
+    info = result.info
+    rate = info["steps"] / max(result.step_seconds, 1e-9)
     name = f"{get_level(level).label} {info['level_name']}"
-    return (f"{name:<20} {difficulty:>4} {seed:>6} {total:>8.3f} {info['max_reward']:>6.2f} {info['steps']:>6} "
-            f"{info['food_eaten']:>4} {info['wall_hits']:>5} {end:<10} {rate:>8.0f}")
+    return (f"{name:<20} {difficulty:>4} {seed:>6} {result.episode_return:>8.3f} {info['max_reward']:>6.2f} "
+            f"{info['steps']:>6} {info['food_eaten']:>4} {info['wall_hits']:>5} {result.end:<10} {rate:>8.0f}")
 
 
 def _overrides(**values) -> dict:

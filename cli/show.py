@@ -6,6 +6,7 @@ from pathlib import Path
 import click
 
 from aaai.config import ConfigError
+from aaai.episodes import play
 from aaai.levels import check_difficulty, check_seed, get_level
 from aaai.viewer import VIDEO_CODECS, VideoWriter, compose, draw_top_down, draw_world, save_png, video_extension_error
 
@@ -65,36 +66,36 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
         actor = load_policy(policy, env) if video is not None else None
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
+
+    def picture(observation, info=None) -> None:
+        image = compose(draw_top_down(env.level_spec, size), observation["camera"])
+        click.echo(f"wrote {save_png(image, output)} ({image.shape[1]} x {image.shape[0]})")
+
     try:
-        observation, _ = env.reset(seed=seed)
-        if output is not None:
-            picture = compose(draw_top_down(env.level_spec, size), observation["camera"])
-            click.echo(f"wrote {save_png(picture, output)} ({picture.shape[1]} x {picture.shape[0]})")
-        if video is not None:
-            record(env, observation, video, actor, steps, fps, size)
+        if video is None:
+            picture(env.reset(seed=seed)[0])
+        else:  # the PNG, if asked for, shows the episode's start
+            record(env, actor, seed, video, steps, fps, size, on_reset=picture if output is not None else None)
     finally:
         env.close()
 
 
-def record(env, observation, path: str, policy, steps: int, fps: int, size: int) -> int:
-    """Runs up to ``steps`` control steps of ``policy`` and writes a frame every few of them;
-    returns the frames."""
-    if hasattr(policy, "reset"):
-        policy.reset(env.level_spec.seed)
+ENDS = {"ate green": "ate green food", "time": "reached max_steps"}  # how the messages name them
+
+
+def record(env, policy, seed: int, path: str, steps: int, fps: int, size: int, on_reset=None) -> int:
+    """Resets ``env`` to ``seed``, runs up to ``steps`` control steps of ``policy`` and writes a
+    frame every few of them; returns the frames. ``on_reset(observation, info)`` sees the start."""
     every = frame_every(fps, env.control_dt)
-    end = None
     with VideoWriter(path, fps) as writer:
-        for step in range(1, steps + 1):
-            action = policy(observation)
-            observation, _, terminated, truncated, info = env.step(action)
+        def frame(step: int, observation, reward: float, info: dict) -> None:
             if step % every == 0:
                 writer.write(compose(draw_world(env, size), observation["camera"]))
-            if terminated or truncated:
-                end = ("fell" if info["fell"] else "blew up" if info["blew_up"]
-                       else "ate green food" if terminated else "reached max_steps")
-                break
+
+        result = play(env, policy, seed, on_reset=on_reset, on_step=frame, max_steps=steps)
         if writer.frames == 0:  # the episode ended before the first frame
-            writer.write(compose(draw_world(env, size), observation["camera"]))
-    ended = f"; the episode ended at step {step} ({end})" if end else ""
+            writer.write(compose(draw_world(env, size), result.observation["camera"]))
+    end = ENDS.get(result.end, result.end)
+    ended = f"; the episode ended at step {result.steps} ({end})" if end else ""
     click.echo(f"wrote {path} ({writer.frames} frames at {fps} fps, a frame every {every} steps{ended})")
     return writer.frames

@@ -12,7 +12,7 @@ from aaai.kinds import COLOURS
 from aaai.levels import generate
 from aaai.levels.common import arena_walls
 from aaai.spec import AgentPose, LevelSpec, ObjectSpec
-from aaai.viewer import (HEAD_COLOUR, HEADING_COLOUR, LEG_COLOUR, compose, draw_top_down, draw_world,
+from aaai.viewer import (HEAD_COLOUR, HEADING_COLOUR, LEG_COLOUR, compose, draw_snapshot, draw_top_down, draw_world,
                          mapping_for, rgb)
 from aaai_cli.main import cli
 
@@ -177,3 +177,27 @@ def test_bad_input_fails_with_one_clear_message(tmp_path, monkeypatch, args, wor
     for word in words:
         assert word in result.output
     assert list(tmp_path.iterdir()) == []
+
+
+def test_snapshot_is_plain_data_by_spec_index_and_drawn_as_the_world(make_env):
+    door = ObjectSpec("wall", "box", (0.0, 10.0, 2.0), (10.0, 2.0, 4.0),
+                      behaviour={"type": "door", "direction": [0.0, 1.0], "distance": 5.0})
+    pieces = (sphere("food_yellow", 10.0, -10.0, 2.0), sphere("food_yellow", -10.0, -10.0, 2.0))
+    env = make_env(camera=False)
+    env.reset(seed=0, options={"spec": open_arena(door, *pieces, agent=(0.0, -15.0, 0.0))})
+    spec, first = env.level_spec, len(env.level_spec.objects) - 2
+    env.world.remove(next(iter(env.world.food)))  # the first piece, as if eaten
+    snapshot = env.snapshot()
+    assert snapshot.objects[first] is None
+    assert (snapshot.objects[first + 1].x, snapshot.objects[first + 1].y) == pytest.approx((-10.0, -10.0))
+    assert snapshot.objects[first - 1].z < 0 and snapshot.closed_doors == frozenset()  # the door waits below
+    assert len(snapshot.legs) == 4 and snapshot.time == 0.0
+    points = [point for leg in snapshot.legs for point in (leg.hip, leg.knee, leg.foot)]
+    values = [snapshot.time, *vars(snapshot.head).values(), *(v for point in points for v in point)]
+    assert all(type(v) is float for v in values)  # no numpy or PyBullet types: plain data
+    image = draw_snapshot(spec, snapshot)
+    assert np.array_equal(image, draw_world(env))
+    m = mapping_for(spec)
+    assert colour_at(image, m, 10.0, -10.0) == rgb(COLOURS["floor"])  # the eaten piece is gone
+    assert colour_at(image, m, -10.0, -10.0) == rgb(COLOURS["food_yellow"])
+    assert colour_at(image, m, 0.0, 10.0) == rgb(COLOURS["floor"])  # the door: an outline only
