@@ -27,24 +27,21 @@ import importlib
 import io
 import os
 import tempfile
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 from aaai.config import ConfigError, env_part
-from aaai.evaluation import (COLUMNS, Cell, check_record, load_policy, model_path, policy_record, run_episode,
-                             scored_episodes)
-from aaai.runs import check_writable, write_atomic
+from aaai.evaluation import COLUMNS, Cell, check_record, load_policy, policy_record, run_episode, scored_episodes
+from aaai.files import write_atomic
+from aaai.ray_session import RaySession
+from aaai.runs import check_writable
 
 DEFAULT_RETRIES = 3
 BUILTIN_POLICIES = ("random", "reference", "gait")
 
 Key = tuple[int, int, int]  # (level, difficulty, seed)
-
-
-def ray_environment() -> None:
-    """Environment variables Ray must see before it starts: no auth token written to the home folder."""
-    os.environ.setdefault("RAY_AUTH_MODE", "disabled")
 
 
 @dataclass(frozen=True)
@@ -66,9 +63,9 @@ def policy_spec(policy: str, put: Callable[[bytes], Any] | None = None) -> Polic
     """
     if policy in BUILTIN_POLICIES:
         return PolicySpec(policy)
-    path = model_path(policy)  # raises ConfigError for a missing or damaged model
-    if path is not None:
-        data = path.read_bytes()
+    model = policy_record(policy, "list").get("model")  # the model file; a missing or damaged one is refused
+    if model is not None:
+        data = Path(model).read_bytes()
         return PolicySpec("model", hashlib.sha256(data).hexdigest(), [put(data) if put else data])
     if Path(policy).is_dir():
         return PolicySpec("random")  # a run of the random agent (load_policy does the same)
@@ -129,38 +126,6 @@ def play_episodes(spec: PolicySpec, config: dict, episodes: list[Key]) -> tuple[
 
 
 # --- in the driver --------------------------------------------------------------------------
-class RaySession:
-    """``ray.init`` on entry (a new local instance of ``workers`` CPUs, or joining ``address``) and
-    ``ray.shutdown`` on exit. If Ray is already initialised in this process it is used as it is, and
-    left running."""
-
-    def __init__(self, address: str | None = None, workers: int = 2):
-        self.address, self.workers, self.owned = address, workers, False
-
-    def __enter__(self):
-        ray_environment()
-        import ray
-
-        if ray.is_initialized():
-            return self
-        options = dict(include_dashboard=False, log_to_driver=False, configure_logging=False)
-        if self.address is None:
-            # "local": always a new instance; never one found in RAY_ADDRESS or /tmp/ray/ray_current_cluster.
-            ray.init(address="local", num_cpus=self.workers, **options)
-        else:
-            options.pop("include_dashboard")  # only for a new cluster
-            ray.init(address=self.address, **options)
-        self.owned = True
-        return self
-
-    def __exit__(self, *exc):
-        import ray
-
-        if self.owned:
-            ray.shutdown()
-        return False
-
-
 def _format_rows(rows: list[dict], header: bool) -> str:
     text = io.StringIO()
     writer = csv.DictWriter(text, fieldnames=COLUMNS)
@@ -177,7 +142,7 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
     """:func:`aaai.evaluation.evaluate` with its episodes played as Ray tasks; same arguments, same result.
 
     ``address``: None starts a local Ray of ``workers`` CPUs for this call (and stops it after);
-    an address ("host:port", "auto", "ray://...") joins that cluster, whose CPUs then set the
+    an address ("host:port" of its head, or "auto") joins that cluster, whose CPUs then set the
     parallelism (``workers`` is not used). Each task plays ``episodes_per_task`` episodes (1: rows
     arrive one by one) and is retried up to ``max_retries`` times if its worker process dies.
     ``on_episode(row)`` is called for every new row as it is written (in the order they finish);
@@ -185,6 +150,10 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
     Returns every row of the scoreboard (those there before, then this run's in cell and seed order),
     as strings, as ``evaluate`` does.
     """
+    for name, value, least in (("workers", workers, 1), ("episodes_per_task", episodes_per_task, 1),
+                               ("max_retries", max_retries, 0)):
+        if not isinstance(value, int) or value < least:
+            raise ConfigError(f"{name}: got {value!r}; allowed: a whole number, {least} or more")
     output = Path(output)
     check_writable(output, "--out")
     output.parent.mkdir(parents=True, exist_ok=True)
@@ -210,7 +179,7 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
         config_ref = ray.put(config)
         task = ray.remote(play_episodes).options(num_cpus=1, max_retries=max_retries, retry_exceptions=False,
                                                  scheduling_strategy="SPREAD")
-        chunks = [plan[i:i + episodes_per_task] for i in range(0, len(plan), max(1, episodes_per_task))]
+        chunks = deque(plan[i:i + episodes_per_task] for i in range(0, len(plan), episodes_per_task))
         window = 2 * max(1, int(ray.cluster_resources().get("CPU", workers)))
         pending: dict = {}
         with open(output, "a", newline="") as handle:
@@ -221,7 +190,7 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
             try:
                 while chunks or pending:
                     while chunks and len(pending) < window:
-                        chunk = chunks.pop(0)
+                        chunk = chunks.popleft()
                         pending[task.remote(spec, config_ref, chunk)] = chunk
                     ready, _ = ray.wait(list(pending), num_returns=1)
                     pending.pop(ready[0])

@@ -24,6 +24,7 @@ from aaai.env import AnimalAIEnv
 from aaai.episodes import play
 from aaai.files import write_atomic
 from aaai.levels import get_level
+from aaai.rllib_learner import rllib_checkpoint, run_backend
 from aaai.runs import RunFolder, model_problem, check_writable
 from aaai.seeds import TRAIN_SEEDS, key_record, reserved_seeds
 
@@ -102,8 +103,8 @@ def model_path(policy: str) -> Path | None:
         return path
     if path.is_dir():
         run = RunFolder(path)
-        if run.read_config()["train"]["agent"] == "random":
-            return None  # a run of the random agent: scored with the random policy
+        if run.read_config()["train"]["agent"] == "random" or run_backend(path) == "rllib":
+            return None  # a run of the random agent (scored with the random policy), or an RLlib run
         newest = run.latest_checkpoint()
         if newest is None:
             raise ConfigError(f"--policy: run folder {policy!r} holds no model (final/ or checkpoints/*/model.zip)")
@@ -125,6 +126,10 @@ def load_policy(policy: str, env: AnimalAIEnv) -> Callable:
         return ReferenceController(env)
     if policy == "gait":
         return SineGait.for_env(env)
+    if Path(policy).is_dir() and run_backend(policy) == "rllib":
+        from aaai.rllib_learner import RLlibPolicy
+
+        return RLlibPolicy(policy, env)
     path = model_path(policy)
     if path is not None:
         return ModelPolicy(path)
@@ -274,6 +279,12 @@ def policy_record(policy: str, seeds: str, key: str | None = None) -> dict:
     if path is not None:
         record["model"] = str(path)
         record["model_sha256"] = hashlib.sha256(path.read_bytes()).hexdigest()
+    elif Path(policy).is_dir() and run_backend(policy) == "rllib":
+        checkpoint = rllib_checkpoint(policy)
+        digest = hashlib.sha256()
+        for file in sorted(f for f in checkpoint.rglob("*") if f.is_file()):
+            digest.update(str(file.relative_to(checkpoint)).encode() + file.read_bytes())
+        record["model"], record["model_sha256"] = str(checkpoint), digest.hexdigest()
     return record
 
 

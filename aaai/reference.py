@@ -398,7 +398,7 @@ def _sector_of(position) -> tuple[float, float]:
 def _bridge_plank(env, spec):
     """L10: (body, x, y where it stands, y where its far end lands) of the standing plank that
     bridges the trench, or None."""
-    bridge = spec.extras.get("bridge")
+    bridge = spec.bridge
     if not bridge:
         return None
     x0, y0, x1, y1 = bridge

@@ -11,6 +11,7 @@ from aaai.agent.body import RAY_MASK, Quadruped
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.geometry import missing_floor
 from aaai.kinds import KIND_INDEX, KINDS
+from aaai.spec import Blackout as SpecBlackout
 from aaai.spec import LevelSpec
 
 HOLE = KIND_INDEX["hole"]
@@ -121,11 +122,11 @@ class Blackout:
     """L7's schedule: the camera sees for ``light`` seconds, then is dark for ``dark``, repeating.
     Held in whole control steps; a level without one is never dark."""
 
-    def __init__(self, schedule: dict | None = None, control_dt: float = 1.0):
+    def __init__(self, schedule: SpecBlackout | None = None, control_dt: float = 1.0):
         self.steps = None
         if schedule:
-            light = round(schedule["light"] / control_dt)
-            self.steps = light, light + round(schedule["dark"] / control_dt)
+            light = round(schedule.light / control_dt)
+            self.steps = light, light + round(schedule.dark / control_dt)
 
     def dark(self, step: int) -> bool:
         return self.steps is not None and step % self.steps[1] >= self.steps[0]
@@ -163,7 +164,7 @@ class Senses:
         """Readies the senses for a new level: the rays learn its missing floor, the camera its blackout."""
         if self.rays:
             self.rays.set_holes(missing_floor(spec))
-        self.blackout = Blackout(spec.extras.get("blackout"), control_dt)
+        self.blackout = Blackout(spec.blackout, control_dt)
         self.feet[:] = 0.0
 
     def feel(self, contacts) -> None:

@@ -62,6 +62,24 @@ class AgentPose:
 
 
 @dataclass(frozen=True)
+class Blackout:
+    """L7's camera schedule: it sees for ``light`` seconds, then is dark for ``dark``, repeating."""
+
+    light: float
+    dark: float
+
+
+@dataclass(frozen=True)
+class InnerLevel:
+    """The level, cell and seed a wrapping level (L6, L7) was built from."""
+
+    level: int
+    name: str
+    difficulty: int
+    seed: int
+
+
+@dataclass(frozen=True)
 class LevelSpec:
     level: int
     name: str
@@ -78,7 +96,13 @@ class LevelSpec:
     heightfield: tuple[tuple[float, ...], ...] | None = None
     max_food_reward: float = 0.0  # best food reward this instance can give
     time_limit: float = 20.0  # seconds of simulated time an episode may last (T = this / control step)
-    extras: dict = field(default_factory=dict)  # level-specific data (plain JSON types)
+    blackout: Blackout | None = None  # the camera's dark periods (L7), or None
+    colours: dict = field(default_factory=dict)  # kind -> (r, g, b, a) replacing the kinds' colours (L6)
+    # Floor again once the pushable plank has tipped over (L10): x0, y0, x1, y1 where it lands.
+    bridge: tuple[float, float, float, float] | None = None
+    inner: InnerLevel | None = None  # the level a wrapping level (L6, L7) was built from
+    regenerated: int = 0  # attempts that failed aaai.validate.check before this one
+    extras: dict = field(default_factory=dict)  # facts about the instance for people and analysis (JSON types)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -107,6 +131,9 @@ def generator_fields(spec: LevelSpec) -> dict:
         "tiles": spec.tiles,
         "holes": spec.holes,
         "heightfield": spec.heightfield,
-        "extras": {key: value for key, value in spec.extras.items() if key != "regenerated"}
-        | {"inner": {"level": spec.level, "name": spec.name, "difficulty": spec.difficulty, "seed": spec.seed}},
+        "blackout": spec.blackout,
+        "colours": dict(spec.colours),
+        "bridge": spec.bridge,
+        "inner": InnerLevel(spec.level, spec.name, spec.difficulty, spec.seed),
+        "extras": dict(spec.extras),
     }

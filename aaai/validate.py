@@ -5,7 +5,7 @@ food piece inside the arena, on solid ground and clear of solids; every food pie
 by a body of the agent's footprint. Reachability is a search on an occupancy grid of the
 arena: solids and holes (missing floor tiles: holes, pits, trenches) are blocked, sinking
 pillars and sector doors are passable (a pillar ends flush with the floor; a door is open
-until the agent has gone through it), and a level's ``extras["bridge"]`` rectangle (where
+until the agent has gone through it), and a level's ``bridge`` rectangle (where
 the L10 plank lands when pushed over) is floor again.
 """
 from __future__ import annotations
@@ -113,7 +113,7 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
     width, height = spec.arena_size
     cols, rows = math.ceil(width / GRID), math.ceil(height / GRID)
     grid = np.zeros((rows, cols), np.uint8)
-    bridge = spec.extras.get("bridge")
+    bridge = spec.bridge
     for obj in solids(spec):
         moving = behaviour_class(obj)
         if moving and moving.passable:

@@ -45,7 +45,7 @@ class World:
         self.closed: list[Door] = []  # doors that have closed: food outside their sectors is out of reach
         self.closed_bodies: list[int] = []  # their bodies
         self.time = 0.0  # simulated seconds since the build
-        self.colours = {**COLOURS, **{kind: tuple(rgba) for kind, rgba in spec.extras.get("colours", {}).items()}}
+        self.colours = {**COLOURS, **{kind: tuple(rgba) for kind, rgba in spec.colours.items()}}
         self._shapes: dict[tuple, tuple[int, int]] = {}
         self._build_floor()
         self._build_deadly_floor()

@@ -139,15 +139,22 @@ def _overrides(**values) -> dict:
 @click.option("--rays/--no-rays", default=None)
 @click.option("--run", "run_dir", type=click.Path(), help="Run folder (default runs/run-<date>-<time>).")
 @click.option("--resume", "resume_dir", type=click.Path(), help="Continue the run in this folder.")
+@click.option("--backend", type=click.Choice(["sb3", "rllib"]),
+              help="sb3 (default): stable-baselines3 PPO on local workers; rllib: RLlib PPO on Ray (the ray "
+                   "extra), its env runners anywhere on a cluster. --resume uses the run's own.")
+@click.option("--address", help="With --backend rllib: join the Ray cluster whose head is at this address.")
 def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, seed, agent, camera,
-                  camera_resolution, rays, run_dir, resume_dir):
+                  camera_resolution, rays, run_dir, resume_dir, backend, address):
     """Train on a curriculum of (level, difficulty) cells; checkpoints and logs go to the run folder."""
+    from aaai.rllib_learner import run_backend, train_rllib
     from aaai.training import train
 
     ignored = {name: value for name, value in {
         mode or "curriculum": mode, "config": config_path, **dict( levels=levels, difficulty=difficulty, envs=num_envs, seed=seed,
-        agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays, run=run_dir)}.items()
+        agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays, run=run_dir, backend=backend)}.items()
         if value is not None}
+    if address and (backend or (resume_dir and run_backend(resume_dir))) != "rllib":
+        raise click.UsageError("--address: only --backend rllib runs on a cluster")
     if resume_dir and ignored:  # a resumed run keeps its own config: say so rather than ignore the option
         options = ", ".join(f"--{name.replace('_', '-')}" for name in ignored)
         raise click.UsageError(f"--resume continues a run with the config it was started with; {options} cannot "
@@ -161,10 +168,15 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
                 seed=seed, agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays))
             run_dir = run_dir or time.strftime("runs/run-%Y%m%d-%H%M%S")
         total = total_steps or (config or RunFolder(run_dir).read_config())["train"]["total_steps"]
+        use_rllib = (run_backend(resume_dir) if resume_dir else backend) == "rllib"
+        say = lambda message: click.echo(message, err=True)  # noqa: E731
         with click.progressbar(length=total, label="training", show_pos=True) as bar:
-            result = train(run_dir, config, resume=bool(resume_dir), progress=bar.update,
-                           total_steps=total_steps if resume_dir else None,
-                           say=lambda message: click.echo(message, err=True))
+            if use_rllib:
+                result = train_rllib(run_dir, config, resume=bool(resume_dir), progress=bar.update, address=address,
+                                     total_steps=total_steps if resume_dir else None, say=say)
+            else:
+                result = train(run_dir, config, resume=bool(resume_dir), progress=bar.update,
+                               total_steps=total_steps if resume_dir else None, say=say)
     except (ConfigError, FileExistsError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except ImportError as error:
@@ -190,7 +202,14 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
 @click.option("--seed-key-file", type=click.Path(dir_okay=False),
               help="A file holding a secret key: score the hidden reserved list it stands for "
                    "(or set AAAI_SEED_KEY). The scoreboard records a hash of the key, never the key.")
-def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output, seed_key_file):
+@click.option("--backend", type=click.Choice(["local", "ray"]), default="local", show_default=True,
+              help="local: one process; ray: episodes as Ray tasks (the ray extra), here or on a cluster.")
+@click.option("--address", help="With --backend ray: join the cluster whose head is at this address "
+                                "(host:port, or auto); without it a local Ray is started for the eval.")
+@click.option("--workers", type=click.IntRange(1), default=2, show_default=True,
+              help="With --backend ray and no --address: CPUs of the local Ray.")
+def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output, seed_key_file,
+                 backend, address, workers):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
     from aaai.evaluation import (cells_for, evaluate, policy_config, policy_record, summarise, summary_markdown,
                                  write_summary)
@@ -214,11 +233,18 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
         record = policy_record(policy, seeds_mode, key)
         episodes = sum(len(cell.seeds) for cell in cells)
         with click.progressbar(length=episodes, label=f"scoring {episodes} episodes", show_pos=True) as bar:
-            rows = evaluate(policy, cells, output, config, on_episode=lambda row: bar.update(1), record=record)
+            if backend == "ray":
+                from aaai.distributed import evaluate_on_ray
+
+                rows = evaluate_on_ray(policy, cells, output, config, address=address, workers=workers,
+                                       on_episode=lambda row: bar.update(1), record=record)
+            else:
+                rows = evaluate(policy, cells, output, config, on_episode=lambda row: bar.update(1), record=record)
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except ImportError as error:
-        raise click.UsageError(f"{error}. Loading a model needs the train extra: pip install -e '.[train]'") from None
+        raise click.UsageError(f"{error}. Loading a model needs the train extra: pip install -e '.[train]'; "
+                               "--backend ray and RLlib runs need the ray extra: pip install -e '.[ray]'") from None
     summary = summarise(rows)
     summary_path = write_summary(summary, output)
     click.echo(summary_markdown(summary), nl=False)

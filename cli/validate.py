@@ -55,7 +55,7 @@ def survey(level: int, difficulty: int, seeds) -> dict:
             problems = [str(error)]
         else:
             problems = [f"level {level} difficulty {difficulty} seed {seed}: {problem}" for problem in problems]
-            row["regenerated"] += bool(spec.extras.get("regenerated"))
+            row["regenerated"] += bool(spec.regenerated)
         if problems:
             row["failed"] += 1
             row["errors"] += problems[:1]

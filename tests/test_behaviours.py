@@ -9,7 +9,7 @@ import pytest
 
 from aaai.gait import SineGait
 from aaai.levels import generate
-from aaai.spec import AgentPose
+from aaai.spec import AgentPose, Blackout
 from aaai.sensors import EYE_OFFSET
 from aaai.world import HIDDEN_Z
 from test_env import assert_identical, run_random
@@ -199,7 +199,7 @@ def test_l7_blacks_out_the_camera_on_schedule_but_not_the_rays(make_env, difficu
     env = make_env(rays=True, camera=True, camera_resolution=16)
     observation, info = env.reset(seed=1, options={"level": 7, "difficulty": difficulty})
     dark_seconds = math.floor(min(difficulty + 1.1, 10))
-    assert env.level_spec.extras["blackout"] == {"light": 5.0, "dark": float(dark_seconds)}
+    assert env.level_spec.blackout == Blackout(light=5.0, dark=float(dark_seconds))
     light_steps, dark_steps = 250, dark_seconds * 50
     assert not info["dark"] and observation["camera"].any()
     for step in range(1, light_steps + dark_steps + 20):

@@ -14,7 +14,7 @@ from aaai import validate
 from aaai.config import ConfigError, load_config
 from aaai.levels import InvalidLevelError, all_levels, generate, get_level
 from aaai.levels.common import arena_walls, slab, sphere
-from aaai.spec import AgentPose, LevelSpec, ObjectSpec
+from aaai.spec import AgentPose, Blackout, LevelSpec, ObjectSpec
 from aaai_cli.main import cli
 
 LEVELS = list(range(13))
@@ -111,8 +111,8 @@ def test_food_by_a_wall_is_valid_when_the_head_reaches_it_from_the_open_side():
 def test_the_l10_trench_is_crossable_only_by_the_plank():
     spec = generate(10, 10, 4)
     assert validate.check(spec) == []
-    extras = {k: v for k, v in spec.extras.items() if k != "bridge"}
-    assert any("cannot be reached" in text for text in validate.check(replace(spec, extras=extras)))
+    assert spec.bridge is not None
+    assert any("cannot be reached" in text for text in validate.check(replace(spec, bridge=None)))
 
 
 def test_l9_doors_are_passable_in_the_search_but_solid_in_physics():
@@ -134,14 +134,14 @@ def test_a_level_that_fails_the_check_is_regenerated_deterministically(monkeypat
     first = generate(3, 6, 5)
     again = generate(3, 6, 5)
     rejected = calls[0]  # the first attempt of the first call, refused by the made-up problem
-    assert first.extras["regenerated"] == 1 and "regenerated" not in rejected.extras
+    assert first.regenerated == 1 and rejected.regenerated == 0
     assert first == again and first.digest() == again.digest()  # regenerating is deterministic too
     monkeypatch.setattr(validate, "check", real)
     plain = generate(3, 6, 5)
-    assert plain == rejected and "regenerated" not in plain.extras  # a first attempt that passes is kept
+    assert plain == rejected and plain.regenerated == 0  # a first attempt that passes is kept
     assert real(first) == []  # the regenerated level is a valid one...
-    # ... and another layout, not the rejected one with a counter added (extras aside, specs compare whole)
-    assert replace(first, extras=rejected.extras) != rejected
+    # ... and another layout, not the rejected one with a counter added (the counter aside, specs compare whole)
+    assert replace(first, regenerated=0) != rejected
     assert (first.agent, first.objects) != (rejected.agent, rejected.objects)
 
 
@@ -152,6 +152,15 @@ def test_a_level_that_cannot_be_made_valid_names_its_seed(monkeypatch):
 
 
 # --- what each level holds --------------------------------------------------------------
+def inside(spec: LevelSpec) -> list[ObjectSpec]:
+    """The level's own objects: all but its four arena walls, found by what they are, not where they
+    stand in the list (a generator may list its objects in any order)."""
+    walls = arena_walls(spec.arena_size, spec.wall_height)
+    own = [o for o in spec.objects if o not in walls]
+    assert len(own) == len(spec.objects) - 4  # the four walls were there, once each
+    return own
+
+
 @pytest.mark.parametrize("difficulty", range(11))
 def test_l2_y_maze_one_better_green_and_a_smaller_one_above_5(difficulty):
     for seed in range(5):
@@ -178,11 +187,13 @@ def test_l2b_small_green_ahead_and_a_yellow_on_a_sinking_pillar(difficulty):
 @pytest.mark.parametrize("difficulty", range(11))
 def test_l3_a_transparent_wall_hides_the_green_and_obstacles_grow(difficulty):
     spec = generate(3, difficulty, 1)
-    glass = [o for o in spec.objects if o.kind == "transparent_wall"][0]
-    assert glass.size[0] == difficulty + 5 and glass.size[2] == difficulty + 6
     (food,) = spec.foods
+    # the glass: the transparent wall nearest the food (the extra obstacles keep 4 or more clear of it)
+    glass = min((o for o in inside(spec) if o.kind == "transparent_wall"),
+                key=lambda o: math.dist(o.position[:2], food.position[:2]))
+    assert glass.size[0] == difficulty + 5 and glass.size[2] == difficulty + 6
     assert food.position[1] == pytest.approx(glass.position[1] + 0.5 + 3)
-    extra = [o for o in spec.objects[5:] if not o.is_food]
+    extra = [o for o in inside(spec) if not o.is_food and o is not glass]
     assert len(extra) == round(0.4 * difficulty)
     assert all(o.mass == 10 for o in extra if o.kind == "plank")
 
@@ -192,7 +203,7 @@ def test_l4_holes_are_missing_tiles(difficulty):
     spec = generate(4, difficulty, 2)
     n = round(6 - 0.2 * difficulty)
     assert spec.tiles == (n, n) and len(spec.holes) == (2 if difficulty <= 5 else 3)
-    walls = [o for o in spec.objects[4:] if o.kind == "wall"]
+    walls = [o for o in inside(spec) if o.kind == "wall"]
     assert len(walls) == round(0.2 * difficulty + 1)
 
 
@@ -210,21 +221,21 @@ def test_l5_maze_grows_and_puts_agent_and_food_farthest_apart(difficulty):
 def test_l6_recolours_kinds_with_five_colours_and_raises_walls():
     for seed in range(6):
         spec = generate(6, 10, seed)
-        inner = spec.extras["inner"]
-        assert inner["level"] not in (6, 7) and spec.level == 6
-        colours = {tuple(rgba[:3]) for rgba in spec.extras["colours"].values()}
+        inner = spec.inner
+        assert inner.level not in (6, 7) and spec.level == 6
+        colours = {tuple(rgba[:3]) for rgba in spec.colours.values()}
         assert len(colours) <= 5
         assert all(o.colour is not None for o in spec.objects)
         assert all(o.size[2] >= 10 for o in spec.objects if o.kind in ("wall", "transparent_wall"))
-        assert generate(inner["level"], inner["difficulty"], inner["seed"]).foods == [
+        assert generate(inner.level, inner.difficulty, inner.seed).foods == [
             replace(f, colour=None) for f in spec.foods]
 
 
 def test_l7_wraps_another_level_with_a_blackout_schedule():
     for difficulty in (0, 5, 9, 10):
         spec = generate(7, difficulty, difficulty)
-        assert spec.level == 7 and spec.extras["inner"]["level"] not in (6, 7)
-        assert spec.extras["blackout"] == {"light": 5.0, "dark": float(math.floor(min(difficulty + 1.1, 10)))}
+        assert spec.level == 7 and spec.inner.level not in (6, 7)
+        assert spec.blackout == Blackout(light=5.0, dark=float(math.floor(min(difficulty + 1.1, 10))))
 
 
 @pytest.mark.parametrize("difficulty", range(11))
@@ -244,16 +255,16 @@ def test_l10_trench_plank_and_side_walls(difficulty):
     assert north - south == round(4 + 0.6 * difficulty)
     (plank,) = [o for o in spec.objects if o.kind == "plank"]
     assert plank.mass == 10 and plank.size[2] > north - south + 2
-    x0, y0, x1, y1 = spec.extras["bridge"]
+    x0, y0, x1, y1 = spec.bridge
     assert y0 < south and y1 > north and x1 - x0 > 9
-    side = [o for o in spec.objects[4:] if o.kind in ("wall", "transparent_wall")]
+    side = [o for o in inside(spec) if o.kind in ("wall", "transparent_wall")]
     assert len(side) == [0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2][difficulty]
     assert spec.foods[0].position[1] > north and spec.agent.y < south
 
 
 def test_l10_side_walls_are_transparent_with_probability_1_2_minus_0_1d():
     for difficulty, expected in ((4, 0.8), (10, 0.2)):
-        kinds = [o.kind for seed in range(150) for o in generate(10, difficulty, seed).objects[4:]
+        kinds = [o.kind for seed in range(150) for o in inside(generate(10, difficulty, seed))
                  if o.kind in ("wall", "transparent_wall")]
         assert abs(kinds.count("transparent_wall") / len(kinds) - expected) < 0.1
 
@@ -287,7 +298,7 @@ def test_every_reserved_seed_of_l6_and_l7_builds_its_inner_level_from_a_reserved
 
     for difficulty in range(11):
         for seed in reserved_seeds(level, difficulty, 10):
-            assert generate(level, difficulty, seed).extras["inner"]["seed"] in RESERVED_SEEDS
+            assert generate(level, difficulty, seed).inner.seed in RESERVED_SEEDS
 
 
 def _inner_seeds_stay_in_training(count: int) -> None:
@@ -296,7 +307,7 @@ def _inner_seeds_stay_in_training(count: int) -> None:
     rng = np.random.default_rng(5)
     for index, seed in enumerate(rng.integers(TRAIN_SEEDS.start, TRAIN_SEEDS.stop, size=count)):
         level, difficulty = 6 + index % 2, index % 11
-        assert generate(level, difficulty, int(seed)).extras["inner"]["seed"] in TRAIN_SEEDS
+        assert generate(level, difficulty, int(seed)).inner.seed in TRAIN_SEEDS
 
 
 def test_training_seeds_of_l6_and_l7_build_their_inner_levels_from_training_seeds():

@@ -169,7 +169,7 @@ def attempt_rng(level_id: int, difficulty: int, seed: int, attempt: int) -> np.r
 def generate(level: int | str, difficulty: int, seed: int) -> LevelSpec:
     """The level spec for (level, difficulty, seed): the same inputs always give an equal spec.
 
-    A spec that fails aaai.validate.check is generated again (extras["regenerated"] counts the
+    A spec that fails aaai.validate.check is generated again (its ``regenerated`` counts the
     failed attempts); after MAX_ATTEMPTS it is an InvalidLevelError.
     """
     lvl = get_level(level)
@@ -198,8 +198,6 @@ def generate(level: int | str, difficulty: int, seed: int) -> LevelSpec:
 
 def _assemble(lvl: Level, difficulty: int, seed: int, built: dict, attempt: int) -> LevelSpec:
     extras = dict(built.pop("extras", {}))
-    if attempt:
-        extras["regenerated"] = attempt
     return LevelSpec(
         level=lvl.id,
         name=lvl.name,
@@ -209,6 +207,7 @@ def _assemble(lvl: Level, difficulty: int, seed: int, built: dict, attempt: int)
         objects=tuple(built.pop("objects")),
         max_food_reward=float(built.pop("max_food_reward")),
         extras=extras,
+        regenerated=attempt,
         **built,
     )
 

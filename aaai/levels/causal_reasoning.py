@@ -43,7 +43,8 @@ def generate(p: dict, rng: np.random.Generator) -> dict:
         "max_food_reward": sphere("food_green", 0, 0, size).food_value,
         "tiles": (int(ARENA[0]), int(ARENA[1])),
         "holes": holes,
-        "extras": {"trench": [south, north], "bridge": bridge},
+        "bridge": tuple(bridge) if bridge else None,
+        "extras": {"trench": [south, north]},
     }
 
 

@@ -6,7 +6,7 @@ from typing import Callable
 
 import numpy as np
 
-from aaai.spec import LevelSpec, generator_fields
+from aaai.spec import Blackout, LevelSpec, generator_fields
 
 PARAMETERS = ("light_seconds", "dark_seconds")
 WRAPS_OTHER_LEVELS = True  # the registry hands generate() an ``inner`` level maker
@@ -15,5 +15,5 @@ WRAPS_OTHER_LEVELS = True  # the registry hands generate() an ``inner`` level ma
 def generate(p: dict, rng: np.random.Generator, inner: Callable[[np.random.Generator], LevelSpec]) -> dict:
     fields = generator_fields(inner(rng))
     # the camera goes dark on this schedule (aaai.sensors.Blackout), in simulated time
-    fields["extras"]["blackout"] = {"light": float(p["light_seconds"]), "dark": float(p["dark_seconds"])}
+    fields["blackout"] = Blackout(float(p["light_seconds"]), float(p["dark_seconds"]))
     return fields

@@ -24,7 +24,7 @@ def generate(p: dict, rng: np.random.Generator, inner: Callable[[np.random.Gener
     fields = generator_fields(inner)
     fields["objects"] = [_restyle(obj, colours, p["wall_height"]) for obj in inner.objects]
     fields["wall_height"] = max(inner.wall_height, float(p["wall_height"]))
-    fields["extras"]["colours"] = {kind: list(rgba) for kind, rgba in colours.items()}
+    fields["colours"] = {kind: tuple(rgba) for kind, rgba in colours.items()}
     return fields
 
 

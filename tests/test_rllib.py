@@ -1,0 +1,130 @@
+"""RLlib PPO training with the curriculum sampler as one Ray actor (aaai/rllib_learner.py).
+
+Ray runs in a child process (its global state stays out of the test session) with a private Ray
+temp folder, whose path every Ray process inherits in its environment: after the child exits, no
+process may still hold it.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+pytest.importorskip("ray.rllib")
+
+# A run of 2048 steps (iterations of 2 x 256 steps, one remote EnvRunner with two environments),
+# checkpoints every 1024; then, as after a kill just past step 1024, final/ and the newer checkpoint
+# are taken away and the run is resumed with its end moved to 3072.
+CHILD = """
+import json, shutil, sys
+from pathlib import Path
+import ray
+from aaai.config import load_config
+from aaai.rllib_learner import run_backend, train_rllib
+
+run = Path(sys.argv[1])
+config = load_config(None, max_steps=100, levels=[0], difficulties=[0, 1], total_steps=2048, num_envs=2,
+                     checkpoint_every=1024, heatmap_every=512, n_steps=256, batch_size=128, n_epochs=2,
+                     net_width=32)
+first = train_rllib(run, config, env_runners=1, say=print)
+shutil.rmtree(run / "final")
+shutil.rmtree(run / "checkpoints" / "step_000000002048")
+resumed = train_rllib(run, resume=True, total_steps=3072, env_runners=1, say=print)
+
+# The trained policy, as the scoreboard would play it: deterministic, actions in the space.
+from aaai.config import env_part
+from aaai.env import AnimalAIEnv
+from aaai.evaluation import run_episode
+from aaai.rllib_learner import RLlibPolicy
+from aaai.runs import RunFolder
+env = AnimalAIEnv(config=env_part(RunFolder(run).read_config(), shaping=0.0))
+policy = RLlibPolicy(run, env)
+observation, _ = env.reset(seed=3)
+assert env.action_space.contains(policy(observation))
+plays = [run_episode(env, policy, 0, 1, 7) for _ in range(2)]
+env.close()
+print("RESULT " + json.dumps({"first": [first.steps, first.episodes], "resumed": [resumed.steps, resumed.episodes,
+                              resumed.resumed_from], "backend": run_backend(run), "initialized": ray.is_initialized(),
+                              "plays": [{k: v for k, v in p.items() if k != "wall_seconds"} for p in plays]}))
+"""
+
+
+def processes_holding(text: str) -> set[int]:
+    """Pids of processes whose environment holds ``text`` (Linux /proc)."""
+    found = set()
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit() and int(entry.name) != os.getpid():
+            try:
+                if text.encode() in (entry / "environ").read_bytes():
+                    found.add(int(entry.name))
+            except OSError:
+                continue
+    return found
+
+
+def test_rllib_run_writes_its_folder_and_resumes(tmp_path):
+    ray_tmp = tempfile.mkdtemp(prefix="aaairl", dir="/tmp")  # short: Ray's socket paths live here
+    run = tmp_path / "run"
+    env = {**os.environ, "RAY_AUTH_MODE": "disabled", "RAY_TMPDIR": ray_tmp, "PYTHONUNBUFFERED": "1"}
+
+    try:
+        with open(tmp_path / "stderr.txt", "w") as stderr:  # a file: a leftover process may hold a pipe open
+            child = subprocess.run([sys.executable, "-c", CHILD, str(run)], env=env, stdout=subprocess.PIPE,
+                                   stderr=stderr, text=True, timeout=600)
+        log = child.stdout[-3000:] + (tmp_path / "stderr.txt").read_text()[-3000:]
+        assert child.returncode == 0, log
+        deadline = time.time() + 20
+        while (left := processes_holding(ray_tmp)) and time.time() < deadline:
+            time.sleep(0.5)
+        assert not left, f"Ray processes outlived the run: {sorted(left)}"
+    finally:
+        shutil.rmtree(ray_tmp, ignore_errors=True)
+    result = json.loads([line for line in child.stdout.splitlines() if line.startswith("RESULT ")][-1][7:])
+    assert result["first"][0] == 2048 and result["resumed"][:1] == [3072] and result["resumed"][2] == 1024
+    assert result["backend"] == "rllib" and not result["initialized"]
+    assert result["plays"][0] == result["plays"][1] and result["plays"][0]["steps"] <= 100
+
+    # The local trainer's layout: config, versions, episodes, heatmap, checkpoints with the sampler's state.
+    assert (run / "config.yaml").is_file() and (run / "versions.json").is_file() and (run / "curriculum.png").is_file()
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    assert config["train"]["total_steps"] == 3072 and config["sensors"]["joint_velocities"]
+    assert sorted(p.name for p in (run / "checkpoints").iterdir()) == [f"step_{s:012d}" for s in (1024, 2048, 3072)]
+    saved = json.loads((run / "checkpoints" / "step_000000001024" / "state.json").read_text())
+    final = json.loads((run / "final" / "state.json").read_text())
+    assert final["step"] == 3072 and final["agent"] == {"backend": "rllib"}
+    assert (run / "final" / "rllib").is_dir() and (run / "checkpoints" / "step_000000001024" / "rllib").is_dir()
+    assert [tuple(cell) for cell in final["curriculum"]["cells"]] == [(0, 0), (0, 1)]
+    before, after = saved["curriculum"]["episodes"], final["curriculum"]["episodes"]
+    assert all(later >= earlier for earlier, later in zip(before, after)) and sum(after) > sum(before)
+    with open(run / "episodes.csv") as handle:
+        episodes = list(csv.DictReader(handle))
+    steps = [int(e["step"]) for e in episodes]
+    assert steps == sorted(steps) and steps[-1] <= 3072  # those logged after 1024 and lost were dropped
+    assert len(episodes) == sum(final["curriculum"]["episodes"]) >= 25  # 100-step episodes: ~30 in 3072 steps
+    assert sum(int(e["step"]) <= 1024 for e in episodes) == sum(saved["curriculum"]["episodes"])
+    for episode in episodes:
+        assert (int(episode["level"]), int(episode["difficulty"])) in {(0, 0), (0, 1)}
+        assert 1 <= int(episode["length"]) <= 100
+        assert 0 <= int(episode["seed"]) < 1288490240  # training seeds only
+        assert float(episode["task_return"]) != float(episode["episode_return"])  # shaping was on, and left out
+
+    # Scored like any run, by the command a user types; the record names the RLlib checkpoint.
+    board = tmp_path / "board.csv"
+    scored = subprocess.run([sys.executable, "-m", "aaai_cli.main", "eval", "--policy", str(run), "-k", "2",
+                             "--levels", "0", "--difficulty", "1", "--out", str(board)],
+                            capture_output=True, text=True, env=env, timeout=300)
+    assert scored.returncode == 0, scored.stderr[-3000:]
+    with open(board) as handle:
+        rows = list(csv.DictReader(handle))
+    assert [(r["level"], r["difficulty"]) for r in rows] == [("0", "1"), ("0", "1")]
+    record = json.loads((tmp_path / "board_scored_with.json").read_text())
+    assert record["model"].endswith("final/rllib") and len(record["model_sha256"]) == 64
