@@ -36,6 +36,7 @@ from aaai.training import TrainResult, Tracker, check_trainable, with_propriocep
 from aaai.vector import EPISODE_INFO_KEYS, Episode
 
 ENV_NAME = "aaai-curriculum"
+MAX_RUNNER_RESTARTS = 100  # replacements of failed EnvRunners over a run, before it gives up
 CHECKPOINT_FOLDER = "rllib"  # inside checkpoints/step_N/ and final/, beside state.json
 
 
@@ -232,6 +233,8 @@ def ppo_config(config: dict, sampler: str, env_runners: int):
                   lambda_=train["gae_lambda"], entropy_coeff=train["ent_coef"], use_kl_loss=False,
                   clip_param=0.2, vf_loss_coeff=0.5, vf_clip_param=math.inf, grad_clip=0.5)
         .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=[width, width], vf_share_layers=False))
+        # An EnvRunner that dies (its node lost, its process killed) is replaced and training goes on.
+        .fault_tolerance(restart_failed_env_runners=True, max_num_env_runner_restarts=MAX_RUNNER_RESTARTS)
         .debugging(seed=train["seed"])
     )
 

@@ -128,3 +128,55 @@ def test_rllib_run_writes_its_folder_and_resumes(tmp_path):
     assert [(r["level"], r["difficulty"]) for r in rows] == [("0", "1"), ("0", "1")]
     record = json.loads((tmp_path / "board_scored_with.json").read_text())
     assert record["model"].endswith("final/rllib") and len(record["model_sha256"]) == 64
+
+
+KILL_CHILD = """
+import json, os, signal, sys
+from pathlib import Path
+from aaai.config import load_config
+from aaai.rllib_learner import train_rllib
+
+run, ray_tmp = Path(sys.argv[1]), sys.argv[2]
+config = load_config(None, max_steps=100, levels=[0], difficulties=[0], total_steps=2560, num_envs=2,
+                     checkpoint_every=100000, heatmap_every=100000, n_steps=256, batch_size=128, n_epochs=1,
+                     net_width=16)
+killed, seen = [], []
+
+def env_runners():
+    for entry in Path("/proc").iterdir():
+        try:
+            title = (entry / "cmdline").read_bytes() if entry.name.isdigit() else b""
+            if (title.startswith(b"ray::") and b"EnvRunner" in title
+                    and ray_tmp.encode() in (entry / "environ").read_bytes()):
+                yield int(entry.name)
+        except OSError:
+            continue
+
+def kill_one_runner(steps):
+    if not killed:  # after the first iteration: one of the two EnvRunner processes dies
+        pid = next(env_runners())
+        os.kill(pid, signal.SIGKILL)
+        killed.append(pid)
+    else:
+        seen.append(sorted(env_runners()))
+
+result = train_rllib(run, config, env_runners=2, progress=kill_one_runner, say=print)
+print("RESULT", json.dumps({"steps": result.steps, "killed": killed, "seen": seen}))
+"""
+
+
+@pytest.mark.long  # about 1-2 minutes on 2 cores: in make test-long
+def test_a_killed_env_runner_is_replaced_and_training_goes_on(tmp_path):
+    ray_tmp = tempfile.mkdtemp(prefix="aaairk", dir="/tmp")
+    env = {**os.environ, "RAY_AUTH_MODE": "disabled", "RAY_TMPDIR": ray_tmp, "PYTHONUNBUFFERED": "1"}
+    try:
+        child = subprocess.run([sys.executable, "-c", KILL_CHILD, str(tmp_path / "run"), ray_tmp], env=env,
+                               capture_output=True, text=True, timeout=600)
+    finally:
+        shutil.rmtree(ray_tmp, ignore_errors=True)
+    assert child.returncode == 0, child.stdout[-2000:] + child.stderr[-3000:]
+    result = json.loads([line for line in child.stdout.splitlines() if line.startswith("RESULT ")][-1][7:])
+    assert result["steps"] >= 2560  # the run reached its end after losing a runner ...
+    assert len(result["killed"]) == 1 and len(result["seen"][-1]) == 2  # ... which was replaced
+    assert result["killed"][0] not in result["seen"][-1]
+    assert json.loads((tmp_path / "run" / "final" / "state.json").read_text())["step"] == result["steps"]
