@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from aaai.config import ConfigError, env_part
-from aaai.evaluation import COLUMNS, Cell, check_record, load_policy, policy_record, run_episode, scored_episodes
+from aaai.evaluation import COLUMNS, Cell, columns_of, check_record, load_policy, policy_record, run_episode, scored_episodes
 from aaai.files import write_atomic
 from aaai.ray_session import RaySession
 from aaai.runs import check_writable
@@ -126,9 +126,9 @@ def play_episodes(spec: PolicySpec, config: dict, episodes: list[Key]) -> tuple[
 
 
 # --- in the driver --------------------------------------------------------------------------
-def _format_rows(rows: list[dict], header: bool) -> str:
+def _format_rows(rows: list[dict], header: bool, columns: list[str] = COLUMNS) -> str:
     text = io.StringIO()
-    writer = csv.DictWriter(text, fieldnames=COLUMNS)
+    writer = csv.DictWriter(text, fieldnames=columns, extrasaction="ignore")
     if header:
         writer.writeheader()
     writer.writerows(rows)
@@ -183,7 +183,7 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
         window = 2 * max(1, int(ray.cluster_resources().get("CPU", workers)))
         pending: dict = {}
         with open(output, "a", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+            writer = csv.DictWriter(handle, fieldnames=columns_of(output), extrasaction="ignore")
             if not before:
                 writer.writeheader()
                 handle.flush()
@@ -215,5 +215,5 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
                     ray.cancel(ref, force=True)
     ordered = [finished[key] for key in plan]
     prefix = before if before else _format_rows([], header=True)
-    write_atomic(output, prefix + _format_rows(ordered, header=False))  # as the local backend would have it
+    write_atomic(output, prefix + _format_rows(ordered, header=False, columns=columns_of(output)))  # as the local backend would have it
     return rows + [{k: str(v) for k, v in row.items()} for row in ordered]

@@ -7,6 +7,7 @@ which turns contacts into rewards and ends episodes (aaai.rewards).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -16,6 +17,7 @@ from gymnasium import spaces
 
 from aaai import validate
 from aaai.agent.body import Quadruped
+from aaai.arena import load_arena
 from aaai.config import ConfigError, env_keywords, load_config
 from aaai.levels import check_difficulty, episode_rngs, generate, get_level
 from aaai.rewards import TERMS, FoodTask
@@ -52,6 +54,9 @@ class AnimalAIEnv(gym.Env):
     Args:
         level: level id 0..12, label ("L1", "L2b") or name ("food_retrieval").
         difficulty: 0..10.
+        arena: an arena file (aaai.arena, README "Write your own test"): every reset loads it with
+            the episode's seed instead of generating ``level`` (a reset with ``options={"spec": …}``
+            still runs that spec).
         config: a YAML path or nested mapping overriding configs/default.yaml.
         render_mode: None, "rgb_array" (a third-person view) or "human" (PyBullet's GUI).
         **overrides: any configuration key by its short name, e.g. ``camera=True``,
@@ -61,16 +66,22 @@ class AnimalAIEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50}
 
     def __init__(self, level: int | str | None = None, difficulty: int | None = None,
-                 config: Any = None, render_mode: str | None = None, **overrides: Any):
+                 config: Any = None, render_mode: str | None = None, arena: str | None = None, **overrides: Any):
         unexpected = sorted(set(overrides) - env_keywords())
         if unexpected:  # worded as Python's own error, which libraries that probe keywords expect
             raise TypeError(f"AnimalAIEnv.__init__() got an unexpected keyword argument '{unexpected[0]}'; allowed: "
-                            f"level, difficulty, config, render_mode, {', '.join(sorted(env_keywords()))}")
+                            f"level, difficulty, config, render_mode, arena, {', '.join(sorted(env_keywords()))}")
         if level is not None:
             overrides["level"] = get_level(level).id
         if difficulty is not None:
             overrides["difficulty"] = check_difficulty(difficulty)
         self.config = cfg = load_config(config, **overrides)
+        self.arena = None
+        if arena is not None:  # checked now (its seed-0 instance), so that a bad file fails here
+            if not isinstance(arena, (str, Path)):
+                raise ConfigError(f"arena: got {arena!r}; allowed: an arena file's path")
+            load_arena(arena, 0)
+            self.arena = str(arena)
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ConfigError(f"render_mode: got {render_mode!r}; allowed: None, 'rgb_array', 'human'")
         self.render_mode = render_mode
@@ -115,6 +126,8 @@ class AnimalAIEnv(gym.Env):
             if problems:
                 raise ConfigError("reset option 'spec': the level is not valid: " + "; ".join(problems)
                                   + " (options={'check': False} runs it all the same)")
+        elif self.arena is not None:
+            spec = load_arena(self.arena, episode_seed)
         else:
             spec = generate(self.level, self.difficulty, episode_seed)
         self.level_spec = spec
@@ -233,11 +246,11 @@ class AnimalAIEnv(gym.Env):
         """A pickled environment is its configuration (at its current level and difficulty): the
         PyBullet client cannot travel. The copy is a new environment; reset it before stepping."""
         return {"config": self.config, "level": self.level, "difficulty": self.difficulty,
-                "render_mode": self.render_mode}
+                "render_mode": self.render_mode, "arena": self.arena}
 
     def __setstate__(self, state: dict) -> None:
         self.__init__(level=state["level"], difficulty=state["difficulty"], config=state["config"],
-                      render_mode=state["render_mode"])
+                      render_mode=state["render_mode"], arena=state.get("arena"))
 
     def close(self):
         if getattr(self, "sim", None) is not None:

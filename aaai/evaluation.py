@@ -23,13 +23,18 @@ from aaai.gait import SineGait
 from aaai.env import AnimalAIEnv
 from aaai.episodes import play
 from aaai.files import write_atomic
-from aaai.levels import get_level
+from aaai.arena import load_arena
+from aaai.levels import all_levels, get_level
 from aaai.rllib_learner import rllib_checkpoint, run_backend
 from aaai.runs import RunFolder, model_problem, check_writable
 from aaai.seeds import TRAIN_SEEDS, key_record, reserved_seeds
 
-COLUMNS = ["level", "level_name", "difficulty", "seed", "return", "max_reward", "ratio", "outcome", "steps",
-           "max_steps", "food_eaten", "wall_hits", "fell", "wall_seconds"]
+# "arena": the arena file's name (aaai.arena), empty for a generated level. A scoreboard written
+# before that column existed (LEGACY_COLUMNS) is still read (its rows get arena "") and added to
+# in its own columns.
+LEGACY_COLUMNS = ["level", "level_name", "difficulty", "seed", "return", "max_reward", "ratio", "outcome", "steps",
+                  "max_steps", "food_eaten", "wall_hits", "fell", "wall_seconds"]
+COLUMNS = LEGACY_COLUMNS[:-1] + ["arena", "wall_seconds"]  # the timing stays last
 PASS_RATIO, SUCCESS_RATIO = 0.8, 1.0
 TRAIN_EVAL_KEY = 7  # seeds `--seeds train` picks: fixed draws from the training range
 
@@ -155,9 +160,15 @@ class Cell:
     seeds: list[int]
 
 
-def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int, seed: int) -> dict:
-    """Plays one episode of the cell to its end; its scoreboard row."""
-    result = play(env, policy, seed, options={"level": level, "difficulty": difficulty})
+def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int, seed: int,
+                arena: Path | None = None) -> dict:
+    """Plays one episode of the cell (or of the arena file, with the seed) to its end; its scoreboard row."""
+    if arena is None:
+        options = {"level": level, "difficulty": difficulty}
+    else:
+        spec = load_arena(arena, seed)
+        options, level, difficulty = {"spec": spec, "check": False}, spec.level, spec.difficulty  # checked on load
+    result = play(env, policy, seed, options=options)
     total, info = result.episode_return, result.info
     ratio = total / info["max_reward"] if info["max_reward"] > 0 else math.nan
     return {
@@ -166,7 +177,7 @@ def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int,
         "outcome": outcome(ratio), "steps": info["steps"], "max_steps": info["max_steps"],
         "food_eaten": info["food_eaten"],
         "wall_hits": info["wall_hits"], "fell": info["fell"],
-        "wall_seconds": round(result.wall_seconds, 3),
+        "arena": arena.name if arena is not None else "", "wall_seconds": round(result.wall_seconds, 3),
     }
 
 
@@ -180,9 +191,22 @@ def scored_episodes(path: Path) -> list[dict]:
             handle.truncate(text.rfind("\n") + 1)
         text = text[: text.rfind("\n") + 1]
     rows = list(csv.DictReader(text.splitlines()))
+    if rows and list(rows[0].keys()) == LEGACY_COLUMNS:
+        return [{**row, "arena": ""} for row in rows]
     if rows and list(rows[0].keys()) != COLUMNS:
         raise ConfigError(f"{str(path)!r} is not a scoreboard of this version (columns {list(rows[0].keys())})")
     return rows
+
+
+def columns_of(path: Path) -> list[str]:
+    """The columns to add rows to a scoreboard in: its own header's if it is an older scoreboard
+    (without "arena"), else COLUMNS."""
+    if path.exists():
+        with open(path, newline="") as handle:
+            header = next(csv.reader(handle), None)
+        if header == LEGACY_COLUMNS:
+            return LEGACY_COLUMNS
+    return COLUMNS
 
 
 def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
@@ -194,13 +218,13 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
     output.parent.mkdir(parents=True, exist_ok=True)
     check_record(output, record if record is not None else policy_record(policy_name, "list"))
     rows = scored_episodes(output)
-    done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows}
+    done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows if not r["arena"]}
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))  # scores count the task's own reward
     try:
         policy = load_policy(policy_name, env)
         new_file = not output.exists() or output.stat().st_size == 0
         with open(output, "a", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+            writer = csv.DictWriter(handle, fieldnames=columns_of(output), extrasaction="ignore")
             if new_file:
                 writer.writeheader()
             for cell in cells:
@@ -217,6 +241,76 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
     finally:
         env.close()
     return rows
+
+
+def evaluate_arenas(policy_name: str, arenas: list[Path], seeds: list[int], output: Path, config: dict,
+                    on_episode: Callable[[dict], None] | None = None, record: dict | None = None) -> list[dict]:
+    """:func:`evaluate` for a battery of arena files: every (arena, seed) not yet in ``output``,
+    one row each, its ``arena`` column the file's name. Every file is loaded (and so checked) for
+    every seed before any episode runs: nothing is run from an invalid file."""
+    for arena in arenas:
+        for seed in seeds:
+            load_arena(arena, seed)
+    names = [arena.name for arena in arenas]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"--arenas: two arena files share a name ({sorted(n for n in names if names.count(n) > 1)[0]}); "
+                          "allowed: distinct file names, which the scoreboard's arena column tells apart")
+    check_writable(output, "--out")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    check_record(output, record if record is not None else policy_record(policy_name, "list"))
+    rows = scored_episodes(output)
+    if rows and columns_of(output) != COLUMNS:
+        raise ConfigError(f"--out: {str(output)!r} is an older scoreboard without an arena column; choose another --out")
+    done = {(r["arena"], int(r["seed"])) for r in rows}
+    env = AnimalAIEnv(config=env_part(config, shaping=0.0))
+    try:
+        policy = load_policy(policy_name, env)
+        new_file = not output.exists() or output.stat().st_size == 0
+        with open(output, "a", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+            if new_file:
+                writer.writeheader()
+            for arena in arenas:
+                for seed in seeds:
+                    if (arena.name, seed) in done:
+                        continue
+                    row = run_episode(env, policy, 0, 0, seed, arena=arena)
+                    writer.writerow(row)
+                    handle.flush()
+                    os.fsync(handle.fileno())
+                    rows.append({k: str(v) for k, v in row.items()})
+                    if on_episode:
+                        on_episode(row)
+    finally:
+        env.close()
+    return rows
+
+
+def summarise_arenas(rows: list[dict], categories: dict[str, str | None]) -> list[dict]:
+    """Per arena (by file name), per category (the arena file's ``category``, a level name; rows of
+    arenas without one are "uncategorised") and overall: the columns of :func:`summarise`."""
+    by_arena: dict[str, list[dict]] = {}
+    by_category: dict[str, list[dict]] = {}
+    for row in rows:
+        by_arena.setdefault(f"arena {row['arena']}", []).append(row)
+        by_category.setdefault(categories.get(row["arena"]) or "uncategorised", []).append(row)
+    order = {level.name: level.id for level in all_levels().values()}
+    groups = sorted(by_arena.items()) + [
+        (f"category {get_level(name).label} {name}" if name in order else f"category {name}", group)
+        for name, group in sorted(by_category.items(), key=lambda item: order.get(item[0], 10**6))]
+    return [_summary_row(name, group) for name, group in groups + [("overall", rows)] if group]
+
+
+def _summary_row(name: str, group: list[dict]) -> dict:
+    ratios = np.array([float(r["ratio"]) for r in group])
+    outcomes = [r["outcome"] for r in group]
+    return {
+        "level": name, "episodes": len(group),
+        "mean_return": float(np.mean([float(r["return"]) for r in group])),
+        "mean_ratio": float(np.nanmean(ratios)) if np.isfinite(ratios).any() else math.nan,
+        "passed_pct": 100.0 * sum(o != "failed" for o in outcomes) / len(group),
+        "succeeded_pct": 100.0 * outcomes.count("succeeded") / len(group),
+    }
 
 
 # --- summary --------------------------------------------------------------------------

@@ -58,12 +58,21 @@ def levels_command():
 @click.option("-d", "--difficulty", type=int, default=0, show_default=True)
 @click.option("-s", "--seed", type=int, default=0, show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print the whole spec as JSON.")
-def spec_command(level, difficulty, seed, as_json):
+@click.option("--yaml", "as_yaml", is_flag=True,
+              help="Print the spec as an arena file (aaai.arena), to edit into a test of your own.")
+def spec_command(level, difficulty, seed, as_json, as_yaml):
     """Print the level spec that (LEVEL, difficulty, seed) generates, and its hash."""
     try:
         spec = generate(get_level(level).id, difficulty, seed)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
+    if as_json and as_yaml:
+        raise click.UsageError("--json and --yaml: choose one")
+    if as_yaml:
+        from aaai.arena import spec_to_arena
+
+        click.echo(spec_to_arena(spec), nl=False)
+        return
     if as_json:
         click.echo(spec.to_json())
         return
@@ -86,7 +95,9 @@ def spec_command(level, difficulty, seed, as_json):
 @click.option("--max-steps", type=int, help="Episode length T (overrides the config and the level's time limit).")
 @click.option("--camera/--no-camera", default=None, help="Turn the head camera on or off.")
 @click.option("--rays/--no-rays", default=None, help="Turn the rays on or off.")
-def run_command(levels_text, difficulty_text, episodes, seed, policy, config_path, max_steps, camera, rays):
+@click.option("--arena", "arena", type=click.Path(), help="Run this arena file (README, Write your own test) instead "
+              "of generated levels: --episodes episodes, seeds from --seed.")
+def run_command(levels_text, difficulty_text, episodes, seed, policy, config_path, max_steps, camera, rays, arena):
     """Run episodes with a policy (random actions by default) and print a summary of each."""
     levels = parse_levels(levels_text)
     difficulties = parse_range(difficulty_text, "--difficulty", 0, 10)
@@ -94,12 +105,25 @@ def run_command(levels_text, difficulty_text, episodes, seed, policy, config_pat
     try:
         for level in levels:
             get_level(level)
-        env = AnimalAIEnv(level=levels[0], config=config_path, **overrides)
+        env = AnimalAIEnv(level=levels[0], config=config_path, arena=arena, **overrides)
         actor = load_policy(policy, env)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     click.echo(f"{'level':<20} {'diff':>4} {'seed':>6} {'return':>8} {'max':>6} {'steps':>6} "
                f"{'food':>4} {'walls':>5} {'end':<10} {'steps/s':>8}")
+    if arena is not None:
+        from aaai.arena import load_arena
+
+        try:  # every episode's instance is checked before any runs
+            for episode in range(episodes):
+                load_arena(arena, seed + episode)
+        except ConfigError as error:
+            env.close()
+            raise click.UsageError(str(error)) from None
+        for episode in range(episodes):
+            click.echo(run_episode(env, None, None, seed + episode, actor))
+        env.close()
+        return
     episode = 0
     for level in levels:
         for difficulty in difficulties:
@@ -111,11 +135,15 @@ def run_command(levels_text, difficulty_text, episodes, seed, policy, config_pat
 
 
 def run_episode(env: AnimalAIEnv, level: int, difficulty: int, seed: int, policy) -> str:
-    """Plays one episode to its end; its line of the `aaai run` table."""
-    result = play(env, policy, seed, options={"level": level, "difficulty": difficulty})
+    """Plays one episode to its end; its line of the `aaai run` table. With level None, the env's
+    arena file."""
+    result = play(env, policy, seed, options=None if level is None else {"level": level, "difficulty": difficulty})
     info = result.info
     rate = info["steps"] / max(result.step_seconds, 1e-9)
-    name = f"{get_level(level).label} {info['level_name']}"
+    if level is None:
+        name, difficulty = Path(env.arena).name, info["difficulty"]
+    else:
+        name = f"{get_level(level).label} {info['level_name']}"
     return (f"{name:<20} {difficulty:>4} {seed:>6} {result.episode_return:>8.3f} {info['max_reward']:>6.2f} "
             f"{info['steps']:>6} {info['food_eaten']:>4} {info['wall_hits']:>5} {result.end:<10} {rate:>8.0f}")
 
@@ -208,9 +236,15 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
                                 "(host:port, or auto); without it a local Ray is started for the eval.")
 @click.option("--workers", type=click.IntRange(1), default=2, show_default=True,
               help="With --backend ray and no --address: CPUs of the local Ray.")
+@click.option("--arenas", type=click.Path(exists=True),
+              help="Score a battery of arena files (a folder of *.yaml, or one file) instead of levels: seeds "
+                   "0..K-1 (-k, default eval.seeds_per_cell) or --seeds 1,2,3; a summary per arena and per category.")
 def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output, seed_key_file,
-                 backend, address, workers):
+                 backend, address, workers, arenas):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
+    if arenas is not None:
+        return eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty,
+                           seed_key_file, backend)
     from aaai.evaluation import (cells_for, evaluate, policy_config, policy_record, summarise, summary_markdown,
                                  write_summary)
     from aaai.seeds import read_seed_key
@@ -246,6 +280,50 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
         raise click.UsageError(f"{error}. Loading a model needs the train extra: pip install -e '.[train]'; "
                                "--backend ray and RLlib runs need the ray extra: pip install -e '.[ray]'") from None
     summary = summarise(rows)
+    summary_path = write_summary(summary, output)
+    click.echo(summary_markdown(summary), nl=False)
+    click.echo(f"scoreboard {output} ({len(rows)} episodes); summary {summary_path}")
+
+
+def eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty, seed_key_file,
+                backend):
+    """``aaai eval --arenas``: every arena file of the battery on seeds 0..K-1 (or a --seeds list)."""
+    from aaai.arena import arena_files, arena_meta
+    from aaai.evaluation import evaluate_arenas, policy_config, policy_record, summarise_arenas, summary_markdown, \
+        write_summary
+
+    clashes = [name for name, value in (("--levels", levels), ("--difficulty", difficulty),
+                                        ("--seed-key-file", seed_key_file)) if value is not None]
+    if backend != "local":
+        clashes.append("--backend ray")
+    if clashes:
+        raise click.UsageError(f"--arenas: {', '.join(clashes)} cannot be used with it (an arena file is its own level)")
+    run_folder = Path(policy) if Path(policy).is_dir() else None
+    try:
+        config = policy_config(policy, config_path)
+        count = seeds_per_cell or config["eval"]["seeds_per_cell"]
+        if seeds_mode == "reserved":  # the default: an arena's seeds are 0..K-1
+            seeds, label = list(range(count)), f"0-{count - 1}"
+        elif seeds_mode == "train":
+            raise ConfigError("--seeds: got 'train' with --arenas; allowed: a list like 1,2,3 (default 0..K-1)")
+        else:
+            try:
+                seeds, label = [int(part) for part in seeds_mode.split(",")], seeds_mode
+            except ValueError:
+                raise ConfigError(f"--seeds: got {seeds_mode!r}; allowed: a list like 1,2,3 (default 0..K-1)") from None
+        files = arena_files(arenas)
+        categories = {path.name: arena_meta(path)["category"] for path in files}
+        output = Path(output) if output else (run_folder or Path(".")) / "scoreboard_arenas.csv"
+        record = {**policy_record(policy, "list"), "seeds": label, "arenas": str(arenas)}
+        episodes = len(files) * len(seeds)
+        with click.progressbar(length=episodes, label=f"scoring {episodes} episodes", show_pos=True) as bar:
+            rows = evaluate_arenas(policy, files, seeds, output, config, on_episode=lambda row: bar.update(1),
+                                   record=record)
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.UsageError(f"{error}. Loading a model needs the train extra: pip install -e '.[train]'") from None
+    summary = summarise_arenas(rows, categories)
     summary_path = write_summary(summary, output)
     click.echo(summary_markdown(summary), nl=False)
     click.echo(f"scoreboard {output} ({len(rows)} episodes); summary {summary_path}")

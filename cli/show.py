@@ -20,7 +20,9 @@ def frame_every(fps: float, control_dt: float) -> int:
 
 
 @click.command("show")
-@click.argument("level")
+@click.argument("level", required=False)
+@click.option("--arena", type=click.Path(dir_okay=False),
+              help="Draw this arena file (README, Write your own test) instead of LEVEL, at --seed.")
 @click.option("-d", "--difficulty", type=int, default=0, show_default=True)
 @click.option("-s", "--seed", type=int, default=0, show_default=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
@@ -36,19 +38,27 @@ def frame_every(fps: float, control_dt: float) -> int:
 @click.option("--size", type=click.IntRange(200, 4000), default=MAP_SIZE, show_default=True,
               help="Pixels across the longer side of the top-down map.")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
-def show(level, difficulty, seed, output, video, policy, steps, fps, size, config_path):
+def show(level, difficulty, seed, output, video, policy, steps, fps, size, config_path, arena):
     """Draw LEVEL (id, label like L1, or name) from above beside the agent's camera view.
 
     Writes a PNG, and with --video records an episode (random policy by default) so that the
     moving parts can be watched. Outputs are written atomically.
     """
+    if (level is None) == (arena is None):
+        raise click.UsageError("name a LEVEL or an --arena file (one of the two)")
     try:
-        lvl = get_level(level)
+        if arena is not None:
+            from aaai.arena import load_arena
+
+            load_arena(arena, check_seed(seed))  # an invalid file fails here, before anything runs
+            lvl = None
+        else:
+            lvl = get_level(level)
         difficulty, seed = check_difficulty(difficulty), check_seed(seed)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     if output is None and video is None:
-        output = f"{lvl.label}_d{difficulty}_s{seed}.png"
+        output = f"{Path(arena).stem}_s{seed}.png" if lvl is None else f"{lvl.label}_d{difficulty}_s{seed}.png"
     if output is not None and Path(output).suffix.lower() != ".png":
         raise click.UsageError(f"--output: got {output!r}; allowed: a path ending in .png")
     if video is not None and Path(video).suffix.lower() not in VIDEO_CODECS:
@@ -61,8 +71,8 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
     from aaai.evaluation import load_policy
 
     try:
-        env = AnimalAIEnv(level=lvl.id, difficulty=difficulty, config=config_path, camera=True,
-                          camera_resolution=CAMERA_RESOLUTION)
+        env = AnimalAIEnv(level=lvl.id if lvl else None, difficulty=difficulty, config=config_path, camera=True,
+                          camera_resolution=CAMERA_RESOLUTION, arena=arena)
         actor = load_policy(policy, env) if video is not None else None
     except ConfigError as error:
         raise click.UsageError(str(error)) from None

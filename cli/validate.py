@@ -6,18 +6,30 @@ import click
 from aaai.levels import InvalidLevelError, all_levels, generate
 from aaai.validate import check
 
+ARENA_SEEDS = 10  # seeds an arena file is checked with unless --seeds says otherwise
+
 
 @click.command("validate")
 @click.option("--levels", "levels_text", default=None, help="Levels, e.g. '0-3,5' (default: all).")
 @click.option("--difficulty", "difficulty_text", default="0-10", show_default=True, help="Difficulties, e.g. '0,5'.")
 @click.option("--seeds", type=click.IntRange(1), default=100, show_default=True, help="Seeds per (level, difficulty).")
 @click.option("--first-seed", type=click.IntRange(0), default=0, show_default=True, help="The first seed checked.")
-def validate(levels_text, difficulty_text, seeds, first_seed):
+@click.option("--arena", "arena", type=click.Path(exists=True),
+              help="Check an arena file, or every *.yaml in a folder, instead of levels: each loaded with seeds "
+                   f"--first-seed onwards ({ARENA_SEEDS} unless --seeds is given); every problem is printed with "
+                   "its file, line and object.")
+@click.pass_context
+def validate(ctx, levels_text, difficulty_text, seeds, first_seed, arena):
     """Check generated levels without running a policy: no overlapping solids; the start and every
     food piece inside the arena, on solid ground and clear of walls; every piece reachable by a body
     of the agent's footprint. Prints seeds checked, regenerated and failed per (level, difficulty);
     exits with status 1 if any failed."""
     from aaai_cli.main import parse_levels, parse_range  # here, not at the top: main imports this module
+
+    if arena is not None:
+        explicit = ctx.get_parameter_source("seeds") == click.core.ParameterSource.COMMANDLINE
+        validate_arenas(arena, range(first_seed, first_seed + (seeds if explicit else ARENA_SEEDS)))
+        return
 
     known = all_levels()
     levels = parse_levels(levels_text)
@@ -35,6 +47,40 @@ def validate(levels_text, difficulty_text, seeds, first_seed):
     for error in errors[:20]:
         click.echo(f"FAILED {error}", err=True)
     if totals[2]:
+        raise SystemExit(1)
+
+
+def validate_arenas(path: str, seeds) -> None:
+    """``aaai validate --arena``: one line per file (seeds checked, failed); exits 1 on any failure."""
+    from aaai.arena import arena_files, check_arena, parse_arena
+    from aaai.config import ConfigError
+
+    try:
+        files = arena_files(path)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    click.echo(f"{'arena':<40} {'checked':>8} {'failed':>7}  description")
+    failed_files, messages, seen = 0, [], set()
+    for file in files:
+        failed, description = 0, ""
+        for seed in seeds:
+            try:
+                spec, meta, source = parse_arena(file, seed)
+                description = meta["description"]
+                problems = check_arena(spec, source)
+            except ConfigError as error:
+                problems = [str(error)]
+            if problems:
+                failed += 1
+                new = [problem for problem in problems if problem not in seen]  # a fixed file fails alike on every seed
+                seen.update(new)
+                messages += [f"seed {seed}: {problem}" for problem in new]
+        failed_files += bool(failed)
+        click.echo(f"{file.name:<40} {len(seeds):>8} {failed:>7}  {description}")
+    click.echo(f"{len(files)} arena files, {failed_files} with problems")
+    for message in messages[:40]:
+        click.echo(f"FAILED {message}", err=True)
+    if failed_files:
         raise SystemExit(1)
 
 
