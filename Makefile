@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: install install-train install-all test test-long demo baselines gait tune-gait bench clean
+.PHONY: install install-train install-all test test-long demo baselines gait tune-gait bench mutants clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -67,6 +67,25 @@ tune-gait: install
 bench: install
 	$(BIN)/python -m pip install --quiet -e ".[dev,bench]"
 	$(BIN)/aaai bench --out bench
+
+# Mutation testing (mutmut 3, configured in pyproject.toml under [tool.mutmut]): mutates the core
+# modules (rewards, curriculum, sensors, evaluation, seeds, validate) in a copy, mutants/, runs the
+# tests that cover each mutant and prints killed / total per module. A fresh run each time;
+# MUTANTS_MODULES limits it, e.g. `make mutants MUTANTS_MODULES="rewards seeds"`.
+MUTANTS_MODULES ?=
+mutants: install-train
+	$(BIN)/python -m pip install --quiet "mutmut>=3.8"
+	rm -rf mutants
+	$(BIN)/mutmut run $(foreach m,$(MUTANTS_MODULES),"aaai.$(m).*")
+	@$(BIN)/mutmut results --all true | sed -nE 's/^ *aaai\.([a-z_]+)\.[^:]*: (.*)$$/\1 \2/p' | awk '\
+	  $$2 == "not" { next } \
+	  !($$1 in total) { order[++modules] = $$1 } \
+	  { total[$$1]++; n++ } \
+	  $$2 == "killed" { killed[$$1]++; k++ } $$2 == "survived" { s++ } $$2 == "no" { t++ } $$2 == "timeout" { o++ } \
+	  END { for (i = 1; i <= modules; i++) { m = order[i]; \
+	          printf "  aaai/%s.py: %d / %d killed (%.0f%%)\n", m, killed[m], total[m], 100 * killed[m] / total[m] }; \
+	        if (n) printf "mutation score: %d / %d killed (%.1f%%); %d survived, %d in code no selected test runs, %d timed out\n", \
+	          k, n, 100 * k / n, s, t, o }'
 
 clean:
 	rm -rf $(VENV) *.egg-info .pytest_cache

@@ -113,3 +113,32 @@ def test_curriculum_config_is_validated():
     with pytest.raises(ConfigError, match="curriculum.difficulties.*'0-11'.*0 to 10"):
         load_config(difficulties="0-11")
     assert math.isclose(config["curriculum"]["c"], 0.05)
+
+
+def test_heatmap_colours_each_cell_by_its_mean_return(tmp_path):
+    import cv2
+
+    from aaai.curriculum import CELL_PX, MARGIN_PX
+
+    def picture(returns: dict) -> np.ndarray:
+        curriculum = Curriculum([0, 1], [0, 1])
+        for (level, difficulty), values in returns.items():
+            for value in values:
+                curriculum.record(level, difficulty, value)
+        path = tmp_path / f"heatmap_{len(list(tmp_path.iterdir()))}.png"
+        curriculum.write_heatmap(path)
+        return cv2.imread(str(path))
+
+    def cell(image, row, col):  # a corner of the cell's square in the first panel (mean return), clear of its label
+        y, x = MARGIN_PX + row * CELL_PX + 4, MARGIN_PX + col * CELL_PX + 4
+        return image[y:y + 6, x:x + 6].reshape(-1, 3)
+
+    image = picture({(0, 0): [-2.0, -2.0], (1, 1): [5.0, 5.0]})
+    assert image is not None and image.std() > 20  # not a blank picture
+    low, high, empty = cell(image, 0, 0), cell(image, 1, 1), cell(image, 0, 1)
+    for square in (low, high, empty):
+        assert (square == square[0]).all()  # each cell one flat colour
+    assert np.abs(low[0].astype(int) - high[0].astype(int)).sum() > 100  # lowest and highest: far apart
+    assert not (empty[0] == low[0]).all() and not (empty[0] == high[0]).all()  # no episode yet: neither
+    swapped = picture({(0, 0): [5.0, 5.0], (1, 1): [-2.0, -2.0]})
+    assert (cell(swapped, 0, 0) == high[0]).all() and (cell(swapped, 1, 1) == low[0]).all()

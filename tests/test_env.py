@@ -194,6 +194,7 @@ def test_a_hand_made_spec_is_checked_before_it_is_run(change, words):
     from aaai.spec import AgentPose
     from conftest import open_arena
 
+    change = dict(change)  # the parameter itself stays as it was (pytest may run the test again in this process)
     if "agent" in change:
         change["agent"] = AgentPose(*change["agent"])
     spec = replace(open_arena(), **change)
@@ -221,3 +222,18 @@ def test_step_before_reset_and_use_after_close_get_clear_errors():
     for call in (lambda: env.step(np.zeros(8)), lambda: env.reset(seed=1), env.render):
         with pytest.raises(gym.error.ClosedEnvironmentError, match="closed"):
             call()
+
+
+def test_the_grayscale_camera_sees_the_colour_cameras_scene_as_its_luminance(make_env):
+    spec = open_arena(sphere("food_green", 6.0, 0.0, 3.0))
+    colour, grey = make_env(camera=True, camera_resolution=32), make_env(camera=True, camera_resolution=32,
+                                                                          camera_grayscale=True)
+    rgb = colour.reset(options={"spec": spec})[0]["camera"].astype(float)
+    seen = grey.reset(options={"spec": spec})[0]["camera"]
+    assert seen.shape == (32, 32, 1) and seen.dtype == np.uint8
+    luminance = rgb @ [0.299, 0.587, 0.114]  # ITU-R BT.601, as OpenCV's RGB to grey
+    assert np.abs(seen[..., 0] - luminance).max() <= 1.0
+    assert seen.std() > 10  # sky, floor and food: not a flat picture
+    empty = grey.reset(options={"spec": open_arena()})[0]["camera"]
+    centre = (slice(12, 20), slice(12, 20))
+    assert np.abs(seen[centre].astype(int) - empty[centre].astype(int)).mean() > 10  # the food in front shows

@@ -5,7 +5,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -56,17 +55,39 @@ def test_random_agent_run_writes_its_folder(tmp_path):
     assert again.returncode != 0 and "already holds a run" in again.stderr
 
 
+# `aaai train` whose process kills itself (SIGKILL: no clean-up, as `kill -9` or the OOM killer) right
+# after the training loop has passed step KILL_AT: a kill at a known point, not at a moment of the clock.
+KILL_AT = 1400
+KILLED_TRAIN = f"""
+import os, signal, sys
+import aaai.training
+from aaai_cli.main import cli
+
+update = aaai.training.Tracker.update
+
+def update_then_die(self, step, *args, **kwargs):
+    update(self, step, *args, **kwargs)  # episodes logged, heatmap and checkpoint written as due
+    if step >= {KILL_AT}:
+        os.kill(os.getpid(), signal.SIGKILL)
+
+aaai.training.Tracker.update = update_then_die
+cli(sys.argv[1:], prog_name="aaai")
+"""
+
+
 def test_resume_after_a_kill_continues_curriculum_and_step_count(tmp_path):
     run = tmp_path / "run"
-    process = subprocess.Popen([*AAAI, "train", "--agent", "random", "--steps", "10000000",
-                                "--config", str(small_config(tmp_path)), "--run", str(run)],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + 120
-    while not (run / "checkpoints" / f"step_{1200:012d}").exists():
-        assert process.poll() is None and time.monotonic() < deadline, "no checkpoint appeared"
-        time.sleep(0.1)
-    os.kill(process.pid, signal.SIGKILL)
-    process.wait()
+    with open(tmp_path / "stderr.txt", "w") as stderr:  # a file: orphaned workers may hold a pipe open
+        process = subprocess.Popen([sys.executable, "-c", KILLED_TRAIN, "train", "--agent", "random",
+                                    "--steps", "10000000", "--config", str(small_config(tmp_path)), "--run", str(run)],
+                                   stdout=subprocess.DEVNULL, stderr=stderr)
+        process.wait(timeout=600)  # only a guard against a hang; it dies at step KILL_AT
+    assert process.returncode == -signal.SIGKILL, (tmp_path / "stderr.txt").read_text()
+    assert not (run / "final").exists()  # killed: the run never finished
+    assert [p.name for p in sorted((run / "checkpoints").glob("step_*"))] == [
+        f"step_{s:012d}" for s in (400, 800, 1200)]  # checkpoint_every 400, killed at 1400
+    with open(run / "episodes.csv") as handle:
+        assert max(int(row["step"]) for row in csv.DictReader(handle)) > 1200  # logged after the last checkpoint
     checkpoints = sorted((run / "checkpoints").iterdir())
     last = read_state(checkpoints[-1])
     aaai("train", "--resume", run, "--steps", last["step"] + 600)
