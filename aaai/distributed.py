@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import importlib
 import io
 import os
 import tempfile
@@ -33,7 +32,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 from aaai.config import ConfigError, env_part
-from aaai.evaluation import COLUMNS, Cell, columns_of, check_record, load_policy, policy_record, run_episode, scored_episodes
+from aaai.evaluation import (COLUMNS, Cell, check_record, columns_of, load_policy, policy_factory, policy_record,
+                             run_episode, scored_episodes)
 from aaai.files import write_atomic
 from aaai.ray_session import RaySession
 from aaai.runs import check_writable
@@ -69,16 +69,7 @@ def policy_spec(policy: str, put: Callable[[bytes], Any] | None = None) -> Polic
         return PolicySpec("model", hashlib.sha256(data).hexdigest(), [put(data) if put else data])
     if Path(policy).is_dir():
         return PolicySpec("random")  # a run of the random agent (load_policy does the same)
-    module_name, _, attribute = policy.partition(":")
-    if not attribute:
-        raise ConfigError(f"--policy: got {policy!r}; allowed: random, reference, gait, a model .zip, a run folder, "
-                          "module:callable")
-    try:
-        target: Any = importlib.import_module(module_name)
-        for part in attribute.split("."):
-            target = getattr(target, part)
-    except (ImportError, AttributeError) as error:
-        raise ConfigError(f"--policy: cannot load {policy!r}: {error}") from None
+    policy_factory(policy)  # importable here (it must be on every worker too)
     return PolicySpec(policy)
 
 

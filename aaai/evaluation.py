@@ -140,6 +140,11 @@ def load_policy(policy: str, env: AnimalAIEnv) -> Callable:
         return ModelPolicy(path)
     if Path(policy).is_dir():
         return RandomPolicy(env)
+    return policy_factory(policy)(env)
+
+
+def policy_factory(policy: str) -> Callable:
+    """The callable a 'module:callable' policy names (called with the env to make the policy)."""
     module_name, _, attribute = policy.partition(":")
     if not attribute:
         raise ConfigError(f"--policy: got {policy!r}; allowed: random, reference, gait, a model .zip, a run folder, module:callable")
@@ -149,7 +154,7 @@ def load_policy(policy: str, env: AnimalAIEnv) -> Callable:
             target = getattr(target, part)
     except (ImportError, AttributeError) as error:
         raise ConfigError(f"--policy: cannot load {policy!r}: {error}") from None
-    return target(env)
+    return target
 
 
 # --- running --------------------------------------------------------------------------
@@ -179,6 +184,16 @@ def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int,
         "wall_hits": info["wall_hits"], "fell": info["fell"],
         "arena": arena.name if arena is not None else "", "wall_seconds": round(result.wall_seconds, 3),
     }
+
+
+def _append(writer: csv.DictWriter, handle, rows: list[dict], row: dict, on_episode) -> None:
+    """Writes one episode's row and makes it durable before the next episode starts."""
+    writer.writerow(row)
+    handle.flush()
+    os.fsync(handle.fileno())
+    rows.append({k: str(v) for k, v in row.items()})
+    if on_episode:
+        on_episode(row)
 
 
 def scored_episodes(path: Path) -> list[dict]:
@@ -232,12 +247,7 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
                     if (cell.level, cell.difficulty, seed) in done:
                         continue
                     row = run_episode(env, policy, cell.level, cell.difficulty, seed)
-                    writer.writerow(row)
-                    handle.flush()
-                    os.fsync(handle.fileno())
-                    rows.append({k: str(v) for k, v in row.items()})
-                    if on_episode:
-                        on_episode(row)
+                    _append(writer, handle, rows, row, on_episode)
     finally:
         env.close()
     return rows
@@ -275,12 +285,7 @@ def evaluate_arenas(policy_name: str, arenas: list[Path], seeds: list[int], outp
                     if (arena.name, seed) in done:
                         continue
                     row = run_episode(env, policy, 0, 0, seed, arena=arena)
-                    writer.writerow(row)
-                    handle.flush()
-                    os.fsync(handle.fileno())
-                    rows.append({k: str(v) for k, v in row.items()})
-                    if on_episode:
-                        on_episode(row)
+                    _append(writer, handle, rows, row, on_episode)
     finally:
         env.close()
     return rows
