@@ -47,7 +47,7 @@ def load_example(name: str):
 
 
 def test_sb3_ppo(tmp_path):
-    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("stable_baselines3", reason="needs the train extra, which make test installs")
     import gymnasium as gym
     from stable_baselines3 import PPO
 
@@ -110,7 +110,7 @@ print("RESULT " + json.dumps({{
 
 
 def test_rllib_ppo(tmp_path):
-    pytest.importorskip("ray.rllib")
+    pytest.importorskip("ray.rllib", reason="needs the ray extra, which make test installs")
     batch, checkpoint = 256, tmp_path / "checkpoint"
     code = inspect.getsource(ray_processes) + RLLIB_CHILD.format(
         examples=str(EXAMPLES), batch=batch, checkpoint=str(checkpoint))
@@ -129,7 +129,7 @@ def test_rllib_ppo(tmp_path):
 
 
 def test_torchrl_rollout():
-    pytest.importorskip("torchrl")
+    pytest.importorskip("torchrl", reason="needs the torchrl extra, which make test installs")
     example = load_example("torchrl_rollout")
     steps, max_steps = 300, 100
     rollout = example.main(steps=steps, max_steps=max_steps)  # runs check_env_specs (raises on a mismatch)
@@ -144,7 +144,7 @@ def test_torchrl_rollout():
 
 
 def test_cleanrl_ppo():
-    pytest.importorskip("torch")
+    pytest.importorskip("torch", reason="needs the train extra, which make test installs")
     example = load_example("cleanrl_ppo")
     args = example.parse_args(["--total-timesteps", "512", "--num-steps", "128", "--max-steps", "100",
                                "--num-minibatches", "4", "--update-epochs", "2"])
@@ -162,7 +162,7 @@ def test_cleanrl_ppo():
 
 
 def test_rl_zoo3_ppo(tmp_path):
-    pytest.importorskip("rl_zoo3")
+    pytest.importorskip("rl_zoo3", reason="needs the zoo extra, which make test installs")
     import gymnasium as gym
     import yaml
     from stable_baselines3 import PPO
@@ -198,7 +198,7 @@ def test_example_command_line(script):
     """Each script's command line parses (its --help runs) and names its --steps-like option."""
     library = {"sb3_ppo.py": "stable_baselines3", "rllib_ppo.py": "ray.rllib",
                "torchrl_rollout.py": "torchrl", "cleanrl_ppo.py": "torch"}[script]
-    pytest.importorskip(library)
+    pytest.importorskip(library, reason="needs its library's extra, which make test installs")
     run = subprocess.run([sys.executable, str(EXAMPLES / script), "--help"], cwd=ROOT, env=OFFLINE_ENV,
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr[-3000:]

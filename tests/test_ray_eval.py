@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("ray")
+pytest.importorskip("ray", reason="needs the ray extra, which make test installs")
 
 from aaai.config import ConfigError, load_config  # noqa: E402
 from aaai.distributed import evaluate_on_ray  # noqa: E402
@@ -145,7 +145,7 @@ def two_nodes(tmp_path_factory):
 @pytest.fixture(scope="module")
 def ppo_model(tmp_path_factory):
     """An untrained stable-baselines3 PPO model (deterministic actions, shipped to the workers as bytes)."""
-    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("stable_baselines3", reason="needs the train extra, which make test installs")
     from stable_baselines3 import PPO
 
     from aaai.config import env_part

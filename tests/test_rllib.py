@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-pytest.importorskip("ray.rllib")
+pytest.importorskip("ray.rllib", reason="needs the ray extra, which make test installs")
 
 # A run of 2048 steps (iterations of 2 x 256 steps, one remote EnvRunner with two environments),
 # checkpoints every 1024; then, as after a kill just past step 1024, final/ and the newer checkpoint
