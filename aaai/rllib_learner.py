@@ -32,7 +32,7 @@ import numpy as np
 from aaai.config import ConfigError, env_part, load_config
 from aaai.curriculum import Curriculum
 from aaai.runs import RunFolder, check_writable
-from aaai.training import TrainResult, Tracker, check_trainable, with_proprioception
+from aaai.training import TrainResult, Tracker, check_trainable, move_end, with_proprioception
 from aaai.vector import EPISODE_INFO_KEYS, Episode
 
 ENV_NAME = "aaai-curriculum"
@@ -323,12 +323,7 @@ def train_rllib(run_dir: str | Path, config: dict | None = None, resume: bool = 
                 raise ConfigError(f"--resume: {str(checkpoint)!r} is not a checkpoint of an RLlib run "
                                   f"(no {CHECKPOINT_FOLDER}/ beside state.json)")
         if total_steps is not None:
-            done = state["step"] if state else 0
-            if total_steps <= done:
-                raise ConfigError(f"--steps: got {total_steps}; the run already has {done} steps; "
-                                  f"allowed: more than {done}")
-            config = load_config(config, total_steps=total_steps)
-            run.update_config(config)
+            config = move_end(run, config, checkpoint, state, total_steps)
     else:
         if config["train"]["agent"] != "ppo":
             raise ConfigError(f"config key 'train.agent': got {config['train']['agent']!r}; allowed with the "

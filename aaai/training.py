@@ -79,6 +79,19 @@ def check_trainable(config: dict) -> None:
         )
 
 
+def move_end(run: RunFolder, config: dict, checkpoint: Path | None, state: dict | None, total_steps: int) -> dict:
+    """On resume: the run's config with its end moved to ``total_steps`` (recorded in the run
+    folder); refused at or below the steps the run has done."""
+    done = state["step"] if state else 0
+    if total_steps <= done:
+        where = f" ({checkpoint.relative_to(run.path)})" if checkpoint is not None else ""
+        raise ConfigError(f"--steps: got {total_steps}; the run already has {done} steps{where}; "
+                          f"allowed: more than {done}")
+    config = load_config(config, total_steps=total_steps)
+    run.update_config(config)
+    return config
+
+
 def train(run_dir: str | Path, config: dict | None = None, resume: bool = False,
           progress: Callable[[int], None] | None = None, asynchronous: bool = True,
           total_steps: int | None = None, say: Callable[[str], None] = print) -> TrainResult:
@@ -97,12 +110,7 @@ def train(run_dir: str | Path, config: dict | None = None, resume: bool = False,
         if point is not None:
             checkpoint, state = point
         if total_steps is not None:
-            done = state["step"] if state else 0
-            if total_steps <= done:
-                raise ConfigError(f"--steps: got {total_steps}; the run already has {done} steps "
-                                  f"({checkpoint.relative_to(run.path)}); allowed: more than {done}")
-            config = load_config(config, total_steps=total_steps)
-            run.update_config(config)
+            config = move_end(run, config, checkpoint, state, total_steps)
     else:
         config = with_proprioception(config)
         check_trainable(config)  # before the run folder exists: a refused config leaves nothing behind

@@ -1,4 +1,6 @@
 import math
+import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -35,4 +37,18 @@ def make_env():
         env.close()
 
 
-__all__ = ["heading", "open_arena", "sphere"]
+def processes_holding(text: str) -> set[int]:
+    """Pids of other processes whose environment holds ``text`` (Linux /proc): every process a Ray
+    instance starts inherits its private RAY_TMPDIR, so none may be left once it is shut down."""
+    found = set()
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit() and int(entry.name) != os.getpid():
+            try:
+                if text.encode() in (entry / "environ").read_bytes():
+                    found.add(int(entry.name))
+            except OSError:
+                continue
+    return found
+
+
+__all__ = ["heading", "open_arena", "processes_holding", "sphere"]

@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import processes_holding
+
 pytest.importorskip("ray", reason="needs the ray extra, which make test installs")
 
 from aaai.config import ConfigError, load_config  # noqa: E402
@@ -80,19 +82,6 @@ def wait_gone(pids, seconds: float = 20.0) -> set[int]:
         time.sleep(0.2)
     return left
 
-
-def processes_holding(text: str) -> set[int]:
-    """Pids of other processes whose environment holds ``text`` (Linux /proc): every process the
-    cluster starts inherits its private RAY_TMPDIR."""
-    found = set()
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit() and int(entry.name) != os.getpid():
-            try:
-                if text.encode() in (entry / "environ").read_bytes():
-                    found.add(int(entry.name))
-            except OSError:
-                continue
-    return found
 
 
 class TwoNodes:

@@ -17,6 +17,8 @@ import time
 from pathlib import Path
 
 import pytest
+
+from conftest import processes_holding
 import yaml
 
 pytest.importorskip("ray.rllib", reason="needs the ray extra, which make test installs")
@@ -57,18 +59,6 @@ print("RESULT " + json.dumps({"first": [first.steps, first.episodes], "resumed":
                               "plays": [{k: v for k, v in p.items() if k != "wall_seconds"} for p in plays]}))
 """
 
-
-def processes_holding(text: str) -> set[int]:
-    """Pids of processes whose environment holds ``text`` (Linux /proc)."""
-    found = set()
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit() and int(entry.name) != os.getpid():
-            try:
-                if text.encode() in (entry / "environ").read_bytes():
-                    found.add(int(entry.name))
-            except OSError:
-                continue
-    return found
 
 
 def test_rllib_run_writes_its_folder_and_resumes(tmp_path):
