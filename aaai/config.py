@@ -146,6 +146,10 @@ RULES: dict[str, Rule] = {
     "physics.gravity": Rule("float", 0, 100),
     "physics.blowup_speed": Rule("float", 1, 1e5),
     "curriculum.mode": Rule("choice", choices=("curriculum", "random")),
+    "curriculum.sampler": Rule("choice", choices=("paper", "uniform", "learnability", "plr")),
+    "curriculum.warmup": Rule("int", 0, 1000),
+    "curriculum.plr_temperature": Rule("float", 1e-3, 100),
+    "curriculum.plr_staleness": Rule("float", 0, 1),
     "curriculum.levels": Rule("set", 0, MAX_LEVEL_ID, levels=True),  # registered levels' ids
     "curriculum.difficulties": Rule("set", 0, 10),
     "curriculum.window": Rule("int", 2, 1000),

@@ -142,3 +142,181 @@ def test_heatmap_colours_each_cell_by_its_mean_return(tmp_path):
     assert not (empty[0] == low[0]).all() and not (empty[0] == high[0]).all()  # no episode yet: neither
     swapped = picture({(0, 0): [5.0, 5.0], (1, 1): [-2.0, -2.0]})
     assert (cell(swapped, 0, 0) == high[0]).all() and (cell(swapped, 1, 1) == low[0]).all()
+
+
+# --- the samplers ---------------------------------------------------------------------
+SAMPLERS = ("paper", "uniform", "learnability", "plr")
+
+
+def feed(curriculum, draws: int, rng_seed: int = 0) -> list[tuple[int, int, int]]:
+    """Draws ``draws`` episodes and records a made-up result for each: returns and passes that
+    differ by cell, so every sampler has something to prefer."""
+    rng = np.random.default_rng(rng_seed)
+    drawn = []
+    for _ in range(draws):
+        level, difficulty, seed = curriculum.sample()
+        drawn.append((level, difficulty, seed))
+        episode_return = float(rng.normal(level + difficulty, 0.5 + difficulty))
+        curriculum.record(level, difficulty, episode_return, max_reward=2.0)
+    return drawn
+
+
+def test_paper_sampler_without_warmup_draws_exactly_as_the_z_score_formula():
+    curriculum = Curriculum([0, 1], [0, 1], seed=11, sampler="paper", warmup=0)
+    for value in (0.0, 4.0):
+        curriculum.record(0, 1, value)
+    curriculum.record(1, 0, 3.0)
+    reference = np.random.default_rng(11)  # the paper's sampler: p = (z + c) / sum, z = std / |mean|
+    weights = np.array([0.0, 2.0 / 2.0, 0.0, 0.0]) + 0.05
+    from aaai.seeds import training_seed
+
+    for _ in range(50):
+        index = int(reference.choice(4, p=weights / weights.sum()))
+        expected = (*curriculum.cells[index], training_seed(reference))
+        assert curriculum.sample() == expected
+
+
+@pytest.mark.parametrize("sampler", SAMPLERS)
+def test_every_sampler_visits_every_cell_in_its_warmup(sampler):
+    curriculum = Curriculum([0, 1], [0, 1, 2], sampler=sampler, warmup=3, seed=4)
+    for value in (0.0, 10.0, 0.0, 10.0):  # a cell every sampler would favour at once, warm-up aside
+        curriculum.record(0, 0, value, max_reward=10.0)
+    drawn = feed(curriculum, 3 * len(curriculum.cells))
+    counts = {cell: [d[:2] for d in drawn].count(cell) for cell in curriculum.cells}
+    assert counts == {cell: 3 for cell in curriculum.cells}
+    assert not curriculum.in_warmup()
+    if sampler != "uniform":  # after the warm-up the sampler's own weights rule
+        assert not np.allclose(curriculum.probabilities(), 1.0 / len(curriculum.cells))
+
+
+def test_no_sampler_without_warmup_visits_every_cell_first():
+    curriculum = Curriculum([0, 1], [0, 1, 2], sampler="paper", warmup=0, seed=4)
+    for value in (0.0, 10.0):
+        curriculum.record(0, 0, value)
+    drawn = [curriculum.sample()[:2] for _ in range(6)]
+    assert len(set(drawn)) < 6  # what the warm-up is for
+
+
+@pytest.mark.parametrize("sampler", SAMPLERS)
+def test_every_sampler_resumes_bit_for_bit(sampler):
+    import json
+
+    first = Curriculum([0, 1], [0, 2], sampler=sampler, warmup=2, seed=3)
+    feed(first, 13)
+    saved = json.loads(json.dumps(first.state_dict()))  # as state.json stores it
+    second = Curriculum([0, 1], [0, 2], sampler=sampler, warmup=2, seed=99)
+    second.load_state_dict(saved)
+    assert second.state_dict() == saved
+    for _ in range(30):
+        assert np.array_equal(first.probabilities(), second.probabilities())
+        a, b = first.sample(), second.sample()
+        assert a == b
+        first.record(a[0], a[1], float(a[2] % 7), max_reward=4.0)
+        second.record(b[0], b[1], float(b[2] % 7), max_reward=4.0)
+    assert first.state_dict() == second.state_dict()
+
+
+def test_a_state_saved_before_the_samplers_still_resumes():
+    old = Curriculum([0], [0, 1], seed=2)
+    feed(old, 5)
+    state = old.state_dict()
+    for key in ("passes", "drawn", "last_drawn", "sampler", "warmup", "plr_temperature", "plr_staleness"):
+        del state[key]
+    resumed = Curriculum([0], [0, 1], seed=0)
+    resumed.load_state_dict(state)
+    assert [old.sample() for _ in range(10)] == [resumed.sample() for _ in range(10)]
+
+
+def test_pass_rule_is_the_scoreboards_a_hair_either_side():
+    from aaai import evaluation
+    from aaai.curriculum import PASS_RATIO, episode_passed
+
+    assert PASS_RATIO == evaluation.PASS_RATIO
+    assert episode_passed(1.6, 2.0) and episode_passed(1.6 + 1e-9, 2.0)
+    assert not episode_passed(1.6 - 1e-9, 2.0)
+    assert not episode_passed(5.0, 0.0)  # no food to eat: never a pass (the scoreboard's ratio is nan)
+
+
+def test_learnability_weights_match_hand_computed_values_either_side_of_the_pass_threshold():
+    curriculum = Curriculum([0], [0, 1, 2, 3], sampler="learnability", warmup=0, c=0.05)
+    curriculum.record(0, 0, 1.6 + 1e-9, max_reward=2.0)  # pass
+    curriculum.record(0, 0, 0.0, max_reward=2.0)  # fail -> q = 1/2, q(1-q) = 1/4
+    curriculum.record(0, 1, 1.6 - 1e-9, max_reward=2.0)  # a hair short: fail
+    curriculum.record(0, 1, 0.0, max_reward=2.0)  # q = 0
+    for _ in range(2):
+        curriculum.record(0, 2, 2.0, max_reward=2.0)  # q = 1
+    curriculum.record(0, 3, 1.6, max_reward=2.0)  # exactly the threshold passes
+    for _ in range(3):
+        curriculum.record(0, 3, -1.0, max_reward=2.0)  # q = 1/4, q(1-q) = 3/16
+    assert curriculum.pass_rates() == pytest.approx([0.5, 0.0, 1.0, 0.25])
+    weights = np.array([0.25, 0.0, 0.0, 3 / 16]) + 0.05
+    assert curriculum.probabilities() == pytest.approx(weights / weights.sum(), abs=1e-12)
+    curriculum.record(0, 1, 1.6 + 1e-9, max_reward=2.0)  # the hair the other way: q = 1/3
+    weights[1] = 2 / 9 + 0.05
+    assert curriculum.probabilities() == pytest.approx(weights / weights.sum(), abs=1e-12)
+    short = Curriculum([0], [0], sampler="learnability", window=2, warmup=0)  # only the last window counts
+    for value in (2.0, 0.0, 0.0):
+        short.record(0, 0, value, max_reward=2.0)
+    assert short.pass_rates()[0] == 0.0
+
+
+@pytest.mark.parametrize("hair, first", [(+4e-9, 1), (-4e-9, 0)])
+def test_plr_weights_match_hand_computed_ranks_and_staleness(hair, first):
+    curriculum = Curriculum([0], [0, 1, 2], sampler="plr", warmup=1, plr_temperature=0.5, plr_staleness=0.2, seed=1)
+    order = [curriculum.sample()[1] for _ in range(3)]  # the warm-up: each cell once, in this order
+    assert sorted(order) == [0, 1, 2]
+    age = np.zeros(3)
+    for k, d in enumerate(order):
+        age[d] = 3 - (k + 1)  # draws since the cell was last drawn: 2, 1, 0
+    for value in (0.0, 1.0):
+        curriculum.record(0, 0, value)  # positive value loss: mean(max(R - 0.5, 0)) = 0.25
+    for value in (0.0, 1.0 + hair):
+        curriculum.record(0, 1, value)  # 0.25 +- 1e-9: ranked first or second by a hair
+    for value in (5.0, 5.0):
+        curriculum.record(0, 2, value)  # 0: no surprise left
+    assert curriculum.plr_scores() == pytest.approx([0.25, 0.25 + hair / 4, 0.0], abs=1e-15)
+    ranks = np.array([2.0, 1.0, 3.0]) if first == 1 else np.array([1.0, 2.0, 3.0])
+    h = (1.0 / ranks) ** 2  # temperature 0.5
+    expected = 0.8 * h / h.sum() + 0.2 * age / age.sum()
+    assert curriculum.probabilities() == pytest.approx(expected, abs=1e-12)
+    tied = Curriculum([0], [0, 1], sampler="plr", warmup=0, plr_staleness=0.0, plr_temperature=1.0)
+    for d in (0, 1):
+        for value in (0.0, 1.0):
+            tied.record(0, d, value)
+    assert tied.probabilities() == pytest.approx([2 / 3, 1 / 3])  # a tie: ranked in cell order
+
+
+def test_sampler_keys_in_the_config():
+    from aaai.config import ConfigError
+
+    config = load_config(sampler="plr", warmup=4, plr_temperature=0.1, plr_staleness=0.5, levels="0-1")
+    curriculum = Curriculum.from_config(config)
+    assert (curriculum.sampler, curriculum.warmup, curriculum.plr_temperature, curriculum.plr_staleness) == (
+        "plr", 4, 0.1, 0.5)
+    assert Curriculum.from_config(load_config(sampler="plr", mode="random")).sampler == "uniform"  # --random
+    with pytest.raises(ConfigError, match="curriculum.sampler.*'best'.*paper, uniform, learnability, plr"):
+        load_config(sampler="best")
+    with pytest.raises(ConfigError, match="curriculum.warmup"):
+        load_config(warmup=-1)
+
+
+@pytest.mark.parametrize("sampler", ["paper", "learnability", "plr"])
+def test_heatmap_shows_the_samplers_weights(tmp_path, sampler):
+    import cv2
+
+    from aaai.curriculum import CELL_PX, MARGIN_PX
+
+    curriculum = Curriculum([0], [0, 1], sampler=sampler, warmup=0, plr_staleness=0.0)
+    for value in (0.0, 2.0):
+        curriculum.record(0, 0, value, max_reward=2.0)  # variable, half passed: favoured by all three
+    for value in (1.0, 1.0):
+        curriculum.record(0, 1, value, max_reward=2.0)
+    p = curriculum.probabilities()
+    assert p[0] > p[1]
+    curriculum.write_heatmap(tmp_path / "c.png")
+    image = cv2.imread(str(tmp_path / "c.png"))
+    panel = MARGIN_PX + CELL_PX * 2 + 10
+    assert image.shape[1] == 4 * panel  # mean return, episodes, the sampler's score, p
+    y = MARGIN_PX + 4
+    high, low = image[y, 3 * panel + MARGIN_PX + 4], image[y, 3 * panel + MARGIN_PX + CELL_PX + 4]
+    assert np.abs(high.astype(int) - low.astype(int)).sum() > 100
