@@ -32,8 +32,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 from aaai.config import ConfigError, env_part
-from aaai.evaluation import (COLUMNS, Cell, check_record, columns_of, load_policy, policy_factory, policy_record,
-                             run_episode, scored_episodes)
+from aaai.evaluation import (COLUMNS, Cell, Scoreboard, check_record, columns_of, load_policy, policy_factory,
+                             policy_record, run_episode, scored_episodes, scoring_record, write_error)
 from aaai.files import write_atomic
 from aaai.ray_session import RaySession
 from aaai.runs import check_writable
@@ -50,13 +50,14 @@ class PolicySpec:
     name: str  # 'random', 'reference', 'gait', 'module:callable'; or 'model' with ``model`` set
     model_sha256: str | None = None
     model: Any = None  # [ObjectRef] of the model file's bytes (in a list: Ray resolves bare refs)
+    trust: bool = False  # load the model with stable-baselines3's own loader (--trust-model)
 
     @property
     def key(self) -> str:
         return self.model_sha256 or self.name
 
 
-def policy_spec(policy: str, put: Callable[[bytes], Any] | None = None) -> PolicySpec:
+def policy_spec(policy: str, put: Callable[[bytes], Any] | None = None, trust: bool = False) -> PolicySpec:
     """Resolves a --policy as load_policy would, in the driver; a bad one fails here, before any task.
 
     A model (a .zip or a run folder's newest model) is read once; ``put`` (ray.put) ships its bytes.
@@ -66,7 +67,7 @@ def policy_spec(policy: str, put: Callable[[bytes], Any] | None = None) -> Polic
     model = policy_record(policy, "list").get("model")  # the model file; a missing or damaged one is refused
     if model is not None:
         data = Path(model).read_bytes()
-        return PolicySpec("model", hashlib.sha256(data).hexdigest(), [put(data) if put else data])
+        return PolicySpec("model", hashlib.sha256(data).hexdigest(), [put(data) if put else data], trust)
     if Path(policy).is_dir():
         return PolicySpec("random")  # a run of the random agent (load_policy does the same)
     policy_factory(policy)  # importable here (it must be on every worker too)
@@ -96,7 +97,7 @@ def _worker_env_and_policy(spec: PolicySpec, config: dict):
             with tempfile.TemporaryDirectory(prefix="aaai-model-") as folder:
                 path = Path(folder) / "model.zip"
                 path.write_bytes(data)
-                policy = load_policy(str(path), env)  # read whole at load: the file may go
+                policy = load_policy(str(path), env, trust=spec.trust)  # read whole at load: the file may go
         else:
             policy = load_policy(spec.name, env)
         _WORKER.update(key=key, env=env, policy=policy)
@@ -117,6 +118,20 @@ def play_episodes(spec: PolicySpec, config: dict, episodes: list[Key]) -> tuple[
 
 
 # --- in the driver --------------------------------------------------------------------------
+def _check_policy(policy: str, config: dict, trust: bool) -> None:
+    """Loads a model policy once here, against the environment, so that a model that does not fit is
+    refused before Ray starts and before any file is written."""
+    if policy in BUILTIN_POLICIES or (":" in policy and not Path(policy).exists()):
+        return
+    from aaai.env import AnimalAIEnv
+
+    env = AnimalAIEnv(config=env_part(config, shaping=0.0))
+    try:
+        load_policy(policy, env, trust=trust)
+    finally:
+        env.close()
+
+
 def _format_rows(rows: list[dict], header: bool, columns: list[str] = COLUMNS) -> str:
     text = io.StringIO()
     writer = csv.DictWriter(text, fieldnames=columns, extrasaction="ignore")
@@ -129,7 +144,7 @@ def _format_rows(rows: list[dict], header: bool, columns: list[str] = COLUMNS) -
 def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: dict, address: str | None = None,
                     workers: int = 2, on_episode: Callable[[dict], None] | None = None, record: dict | None = None,
                     max_retries: int = DEFAULT_RETRIES, episodes_per_task: int = 1,
-                    on_task: Callable[[list[dict], dict], None] | None = None) -> list[dict]:
+                    on_task: Callable[[list[dict], dict], None] | None = None, trust: bool = False) -> list[dict]:
     """:func:`aaai.evaluation.evaluate` with its episodes played as Ray tasks; same arguments, same result.
 
     ``address``: None starts a local Ray of ``workers`` CPUs for this call (and stops it after);
@@ -148,7 +163,8 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
     output = Path(output)
     check_writable(output, "--out")
     output.parent.mkdir(parents=True, exist_ok=True)
-    check_record(output, record if record is not None else policy_record(policy_name, "list"))
+    record = scoring_record(policy_name, record, config)
+    check_record(output, record)
     rows = scored_episodes(output)  # also cuts a torn last line
     done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows}
     plan: list[Key] = []
@@ -161,23 +177,20 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
     if not plan:
         return rows
     policy_spec(policy_name)  # a bad policy is refused before Ray starts (the model is read again below)
+    _check_policy(policy_name, config, trust)  # and a model that does not fit the environment, before any file
     before = output.read_text() if output.exists() else ""
     finished: dict[Key, dict] = {}
     with RaySession(address, workers):
         import ray
 
-        spec = policy_spec(policy_name, put=ray.put)
+        spec = policy_spec(policy_name, put=ray.put, trust=trust)
         config_ref = ray.put(config)
         task = ray.remote(play_episodes).options(num_cpus=1, max_retries=max_retries, retry_exceptions=False,
                                                  scheduling_strategy="SPREAD")
         chunks = deque(plan[i:i + episodes_per_task] for i in range(0, len(plan), episodes_per_task))
         window = 2 * max(1, int(ray.cluster_resources().get("CPU", workers)))
         pending: dict = {}
-        with open(output, "a", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=columns_of(output), extrasaction="ignore")
-            if not before:
-                writer.writeheader()
-                handle.flush()
+        with Scoreboard(output, record, columns_of(output), list(rows), on_episode) as board:
             try:
                 while chunks or pending:
                     while chunks and len(pending) < window:
@@ -193,12 +206,8 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
                             raise ConfigError(str(cause)) from None
                         raise
                     for row in new_rows:
-                        writer.writerow(row)
-                        handle.flush()
-                        os.fsync(handle.fileno())
+                        board.append(row)  # the record and header come with the first row
                         finished[(row["level"], row["difficulty"], row["seed"])] = row
-                        if on_episode:
-                            on_episode(row)
                     if on_task:
                         on_task(new_rows, where)
             finally:
@@ -206,5 +215,8 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
                     ray.cancel(ref, force=True)
     ordered = [finished[key] for key in plan]
     prefix = before if before else _format_rows([], header=True)
-    write_atomic(output, prefix + _format_rows(ordered, header=False, columns=columns_of(output)))  # as the local backend would have it
+    try:
+        write_atomic(output, prefix + _format_rows(ordered, header=False, columns=columns_of(output)))  # as the local backend would have it
+    except OSError as error:  # the rows stay as they arrived (each fsynced); only their order is not the local one
+        raise ConfigError(write_error(output, error, len(rows) + len(ordered))) from None
     return rows + [{k: str(v) for k, v in row.items()} for row in ordered]

@@ -76,23 +76,161 @@ class RandomPolicy:
 
 
 class ModelPolicy:
-    """A stable-baselines3 PPO model, acting deterministically."""
+    """A stable-baselines3 model, acting deterministically.
 
-    def __init__(self, path: Path):
-        from stable_baselines3 import PPO
+    By default the file is read without unpickling anything (aaai.model_io): its policy is rebuilt
+    from our registry and the environment's spaces, its weights read with weights_only. ``trust``
+    (--trust-model) uses stable-baselines3's own loader, which runs whatever the file's pickles hold.
+    Either way the model is checked against the environment first (:func:`check_model`)."""
 
-        try:
-            self.model = PPO.load(path, device="cpu")
-        except Exception as error:  # noqa: BLE001 - any failure inside the archive is the file's fault
-            raise ConfigError(f"--policy: model file {str(path)!r} cannot be loaded by stable-baselines3: "
-                              f"{type(error).__name__}: {error}") from None
+    def __init__(self, path: Path, env: AnimalAIEnv | None = None, trust: bool = False, extra_keys: tuple = ()):
+        from aaai import model_io
+
+        path = Path(path)
+        self.state, self.start, self.extra_keys = None, True, tuple(extra_keys)
+        if env is not None:
+            check_model(path, env, self.extra_keys)
+            env = _Seen(env, self.extra_keys)
+        if trust:
+            self.model = _trusted_load(path)
+            if env is not None:
+                problems = [f"{name}: model {model}, environment {live}" for name, model, live in
+                            _space_pairs(self.model.observation_space, self.model.action_space, env)]
+                if problems:
+                    raise ConfigError(_misfit(path, problems, env))
+            self.recurrent = hasattr(self.model, "_last_lstm_states")
+            return
+        archive = model_io.read_archive(path)
+        if env is None:
+            raise ConfigError(f"--policy: model file {str(path)!r}: an environment is needed to load it")
+        problems = model_io.space_problems(archive, env.observation_space, env.action_space)
+        if problems:
+            raise ConfigError(_misfit(path, problems, env))
+        self.model = model_io.load_policy_network(path, env.observation_space, env.action_space,
+                                                  fallback_kwargs=_run_policy_kwargs(path), archive=archive)
+        self.recurrent = self.model.recurrent
 
     def reset(self, seed: int) -> None:
-        pass
+        self.state, self.start = None, True
 
     def __call__(self, observation):
+        if self.extra_keys:
+            observation = {k: v for k, v in observation.items() if k not in self.extra_keys}
+        if self.recurrent:
+            action, self.state = self.model.predict(observation, state=self.state,
+                                                    episode_start=np.array([self.start]), deterministic=True)
+            self.start = False
+            return action
         action, _ = self.model.predict(observation, deterministic=True)
         return action
+
+
+def _trusted_load(path: Path):
+    """stable-baselines3's own loader (it unpickles the file's fields): only with --trust-model."""
+    from stable_baselines3 import PPO
+
+    algorithm = PPO
+    try:
+        from aaai import model_io
+
+        if model_io.policy_class_name(model_io.read_archive(path)).startswith("Recurrent"):
+            from sb3_contrib import RecurrentPPO as algorithm
+    except ConfigError:
+        pass  # a class outside our registry: PPO's loader decides
+    try:
+        return algorithm.load(path, device="cpu")
+    except Exception as error:  # noqa: BLE001 - any failure inside the archive is the file's fault
+        raise ConfigError(f"--policy: model file {str(path)!r} cannot be loaded by stable-baselines3: "
+                          f"{type(error).__name__}: {error}") from None
+
+
+class _Seen:
+    """An environment as a model sees it: without the observation keys its caller added for itself
+    (``aaai show`` turns the camera on to draw it)."""
+
+    def __init__(self, env: AnimalAIEnv, extra_keys: tuple):
+        from gymnasium import spaces
+
+        self.config, self.action_space = env.config, env.action_space
+        self.observation_space = env.observation_space
+        if extra_keys and isinstance(env.observation_space, spaces.Dict):
+            self.observation_space = spaces.Dict({k: v for k, v in env.observation_space.spaces.items()
+                                                  if k not in extra_keys})
+
+
+def _space_pairs(observation_space, action_space, env: AnimalAIEnv):
+    from aaai.model_io import describe_space
+
+    for name, model_space, live_space in (("observation", observation_space, env.observation_space),
+                                          ("action", action_space, env.action_space)):
+        model, live = describe_space(model_space), describe_space(live_space)
+        for key in sorted(set(model) | set(live)):
+            if model.get(key) != live.get(key):
+                yield (f"{name} {key!r}" if key else f"{name} space"), model.get(key, "absent"), live.get(key, "absent")
+
+
+# The config keys a model depends on beyond its spaces: compared with its run's config when the
+# model file lies in a run folder (final/model.zip, checkpoints/step_N/model.zip).
+MODEL_KEYS = ("agent.body", "agent.action_mode", "agent.decision_interval", "physics.action_repeat",
+              "physics.timestep")
+
+
+def model_run_config(path: Path) -> dict | None:
+    """The config of the run a model file belongs to, or None for a file outside a run folder."""
+    path = Path(path).absolute()
+    for folder in (path.parent.parent, path.parent.parent.parent):
+        if (folder / "config.yaml").is_file() and path.parent.parent in (folder, folder / "checkpoints"):
+            try:
+                return load_config(RunFolder(folder).read_config())
+            except (ConfigError, OSError, ValueError):
+                return None
+    return None
+
+
+def _dotted(config: dict, key: str):
+    value = config
+    for part in key.split("."):
+        if not isinstance(value, dict) or part not in value:
+            return "absent"
+        value = value[part]
+    return value
+
+
+def check_model(path: Path, env: AnimalAIEnv, extra_keys: tuple = ()) -> None:
+    """Refuses, before any episode, a model whose run was trained with another action mode, body or
+    sensor config than ``env`` has (each differing key named with both values). The settings of a
+    sensor that is off on both sides, or that the caller added for itself (``extra_keys``), do not count."""
+    trained = model_run_config(path)
+    if trained is None:
+        return
+    sensors = sorted(set(trained.get("sensors", {})) | set(env.config.get("sensors", {})))
+    off = {name for name in ("camera", "rays") if name in extra_keys or not (
+        _dotted(trained, f"sensors.{name}") is True or _dotted(env.config, f"sensors.{name}") is True)}
+    keys = list(MODEL_KEYS) + [f"sensors.{key}" for key in sensors
+                               if ("camera" if key.startswith("camera") else "rays" if key.startswith("ray") else key) not in off]
+    differing = [f"{key}: model {_dotted(trained, key)!r}, environment {_dotted(env.config, key)!r}"
+                 for key in keys if _dotted(trained, key) != _dotted(env.config, key)]
+    if differing:
+        run = Path(path).absolute().parent.parent
+        run = run.parent if run.name == "checkpoints" else run
+        raise ConfigError(f"--policy: model file {str(path)!r} was trained with another environment than this one: "
+                          + "; ".join(differing) + f". Score it with its run's config (--config {run / 'config.yaml'}, "
+                          "or --policy with the run folder)")
+
+
+def _misfit(path: Path, problems: list[str], env: AnimalAIEnv) -> str:
+    mode = env.config.get("agent", {}).get("action_mode")
+    return (f"--policy: model file {str(path)!r} does not fit this environment (action mode {mode!r}): "
+            + "; ".join(problems) + ". Score it with the config it was trained with (--config)")
+
+
+def _run_policy_kwargs(path: Path) -> dict | None:
+    """policy_kwargs as our trainer builds them from its run's config (for a file that lacks them)."""
+    config = model_run_config(path)
+    if config is None:
+        return None
+    train = config["train"]
+    return {"net_arch": [train["net_width"], train["net_width"]], "log_std_init": train["log_std_init"]}
 
 
 def model_path(policy: str) -> Path | None:
@@ -121,8 +259,11 @@ def model_path(policy: str) -> Path | None:
                               f"loaded: {problem}{hint}")
         return newest / "model.zip"
     return None
-def load_policy(policy: str, env: AnimalAIEnv) -> Callable:
-    """'random', 'reference', 'gait', a model .zip, a run folder, or 'module:callable' called with the env to make the policy."""
+def load_policy(policy: str, env: AnimalAIEnv, trust: bool = False, extra_keys: tuple = ()) -> Callable:
+    """'random', 'reference', 'gait', a model .zip, a run folder, or 'module:callable' called with the env to make the policy.
+
+    A model is loaded without running code from it unless ``trust`` (--trust-model), and checked
+    against ``env`` first. ``extra_keys``: observation keys the caller added for itself (not the model's)."""
     if policy == "random":
         return RandomPolicy(env)
     if policy == "reference":
@@ -134,10 +275,10 @@ def load_policy(policy: str, env: AnimalAIEnv) -> Callable:
     if Path(policy).is_dir() and run_backend(policy) == "rllib":
         from aaai.rllib_learner import RLlibPolicy
 
-        return RLlibPolicy(policy, env)
+        return RLlibPolicy(policy, env, trust=trust)
     path = model_path(policy)
     if path is not None:
-        return ModelPolicy(path)
+        return ModelPolicy(path, env, trust=trust, extra_keys=extra_keys)
     if Path(policy).is_dir():
         return RandomPolicy(env)
     return policy_factory(policy)(env)
@@ -186,14 +327,65 @@ def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int,
     }
 
 
-def _append(writer: csv.DictWriter, handle, rows: list[dict], row: dict, on_episode) -> None:
-    """Writes one episode's row and makes it durable before the next episode starts."""
-    writer.writerow(row)
-    handle.flush()
-    os.fsync(handle.fileno())
-    rows.append({k: str(v) for k, v in row.items()})
-    if on_episode:
-        on_episode(row)
+class Scoreboard:
+    """Appends rows to a scoreboard CSV, each durable (flushed and fsynced) before the next episode.
+
+    Nothing is written before the first row: the record (``*_scored_with.json``) and, for a new
+    file, the header appear with it, so an eval that fails before its first episode ends leaves no
+    file behind. An OS error while writing (a full disk, a permission taken away, a folder where
+    the file should be) is a ConfigError naming the file; the rows written before it stay, and the
+    same command run again resumes after them.
+    """
+
+    def __init__(self, output: Path, record: dict, columns: list[str], rows: list[dict],
+                 on_episode: Callable[[dict], None] | None = None):
+        self.output, self.record, self.columns, self.rows, self.on_episode = Path(output), record, columns, rows, on_episode
+        self.handle = self.writer = None
+
+    def _open(self) -> None:
+        new = not self.output.exists() or self.output.stat().st_size == 0
+        if new or not record_path(self.output).exists():
+            write_atomic(record_path(self.output), json.dumps(self.record, indent=1, sort_keys=True) + "\n")
+        self.handle = open(self.output, "a", newline="")
+        self.writer = csv.DictWriter(self.handle, fieldnames=self.columns, extrasaction="ignore")
+        if new:
+            self.writer.writeheader()
+
+    def append(self, row: dict) -> None:
+        """Writes one episode's row and makes it durable before the next episode starts."""
+        try:
+            if self.handle is None:
+                self._open()
+            self.writer.writerow(row)
+            self.handle.flush()
+            os.fsync(self.handle.fileno())
+        except OSError as error:
+            raise ConfigError(write_error(self.output, error, len(self.rows))) from None
+        self.rows.append({k: str(v) for k, v in row.items()})
+        if self.on_episode:
+            self.on_episode(row)
+
+    def close(self) -> None:
+        if self.handle is not None:
+            try:
+                self.handle.close()
+            except OSError:
+                pass  # what could not be flushed was reported by append
+            self.handle = None
+
+    def __enter__(self) -> "Scoreboard":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def write_error(path: Path, error: OSError, kept: int) -> str:
+    """The message for an OS error on a file an eval writes: the file, the cause, what stays."""
+    where = getattr(error, "filename", None) or path
+    cause = error.strerror or str(error) or type(error).__name__
+    return (f"--out: cannot write {str(where)!r}: {cause}. The {kept} row(s) of {str(path)!r} written before "
+            "stay; free the space or fix the permission, then run the same command again to resume")
 
 
 def scored_episodes(path: Path) -> list[dict]:
@@ -225,36 +417,37 @@ def columns_of(path: Path) -> list[str]:
 
 
 def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
-             on_episode: Callable[[dict], None] | None = None, record: dict | None = None) -> list[dict]:
+             on_episode: Callable[[dict], None] | None = None, record: dict | None = None,
+             trust: bool = False) -> list[dict]:
     """Plays every (cell, seed) not yet in ``output`` and appends its row, flushed per episode.
-    ``record`` (default: the policy on listed seeds) is what the scoreboard is scored with; it is
-    kept beside it, and resuming with a different one is refused."""
+    ``record`` (default: the policy on listed seeds) is what the scoreboard is scored with; with
+    the environment's config, action mode and the package version added (:func:`scoring_record`)
+    it is kept beside it, and resuming with a different one is refused. ``trust``: load a model
+    with stable-baselines3's own loader (--trust-model)."""
     check_writable(output, "--out")
     output.parent.mkdir(parents=True, exist_ok=True)
-    check_record(output, record if record is not None else policy_record(policy_name, "list"))
+    record = scoring_record(policy_name, record, config)
+    check_record(output, record)
     rows = scored_episodes(output)
     done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows if not r["arena"]}
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))  # scores count the task's own reward
     try:
-        policy = load_policy(policy_name, env)
-        new_file = not output.exists() or output.stat().st_size == 0
-        with open(output, "a", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=columns_of(output), extrasaction="ignore")
-            if new_file:
-                writer.writeheader()
+        policy = load_policy(policy_name, env, trust=trust)
+        with Scoreboard(output, record, columns_of(output), rows, on_episode) as board:
             for cell in cells:
                 for seed in cell.seeds:
                     if (cell.level, cell.difficulty, seed) in done:
                         continue
                     row = run_episode(env, policy, cell.level, cell.difficulty, seed)
-                    _append(writer, handle, rows, row, on_episode)
+                    board.append(row)
     finally:
         env.close()
     return rows
 
 
 def evaluate_arenas(policy_name: str, arenas: list[Path], seeds: list[int], output: Path, config: dict,
-                    on_episode: Callable[[dict], None] | None = None, record: dict | None = None) -> list[dict]:
+                    on_episode: Callable[[dict], None] | None = None, record: dict | None = None,
+                    trust: bool = False) -> list[dict]:
     """:func:`evaluate` for a battery of arena files: every (arena, seed) not yet in ``output``,
     one row each, its ``arena`` column the file's name. Every file is loaded (and so checked) for
     every seed before any episode runs: nothing is run from an invalid file."""
@@ -267,25 +460,22 @@ def evaluate_arenas(policy_name: str, arenas: list[Path], seeds: list[int], outp
                           "allowed: distinct file names, which the scoreboard's arena column tells apart")
     check_writable(output, "--out")
     output.parent.mkdir(parents=True, exist_ok=True)
-    check_record(output, record if record is not None else policy_record(policy_name, "list"))
+    record = scoring_record(policy_name, record, config)
+    check_record(output, record)
     rows = scored_episodes(output)
     if rows and columns_of(output) != COLUMNS:
         raise ConfigError(f"--out: {str(output)!r} is an older scoreboard without an arena column; choose another --out")
     done = {(r["arena"], int(r["seed"])) for r in rows}
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))
     try:
-        policy = load_policy(policy_name, env)
-        new_file = not output.exists() or output.stat().st_size == 0
-        with open(output, "a", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=COLUMNS)
-            if new_file:
-                writer.writeheader()
+        policy = load_policy(policy_name, env, trust=trust)
+        with Scoreboard(output, record, COLUMNS, rows, on_episode) as board:
             for arena in arenas:
                 for seed in seeds:
                     if (arena.name, seed) in done:
                         continue
                     row = run_episode(env, policy, 0, 0, seed, arena=arena)
-                    _append(writer, handle, rows, row, on_episode)
+                    board.append(row)
     finally:
         env.close()
     return rows
@@ -375,6 +565,10 @@ def policy_record(policy: str, seeds: str, key: str | None = None) -> dict:
     seed key's record. An eval that resumes a scoreboard must match it."""
     record = {"policy": policy, "seeds": seeds, "seed_key": key_record(key)}
     path = None if policy in ("random", "reference", "gait") or ":" in policy else model_path(policy)
+    if path is None and ":" in policy:  # module:callable: the identity of its source file, where it has one
+        source = _module_file(policy.partition(":")[0])
+        if source is not None:
+            record["policy_source_sha256"] = hashlib.sha256(source.read_bytes()).hexdigest()
     if path is not None:
         record["model"] = str(path)
         record["model_sha256"] = hashlib.sha256(path.read_bytes()).hexdigest()
@@ -391,19 +585,78 @@ def record_path(output: Path) -> Path:
     return output.with_name(output.stem + "_scored_with.json")
 
 
+def _module_file(name: str) -> Path | None:
+    import importlib.util
+
+    try:
+        spec = importlib.util.find_spec(name)
+    except (ImportError, ValueError):
+        return None
+    origin = getattr(spec, "origin", None)
+    return Path(origin) if origin and Path(origin).is_file() else None
+
+
+def env_record(config: dict) -> dict:
+    """What a scoreboard records of the environment it was scored in: the whole environment config
+    (the level and difficulty defaults aside: each row names its own), its digest, the action mode
+    and the package's version."""
+    from aaai import __version__
+
+    part = {k: v for k, v in env_part(config, shaping=0.0).items() if k not in ("level", "difficulty")}
+    part = json.loads(json.dumps(part, sort_keys=True, default=str))  # as it reads back from the file
+    digest = hashlib.sha256(json.dumps(part, sort_keys=True).encode()).hexdigest()
+    return {"env_config": part, "env_config_sha256": digest,
+            "action_mode": part.get("agent", {}).get("action_mode"), "aaai_version": __version__}
+
+
+def scoring_record(policy_name: str, record: dict | None, config: dict) -> dict:
+    """The whole record of a scoreboard: the policy's (default: on listed seeds) and the environment's."""
+    return {**(record if record is not None else policy_record(policy_name, "list")), **env_record(config)}
+
+
+def _flat(tree: Any, prefix: str = "") -> dict[str, Any]:
+    if not isinstance(tree, dict):
+        return {prefix: tree}
+    flat: dict[str, Any] = {}
+    for key, value in tree.items():
+        flat.update(_flat(value, f"{prefix}.{key}" if prefix else str(key)))
+    return flat
+
+
+def record_differences(earlier: Any, record: dict) -> list[str]:
+    """The keys in which two records differ, each with both values (dotted for nested keys)."""
+    old, new = _flat(earlier if isinstance(earlier, dict) else {}), _flat(record)
+    missing = object()
+    return [f"{key}: {old.get(key, 'absent')!r} there, {new.get(key, 'absent')!r} now"
+            for key in sorted(set(old) | set(new), key=str) if old.get(key, missing) != new.get(key, missing)]
+
+
+def _has_rows(output: Path) -> bool:
+    try:
+        with open(output, newline="") as handle:
+            return sum(1 for _ in zip(range(2), handle)) > 1
+    except FileNotFoundError:
+        return False
+
+
 def check_record(output: Path, record: dict) -> None:
-    """Writes the record beside a new scoreboard; refuses to add to one scored with anything else."""
+    """Refuses to add to a scoreboard scored with anything else, naming each key that differs.
+
+    The record itself is written with the scoreboard's first row (:class:`Scoreboard`); one beside
+    a scoreboard that holds no row yet (an eval that failed before its first episode ended) does
+    not count."""
     path = record_path(output)
-    if path.exists():
-        try:
-            earlier = json.loads(path.read_text())
-        except (OSError, ValueError):
-            earlier = None
-        if earlier != record:
-            raise ConfigError(f"--out: {str(output)!r} holds episodes scored with {earlier}; refusing to add episodes "
-                              f"of {record}: choose another --out, or delete both files to start again")
-    elif output.exists() and output.stat().st_size > 0:
+    if not _has_rows(output):
+        return
+    if not path.exists():
         raise ConfigError(f"--out: {str(output)!r} holds episodes of an unknown policy (no {path.name}); "
                           "choose another --out, or delete it to start again")
-    else:
-        write_atomic(path, json.dumps(record, indent=1, sort_keys=True) + "\n")
+    try:
+        earlier = json.loads(path.read_text())
+    except (OSError, ValueError):
+        earlier = None
+    if earlier != record:
+        differences = record_differences(earlier, record) or ["its record cannot be read"]
+        raise ConfigError(f"--out: {str(output)!r} holds episodes scored otherwise; refusing to add episodes that "
+                          f"differ in {len(differences)} key(s): " + "; ".join(differences)
+                          + f". Choose another --out, or delete {output.name} and {path.name} to start again")

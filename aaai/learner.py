@@ -92,8 +92,12 @@ def train_ppo(vec: CurriculumVecEnv, tracker, config: dict, run: RunFolder, chec
     env = CurriculumSB3Env(vec)
     monitored = VecMonitor(env)
     if checkpoint is not None:
-        model = PPO.load(checkpoint / "model.zip", env=monitored, device="cpu",
-                         tensorboard_log=str(run.path / "tb"))
+        from aaai.model_io import load_for_training  # without unpickling, unless train --trust-model
+
+        width = config["train"]["net_width"]
+        model = load_for_training(checkpoint / "model.zip", monitored, tensorboard_log=str(run.path / "tb"),
+                                  fallback_kwargs={"net_arch": [width, width],
+                                                   "log_std_init": config["train"]["log_std_init"]})
     else:
         model = ppo_from_config(monitored, config, run)
     remaining = config["train"]["total_steps"] - model.num_timesteps

@@ -184,13 +184,17 @@ class RLlibPolicy:
     scoreboard's policies do: ``policy(observation) -> action`` for an environment with the run's
     observations. The observation is flattened as RLlib's FlattenObservations connector does it."""
 
-    def __init__(self, checkpoint: str | Path, env):
+    def __init__(self, checkpoint: str | Path, env, trust: bool | None = None):
         import torch
         from ray.rllib.core.rl_module.rl_module import RLModule
         from ray.rllib.utils.spaces.space_utils import get_base_struct_from_space
 
+        from aaai.model_io import check_rllib_checkpoint
+
         self.torch = torch
-        self.module = RLModule.from_checkpoint(str((rllib_checkpoint(checkpoint) / MODULE_PATH).absolute()))
+        folder = rllib_checkpoint(checkpoint)
+        check_rllib_checkpoint(folder, trust)  # pickles: only trusted or signed on this machine
+        self.module = RLModule.from_checkpoint(str((folder / MODULE_PATH).absolute()))
         self.module.eval()
         self.structure = get_base_struct_from_space(env.observation_space)
         self.space = env.action_space
@@ -280,9 +284,15 @@ def _train_loop(algo, actor, tracker: Tracker, config: dict, checkpoint: Path | 
                 progress: Callable[[int], None]) -> int:
     import ray
 
+    from aaai.model_io import sign_checkpoint
+
     if checkpoint is not None:
         algo.restore_from_path(str((checkpoint / CHECKPOINT_FOLDER).absolute()))
-    save_model = lambda model_zip: algo.save_to_path(str(Path(model_zip).parent / CHECKPOINT_FOLDER))  # noqa: E731
+
+    def save_model(model_zip) -> None:  # the Algorithm checkpoint, signed as this machine's
+        algo.save_to_path(str(Path(model_zip).parent / CHECKPOINT_FOLDER))
+        sign_checkpoint(Path(model_zip).parent / CHECKPOINT_FOLDER)
+
     agent_state = lambda: {"backend": "rllib"}  # noqa: E731 - the model's state is the rllib/ folder
     step, total = start_step, config["train"]["total_steps"]
     while step < total:
@@ -322,6 +332,9 @@ def train_rllib(run_dir: str | Path, config: dict | None = None, resume: bool = 
             if state.get("agent", {}).get("backend") != "rllib" or not (checkpoint / CHECKPOINT_FOLDER).is_dir():
                 raise ConfigError(f"--resume: {str(checkpoint)!r} is not a checkpoint of an RLlib run "
                                   f"(no {CHECKPOINT_FOLDER}/ beside state.json)")
+            from aaai.model_io import check_rllib_checkpoint
+
+            check_rllib_checkpoint(checkpoint / CHECKPOINT_FOLDER)  # pickles: signed here, or train --trust-model
         if total_steps is not None:
             config = move_end(run, config, checkpoint, state, total_steps)
     else:

@@ -17,6 +17,9 @@ from aaai.runs import RunFolder
 
 POLICY_HELP = ("random, reference (the privileged reference controller), gait (the example trot), "
                "a model .zip, a run folder or module:callable")
+TRUST_HELP = ("Load a model file with stable-baselines3's own loader, which unpickles it and so runs any code in "
+              "it (default: rebuilt without unpickling; README, Scoring agents you did not write). Only for files "
+              "you trust.")
 
 
 def parse_range(text: str, name: str, low: int, high: int) -> list[int]:
@@ -97,7 +100,9 @@ def spec_command(level, difficulty, seed, as_json, as_yaml):
 @click.option("--rays/--no-rays", default=None, help="Turn the rays on or off.")
 @click.option("--arena", "arena", type=click.Path(), help="Run this arena file (README, Write your own test) instead "
               "of generated levels: --episodes episodes, seeds from --seed.")
-def run_command(levels_text, difficulty_text, episodes, seed, policy, config_path, max_steps, camera, rays, arena):
+@click.option("--trust-model", is_flag=True, help=TRUST_HELP)
+def run_command(levels_text, difficulty_text, episodes, seed, policy, config_path, max_steps, camera, rays, arena,
+                trust_model):
     """Run episodes with a policy (random actions by default) and print a summary of each."""
     levels = parse_levels(levels_text)
     difficulties = parse_range(difficulty_text, "--difficulty", 0, 10)
@@ -106,7 +111,7 @@ def run_command(levels_text, difficulty_text, episodes, seed, policy, config_pat
         for level in levels:
             get_level(level)
         env = AnimalAIEnv(level=levels[0], config=config_path, arena=arena, **overrides)
-        actor = load_policy(policy, env)
+        actor = load_policy(policy, env, trust=trust_model)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     click.echo(f"{'level':<20} {'diff':>4} {'seed':>6} {'return':>8} {'max':>6} {'steps':>6} "
@@ -171,8 +176,12 @@ def _overrides(**values) -> dict:
               help="sb3 (default): stable-baselines3 PPO on local workers; rllib: RLlib PPO on Ray (the ray "
                    "extra), its env runners anywhere on a cluster. --resume uses the run's own.")
 @click.option("--address", help="With --backend rllib: join the Ray cluster whose head is at this address.")
+@click.option("--trust-model", is_flag=True,
+              help="With --resume: load the run's checkpoint with its library's own loader, which unpickles it "
+                   "(stable-baselines3 models that cannot be rebuilt without it; RLlib checkpoints not signed on "
+                   "this machine). Only for runs you trust.")
 def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, seed, agent, camera,
-                  camera_resolution, rays, run_dir, resume_dir, backend, address):
+                  camera_resolution, rays, run_dir, resume_dir, backend, address, trust_model):
     """Train on a curriculum of (level, difficulty) cells; checkpoints and logs go to the run folder."""
     from aaai.rllib_learner import run_backend, train_rllib
     from aaai.training import train
@@ -198,7 +207,9 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
         total = total_steps or (config or RunFolder(run_dir).read_config())["train"]["total_steps"]
         use_rllib = (run_backend(resume_dir) if resume_dir else backend) == "rllib"
         say = lambda message: click.echo(message, err=True)  # noqa: E731
-        with click.progressbar(length=total, label="training", show_pos=True) as bar:
+        from aaai.model_io import trusting
+
+        with trusting(trust_model), click.progressbar(length=total, label="training", show_pos=True) as bar:
             if use_rllib:
                 result = train_rllib(run_dir, config, resume=bool(resume_dir), progress=bar.update, address=address,
                                      total_steps=total_steps if resume_dir else None, say=say)
@@ -239,12 +250,13 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
 @click.option("--arenas", type=click.Path(exists=True),
               help="Score a battery of arena files (a folder of *.yaml, or one file) instead of levels: seeds "
                    "0..K-1 (-k, default eval.seeds_per_cell) or --seeds 1,2,3; a summary per arena and per category.")
+@click.option("--trust-model", is_flag=True, help=TRUST_HELP)
 def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output, seed_key_file,
-                 backend, address, workers, arenas):
+                 backend, address, workers, arenas, trust_model):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
     if arenas is not None:
         return eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty,
-                           seed_key_file, backend)
+                           seed_key_file, backend, trust_model)
     from aaai.evaluation import (cells_for, evaluate, policy_config, policy_record, summarise, summary_markdown,
                                  write_summary)
     from aaai.seeds import read_seed_key
@@ -271,22 +283,25 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
                 from aaai.distributed import evaluate_on_ray
 
                 rows = evaluate_on_ray(policy, cells, output, config, address=address, workers=workers,
-                                       on_episode=lambda row: bar.update(1), record=record)
+                                       on_episode=lambda row: bar.update(1), record=record, trust=trust_model)
             else:
-                rows = evaluate(policy, cells, output, config, on_episode=lambda row: bar.update(1), record=record)
+                rows = evaluate(policy, cells, output, config, on_episode=lambda row: bar.update(1), record=record,
+                                trust=trust_model)
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
+    except OSError as error:  # an output that became unwritable midway (its rows so far stay)
+        raise click.ClickException(f"cannot write {str(error.filename or output)!r}: {error.strerror or error}") from None
     except ImportError as error:
         raise click.UsageError(f"{error}. Loading a model needs the train extra: pip install -e '.[train]'; "
                                "--backend ray and RLlib runs need the ray extra: pip install -e '.[ray]'") from None
     summary = summarise(rows)
-    summary_path = write_summary(summary, output)
+    summary_path = _write_summary(write_summary, summary, output)
     click.echo(summary_markdown(summary), nl=False)
     click.echo(f"scoreboard {output} ({len(rows)} episodes); summary {summary_path}")
 
 
 def eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty, seed_key_file,
-                backend):
+                backend, trust_model=False):
     """``aaai eval --arenas``: every arena file of the battery on seeds 0..K-1 (or a --seeds list)."""
     from aaai.arena import arena_files, arena_meta
     from aaai.evaluation import evaluate_arenas, policy_config, policy_record, summarise_arenas, summary_markdown, \
@@ -318,15 +333,34 @@ def eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output,
         episodes = len(files) * len(seeds)
         with click.progressbar(length=episodes, label=f"scoring {episodes} episodes", show_pos=True) as bar:
             rows = evaluate_arenas(policy, files, seeds, output, config, on_episode=lambda row: bar.update(1),
-                                   record=record)
+                                   record=record, trust=trust_model)
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
+    except OSError as error:  # an output that became unwritable midway (its rows so far stay)
+        raise click.ClickException(f"cannot write {str(error.filename or output)!r}: {error.strerror or error}") from None
     except ImportError as error:
         raise click.UsageError(f"{error}. Loading a model needs the train extra: pip install -e '.[train]'") from None
     summary = summarise_arenas(rows, categories)
-    summary_path = write_summary(summary, output)
+    summary_path = _write_summary(write_summary, summary, output)
     click.echo(summary_markdown(summary), nl=False)
     click.echo(f"scoreboard {output} ({len(rows)} episodes); summary {summary_path}")
+
+
+def _write_summary(write_summary, summary: list[dict], output: Path) -> Path:
+    """The scoreboard's summary file; a file that cannot be written is named (the summary is printed anyway)."""
+    try:
+        return write_summary(summary, output)
+    except OSError as error:
+        click.echo(summary_markdown_of(summary), nl=False)
+        where = getattr(error, "filename", None) or output.with_name(output.stem + "_summary.md")
+        raise click.ClickException(f"cannot write the summary {str(where)!r}: {error.strerror or error}; the "
+                                   f"scoreboard {str(output)!r} is whole, and the summary is printed above") from None
+
+
+def summary_markdown_of(summary: list[dict]) -> str:
+    from aaai.evaluation import summary_markdown
+
+    return summary_markdown(summary)
 
 
 @cli.command("baselines")

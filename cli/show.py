@@ -11,6 +11,7 @@ from aaai.levels import check_difficulty, check_seed, get_level
 from aaai.viewer import VIDEO_CODECS, VideoWriter, compose, draw_top_down, draw_world, save_png, video_extension_error
 
 CAMERA_RESOLUTION = 128
+STEP_CAP = 10000  # the longest episode a config allows (episode.max_steps): --video's default cap
 MAP_SIZE = 640  # pixels across the longer side of the top-down map
 
 
@@ -31,14 +32,18 @@ def frame_every(fps: float, control_dt: float) -> int:
 @click.option("--policy", default="random", show_default=True,
               help="Who moves the agent in the video: random, reference, gait, a model .zip, a run folder or "
                    "module:callable.")
-@click.option("--steps", type=click.IntRange(1), default=500, show_default=True,
-              help="Control steps to record (fewer if the episode ends first).")
+@click.option("--steps", type=click.IntRange(1), default=None,
+              help=f"Steps to record at most [default: to the episode's end, capped at {STEP_CAP}]; when the cap "
+                   "cuts the episode, the message says so.")
 @click.option("--fps", type=click.IntRange(1, 500), default=25, show_default=True,
               help="Video frame rate; a frame every round(1 / (fps x 0.02 s)) control steps, at least 1.")
 @click.option("--size", type=click.IntRange(200, 4000), default=MAP_SIZE, show_default=True,
               help="Pixels across the longer side of the top-down map.")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
-def show(level, difficulty, seed, output, video, policy, steps, fps, size, config_path, arena):
+@click.option("--trust-model", is_flag=True,
+              help="Load a model file with stable-baselines3's own loader, which unpickles it and so runs any code "
+                   "in it (default: rebuilt without unpickling). Only for files you trust.")
+def show(level, difficulty, seed, output, video, policy, steps, fps, size, config_path, arena, trust_model):
     """Draw LEVEL (id, label like L1, or name) from above beside the agent's camera view.
 
     Writes a PNG, and with --video records an episode (random policy by default) so that the
@@ -67,13 +72,16 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
         if path is not None and not Path(path).absolute().parent.is_dir():
             raise click.UsageError(f"output {path!r}: the folder {str(Path(path).absolute().parent)!r} does not exist")
 
+    from aaai.config import load_config
     from aaai.env import AnimalAIEnv  # after the checks: bad input fails fast
     from aaai.evaluation import load_policy
 
     try:
         env = AnimalAIEnv(level=lvl.id if lvl else None, difficulty=difficulty, config=config_path, camera=True,
                           camera_resolution=CAMERA_RESOLUTION, arena=arena)
-        actor = load_policy(policy, env) if video is not None else None
+        # the camera is turned on here to draw it: a model that was not trained with it does not see it
+        extra = () if load_config(config_path)["sensors"]["camera"] else ("camera",)
+        actor = load_policy(policy, env, trust=trust_model, extra_keys=extra) if video is not None else None
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
 
@@ -93,19 +101,23 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
 ENDS = {"ate green": "ate green food", "time": "reached max_steps"}  # how the messages name them
 
 
-def record(env, policy, seed: int, path: str, steps: int, fps: int, size: int, on_reset=None) -> int:
-    """Resets ``env`` to ``seed``, runs up to ``steps`` control steps of ``policy`` and writes a
-    frame every few of them; returns the frames. ``on_reset(observation, info)`` sees the start."""
+def record(env, policy, seed: int, path: str, steps: int | None, fps: int, size: int, on_reset=None) -> int:
+    """Resets ``env`` to ``seed``, runs ``policy`` to the episode's end (or ``steps`` steps at most;
+    None: :data:`STEP_CAP`) and writes a frame every few steps; returns the frames. When the cap cuts
+    the episode, the message says so. ``on_reset(observation, info)`` sees the start."""
+    cap = STEP_CAP if steps is None else steps
     every = frame_every(fps, env.control_dt)
     with VideoWriter(path, fps) as writer:
         def frame(step: int, observation, reward: float, info: dict) -> None:
             if step % every == 0:
                 writer.write(compose(draw_world(env, size), observation["camera"]))
 
-        result = play(env, policy, seed, on_reset=on_reset, on_step=frame, max_steps=steps)
+        result = play(env, policy, seed, on_reset=on_reset, on_step=frame, max_steps=cap)
         if writer.frames == 0:  # the episode ended before the first frame
             writer.write(compose(draw_world(env, size), result.observation["camera"]))
     end = ENDS.get(result.end, result.end)
-    ended = f"; the episode ended at step {result.steps} ({end})" if end else ""
+    ended = (f"; the episode ended at step {result.steps} ({end})" if end else
+             f"; stopped at step {result.steps} by {'--steps' if steps is not None else 'the cap'} before the episode "
+             f"ended (it runs to step {result.info.get('max_steps', '?')} at most; raise --steps to see more)")
     click.echo(f"wrote {path} ({writer.frames} frames at {fps} fps, a frame every {every} steps{ended})")
     return writer.frames
