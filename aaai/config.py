@@ -158,6 +158,7 @@ RULES: dict[str, Rule] = {
     "train.agent": Rule("choice", choices=("ppo", "random")),
     "train.total_steps": Rule("int", 1, 10**10),
     "train.num_envs": Rule("int", 1, 256),
+    "train.vector": Rule("choice", choices=("auto", "sync", "async")),  # aaai.vector.runs_in_process
     "train.seed": Rule("int", 0, 2**32 - 1),
     "train.checkpoint_every": Rule("int", 1, 10**10),
     "train.heatmap_every": Rule("int", 1, 10**10),

@@ -86,9 +86,18 @@ def ppo_from_config(env, config: dict, run: RunFolder) -> PPO:
     )
 
 
+def lean_torch() -> None:
+    """The learner process's torch settings, which change nothing that is learned: one thread (the
+    workers need the other cores; small networks gain nothing from more), and no argument checks
+    in torch.distributions (PyTorch's documented switch; stable-baselines3 builds a new Normal at
+    every step, and its checks cost about a tenth of a forward pass on a small batch)."""
+    torch.set_num_threads(1)
+    torch.distributions.Distribution.set_default_validate_args(False)
+
+
 def train_ppo(vec: CurriculumVecEnv, tracker, config: dict, run: RunFolder, checkpoint: Path | None,
               progress: Callable[[int], None]) -> int:
-    torch.set_num_threads(1)  # the workers need the other cores; small networks gain nothing from more
+    lean_torch()
     env = CurriculumSB3Env(vec)
     monitored = VecMonitor(env)
     if checkpoint is not None:

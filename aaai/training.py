@@ -93,7 +93,7 @@ def move_end(run: RunFolder, config: dict, checkpoint: Path | None, state: dict 
 
 
 def train(run_dir: str | Path, config: dict | None = None, resume: bool = False,
-          progress: Callable[[int], None] | None = None, asynchronous: bool = True,
+          progress: Callable[[int], None] | None = None, asynchronous: bool | None = None,
           total_steps: int | None = None, say: Callable[[str], None] = print) -> TrainResult:
     """Starts a run in ``run_dir`` with ``config`` (a resolved config), or resumes the run there.
 

@@ -413,23 +413,29 @@ def seeds_command(levels, difficulty, count, seed_key_file):
 
 @cli.command("bench")
 @click.option("--levels", help="Levels to measure (default: all).")
-@click.option("--steps", type=click.IntRange(100), default=3000, show_default=True, help="Steps per measurement.")
+@click.option("--rounds", type=click.IntRange(1), default=5, show_default=True,
+              help="Alternated rounds: each figure is timed once per round; ratios are medians over rounds.")
+@click.option("--steps", type=click.IntRange(100), default=1000, show_default=True,
+              help="Steps per figure and round.")
 @click.option("--resets", type=click.IntRange(5), default=50, show_default=True, help="Resets timed per level.")
-@click.option("--worker-steps", type=click.IntRange(100), default=2000, show_default=True,
-              help="Steps per worker in the 1/2/4-worker runs.")
+@click.option("--worker-steps", type=click.IntRange(100), default=1000, show_default=True,
+              help="Steps per worker and round in the 1/2/4-worker runs.")
+@click.option("--train-steps", type=click.IntRange(0), default=4096, show_default=True,
+              help="Steps per round of PPO, the random agent and the environment alone (0: no training row).")
 @click.option("--memory-steps", type=click.IntRange(1000), default=20000, show_default=True)
 @click.option("--out", "folder", type=click.Path(), default="bench", show_default=True,
               help="Folder for bench.json and bench.md.")
-def bench_command(levels, steps, resets, worker_steps, memory_steps, folder):
-    """Measure steps/s against a bare PyBullet loop and MuJoCo Ant-v5, resets, workers and memory."""
+def bench_command(levels, rounds, steps, resets, worker_steps, train_steps, memory_steps, folder):
+    """Measure steps/s against a bare PyBullet loop and MuJoCo Ant-v5, training against the
+    environment alone, resets, workers and memory; alternated rounds, medians and spreads."""
     from aaai import bench
 
     level_list = parse_levels(levels) if levels else None
-    results = bench.run(level_list, steps=steps, resets=resets, worker_steps=worker_steps, memory_steps=memory_steps,
-                        log=lambda text: click.echo(text, err=True))
+    results = bench.run(level_list, steps=steps, rounds=rounds, resets=resets, worker_steps=worker_steps,
+                        train_steps=train_steps, memory_steps=memory_steps, log=lambda text: click.echo(text, err=True))
     json_path, md_path = bench.write(results, Path(folder))
     click.echo(bench.markdown(results), nl=False)
-    click.echo("ratios: " + ", ".join(f"{k} {v:.2f}" for k, v in results["ratios"].items()))
+    click.echo("ratios (medians): " + ", ".join(f"{k} {v:.2f}" for k, v in results["ratios"].items()))
     click.echo(f"written: {json_path}, {md_path}")
 
 
