@@ -1,6 +1,7 @@
 """PPO from stable-baselines3 on the curriculum's parallel workers (needs the `train` extra)."""
 from __future__ import annotations
 
+from collections import deque
 from pathlib import Path
 from typing import Callable
 
@@ -10,6 +11,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 
+from aaai.curriculum import episode_passed
 from aaai.runs import RunFolder
 from aaai.vector import CurriculumVecEnv
 
@@ -57,20 +59,32 @@ class CurriculumSB3Env(VecEnv):
 
 
 class TrackerCallback(BaseCallback):
-    """Hands finished episodes to the tracker and logs the curriculum to TensorBoard."""
+    """Hands finished episodes to the tracker and logs to TensorBoard what the shaped
+    ``rollout/ep_rew_mean`` does not show: over the last ``recent`` episodes the task return
+    (``rollout/task_return_mean``, without shaping: what the scoreboard counts), the food eaten
+    and the pass rate (return >= 0.8 x max reward); the pass rate per cell over the curriculum's
+    window (``cells/pass_rate_L<level>_d<difficulty>``) and the sampler's p per cell."""
 
-    def __init__(self, env: CurriculumSB3Env, tracker, progress: Callable[[int], None]):
+    def __init__(self, env: CurriculumSB3Env, tracker, progress: Callable[[int], None], recent: int = 100):
         super().__init__()
         self.env, self.tracker, self.progress = env, tracker, progress
+        self.recent = deque(maxlen=recent)
 
     def _on_step(self) -> bool:
         finished, self.env.finished = self.env.finished, []
         self.tracker.update(self.num_timesteps, finished, agent_state=dict, save_model=self.model.save)
         self.progress(self.env.num_envs)
         if finished:
+            self.recent.extend(finished)
+            self.logger.record("rollout/task_return_mean", float(np.mean([e.task_return for e in self.recent])))
+            self.logger.record("rollout/food_eaten_mean", float(np.mean([e.food_eaten for e in self.recent])))
+            self.logger.record("rollout/pass_rate", float(np.mean(
+                [episode_passed(e.task_return, e.max_reward) for e in self.recent])))
             curriculum = self.tracker.curriculum
-            for (level, difficulty), p in zip(curriculum.cells, curriculum.probabilities()):
+            for (level, difficulty), p, q in zip(curriculum.cells, curriculum.probabilities(), curriculum.pass_rates()):
                 self.logger.record(f"curriculum/p_L{level}_d{difficulty}", float(p))
+                if np.isfinite(q):
+                    self.logger.record(f"cells/pass_rate_L{level}_d{difficulty}", float(q))
         return True
 
 

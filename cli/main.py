@@ -1,6 +1,8 @@
 """The ``aaai`` command group and most of its commands (``show`` and ``validate`` have their own files)."""
 from __future__ import annotations
 
+import contextlib
+import sys
 import time
 from pathlib import Path
 
@@ -153,6 +155,40 @@ def run_episode(env: AnimalAIEnv, level: int, difficulty: int, seed: int, policy
             f"{info['steps']:>6} {info['food_eaten']:>4} {info['wall_hits']:>5} {result.end:<10} {rate:>8.0f}")
 
 
+PROGRESS_HELP = ("Seconds between progress lines when the output is not a terminal (piped, nohup); in a terminal "
+                 "a progress bar.")
+
+
+@contextlib.contextmanager
+def progress_output(report):
+    """Yields the function to advance ``report`` (an aaai.training.Progress) with: a progress bar
+    showing its rate, episodes, pass rate and ETA in a terminal; elsewhere (piped, nohup) its line
+    every ``report.every`` seconds, and once more at the end."""
+    from aaai.training import print_lines
+
+    if sys.stdout.isatty():
+        with click.progressbar(length=report.total, label=report.label, show_pos=True, show_eta=False,
+                               item_show_func=lambda item: item) as bar:
+            bar.update(report.done)
+
+            def update(n: int) -> None:
+                report.update(n)
+                bar.update(n, current_item=report.details())
+            yield update
+    else:
+        report.write = print_lines(sys.stdout)
+        yield report.update
+        report.write(report.line())
+
+
+def steps_done(resume_dir: str | None) -> int:
+    """The steps a run to be resumed has done (at its newest saved point); 0 for a new run."""
+    if not resume_dir:
+        return 0
+    saved = RunFolder(resume_dir).saved() if Path(resume_dir).is_dir() else []
+    return max(int(RunFolder._step_of(saved[0], unreadable=0)), 0) if saved else 0
+
+
 def _overrides(**values) -> dict:
     return {key: value for key, value in values.items() if value is not None}
 
@@ -176,19 +212,24 @@ def _overrides(**values) -> dict:
               help="sb3 (default): stable-baselines3 PPO on local workers; rllib: RLlib PPO on Ray (the ray "
                    "extra), its env runners anywhere on a cluster. --resume uses the run's own.")
 @click.option("--address", help="With --backend rllib: join the Ray cluster whose head is at this address.")
+@click.option("--sampler", type=click.Choice(["paper", "uniform", "learnability", "plr"]),
+              help="How the curriculum weights cells (curriculum.sampler; README, Curricula). --random is uniform.")
+@click.option("--progress-every", type=click.FloatRange(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
 @click.option("--trust-model", is_flag=True,
               help="With --resume: load the run's checkpoint with its library's own loader, which unpickles it "
                    "(stable-baselines3 models that cannot be rebuilt without it; RLlib checkpoints not signed on "
                    "this machine). Only for runs you trust.")
 def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, seed, agent, camera,
-                  camera_resolution, rays, run_dir, resume_dir, backend, address, trust_model):
+                  camera_resolution, rays, run_dir, resume_dir, backend, address, trust_model,
+                  sampler, progress_every):
     """Train on a curriculum of (level, difficulty) cells; checkpoints and logs go to the run folder."""
     from aaai.rllib_learner import run_backend, train_rllib
-    from aaai.training import train
+    from aaai.training import Progress, train
 
     ignored = {name: value for name, value in {
         mode or "curriculum": mode, "config": config_path, **dict( levels=levels, difficulty=difficulty, envs=num_envs, seed=seed,
-        agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays, run=run_dir, backend=backend)}.items()
+        agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays, run=run_dir, backend=backend,
+        sampler=sampler)}.items()
         if value is not None}
     if address and (backend or (resume_dir and run_backend(resume_dir))) != "rllib":
         raise click.UsageError("--address: only --backend rllib runs on a cluster")
@@ -202,20 +243,23 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
         else:
             config = load_config(config_path, **_overrides(
                 mode=mode, levels=levels, difficulties=difficulty, total_steps=total_steps, num_envs=num_envs,
-                seed=seed, agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays))
+                seed=seed, agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays,
+                sampler=sampler))
             run_dir = run_dir or time.strftime("runs/run-%Y%m%d-%H%M%S")
         total = total_steps or (config or RunFolder(run_dir).read_config())["train"]["total_steps"]
         use_rllib = (run_backend(resume_dir) if resume_dir else backend) == "rllib"
         say = lambda message: click.echo(message, err=True)  # noqa: E731
         from aaai.model_io import trusting
 
-        with trusting(trust_model), click.progressbar(length=total, label="training", show_pos=True) as bar:
+        report = Progress(total, done=steps_done(resume_dir), every=progress_every)
+        with trusting(trust_model), progress_output(report) as update:
             if use_rllib:
-                result = train_rllib(run_dir, config, resume=bool(resume_dir), progress=bar.update, address=address,
+                result = train_rllib(run_dir, config, resume=bool(resume_dir), progress=update, address=address,
                                      total_steps=total_steps if resume_dir else None, say=say)
             else:
-                result = train(run_dir, config, resume=bool(resume_dir), progress=bar.update,
-                               total_steps=total_steps if resume_dir else None, say=say)
+                result = train(run_dir, config, resume=bool(resume_dir), progress=update,
+                               total_steps=total_steps if resume_dir else None, say=say,
+                               on_episodes=report.on_episodes)
     except (ConfigError, FileExistsError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except ImportError as error:
@@ -251,8 +295,9 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
               help="Score a battery of arena files (a folder of *.yaml, or one file) instead of levels: seeds "
                    "0..K-1 (-k, default eval.seeds_per_cell) or --seeds 1,2,3; a summary per arena and per category.")
 @click.option("--trust-model", is_flag=True, help=TRUST_HELP)
+@click.option("--progress-every", type=click.FloatRange(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
 def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output, seed_key_file,
-                 backend, address, workers, arenas, trust_model):
+                 backend, address, workers, arenas, trust_model, progress_every):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
     if arenas is not None:
         return eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty,
@@ -278,14 +323,21 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
         output = Path(output) if output else (run_folder or Path(".")) / f"scoreboard_{label}.csv"
         record = policy_record(policy, seeds_mode, key)
         episodes = sum(len(cell.seeds) for cell in cells)
-        with click.progressbar(length=episodes, label=f"scoring {episodes} episodes", show_pos=True) as bar:
+        from aaai.training import Progress
+
+        report = Progress(episodes, label="scoring", unit="episodes", every=progress_every)
+        with progress_output(report) as update:
+            def on_episode(row: dict) -> None:
+                report.add_episodes([row["outcome"] != "failed"], steps=int(row["steps"]))
+                update(1)
+
             if backend == "ray":
                 from aaai.distributed import evaluate_on_ray
 
                 rows = evaluate_on_ray(policy, cells, output, config, address=address, workers=workers,
-                                       on_episode=lambda row: bar.update(1), record=record, trust=trust_model)
+                                       on_episode=on_episode, record=record, trust=trust_model)
             else:
-                rows = evaluate(policy, cells, output, config, on_episode=lambda row: bar.update(1), record=record,
+                rows = evaluate(policy, cells, output, config, on_episode=on_episode, record=record,
                                 trust=trust_model)
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
@@ -437,6 +489,86 @@ def bench_command(levels, rounds, steps, resets, worker_steps, train_steps, memo
     click.echo(bench.markdown(results), nl=False)
     click.echo("ratios (medians): " + ", ".join(f"{k} {v:.2f}" for k, v in results["ratios"].items()))
     click.echo(f"written: {json_path}, {md_path}")
+
+
+@cli.command("plot")
+@click.argument("runs", nargs=-1, required=True, type=click.Path(exists=True, file_okay=False))
+@click.option("--out", "output", type=click.Path(dir_okay=False), default="learning_curves.png", show_default=True,
+              help="The PNG to write.")
+@click.option("--smooth", type=click.IntRange(1), default=50, show_default=True,
+              help="Episodes in each point's running mean.")
+def plot_command(runs, output, smooth):
+    """Draw the learning curves of RUN folders on one figure: task return and pass rate against steps."""
+    from aaai.experiments import plot_runs
+
+    try:
+        path = plot_runs(list(runs), output, smooth=smooth)
+    except (ConfigError, FileNotFoundError, ImportError) as error:
+        raise click.UsageError(str(error)) from None
+    click.echo(f"learning curves of {len(runs)} run(s): {path}")
+
+
+@cli.group("experiment")
+def experiment_group():
+    """Experiments whose results the README reports."""
+
+
+def default_action_mode() -> str:
+    """gait where this version has it (more levels learned on one budget), else rotation."""
+    from aaai.config import RULES
+
+    return "gait" if "gait" in RULES["agent.action_mode"].choices else "rotation"
+
+
+@experiment_group.command("curricula")
+@click.option("--samplers", default="paper,uniform,learnability,plr", show_default=True,
+              help="Samplers to compare (curriculum.sampler), comma-separated.")
+@click.option("--seeds", "seeds_text", default="0-2", show_default=True, help="Training seeds, e.g. '0-2'.")
+@click.option("--steps", "total_steps", type=click.IntRange(1), default=150_000, show_default=True,
+              help="The budget: training steps of every run.")
+@click.option("--levels", default="0,1,3,4", show_default=True, help="Active levels of every run.")
+@click.option("--difficulty", default="0-3", show_default=True, help="Active difficulties of every run.")
+@click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=5, show_default=True,
+              help="Episodes per cell on reserved seeds, and on seeds each run trained on.")
+@click.option("--envs", "num_envs", type=click.IntRange(1), default=2, show_default=True, help="Workers per run.")
+@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
+              help="Action mode of every run (default: gait where available, else rotation).")
+@click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
+@click.option("--out", "folder", type=click.Path(file_okay=False), default="experiments/curricula", show_default=True)
+@click.option("--progress-every", type=click.FloatRange(0.1), default=60.0, show_default=True, help=PROGRESS_HELP)
+def curricula_command(samplers, seeds_text, total_steps, levels, difficulty, count, num_envs, action_mode, config_path,
+                      folder, progress_every):
+    """Train every sampler on one budget, config and cells, several seeds each; score each run on
+    reserved and on trained seeds; write a table and a learning-curve plot (make curricula).
+    Re-running continues where it stopped."""
+    from aaai.experiments import plan, run_experiment
+    from aaai.runs import check_writable
+    from aaai.training import Progress, print_lines
+
+    seeds = parse_range(seeds_text, "--seeds", 0, 2**32 - 1)
+    try:
+        check_writable(Path(folder), "--out", folder=True)
+        config = load_config(config_path, levels=parse_levels(levels),
+                             difficulties=parse_range(difficulty, "--difficulty", 0, 10), total_steps=total_steps,
+                             num_envs=num_envs, action_mode=action_mode or default_action_mode())
+        experiment = plan(folder, [s.strip() for s in samplers.split(",") if s.strip()], seeds, config, count)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    echo = lambda message: click.echo(message)  # noqa: E731
+
+    def progress_for(total: int) -> Progress:  # a line every --progress-every seconds, in a terminal too
+        return Progress(total, every=progress_every, write=print_lines(sys.stdout))
+
+    click.echo(f"experiment {experiment.folder}: samplers {experiment.samplers}, seeds {experiment.seeds}, "
+               f"{total_steps} steps each, action mode {config['agent']['action_mode']}")
+    try:
+        run_experiment(experiment, echo=echo, progress_factory=progress_for)
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.UsageError(f"{error}. The experiment needs the train extra: pip install -e '.[train]'") from None
+    click.echo((experiment.folder / "table.md").read_text(), nl=False)
+    click.echo(f"table {experiment.folder / 'table.md'}, plot {experiment.folder / 'curves.png'}")
 
 
 # Commands that live in their own files.

@@ -251,3 +251,112 @@ def test_outputs_that_cannot_be_written_are_refused_before_any_work(tmp_path, mo
     run = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "50", "--run", str(locked / "run")])
     assert run.exit_code == 2 and "cannot be written to" in run.output
     assert list(locked.iterdir()) == []  # nothing was started
+
+
+# --- progress, TensorBoard, plots, the curricula experiment -----------------------------------
+PROGRESS_LINE = r"training: (\d+) / 3000 steps \(\d+%\), (\d+|-) steps/s, (\d+) episodes, pass rate (-|\d+% of the last \d+), ETA "
+
+
+def test_progress_rate_and_eta_leave_out_the_startup():
+    from aaai.training import Progress
+
+    now, lines = [0.0], []
+    report = Progress(100_000, clock=lambda: now[0], every=10.0, write=lines.append)
+    now[0] = 600.0  # ten minutes of start-up (workers, torch) before the first step
+    report.update(100)
+    assert report.eta() is None and "ETA -" in report.line()  # one update: no rate yet
+    for _ in range(10):  # then 1000 steps/s
+        now[0] += 1.0
+        report.update(1000)
+    assert report.rate() == pytest.approx(1000.0)
+    assert report.eta() == pytest.approx((100_000 - 10_100) / 1000.0)  # 90 s, not hours
+    assert "ETA 1 min 30 s" in report.line()
+    assert len(lines) == 2 and "100 / 100000 steps" in lines[0] and "10100 / 100000 steps" in lines[1]  # every 10 s
+    report.add_episodes([True, False, False, False])
+    assert "4 episodes, pass rate 25% of the last 4" in report.line()
+
+
+def test_a_non_terminal_train_and_eval_print_progress_lines(tmp_path):
+    import re
+
+    run = tmp_path / "run"
+    result = aaai("train", "--agent", "random", "--steps", 3000, "--progress-every", 0.1,
+                  "--config", small_config(tmp_path), "--run", run)  # stdout is a pipe
+    lines = [line for line in result.stdout.splitlines() if line.startswith("training:")]
+    assert len(lines) >= 3, result.stdout
+    parsed = [re.match(PROGRESS_LINE, line) for line in lines]
+    assert all(parsed), lines
+    steps = [int(m.group(1)) for m in parsed]
+    assert steps == sorted(steps) and steps[-1] == 3000
+    assert int(parsed[-1].group(3)) >= 20 and parsed[-1].group(4) != "-"  # 100-step episodes were counted
+    board = tmp_path / "board.csv"
+    scored = aaai("eval", "--policy", "random", "--levels", 0, "--difficulty", "0-1", "-k", 2, "--progress-every", 0.1,
+                  "--config", small_config(tmp_path), "--out", board)
+    last = [line for line in scored.stdout.splitlines() if line.startswith("scoring:")][-1]
+    assert re.match(r"scoring: 4 / 4 episodes \(100%\), .* episodes/s, 400 steps \(\d+ steps/s\), pass rate 0% of "
+                    r"the last 4, ETA", last), last
+
+    from aaai.experiments import plot_runs
+
+    picture = plot_runs([run], tmp_path / "curves.png", smooth=5)
+    import cv2
+
+    image = cv2.imread(str(picture))
+    assert image is not None and image.std() > 10
+    result = aaai("plot", tmp_path, "--out", tmp_path / "x.png", check=False)
+    assert result.returncode == 2 and "config.yaml is missing" in result.stderr
+
+
+def test_tensorboard_gets_the_task_return_without_shaping(tmp_path):
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    from aaai.config import load_config
+    from aaai.training import train
+
+    config = load_config({"episode": {"max_steps": 30}, "curriculum": {"levels": "0", "difficulties": "0-1"},
+                          "train": {"n_steps": 64, "batch_size": 64, "n_epochs": 1, "net_width": 16, "num_envs": 1,
+                                    "total_steps": 128, "reward_shaping": 5.0}})
+    train(tmp_path / "run", config, asynchronous=False)
+    with open(tmp_path / "run" / "episodes.csv") as handle:
+        episodes = list(csv.DictReader(handle))
+    events = EventAccumulator(str(next((tmp_path / "run" / "tb").iterdir())))
+    events.Reload()
+    logged = {tag: [s.value for s in events.Scalars(tag)] for tag in events.Tags()["scalars"]}
+    task = [float(e["task_return"]) for e in episodes]
+    shaped = [float(e["episode_return"]) for e in episodes]
+    assert logged["rollout/task_return_mean"][-1] == pytest.approx(sum(task) / len(task), rel=1e-5)
+    assert logged["rollout/ep_rew_mean"][-1] == pytest.approx(sum(shaped) / len(shaped), rel=1e-5)
+    assert abs(logged["rollout/task_return_mean"][-1] - logged["rollout/ep_rew_mean"][-1]) > 1e-3  # not the shaped one
+    assert logged["rollout/food_eaten_mean"][-1] == pytest.approx(
+        sum(int(e["food_eaten"]) for e in episodes) / len(episodes))
+    assert logged["rollout/pass_rate"][-1] == 0.0
+    assert {"cells/pass_rate_L0_d0", "cells/pass_rate_L0_d1", "curriculum/p_L0_d0"} <= set(logged)
+
+
+def test_curricula_experiment_runs_scores_and_resumes(tmp_path):
+    config = tmp_path / "random.yaml"
+    config.write_text(yaml.safe_dump({"episode": {"max_steps": 50}, "train": {"agent": "random", "checkpoint_every": 100,
+                                                                               "heatmap_every": 100}}))
+    args = ["experiment", "curricula", "--samplers", "paper,plr", "--seeds", "0", "--steps", 200, "--levels", 0,
+            "--difficulty", "0-1", "-k", 1, "--envs", 1, "--config", config, "--out", tmp_path / "exp"]
+    first = aaai(*args)
+    assert "action mode gait" in first.stdout
+    folder = tmp_path / "exp"
+    with open(folder / "runs.csv") as handle:
+        runs = list(csv.DictReader(handle))
+    assert [(r["sampler"], r["seed"]) for r in runs] == [("paper", "0"), ("plr", "0")]
+    assert all(r["reserved_episodes"] == "2" and r["trained_episodes"] == "2" and r["cells_played"] == "2" for r in runs)
+    for sampler in ("paper", "plr"):
+        run = folder / "runs" / f"{sampler}-seed0"
+        assert yaml.safe_load((run / "config.yaml").read_text())["curriculum"]["sampler"] == sampler
+        with open(run / "episodes.csv") as handle:
+            played = {int(row["seed"]) for row in csv.DictReader(handle)}
+        with open(run / "scoreboard_trained.csv") as handle:
+            assert {int(row["seed"]) for row in csv.DictReader(handle)} <= played  # seeds it trained on
+    with open(folder / "table.csv") as handle:
+        assert [row["sampler"] for row in csv.DictReader(handle)] == ["paper", "plr"]
+    assert "| paper | 1 |" in (folder / "table.md").read_text() and (folder / "curves.png").stat().st_size > 1000
+    again = aaai(*args)
+    assert again.stdout.count("skipped") == 6  # two runs and four scoreboards, all done
+    other = aaai(*[a if a != 200 else 300 for a in args], check=False)
+    assert other.returncode == 2 and "another config" in other.stderr
