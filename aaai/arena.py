@@ -149,24 +149,53 @@ def _number(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+class ArenaProblems(ConfigError):
+    """Every problem found in an arena file, each naming the file, its line and the key (``problems``);
+    as a message, one per line."""
+
+    def __init__(self, problems: list[str]):
+        self.problems = list(problems)
+        super().__init__("\n".join(self.problems))
+
+
+class _Skip(Exception):
+    """A part of the file that cannot be read; its problem is recorded and reading goes on."""
+
+
 class _Reader:
-    """Turns the parsed YAML into spec fields, drawing the random numbers and checking types."""
+    """Turns the parsed YAML into spec fields, drawing the random numbers and checking types.
+    Every problem is recorded (``problems``), and the parts that can still be read are read, so
+    that one pass over a file reports all of them."""
 
     def __init__(self, source: _Source, rng: np.random.Generator, data: dict):
         self.source, self.rng, self.data = source, rng, data
+        self.problems: list[str] = []
 
     def fail(self, where: tuple, message: str):
-        raise self.source.error(where, message)
+        self.problems.append(str(self.source.error(where, message)))
+        raise _Skip
 
-    def keys(self, mapping, allowed: tuple, where: tuple, required: tuple = ()) -> None:
+    def attempt(self, make, default=None):
+        """``make()``, or ``default`` when the part it reads has a problem (recorded)."""
+        try:
+            return make()
+        except _Skip:
+            return default
+
+    def keys(self, mapping, allowed: tuple, where: tuple, required: tuple = (), strict: bool = True) -> None:
+        """Records every unknown and missing key; with ``strict``, then skips the part."""
         if not isinstance(mapping, dict):
             self.fail(where, f"got {mapping!r}; allowed: a mapping with keys {', '.join(allowed)}")
+        before = len(self.problems)
         for key in mapping:
             if key not in allowed:
-                self.fail(where + (key,), f"key {key!r} does not exist; allowed: {', '.join(allowed)}")
+                self.problems.append(str(self.source.error(
+                    where + (key,), f"key {key!r} does not exist; allowed: {', '.join(allowed)}")))
         for key in required:
             if key not in mapping:
-                self.fail(where, f"key {key!r} is missing")
+                self.problems.append(str(self.source.error(where, f"key {key!r} is missing")))
+        if strict and len(self.problems) > before:
+            raise _Skip
 
     def draw(self, value, where: tuple):
         """A value, with a randomisation form replaced by its draw."""
@@ -232,18 +261,33 @@ class _Reader:
 
     def obj(self, value, index: int) -> ObjectSpec:
         where = ("objects", index)
-        self.keys(value, OBJECT_KEYS, where, required=("kind", "position", "size"))
-        kind = self.text(value["kind"], where + ("kind",), OBJECT_KINDS)
-        shape = self.text(value.get("shape", "sphere" if kind in FOOD_KINDS else "box"), where + ("shape",), SHAPES)
-        position = self.numbers(value["position"], where + ("position",), 3)
-        size = self.numbers(value["size"], where + ("size",), 3, positive=True)
-        yaw = self.number(value.get("yaw", 0.0), where + ("yaw",))
-        colour = self.draw(value.get("colour"), where + ("colour",))
-        if colour is not None:
-            colour = self.numbers(colour, where + ("colour",), 4)
-        mass = self.number(value.get("mass", 0.0), where + ("mass",))
+        before = len(self.problems)
+        self.keys(value, OBJECT_KEYS, where, required=("kind", "position", "size"), strict=False)
+        kind = self.attempt(lambda: self.text(value["kind"], where + ("kind",), OBJECT_KINDS)) if "kind" in value else None
+        shape = self.attempt(lambda: self.text(value.get("shape", "sphere" if kind in FOOD_KINDS else "box"),
+                                               where + ("shape",), SHAPES))
+        position = self.attempt(lambda: self.numbers(value["position"], where + ("position",), 3)) \
+            if "position" in value else None
+        size = self.attempt(lambda: self.numbers(value["size"], where + ("size",), 3, positive=True)) \
+            if "size" in value else None
+        yaw = self.attempt(lambda: self.number(value.get("yaw", 0.0), where + ("yaw",)), 0.0)
+        colour = self.attempt(lambda: self._colour(value, where))
+        mass = self.attempt(lambda: self.number(value.get("mass", 0.0), where + ("mass",)), 0.0)
         if mass < 0:
-            self.fail(where + ("mass",), f"got {mass!r}; allowed: 0 (static) or more")
+            self.attempt(lambda: self.fail(where + ("mass",), f"got {mass!r}; allowed: 0 (static) or more"))
+        behaviour = self.attempt(lambda: self._behaviour(value, where))
+        if len(self.problems) > before:
+            raise _Skip
+        try:
+            return ObjectSpec(kind, shape, position, size, yaw, colour, mass, behaviour)
+        except ValueError as error:
+            self.fail(where, str(error))
+
+    def _colour(self, value: dict, where: tuple):
+        colour = self.draw(value.get("colour"), where + ("colour",))
+        return None if colour is None else self.numbers(colour, where + ("colour",), 4)
+
+    def _behaviour(self, value: dict, where: tuple):
         behaviour = self.plain(value.get("behaviour"), where + ("behaviour",))
         if behaviour is not None:
             if not isinstance(behaviour, dict) or behaviour.get("type") not in REGISTRY:
@@ -257,10 +301,7 @@ class _Reader:
             missing = [f for f in fields if f not in behaviour]
             if missing:
                 self.fail(where + ("behaviour",), f"behaviour {behaviour['type']!r} lacks {', '.join(missing)}")
-        try:
-            return ObjectSpec(kind, shape, position, size, yaw, colour, mass, behaviour)
-        except ValueError as error:
-            self.fail(where, str(error))
+        return behaviour
 
     def optional(self, key: str, make):
         value = self.draw(self.data.get(key), (key,))
@@ -288,40 +329,58 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
     source = _Source(path, node if node is not None else yaml.MappingNode("tag:yaml.org,2002:map", []))
     rng = np.random.default_rng([int(seed), zlib.crc32(path.name.encode())])
     read = _Reader(source, rng, data)
-    read.keys(data, TOP_KEYS, (), required=("agent", "objects"))
+    if not isinstance(data, dict):
+        read.attempt(lambda: read.keys(data, TOP_KEYS, (), required=("agent", "objects")))
+        raise ArenaProblems(read.problems)
+    read.keys(data, TOP_KEYS, (), required=("agent", "objects"), strict=False)
+    attempt = read.attempt
     meta = {"description": data.get("description", ""), "category": None}
     if "description" in data and not isinstance(data["description"], str):
-        read.fail(("description",), f"got {data['description']!r}; allowed: one line of text")
+        attempt(lambda: read.fail(("description",), f"got {data['description']!r}; allowed: one line of text"))
     level_id, name = 0, "food_contact"
     if "category" in data:
-        category = _category(read.draw(data["category"], ("category",)), source)
-        meta["category"] = category.name
-        level_id, name = category.id, category.name
-    level = read.number(data.get("level", level_id), ("level",), integer=True)
-    name = read.text(data.get("name", name), ("name",))
-    difficulty = read.number(data.get("difficulty", 0), ("difficulty",), integer=True)
-    spec_seed = read.number(data.get("seed", int(seed)), ("seed",), integer=True)
-    agent = read.agent(read.draw(data["agent"], ("agent",)))
-    objects_value = read.draw(data["objects"], ("objects",))
-    if not isinstance(objects_value, list):
-        read.fail(("objects",), f"got {objects_value!r}; allowed: a list of objects")
-    objects = tuple(read.obj(read.draw(obj, ("objects", i)), i) for i, obj in enumerate(objects_value))
+        try:
+            category = attempt(lambda: _category(read.draw(data["category"], ("category",)), source))
+        except ConfigError as error:
+            category = None
+            read.problems.append(str(error))
+        if category is not None:
+            meta["category"] = category.name
+            level_id, name = category.id, category.name
+    level = attempt(lambda: read.number(data.get("level", level_id), ("level",), integer=True), level_id)
+    name = attempt(lambda: read.text(data.get("name", name), ("name",)), name)
+    difficulty = attempt(lambda: read.number(data.get("difficulty", 0), ("difficulty",), integer=True), 0)
+    spec_seed = attempt(lambda: read.number(data.get("seed", int(seed)), ("seed",), integer=True), int(seed))
+    agent = attempt(lambda: read.agent(read.draw(data["agent"], ("agent",)))) if "agent" in data else None
+
+    def object_list():
+        value = read.draw(data["objects"], ("objects",))
+        if not isinstance(value, list):
+            read.fail(("objects",), f"got {value!r}; allowed: a list of objects")
+        return value
+
+    objects_value = attempt(object_list, []) if "objects" in data else []
+    objects = tuple(obj for obj in (attempt(lambda i=i, obj=obj: read.obj(read.draw(obj, ("objects", i)), i))
+                                    for i, obj in enumerate(objects_value)) if obj is not None)
     fields: dict[str, Any] = {}
     if "arena_size" in data:
-        fields["arena_size"] = read.numbers(data["arena_size"], ("arena_size",), 2, positive=True)
+        fields["arena_size"] = attempt(lambda: read.numbers(data["arena_size"], ("arena_size",), 2, positive=True),
+                                       (50.0, 50.0))
     if "wall_height" in data:
-        fields["wall_height"] = read.number(data["wall_height"], ("wall_height",), positive=True)
+        fields["wall_height"] = attempt(lambda: read.number(data["wall_height"], ("wall_height",), positive=True), 4.0)
     walls = data.get("arena_walls", False)
     if not isinstance(walls, bool):
-        read.fail(("arena_walls",), f"got {walls!r}; allowed: true or false")
-    if walls:  # they come first, so objects[i] of the file is objects[4 + i] of the spec
+        attempt(lambda: read.fail(("arena_walls",), f"got {walls!r}; allowed: true or false"))
+    if walls is True:  # they come first, so objects[i] of the file is objects[4 + i] of the spec
         from aaai.levels.common import arena_walls
 
         objects = tuple(arena_walls(fields.get("arena_size", (50.0, 50.0)), fields.get("wall_height", 4.0))) + objects
         source.offset = 4
     if "tiles" in data:
-        fields["tiles"] = read.numbers(data["tiles"], ("tiles",), 2, integer=True, positive=True)
-    if "holes" in data:
+        fields["tiles"] = attempt(lambda: read.numbers(data["tiles"], ("tiles",), 2, integer=True, positive=True),
+                                  (1, 1))
+
+    def hole_list():
         holes = read.draw(data["holes"], ("holes",))
         if not isinstance(holes, list):
             read.fail(("holes",), f"got {holes!r}; allowed: a list of [i, j] floor tiles")
@@ -336,13 +395,21 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
                 tiles += [(a, b) for a in range(i0, i1 + 1) for b in range(j0, j1 + 1)]
             else:
                 tiles.append(read.numbers(hole, ("holes", i), 2, integer=True))
-        fields["holes"] = tuple(tiles)
-    fields["heightfield"] = read.optional("heightfield", lambda rows: tuple(
+        return tuple(tiles)
+
+    if "holes" in data:
+        fields["holes"] = attempt(hole_list, ())
+    fields["heightfield"] = attempt(lambda: read.optional("heightfield", lambda rows: tuple(
         read.numbers(row, ("heightfield", i), None) for i, row in enumerate(rows)) if isinstance(rows, list)
-        else read.fail(("heightfield",), f"got {rows!r}; allowed: null or a list of rows of heights"))
-    fields["time_limit"] = read.number(data.get("time_limit", DEFAULT_TIME_LIMIT), ("time_limit",), positive=True)
-    if not 0.2 <= fields["time_limit"] <= 200:
-        read.fail(("time_limit",), f"got {fields['time_limit']!r}; allowed: 0.2 to 200 seconds")
+        else read.fail(("heightfield",), f"got {rows!r}; allowed: null or a list of rows of heights")))
+
+    def time_limit():
+        value = read.number(data.get("time_limit", DEFAULT_TIME_LIMIT), ("time_limit",), positive=True)
+        if not 0.2 <= value <= 200:
+            read.fail(("time_limit",), f"got {value!r}; allowed: 0.2 to 200 seconds")
+        return value
+
+    fields["time_limit"] = attempt(time_limit, DEFAULT_TIME_LIMIT)
 
     def blackout(value):
         read.keys(value, BLACKOUT_KEYS, ("blackout",), required=BLACKOUT_KEYS)
@@ -363,20 +430,26 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
                 read.fail(("colours", kind), f"kind {kind!r} does not exist; allowed: {', '.join(OBJECT_KINDS)}")
         return {kind: read.numbers(rgba, ("colours", kind), 4) for kind, rgba in value.items()}
 
-    fields["blackout"] = read.optional("blackout", blackout)
-    fields["colours"] = read.optional("colours", colours) or {}
-    fields["bridge"] = read.optional("bridge", lambda v: read.numbers(v, ("bridge",), 4))
-    fields["inner"] = read.optional("inner", inner)
-    fields["regenerated"] = read.number(data.get("regenerated", 0), ("regenerated",), integer=True)
-    extras = read.plain(data.get("extras", {}), ("extras",))
-    if not isinstance(extras, dict):
-        read.fail(("extras",), f"got {extras!r}; allowed: a mapping of plain data")
-    fields["extras"] = extras
+    fields["blackout"] = attempt(lambda: read.optional("blackout", blackout))
+    fields["colours"] = attempt(lambda: read.optional("colours", colours)) or {}
+    fields["bridge"] = attempt(lambda: read.optional("bridge", lambda v: read.numbers(v, ("bridge",), 4)))
+    fields["inner"] = attempt(lambda: read.optional("inner", inner))
+    fields["regenerated"] = attempt(lambda: read.number(data.get("regenerated", 0), ("regenerated",), integer=True), 0)
+
+    def extras():
+        value = read.plain(data.get("extras", {}), ("extras",))
+        if not isinstance(value, dict):
+            read.fail(("extras",), f"got {value!r}; allowed: a mapping of plain data")
+        return value
+
+    fields["extras"] = attempt(extras, {})
     if "max_food_reward" in data:
-        fields["max_food_reward"] = read.number(data["max_food_reward"], ("max_food_reward",))
+        fields["max_food_reward"] = attempt(lambda: read.number(data["max_food_reward"], ("max_food_reward",)), 0.0)
     else:
         green = [o.food_value for o in objects if o.kind == "food_green"]
         fields["max_food_reward"] = max(green, default=0.0) + sum(o.food_value for o in objects if o.kind == "food_yellow")
+    if read.problems:
+        raise ArenaProblems(read.problems)
     spec = LevelSpec(level, name, difficulty, spec_seed, agent, objects, **fields)
     return spec, meta, source
 
@@ -415,6 +488,7 @@ def _located(spec: LevelSpec, source: _Source, problem: str) -> str:
 
     text = _INDEX_REF.sub(by_index, _OBJECT_REF.sub(by_place, problem))
     text = re.sub(r"^solid objects overlap: (.*?) and (.*)$", r"\1 overlaps \2", text)
+    text = re.sub(r"^objects overlap exactly: (.*?) and (.*)$", r"\1 is exactly where \2 is", text)
     if indices:
         first = indices[0]
         label = f"{name(first)} ({spec.objects[first].kind})"
@@ -439,7 +513,7 @@ def load_arena(path: str | Path, seed: int = 0, require_food: bool = True) -> Le
     spec, _, source = parse_arena(path, seed)
     problems = check_arena(spec, source, require_food)
     if problems:
-        raise ConfigError("; ".join(problems))
+        raise ArenaProblems(problems)
     return spec
 
 

@@ -62,6 +62,22 @@ def overlapping_solids(spec: LevelSpec) -> list[str]:
     return problems
 
 
+def exact_overlaps(spec: LevelSpec) -> list[str]:
+    """Objects of any kind that fill the very same place (same shape, position, size and yaw, within
+    TOLERANCE): a copy-and-paste slip in a hand-made level. Two solids there are reported by
+    :func:`overlapping_solids`; two pieces of food or floor are caught here."""
+    problems, seen = [], {}
+    for obj in spec.objects:
+        key = (obj.shape, *(round(float(v) / TOLERANCE) for v in (*obj.position, *obj.size, obj.yaw)))
+        if key in seen and not (obj.kind in SOLID_KINDS and seen[key].kind in SOLID_KINDS):  # (reported below)
+            other = seen[key]
+            problems.append(f"objects overlap exactly: {other.kind} at {_xy(other.position)} "
+                            f"and {obj.kind} at {_xy(obj.position)}")
+        else:
+            seen[key] = obj
+    return problems
+
+
 def food_places(food: ObjectSpec) -> list[tuple[float, float, float]]:
     """Where a piece of food will be: its start, and where a sliding piece stops."""
     moving = behaviour_class(food)
@@ -251,7 +267,10 @@ def malformed(spec: LevelSpec) -> list[str]:
 
     if finite(spec.arena_size, "the arena size") and not all(0 < v <= MAX_ARENA for v in spec.arena_size):
         problems.append(f"the arena size {spec.arena_size!r} must lie between 0 and {MAX_ARENA:g} on each side")
-    finite((spec.agent.x, spec.agent.y, spec.agent.yaw), "the agent's pose")
+    if finite((spec.agent.x, spec.agent.y, spec.agent.yaw), "the agent's pose") and not all(
+            abs(v) <= MAX_ARENA / 2 for v in (spec.agent.x, spec.agent.y)):
+        problems.append(f"the agent's start ({spec.agent.x:.4g}, {spec.agent.y:.4g}) lies outside any arena "
+                        f"(allowed: -{MAX_ARENA / 2:g} to {MAX_ARENA / 2:g} on each axis)")
     nx, ny = spec.tiles
     if not (isinstance(nx, int) and isinstance(ny, int) and 1 <= nx <= 400 and 1 <= ny <= 400):
         problems.append(f"the floor tiles {spec.tiles!r} must be two integers from 1 to 400")
@@ -261,7 +280,11 @@ def malformed(spec: LevelSpec) -> list[str]:
         what = f"object {index} ({obj.kind})"
         if finite(obj.size, f"{what}'s size") and min(obj.size) <= 0:
             problems.append(f"{what}'s size {obj.size!r} must be positive")
-        finite((*obj.position, obj.yaw, obj.mass), f"{what}'s position, yaw and mass")
+        if finite((*obj.position, obj.yaw, obj.mass), f"{what}'s position, yaw and mass") and not all(
+                abs(v) <= MAX_ARENA for v in (*obj.position, *(obj.size if all(
+                    isinstance(v, (int, float)) for v in obj.size) else ()))):
+            problems.append(f"{what}'s position {tuple(float(f'{v:.4g}') for v in obj.position)!r} or size lies "
+                            f"far outside any arena (allowed: -{MAX_ARENA:g} to {MAX_ARENA:g})")
         if obj.behaviour:
             moving = REGISTRY.get(obj.behaviour.get("type")) if isinstance(obj.behaviour, dict) else None
             if moving is None:
@@ -279,7 +302,7 @@ def check(spec: LevelSpec, require_food: bool = True) -> list[str]:
     problems = malformed(spec)
     if problems:  # nothing else can be measured on it
         return problems
-    problems = overlapping_solids(spec)
+    problems = exact_overlaps(spec) + overlapping_solids(spec)
     for food in spec.foods:
         problems += food_problems(spec, food)
     region, clear = reachable_region(spec)

@@ -68,8 +68,8 @@ def validate_arenas(path: str, seeds) -> None:
                 spec, meta, source = parse_arena(file, seed)
                 description = meta["description"]
                 problems = check_arena(spec, source)
-            except ConfigError as error:
-                problems = [str(error)]
+            except ConfigError as error:  # every problem of the file, one line each
+                problems = list(getattr(error, "problems", None) or [str(error)])
             if problems:
                 failed += 1
                 new = [problem for problem in problems if problem not in seen]  # a fixed file fails alike on every seed

@@ -306,3 +306,38 @@ def test_show_video_runs_to_the_episode_end_and_says_when_steps_cut_it(tmp_path)
     cut = CliRunner().invoke(cli, ["show", "0", "--config", str(config), "--video", str(tmp_path / "b.mp4"),
                                    "--steps", "5"])
     assert cut.exit_code == 0 and "stopped at step 5 by --steps before the episode ended" in cut.output
+
+
+def test_validate_reports_every_problem_of_an_arena_file_each_with_its_line(tmp_path):
+    folder = tmp_path / "arenas"
+    folder.mkdir()
+    (folder / "many.yaml").write_text(
+        "agent: {x: 0, y: 0}\n"
+        "objects:\n"
+        "- {kind: wall, position: [5, five, 1], size: [1, 1, 1]}\n"
+        "- {kind: food_blue, position: [3, 3, 0.5], size: [1, 1, 1]}\n"
+        "- {kind: food_green, position: [-5, -5, 0.5], size: [1, 1, 1], mass: -2}\n"
+        "time_limit: 0\n"
+        "colour: red\n")
+    result = CliRunner().invoke(cli, ["validate", "--arena", str(folder), "--seeds", "1"])
+    assert result.exit_code == 1
+    failed = [line for line in result.output.splitlines() if line.startswith("FAILED")]
+    for where in ("line 3, objects[0].position[1]", "line 4, objects[1].kind", "line 5, objects[2].mass",
+                  "line 6, time_limit", "line 7, colour"):
+        assert sum(where in line for line in failed) == 1, (where, failed)
+    assert len(failed) == 5
+
+
+def test_objects_that_overlap_exactly_and_numbers_far_out_are_clear_errors(tmp_path):
+    from aaai.arena import load_arena
+
+    food = "{kind: food_green, position: [-10, -10, 0.5], size: [1, 1, 1]}"
+    twice = tmp_path / "twice.yaml"
+    twice.write_text(f"agent: {{x: 0, y: 0}}\narena_walls: true\nobjects:\n- {food}\n- {food}\n")
+    with pytest.raises(ConfigError, match=r"twice.yaml line 4, objects\[0\] \(food_green\): at \(-10.0, -10.0\) is "
+                                          r"exactly where objects\[1\]"):
+        load_arena(twice)
+    far = tmp_path / "far.yaml"
+    far.write_text(f"agent: {{x: 1.0e+308, y: 0}}\narena_walls: true\nobjects:\n- {food}\n")
+    with pytest.raises(ConfigError, match="agent's start .* lies outside any arena"):
+        load_arena(far)
