@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: install install-train install-all test test-long demo baselines gait tune-gait bench mutants clean
+.PHONY: install install-train install-all test play-screenshot test-long demo baselines gait tune-gait bench mutants curricula clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -25,9 +25,15 @@ $(VENV)/.installed-train: $(VENV)/.installed
 # Everything the tests use: the train extra and the RL libraries of examples/ (RLlib, TorchRL,
 # RL Zoo3). ray[rllib] pins its own gymnasium; `pip check` proves the result is consistent.
 $(VENV)/.installed-all: $(VENV)/.installed-train
-	$(BIN)/python -m pip install --quiet -e ".[dev,train,ray,torchrl,zoo]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,train,ray,torchrl,zoo,demos,play]"
 	$(BIN)/python -m pip check
 	touch $@
+
+# The browser test of `aaai play` drives Debian's Chromium through its chromedriver (as root on CI).
+CHROMIUM_BINARIES := /usr/bin/chromium /usr/bin/chromedriver
+$(CHROMIUM_BINARIES):
+	DEBIAN_FRONTEND=noninteractive apt-get update -qq >/dev/null
+	DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium chromium-driver >/dev/null
 
 install: $(VENV)/.installed
 
@@ -35,8 +41,12 @@ install-train: $(VENV)/.installed-train
 
 install-all: $(VENV)/.installed-all
 
-test: install-all
+test: install-all $(CHROMIUM_BINARIES)
 	$(BIN)/python -m pytest -q -m "not long" $(PYTEST_ARGS)
+
+# The README's picture of the page (docs/play.png), taken by the browser test of `aaai play`.
+play-screenshot: install-all $(CHROMIUM_BINARIES)
+	AAAI_PLAY_SCREENSHOT=docs/play.png $(BIN)/python -m pytest -q tests/test_play.py -k browser
 
 test-long: install-all
 	$(BIN)/python -m pytest -q -m long $(PYTEST_ARGS)
@@ -55,6 +65,15 @@ demo: install-train
 baselines: install-train
 	test -f $(DEMO_RUN)/final/model.zip || $(MAKE) demo
 	$(BIN)/aaai baselines --demo-run $(DEMO_RUN) --out baselines
+
+# The curricula experiment (README, Curricula): every sampler (paper, uniform, learnability, plr)
+# trained on one budget, config and cells, 3 seeds each, scored on reserved and trained seeds; writes
+# experiments/curricula/ (table.md, table.csv, curves.png, runs.csv, each run's CSVs). Long: see the
+# README for its wall time. Re-running continues where it stopped. CURRICULA_ARGS adds options, e.g.
+# CURRICULA_ARGS="--steps 20000 --seeds 0 --out /tmp/curricula" for a small version.
+CURRICULA_ARGS ?=
+curricula: install-train
+	$(BIN)/aaai experiment curricula --out experiments/curricula $(CURRICULA_ARGS)
 
 # The gait: measure its speeds (README, "The body"), or tune it again (CMA-ES, the tune extra).
 gait: install

@@ -1,10 +1,11 @@
-"""The baseline table: random actions, the reference controller and a trained PPO policy, each
-scored on the reserved seeds of every level and difficulty (``make baselines``).
+"""The baseline table: random actions, the reference controller and learned policies (the demo's
+PPO, and where their runs exist the student of the reference and PPO in gait mode), each scored on
+the reserved seeds of every level and difficulty (``make baselines``, ``make baselines-learned``).
 
 Each policy's scoreboard is the ordinary ``aaai eval`` CSV (``baselines/<name>.csv``); the
 episodes are shared out over worker processes one (policy, level) at a time, each writing its own
-part (``baselines/parts/``), so an interrupted run resumes where it stopped. From the three
-scoreboards come ``baselines/table.md`` (pass rates per level, overall and at difficulties 0, 5
+part (``baselines/parts/``), so an interrupted run resumes where it stopped. From the scoreboards
+in the folder (those scored now and those kept from earlier) come ``baselines/table.md`` (pass rates per level, overall and at difficulties 0, 5
 and 10) and ``baselines/heatmap.png`` (the pass rate of every cell, one panel per policy).
 """
 from __future__ import annotations
@@ -26,9 +27,17 @@ from aaai.files import atomic_path, write_atomic
 SHOWN_DIFFICULTIES = (0, 5, 10)
 
 
-def policies(demo_run: Path) -> dict[str, str]:
-    """Name in the table -> what ``--policy`` takes."""
-    return {"random": "random", "reference": "reference", "ppo_demo": str(demo_run)}
+ORDER = ("random", "reference", "ppo_demo", "ppo_gait", "student")  # the table's columns, left to right
+
+
+def policies(demo_run: Path | None, learned: dict[str, Path] | None = None) -> dict[str, str]:
+    """Name in the table -> what ``--policy`` takes: random, the reference, the demo's run and any
+    other learned runs (``{"student": Path("runs/student"), …}``)."""
+    named = {"random": "random", "reference": "reference"}
+    if demo_run is not None:
+        named["ppo_demo"] = str(demo_run)
+    named.update({name: str(path) for name, path in (learned or {}).items()})
+    return named
 
 
 def _score_part(policy: str, level: int, difficulties: list[int], count: int, part: Path) -> tuple[Path, float]:
@@ -38,12 +47,16 @@ def _score_part(policy: str, level: int, difficulties: list[int], count: int, pa
     return part, time.perf_counter() - started
 
 
-def run(out: Path, demo_run: Path, levels: list[int] | None = None, difficulties: list[int] | None = None,
-        count: int = 10, workers: int = 2, echo=print) -> dict[str, Path]:
-    """Scores every policy on ``count`` reserved seeds per cell; returns the merged scoreboards."""
+def run(out: Path, demo_run: Path | None, levels: list[int] | None = None, difficulties: list[int] | None = None,
+        count: int = 10, workers: int = 2, echo=print, learned: dict[str, Path] | None = None,
+        only: list[str] | None = None) -> dict[str, Path]:
+    """Scores every policy (or the ``only`` ones) on ``count`` reserved seeds per cell; the table
+    and heatmap then show every scoreboard in ``out``. Returns the merged scoreboards."""
     levels = sorted(all_levels()) if levels is None else levels
     difficulties = list(range(11)) if difficulties is None else difficulties
-    named = policies(demo_run)
+    named = policies(demo_run, learned)
+    if only is not None:
+        named = {name: named[name] for name in only}
     parts = out / "parts"
     parts.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
@@ -62,11 +75,18 @@ def run(out: Path, demo_run: Path, levels: list[int] | None = None, difficulties
         scoreboards[name] = out / f"{name}.csv"
         write_atomic(scoreboards[name], _csv_text(rows))
     wall = time.perf_counter() - started
-    write_atomic(out / "table.md", table_markdown({name: _read(path) for name, path in scoreboards.items()}))
-    write_heatmap({name: _read(path) for name, path in scoreboards.items()}, levels, difficulties, out / "heatmap.png")
+    shown = {name: out / f"{name}.csv" for name in ORDER if (out / f"{name}.csv").is_file()}
+    shown.update(scoreboards)
+    boards = {name: _read(path) for name, path in sorted(shown.items(), key=lambda item: _rank(item[0]))}
+    write_atomic(out / "table.md", table_markdown(boards))
+    write_heatmap(boards, levels, difficulties, out / "heatmap.png")
     echo(f"baselines written to {out} in {wall / 60:.1f} min on {workers} workers ("
          + ", ".join(f"{name} {spent / 60:.1f} min" for name, spent in seconds.items()) + " of worker time)")
     return scoreboards
+
+
+def _rank(name: str) -> int:
+    return ORDER.index(name) if name in ORDER else len(ORDER)
 
 
 def _csv_text(rows: list[dict]) -> str:

@@ -43,7 +43,7 @@ def describe_ids(ids: list[int]) -> str:
 
 @dataclass(frozen=True)
 class Rule:
-    kind: str  # int | float | bool | choice | set (integers, written "0-3,5")
+    kind: str  # int | float | bool | choice | set (integers, written "0-3,5") | path (a file or folder, or null)
     low: float | None = None
     high: float | None = None
     choices: tuple[str, ...] = ()  # for int and float: words allowed besides the numbers
@@ -52,6 +52,8 @@ class Rule:
     def describe(self) -> str:
         if self.kind == "bool":
             return "true or false"
+        if self.kind == "path":
+            return "null or a file or folder's path"
         if self.kind == "choice":
             return "one of " + ", ".join(self.choices)
         if self.kind == "set":
@@ -73,6 +75,10 @@ class Rule:
     def _check(self, key: str, value: Any) -> Any:
         if self.kind == "set":
             return parse_int_set(value, key, int(self.low), int(self.high))
+        if self.kind == "path":
+            if value is None or (isinstance(value, str) and value.strip() and len(value) <= 4096 and "\0" not in value):
+                return value
+            raise ConfigError(f"config key '{key}': got {value!r}; allowed: {self.describe()}")
         if self.kind == "bool":
             ok = isinstance(value, bool)
         elif self.kind == "choice" or isinstance(value, str):
@@ -118,7 +124,8 @@ RULES: dict[str, Rule] = {
     "level": Rule("int", 0, MAX_LEVEL_ID, levels=True),  # a registered level's id (aaai.levels); 12 is L2b
     "difficulty": Rule("int", 0, 10),
     "agent.body": Rule("choice", choices=BODIES),
-    "agent.action_mode": Rule("choice", choices=("rotation", "velocity")),
+    "agent.action_mode": Rule("choice", choices=("rotation", "velocity", "gait")),
+    "agent.decision_interval": Rule("float", 1e-4, 1e4),  # gait mode: seconds an action is held
     "agent.max_force": Rule("float", 1e-3, 1e5),
     "agent.position_gain": Rule("float", 1e-4, 10),
     "agent.velocity_gain": Rule("float", 0, 10),
@@ -173,6 +180,12 @@ RULES: dict[str, Rule] = {
     "train.log_std_init": Rule("float", -5, 2),
     "train.proprioception": Rule("bool"),
     "train.reward_shaping": Rule("float", 0, 1e3),
+    "train.init_from": Rule("path"),
+    "train.teacher": Rule("choice", choices=("none", "reference")),
+    "train.dagger_iterations": Rule("int", 1, 1000),
+    "train.dagger_episodes": Rule("int", 1, 10**6),
+    "train.dagger_beta": Rule("float", 0, 1),
+    "train.dagger_epochs": Rule("int", 1, 1000),
     "eval.seeds_per_cell": Rule("int", 1, 1000),
 }
 

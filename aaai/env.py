@@ -19,6 +19,7 @@ from aaai import validate
 from aaai.agent.body import Quadruped
 from aaai.arena import load_arena
 from aaai.config import ConfigError, env_keywords, load_config
+from aaai.gait import SineGait
 from aaai.levels import check_difficulty, episode_rngs, generate, get_level
 from aaai.rewards import TERMS, FoodTask
 from aaai.seeds import TRAIN_SEEDS
@@ -34,11 +35,28 @@ SCORE_ALLOWANCE = 0.5  # max_reward = best food reward - this, allowing for step
 BLOWUP_MARGIN = 20.0  # how far beyond the arena's half-size a body may be before it "flew off"
 
 
+GAIT_LOW, GAIT_HIGH = (-1.0, -1.0, 0.0), (1.0, 1.0, 1.0)  # gait mode: forward, turn, crouch
+
+
+def hold_steps(decision_interval: float, control_dt: float) -> int:
+    """Control steps per gait-mode action: ``decision_interval`` as a whole number of control steps."""
+    steps = decision_interval / control_dt
+    if not math.isfinite(steps) or steps < 1 - 1e-9 or abs(steps - round(steps)) > 1e-6:
+        raise ConfigError(f"config key 'agent.decision_interval': got {decision_interval!r} s; allowed: a whole number "
+                          f"of control steps of {control_dt:g} s (physics.timestep x physics.action_repeat), "
+                          f"e.g. {control_dt:g}, {2 * control_dt:g} or {5 * control_dt:g}")
+    return int(round(steps))
+
+
 class AnimalAIEnv(gym.Env):
     """A limbed agent that must find food in a seeded, difficulty-scaled level.
 
-    Actions: Box(-1, 1, (8,)): a target angle (``action_mode: rotation``) or speed (``velocity``)
-    for each of the eight joints, scaled to the joint's range.
+    Actions: Box(-1, 1, (8,)): a target angle (``action_mode: rotation``, the default) or speed
+    (``velocity``) for each of the eight joints, scaled to the joint's range, one per control step
+    (0.02 s). With ``action_mode: gait``, Box([-1, -1, 0], [1, 1, 1]): the forward, turn and
+    crouch commands of the tuned steerable gait (aaai.gait), each held for ``decision_interval``
+    seconds (default 0.1 s, 5 control steps); reward and reward terms are summed over the held
+    steps and ``info["steps"]`` still counts control steps.
 
     Observations: a Dict: ``joints`` (8,) always; ``rays``, ``camera``, ``joint_velocities``,
     ``head_orientation`` and ``foot_contacts`` as the ``sensors`` config turns them on (README,
@@ -92,14 +110,24 @@ class AnimalAIEnv(gym.Env):
         self.sim = Simulation(cfg["physics"], gui=render_mode == "human")
         self.client, self.control_dt = self.sim.client, self.sim.control_dt  # simulated s per step
         agent = cfg["agent"]
+        self.action_mode = agent["action_mode"]
         self.visuals = cfg["sensors"]["camera"] or render_mode is not None  # visual shapes only if anything draws
-        self.body = Quadruped(self.client, agent["body"], agent["action_mode"], agent["max_force"],
+        drive = "rotation" if self.action_mode == "gait" else self.action_mode  # the gait sends joint angles
+        self.body = Quadruped(self.client, agent["body"], drive, agent["max_force"],
                               agent["max_joint_velocity"], agent["friction"], self.visuals,
                               agent["position_gain"], agent["velocity_gain"])
         self.senses = Senses(self.client, cfg["sensors"], self.body)
         self.rays, self.camera = self.senses.rays, self.senses.camera
         self.task = FoodTask(cfg["episode"], agent["limb_food_reward"], self.control_dt)
-        self.action_space = spaces.Box(-1.0, 1.0, (self.body.n_axes,), np.float32)
+        if self.action_mode == "gait":
+            self.gait: SineGait | None = SineGait(self.body.joint_names, control_dt=self.control_dt)
+            self.hold = hold_steps(agent["decision_interval"], self.control_dt)
+            self.action_space = spaces.Box(np.array(GAIT_LOW, np.float32), np.array(GAIT_HIGH, np.float32))
+        else:
+            self.gait, self.hold = None, 1
+            self.action_space = spaces.Box(-1.0, 1.0, (self.body.n_axes,), np.float32)
+        self._low = self.action_space.low.astype(np.float64)
+        self._high = self.action_space.high.astype(np.float64)
         self.observation_space = self.senses.space
         self.level_spec = None  # the LevelSpec of the current episode
         self.world: World | None = None
@@ -137,11 +165,19 @@ class AnimalAIEnv(gym.Env):
         self.senses.start(spec, self.control_dt)
         self.body.load(spec.agent.x, spec.agent.y, spec.agent.yaw)
         self.steps = 0
+        if self.gait is not None:
+            self.gait.reset()
+            self.gait.forward = self.gait.turn = 0.0  # the gait starts at rest: stepping on the spot
+            self.gait.command(0.0, 0.0, 0.0)
         self._bound = max(spec.arena_size) / 2 + BLOWUP_MARGIN
         angles, speeds = self.body.joint_state()
         position, orientation = p.getBasePositionAndOrientation(self.body.id, physicsClientId=self.client)
         self._head = position
         self.task.initialize_episode(spec, position, self.world.food_positions)
+        if self.hold > self.max_steps:
+            raise ConfigError(f"config key 'agent.decision_interval': got {self.hold * self.control_dt:g} s "
+                              f"({self.hold} control steps), longer than this episode's {self.max_steps} steps; allowed: "
+                              f"at most the episode's length ({self.max_steps * self.control_dt:g} s)")
         info = self._info({term: 0.0 for term in TERMS}, fell=False, blew_up=False)
         return self._observe(angles, speeds, position, orientation), info
 
@@ -153,8 +189,29 @@ class AnimalAIEnv(gym.Env):
         if action.shape != self.action_space.shape:
             raise ValueError(f"action: got shape {action.shape}; allowed: shape {self.action_space.shape}")
         if not np.isfinite(action).all():
-            raise ValueError(f"action: got non-finite values {action}; allowed: numbers in [-1, 1]")
-        self.body.apply(np.minimum(np.maximum(action, -1.0), 1.0))
+            raise ValueError(f"action: got non-finite values {action}; allowed: numbers in "
+                             f"[{', '.join(f'{v:g}' for v in self._low)}] .. [{', '.join(f'{v:g}' for v in self._high)}]")
+        action = np.minimum(np.maximum(action, self._low), self._high)
+        if self.gait is None:
+            return self._control_step(action, observe=True)
+        self.gait.command(*action)
+        reward, terms, fell, blew_up = 0.0, dict.fromkeys(TERMS, 0.0), False, False
+        for k in range(self.hold):
+            observation, r, terminated, truncated, info = self._control_step(self.gait(), observe=k == self.hold - 1)
+            reward += r
+            for term, value in info["reward_terms"].items():
+                terms[term] += value
+            fell, blew_up = fell or info["fell"], blew_up or info["blew_up"]
+            if terminated or truncated:
+                break
+        if observation is None:  # the episode ended before the held action's last step
+            observation = self._observe(*self._state)
+        info.update(reward_terms=terms, fell=fell, blew_up=blew_up)
+        return observation, reward, terminated, truncated, info
+
+    def _control_step(self, action: np.ndarray, observe: bool):
+        """One control step with joint action ``action``; the observation only if ``observe``."""
+        self.body.apply(action)
         self.world.advance(self.control_dt, self._head[:2])  # the head as the last step left it
         self.sim.step()
         self.steps += 1
@@ -170,7 +227,8 @@ class AnimalAIEnv(gym.Env):
         terminated = self.task.should_terminate(events, self.world.all_eaten())
         truncated = not terminated and self.task.should_truncate(self.steps, blew_up)
         self._head = position
-        observation = self._observe(angles, speeds, position, orientation)
+        self._state = (angles, speeds, position, orientation)
+        observation = self._observe(angles, speeds, position, orientation) if observe else None
         info = self._info(terms, fell=events.fell, blew_up=blew_up)
         return observation, float(sum(terms.values())), terminated, truncated, info
 

@@ -172,3 +172,21 @@ def approach(parameters: GaitParameters, heading_error: float, distance: float, 
     if distance - food_radius < parameters.crouch_distance:
         return forward * parameters.approach_speed, turn, 1.0
     return forward, turn, 0.0
+
+
+class WalkForward:
+    """``--policy gait`` in gait mode: the command to walk straight ahead, every decision."""
+
+    def reset(self, seed: int | None = None) -> None:
+        pass
+
+    def __call__(self, observation=None) -> np.ndarray:
+        return np.array([1.0, 0.0, 0.0], np.float32)
+
+
+def gait_policy(env, direction: str = "forward"):
+    """The ``gait`` policy for an env in any action mode: the trot's joint targets in the joint
+    modes, its straight-ahead command in gait mode."""
+    if getattr(env.unwrapped, "gait", None) is not None:
+        return WalkForward()
+    return SineGait.for_env(env, direction)

@@ -123,9 +123,44 @@ def train_ppo(vec: CurriculumVecEnv, tracker, config: dict, run: RunFolder, chec
                                                    "log_std_init": config["train"]["log_std_init"]})
     else:
         model = ppo_from_config(monitored, config, run)
+        if config["train"].get("init_from"):
+            start_from(model, config["train"]["init_from"])
     remaining = config["train"]["total_steps"] - model.num_timesteps
     if remaining > 0:
         model.learn(remaining, callback=TrackerCallback(env, tracker, progress),
                     reset_num_timesteps=checkpoint is None, tb_log_name="ppo")
     tracker.save(model.num_timesteps, dict, save_model=model.save, final=True)
     return model.num_timesteps
+
+
+def start_from(model: PPO, source: str | Path) -> None:
+    """Loads the policy weights of ``source`` (a run folder's newest model, or a model .zip; e.g. a
+    student of the reference) into a fresh PPO model; only the weights file is read, with
+    ``torch.load(weights_only=True)``, so nothing in it can run. Refused, naming both, when the
+    networks differ (another action mode, senses or net_width)."""
+    import io
+    import zipfile
+
+    from aaai.config import ConfigError
+
+    path = Path(source)
+    if path.is_dir():
+        newest = RunFolder(path).latest_checkpoint()
+        if newest is None:
+            raise ConfigError(f"--init-from: run folder {str(source)!r} holds no model (final/ or checkpoints/*/model.zip)")
+        path = newest / "model.zip"
+    try:
+        with zipfile.ZipFile(path) as archive:
+            weights = torch.load(io.BytesIO(archive.read("policy.pth")), map_location="cpu", weights_only=True)
+    except (OSError, KeyError, zipfile.BadZipFile, RuntimeError) as error:
+        raise ConfigError(f"--init-from: {str(path)!r} is not a stable-baselines3 model: {error}") from None
+    own = model.policy.state_dict()
+    differ = sorted(k for k in set(own) | set(weights)
+                    if k not in own or k not in weights or own[k].shape != weights[k].shape)
+    if differ:
+        raise ConfigError(f"--init-from: the network of {str(path)!r} does not fit this run's (first difference: "
+                          f"{differ[0]}: {tuple(weights[differ[0]].shape) if differ[0] in weights else 'missing'} there, "
+                          f"{tuple(own[differ[0]].shape) if differ[0] in own else 'missing'} here); allowed: a model "
+                          "trained with the same action mode, senses and train.net_width")
+    model.policy.load_state_dict(weights)
+

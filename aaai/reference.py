@@ -202,6 +202,19 @@ class ReferenceController:
 
     # --- acting ---------------------------------------------------------------------
     def __call__(self, observation=None) -> np.ndarray:
+        """The next action: joint targets in the joint modes; in gait mode the gait commands
+        (forward, turn, crouch) that its own gait would be following now."""
+        joints = self._act()
+        if self.env.gait is None:
+            return joints
+        return np.asarray(self.gait.target, np.float32)
+
+    def command(self) -> np.ndarray:
+        """The gait commands (forward, turn, crouch) of the last action: the label a student of
+        this controller learns, in any action mode."""
+        return np.asarray(self.gait.target, np.float32)
+
+    def _act(self) -> np.ndarray:
         env = self.env
         if self.spec is not env.level_spec or env.steps == 0 and self.plan_key is not None:
             self._start_episode()
@@ -216,6 +229,7 @@ class ReferenceController:
             rest = self._rest_spot(head)
             if math.dist(head[:2], rest) < 1.0 or self.standing:
                 self.standing = True
+                self.gait.command(0.0, 0.0, 0.0)
                 return self.gait.stand()
             target = rest, 0.5, "rest", [], False
         goal, reach, key, avoid, wait = target

@@ -64,7 +64,8 @@ def levels_command():
 @click.option("-s", "--seed", type=int, default=0, show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print the whole spec as JSON.")
 @click.option("--yaml", "as_yaml", is_flag=True,
-              help="Print the spec as an arena file (aaai.arena), to edit into a test of your own.")
+              help="Print the spec as an arena file (aaai.arena), to edit into a test of your own. The file is "
+                   "fixed (every episode of it starts alike) until you put randomisation forms in it.")
 def spec_command(level, difficulty, seed, as_json, as_yaml):
     """Print the level spec that (LEVEL, difficulty, seed) generates, and its hash."""
     try:
@@ -102,13 +103,24 @@ def spec_command(level, difficulty, seed, as_json, as_yaml):
 @click.option("--rays/--no-rays", default=None, help="Turn the rays on or off.")
 @click.option("--arena", "arena", type=click.Path(), help="Run this arena file (README, Write your own test) instead "
               "of generated levels: --episodes episodes, seeds from --seed.")
+@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
+              help="rotation or velocity: 8 joint targets a control step; gait: forward, turn, crouch of the gait, "
+                   "held for agent.decision_interval (default: the config's).")
 @click.option("--trust-model", is_flag=True, help=TRUST_HELP)
+@click.option("--replay", type=click.Path(dir_okay=False),
+              help="Run a replay file (aaai play --replays, aaai eval --save-replays) with its own level, config "
+                   "and actions, and check that it ends as recorded, bit for bit (--arena: where its arena file is now).")
 def run_command(levels_text, difficulty_text, episodes, seed, policy, config_path, max_steps, camera, rays, arena,
-                trust_model):
+                action_mode, trust_model, replay):
     """Run episodes with a policy (random actions by default) and print a summary of each."""
+    if replay is not None:
+        from aaai_cli.play import run_replay_file
+
+        return run_replay_file(replay, arena)
     levels = parse_levels(levels_text)
     difficulties = parse_range(difficulty_text, "--difficulty", 0, 10)
-    overrides = {k: v for k, v in dict(max_steps=max_steps, camera=camera, rays=rays).items() if v is not None}
+    overrides = {k: v for k, v in dict(max_steps=max_steps, camera=camera, rays=rays,
+                                       action_mode=action_mode).items() if v is not None}
     try:
         for level in levels:
             get_level(level)
@@ -155,6 +167,23 @@ def run_episode(env: AnimalAIEnv, level: int, difficulty: int, seed: int, policy
             f"{info['steps']:>6} {info['food_eaten']:>4} {info['wall_hits']:>5} {result.end:<10} {rate:>8.0f}")
 
 
+def with_action_mode(config: dict, action_mode: str | None) -> dict:
+    """``config`` scored in ``action_mode`` (unchanged for None). A model trained in another mode
+    is refused when it is loaded."""
+    if action_mode is not None:
+        config = {**config, "agent": {**config["agent"], "action_mode": action_mode}}
+    return config
+
+
+def step_unit(config: dict) -> str:
+    """What a training step counts in a run of this config: agent decisions or control steps."""
+    agent = config["agent"]
+    if agent["action_mode"] == "gait":
+        return f"agent decisions (of {agent['decision_interval']:g} s each)"
+    physics = config["physics"]
+    return f"agent decisions (control steps of {physics['timestep'] * physics['action_repeat']:g} s)"
+
+
 PROGRESS_HELP = ("Seconds between progress lines when the output is not a terminal (piped, nohup); in a terminal "
                  "a progress bar.")
 
@@ -199,7 +228,9 @@ def _overrides(**values) -> dict:
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
 @click.option("--levels", help="Active levels, e.g. '0-3,5'.")
 @click.option("--difficulty", help="Active difficulties, e.g. '0-4'.")
-@click.option("--steps", "total_steps", type=int, help="Environment steps in all.")
+@click.option("--steps", "total_steps", type=int,
+              help="Agent decisions in all: env.step calls, one control step (0.02 s) each in the joint modes, "
+                   "agent.decision_interval (0.1 s, 5 control steps) each in gait mode.")
 @click.option("--envs", "num_envs", type=int, help="Worker processes.")
 @click.option("--seed", type=int, help="Seeds the sampler and the learner.")
 @click.option("--agent", type=click.Choice(["ppo", "random"]), help="ppo (needs the train extra) or random.")
@@ -215,13 +246,21 @@ def _overrides(**values) -> dict:
 @click.option("--sampler", type=click.Choice(["paper", "uniform", "learnability", "plr"]),
               help="How the curriculum weights cells (curriculum.sampler; README, Curricula). --random is uniform.")
 @click.option("--progress-every", type=click.FloatRange(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
+@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
+              help="rotation or velocity: 8 joint targets a control step; gait: forward, turn, crouch of the gait, "
+                   "held for agent.decision_interval (default: the config's).")
+@click.option("--teacher", type=click.Choice(["reference"]),
+              help="Train a student of this teacher by DAgger instead of PPO: it sees only the agent's senses and "
+                   "learns the teacher's actions (train.dagger_* keys; README, Learned agents).")
+@click.option("--init-from", type=click.Path(exists=True),
+              help="A run folder or model .zip whose policy weights PPO starts from (e.g. a student, to fine-tune).")
 @click.option("--trust-model", is_flag=True,
               help="With --resume: load the run's checkpoint with its library's own loader, which unpickles it "
                    "(stable-baselines3 models that cannot be rebuilt without it; RLlib checkpoints not signed on "
                    "this machine). Only for runs you trust.")
 def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, seed, agent, camera,
-                  camera_resolution, rays, run_dir, resume_dir, backend, address, trust_model,
-                  sampler, progress_every):
+                  camera_resolution, rays, run_dir, resume_dir, backend, address, action_mode, teacher, init_from,
+                  trust_model, sampler, progress_every):
     """Train on a curriculum of (level, difficulty) cells; checkpoints and logs go to the run folder."""
     from aaai.rllib_learner import run_backend, train_rllib
     from aaai.training import Progress, train
@@ -229,7 +268,7 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
     ignored = {name: value for name, value in {
         mode or "curriculum": mode, "config": config_path, **dict( levels=levels, difficulty=difficulty, envs=num_envs, seed=seed,
         agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays, run=run_dir, backend=backend,
-        sampler=sampler)}.items()
+        action_mode=action_mode, teacher=teacher, init_from=init_from, sampler=sampler)}.items()
         if value is not None}
     if address and (backend or (resume_dir and run_backend(resume_dir))) != "rllib":
         raise click.UsageError("--address: only --backend rllib runs on a cluster")
@@ -244,11 +283,21 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
             config = load_config(config_path, **_overrides(
                 mode=mode, levels=levels, difficulties=difficulty, total_steps=total_steps, num_envs=num_envs,
                 seed=seed, agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays,
-                sampler=sampler))
+                action_mode=action_mode, teacher=teacher, init_from=init_from, sampler=sampler))
             run_dir = run_dir or time.strftime("runs/run-%Y%m%d-%H%M%S")
         total = total_steps or (config or RunFolder(run_dir).read_config())["train"]["total_steps"]
         use_rllib = (run_backend(resume_dir) if resume_dir else backend) == "rllib"
         say = lambda message: click.echo(message, err=True)  # noqa: E731
+        if (config or RunFolder(run_dir).read_config())["train"].get("teacher", "none") != "none":
+            if use_rllib:
+                raise click.UsageError("--teacher: a student is trained with stable-baselines3 (--backend sb3)")
+            from aaai.student import train_student
+
+            result = train_student(run_dir, config, resume=bool(resume_dir), say=say)
+            click.echo(f"run {result.run.path}: {result.steps} labelled agent decisions, {result.episodes} episodes"
+                       + (f" (resumed after {result.resumed_from} iterations)" if resume_dir else "")
+                       + f"; score it with: aaai eval --policy {result.run.path}")
+            return
         from aaai.model_io import trusting
 
         report = Progress(total, done=steps_done(resume_dir), every=progress_every)
@@ -265,8 +314,9 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
     except ImportError as error:
         raise click.UsageError(f"{error}. PPO needs the train extra: pip install -e '.[train]' "
                                "(or make install-train), or use --agent random") from None
-    curriculum = result.run.read_config()["curriculum"]
-    click.echo(f"run {result.run.path}: {result.steps} steps, {result.episodes} episodes"
+    run_config = result.run.read_config()
+    curriculum = run_config["curriculum"]
+    click.echo(f"run {result.run.path}: {result.steps} {step_unit(run_config)}, {result.episodes} episodes"
                + (f" (resumed at step {result.resumed_from})" if resume_dir else ""))
     click.echo(f"cells: levels {curriculum['levels']} x difficulties {curriculum['difficulties']}; "
                f"heatmap {result.run.path / 'curriculum.png'}")
@@ -294,14 +344,22 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
 @click.option("--arenas", type=click.Path(exists=True),
               help="Score a battery of arena files (a folder of *.yaml, or one file) instead of levels: seeds "
                    "0..K-1 (-k, default eval.seeds_per_cell) or --seeds 1,2,3; a summary per arena and per category.")
+@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
+              help="Score in this action mode (default: the run's or config's). A model is scored only in the "
+                   "mode it was trained in.")
 @click.option("--trust-model", is_flag=True, help=TRUST_HELP)
 @click.option("--progress-every", type=click.FloatRange(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
+@click.option("--save-replays", type=click.Path(file_okay=False),
+              help="Save each scored episode's replay (JSON: level, seed, config, actions) in this folder, for "
+                   "aaai run --replay and aaai show --replay (--backend local only).")
 def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output, seed_key_file,
-                 backend, address, workers, arenas, trust_model, progress_every):
+                 backend, address, workers, arenas, action_mode, trust_model, progress_every, save_replays):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
     if arenas is not None:
         return eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty,
-                           seed_key_file, backend, trust_model)
+                           seed_key_file, backend, action_mode, trust_model, save_replays)
+    if save_replays is not None and backend != "local":
+        raise click.UsageError("--save-replays: only with --backend local")
     from aaai.evaluation import (cells_for, evaluate, policy_config, policy_record, summarise, summary_markdown,
                                  write_summary)
     from aaai.seeds import read_seed_key
@@ -313,7 +371,7 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
 
     run_folder = Path(policy) if Path(policy).is_dir() else None
     try:
-        config = policy_config(policy, config_path)
+        config = with_action_mode(policy_config(policy, config_path), action_mode)
         level_list = parse_levels(levels) if levels else config["curriculum"]["levels"]
         difficulty_list = (parse_range(difficulty, "--difficulty", 0, 10) if difficulty
                            else config["curriculum"]["difficulties"])
@@ -337,8 +395,8 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
                 rows = evaluate_on_ray(policy, cells, output, config, address=address, workers=workers,
                                        on_episode=on_episode, record=record, trust=trust_model)
             else:
-                rows = evaluate(policy, cells, output, config, on_episode=on_episode, record=record,
-                                trust=trust_model)
+                rows = evaluate(policy, cells, output, config, record=record, trust=trust_model,
+                                **replay_hooks(save_replays, policy, trust_model, on_episode))
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except OSError as error:  # an output that became unwritable midway (its rows so far stay)
@@ -353,7 +411,7 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
 
 
 def eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty, seed_key_file,
-                backend, trust_model=False):
+                backend, action_mode=None, trust_model=False, save_replays=None):
     """``aaai eval --arenas``: every arena file of the battery on seeds 0..K-1 (or a --seeds list)."""
     from aaai.arena import arena_files, arena_meta
     from aaai.evaluation import evaluate_arenas, policy_config, policy_record, summarise_arenas, summary_markdown, \
@@ -367,7 +425,7 @@ def eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output,
         raise click.UsageError(f"--arenas: {', '.join(clashes)} cannot be used with it (an arena file is its own level)")
     run_folder = Path(policy) if Path(policy).is_dir() else None
     try:
-        config = policy_config(policy, config_path)
+        config = with_action_mode(policy_config(policy, config_path), action_mode)
         count = seeds_per_cell or config["eval"]["seeds_per_cell"]
         if seeds_mode == "reserved":  # the default: an arena's seeds are 0..K-1
             seeds, label = list(range(count)), f"0-{count - 1}"
@@ -384,8 +442,8 @@ def eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output,
         record = {**policy_record(policy, "list"), "seeds": label, "arenas": str(arenas)}
         episodes = len(files) * len(seeds)
         with click.progressbar(length=episodes, label=f"scoring {episodes} episodes", show_pos=True) as bar:
-            rows = evaluate_arenas(policy, files, seeds, output, config, on_episode=lambda row: bar.update(1),
-                                   record=record, trust=trust_model)
+            rows = evaluate_arenas(policy, files, seeds, output, config, record=record, trust=trust_model,
+                                   **replay_hooks(save_replays, policy, trust_model, lambda row: bar.update(1), files))
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except OSError as error:  # an output that became unwritable midway (its rows so far stay)
@@ -415,6 +473,41 @@ def summary_markdown_of(summary: list[dict]) -> str:
     return summary_markdown(summary)
 
 
+@cli.command("demos")
+@click.option("--policy", default="reference", show_default=True, help=POLICY_HELP)
+@click.option("--levels", default="all", show_default=True, help="Levels, e.g. '0-3,5', or all.")
+@click.option("--difficulty", default="0-10", show_default=True)
+@click.option("-k", "--episodes-per-cell", "count", type=click.IntRange(1), default=1, show_default=True)
+@click.option("--seeds", "seeds_mode", default="train", show_default=True,
+              help="train (fixed draws from the training range), reserved, or a list like 1,2,3.")
+@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
+              help="The actions recorded (default: the config's, or the run's for a run folder).")
+@click.option("--config", "config_path", type=click.Path(), help="A YAML for the env.")
+@click.option("--out", "out", type=click.Path(file_okay=False), required=True,
+              help="The folder holding the Minari datasets (MINARI_DATASETS_PATH to load them).")
+@click.option("--dataset-id", help="The dataset's id (default aaai/<policy>-v0).")
+def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, config_path, out, dataset_id):
+    """Record a policy's episodes as a Minari dataset (the demos extra): the agent's own observations,
+    the actions, rewards and ends, and each episode's seed, level and difficulty."""
+    from aaai.evaluation import policy_config, seeds_for
+
+    try:
+        from aaai.demos import dataset_id_for, record
+    except ImportError as error:
+        raise click.UsageError(f"{error}. aaai demos needs the demos extra: pip install -e '.[demos]'") from None
+    try:
+        config = with_action_mode(policy_config(policy, config_path), action_mode)
+        plan = [(level, d, seed) for level in parse_levels(levels) for d in parse_range(difficulty, "--difficulty", 0, 10)
+                for seed in seeds_for(seeds_mode, level, d, count)]
+        dataset_id = dataset_id or dataset_id_for(policy)
+        with click.progressbar(length=len(plan), label=f"recording {len(plan)} episodes", show_pos=True) as bar:
+            record(policy, plan, Path(out), config, dataset_id, on_episode=lambda index: bar.update(1))
+    except (ConfigError, FileNotFoundError, ImportError) as error:
+        raise click.UsageError(str(error)) from None
+    click.echo(f"dataset {dataset_id} in {out}: {len(plan)} episodes; load it with "
+               f"MINARI_DATASETS_PATH={out} python -c \"import minari; minari.load_dataset('{dataset_id}')\"")
+
+
 @cli.command("baselines")
 @click.option("--demo-run", type=click.Path(file_okay=False), default="runs/demo", show_default=True,
               help="The trained run scored as ppo_demo (make demo writes it).")
@@ -423,9 +516,14 @@ def summary_markdown_of(summary: list[dict]) -> str:
 @click.option("--difficulty", default="0-10", show_default=True)
 @click.option("--seeds-per-cell", "-k", "count", type=click.IntRange(1), default=10, show_default=True)
 @click.option("--workers", type=click.IntRange(1), default=2, show_default=True, help="Worker processes.")
-def baselines_command(demo_run, folder, levels, difficulty, count, workers):
-    """Score random actions, the reference controller and a trained run on the reserved seeds of
-    every cell: three scoreboards, a pass-rate table and a heatmap (make baselines)."""
+@click.option("--student-run", type=click.Path(file_okay=False),
+              help="A student of the reference (aaai train --teacher reference), scored as student.")
+@click.option("--ppo-gait-run", type=click.Path(file_okay=False), help="A PPO run in gait mode, scored as ppo_gait.")
+@click.option("--only", help="Score only these policies (e.g. 'student,ppo_gait'); the table and heatmap still "
+                             "show every scoreboard already in --out.")
+def baselines_command(demo_run, folder, levels, difficulty, count, workers, student_run, ppo_gait_run, only):
+    """Score random actions, the reference controller and trained runs on the reserved seeds of
+    every cell: a scoreboard each, a pass-rate table and a heatmap (make baselines)."""
     from aaai.baselines import run
     from aaai.evaluation import model_path
 
@@ -436,10 +534,19 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers):
         check_writable(Path(folder), "--out", folder=True)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
-    if not Path(demo_run).is_dir():
+    learned = {name: Path(path) for name, path in (("student", student_run), ("ppo_gait", ppo_gait_run)) if path}
+    for name, path in learned.items():
+        if not path.is_dir():
+            raise click.UsageError(f"--{name.replace('_', '-')}-run: got {str(path)!r}, which is not a run folder")
+    chosen = [name.strip() for name in only.split(",")] if only else None
+    needs_demo = chosen is None or "ppo_demo" in chosen
+    if needs_demo and not Path(demo_run).is_dir():
         raise click.UsageError(f"--demo-run: got {demo_run!r}, which is not a run folder; run `make demo` first")
-    run(Path(folder), Path(demo_run), parse_levels(levels),
-        parse_range(difficulty, "--difficulty", 0, 10), count, workers, echo=click.echo)
+    known = ["random", "reference", "ppo_demo", *learned]
+    if chosen is not None and (not chosen or any(name not in known for name in chosen)):
+        raise click.UsageError(f"--only: got {only!r}; allowed: a list of {', '.join(known)}")
+    run(Path(folder), Path(demo_run) if needs_demo else None, parse_levels(levels),
+        parse_range(difficulty, "--difficulty", 0, 10), count, workers, echo=click.echo, learned=learned, only=chosen)
 
 
 @cli.command("seeds")
@@ -572,9 +679,11 @@ def curricula_command(samplers, seeds_text, total_steps, levels, difficulty, cou
 
 
 # Commands that live in their own files.
+from aaai_cli.play import play as play_command, replay_hooks  # noqa: E402
 from aaai_cli.show import show  # noqa: E402
 from aaai_cli.validate import validate  # noqa: E402
 
+cli.add_command(play_command)
 cli.add_command(show)
 cli.add_command(validate)
 

@@ -40,15 +40,23 @@ def frame_every(fps: float, control_dt: float) -> int:
 @click.option("--size", type=click.IntRange(200, 4000), default=MAP_SIZE, show_default=True,
               help="Pixels across the longer side of the top-down map.")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
+@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
+              help="The policy's action mode (default: the config's); gait: forward, turn, crouch commands.")
 @click.option("--trust-model", is_flag=True,
               help="Load a model file with stable-baselines3's own loader, which unpickles it and so runs any code "
                    "in it (default: rebuilt without unpickling). Only for files you trust.")
-def show(level, difficulty, seed, output, video, policy, steps, fps, size, config_path, arena, trust_model):
+@click.option("--replay", type=click.Path(dir_okay=False),
+              help="With --video: film a replay file (aaai play --replays, aaai eval --save-replays): its level, "
+                   "config and actions (--arena: where its arena file is now).")
+def show(level, difficulty, seed, output, video, policy, steps, fps, size, config_path, arena, action_mode,
+         trust_model, replay):
     """Draw LEVEL (id, label like L1, or name) from above beside the agent's camera view.
 
     Writes a PNG, and with --video records an episode (random policy by default) so that the
     moving parts can be watched. Outputs are written atomically.
     """
+    if replay is not None:
+        return show_replay(replay, video, output, steps, fps, size, arena, level)
     if (level is None) == (arena is None):
         raise click.UsageError("name a LEVEL or an --arena file (one of the two)")
     try:
@@ -78,7 +86,8 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
 
     try:
         env = AnimalAIEnv(level=lvl.id if lvl else None, difficulty=difficulty, config=config_path, camera=True,
-                          camera_resolution=CAMERA_RESOLUTION, arena=arena)
+                          camera_resolution=CAMERA_RESOLUTION, arena=arena,
+                          **({"action_mode": action_mode} if action_mode else {}))
         # the camera is turned on here to draw it: a model that was not trained with it does not see it
         extra = () if load_config(config_path)["sensors"]["camera"] else ("camera",)
         actor = load_policy(policy, env, trust=trust_model, extra_keys=extra) if video is not None else None
@@ -101,18 +110,19 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
 ENDS = {"ate green": "ate green food", "time": "reached max_steps"}  # how the messages name them
 
 
-def record(env, policy, seed: int, path: str, steps: int | None, fps: int, size: int, on_reset=None) -> int:
+def record(env, policy, seed: int, path: str, steps: int | None, fps: int, size: int, on_reset=None,
+           options: dict | None = None) -> int:
     """Resets ``env`` to ``seed``, runs ``policy`` to the episode's end (or ``steps`` steps at most;
     None: :data:`STEP_CAP`) and writes a frame every few steps; returns the frames. When the cap cuts
     the episode, the message says so. ``on_reset(observation, info)`` sees the start."""
     cap = STEP_CAP if steps is None else steps
-    every = frame_every(fps, env.control_dt)
+    every = frame_every(fps, env.control_dt * env.hold)  # an env step is `hold` control steps in gait mode
     with VideoWriter(path, fps) as writer:
         def frame(step: int, observation, reward: float, info: dict) -> None:
             if step % every == 0:
                 writer.write(compose(draw_world(env, size), observation["camera"]))
 
-        result = play(env, policy, seed, on_reset=on_reset, on_step=frame, max_steps=cap)
+        result = play(env, policy, seed, options=options, on_reset=on_reset, on_step=frame, max_steps=cap)
         if writer.frames == 0:  # the episode ended before the first frame
             writer.write(compose(draw_world(env, size), result.observation["camera"]))
     end = ENDS.get(result.end, result.end)
@@ -121,3 +131,35 @@ def record(env, policy, seed: int, path: str, steps: int | None, fps: int, size:
              f"ended (it runs to step {result.info.get('max_steps', '?')} at most; raise --steps to see more)")
     click.echo(f"wrote {path} ({writer.frames} frames at {fps} fps, a frame every {every} steps{ended})")
     return writer.frames
+
+
+def show_replay(path: str, video: str | None, output: str | None, steps: int | None, fps: int, size: int,
+                arena: str | None, level: str | None) -> None:
+    """``aaai show --video FILE --replay REPLAY``: the recorded episode filmed (its own level,
+    config and actions; the camera turned on to draw it, which changes nothing the body does)."""
+    from aaai.replays import ReplayPolicy, load_replay, make_env, replay_options
+
+    if video is None:
+        raise click.UsageError("--replay: give --video FILE to film it (and -o for a picture of its start)")
+    if level is not None:
+        raise click.UsageError(f"--replay: got LEVEL {level!r} too; a replay plays its own level")
+    if Path(video).suffix.lower() not in VIDEO_CODECS:
+        raise click.UsageError(video_extension_error(video))
+    if output is not None and Path(output).suffix.lower() != ".png":
+        raise click.UsageError(f"--output: got {output!r}; allowed: a path ending in .png")
+    try:
+        data = load_replay(path)
+        options = replay_options(data, arena)
+        env = make_env(data, camera=True, camera_resolution=CAMERA_RESOLUTION)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+
+    def picture(observation, info=None) -> None:
+        image = compose(draw_top_down(env.level_spec, size), observation["camera"])
+        click.echo(f"wrote {save_png(image, output)} ({image.shape[1]} x {image.shape[0]})")
+
+    try:
+        record(env, ReplayPolicy(data), data["seed"], video, min(steps or data["steps"], data["steps"]), fps, size,
+               on_reset=picture if output is not None else None, options=options)
+    finally:
+        env.close()

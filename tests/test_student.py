@@ -1,0 +1,140 @@
+"""The student of the reference (DAgger) and demonstrations as a Minari dataset."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+pytest.importorskip("stable_baselines3", reason="needs the train extra")
+
+from aaai.config import ConfigError, load_config  # noqa: E402
+from aaai.env import AnimalAIEnv  # noqa: E402
+from aaai.reference import ReferenceController  # noqa: E402
+from aaai.runs import RunFolder  # noqa: E402
+from aaai.seeds import TRAIN_SEEDS  # noqa: E402
+from aaai.student import plan_episodes, play_job, Job, train_student  # noqa: E402
+from aaai_cli.main import cli  # noqa: E402
+
+TINY = {"agent": {"action_mode": "gait"}, "curriculum": {"levels": "0", "difficulties": "0-1"},
+        "train": {"teacher": "reference", "num_envs": 1, "net_width": 32, "dagger_iterations": 2,
+                  "dagger_episodes": 4, "dagger_epochs": 3}}
+
+
+def test_the_plan_spreads_episodes_over_every_cell_before_repeating_any_on_training_seeds():
+    cells = [(level, d) for level in (0, 1, 2) for d in (0, 5)]
+    plan = plan_episodes(cells, 14, np.random.default_rng(0))
+    assert sorted((l, d) for l, d, _ in plan[:6]) == sorted(cells)  # every cell once ...
+    assert sorted((l, d) for l, d, _ in plan[6:12]) == sorted(cells)  # ... before any a third time
+    assert all(TRAIN_SEEDS.start <= seed < TRAIN_SEEDS.stop for *_, seed in plan)
+    assert plan == plan_episodes(cells, 14, np.random.default_rng(0))
+
+
+def test_the_labels_are_the_teachers_actions_and_the_inputs_only_the_agents_observation():
+    config = load_config(TINY)
+    episodes = ((0, 0, 3), (0, 1, 4))
+    gathered = play_job(Job(config, None, 32, 1.0, 0, episodes))
+    env = AnimalAIEnv(config={k: v for k, v in config.items() if k not in ("curriculum", "train", "eval")})
+    teacher = ReferenceController(env)
+    try:
+        assert set(gathered["observations"]) == set(env.observation_space.spaces)  # nothing privileged
+        labels = []
+        for level, difficulty, seed in episodes:  # the teacher alone, replayed: the same labels
+            observation, _ = env.reset(seed=seed, options={"level": level, "difficulty": difficulty})
+            teacher.reset(seed)
+            while True:
+                action = teacher(observation)
+                labels.append(action)
+                observation, _, terminated, truncated, _ = env.step(action)
+                if terminated or truncated:
+                    break
+        assert np.array_equal(np.stack(labels), gathered["labels"])
+        assert gathered["taught"] == len(labels)
+        assert all(e.task_return / e.max_reward >= 0.8 for e in gathered["episodes"])  # the teacher eats
+    finally:
+        env.close()
+
+
+def test_a_student_run_is_an_ordinary_run_that_eval_scores_and_resume_continues(tmp_path):
+    run = tmp_path / "student"
+    result = train_student(run, load_config(TINY), say=lambda message: None)
+    assert result.episodes == 8 and (run / "final" / "model.zip").is_file()
+    lines = (run / "dagger.csv").read_text().splitlines()
+    assert len(lines) == 3 and lines[1].startswith("0,1.0,4,")  # iteration 0: the teacher alone
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    assert config["agent"]["action_mode"] == "gait" and config["sensors"]["foot_contacts"]
+
+    out = tmp_path / "scores.csv"
+    scored = CliRunner().invoke(cli, ["eval", "--policy", str(run), "--levels", "0", "--difficulty", "0",
+                                      "-k", "2", "--out", str(out)])
+    assert scored.exit_code == 0, scored.output
+    assert len(out.read_text().splitlines()) == 3
+
+    # A run stopped after its first iteration resumes from it and ends as the uninterrupted run.
+    again = tmp_path / "again"
+    first = train_student(again, load_config(TINY, dagger_iterations=1), say=lambda message: None)
+    assert first.steps < result.steps
+    folder = RunFolder(again)
+    folder.update_config(load_config(folder.read_config(), dagger_iterations=2))  # a longer run, resumed
+    resumed = CliRunner().invoke(cli, ["train", "--resume", str(again)])
+    assert resumed.exit_code == 0, resumed.output
+    import torch
+
+    ours = torch.load(run / "final" / "student.pth", weights_only=True)
+    theirs = torch.load(again / "final" / "student.pth", weights_only=True)
+    assert all(torch.equal(ours[k], theirs[k]) for k in ours)
+
+
+def test_a_student_can_be_fine_tuned_by_ppo_from_its_weights(tmp_path):
+    run = tmp_path / "student"
+    train_student(run, load_config(TINY, dagger_iterations=1), say=lambda message: None)
+    tuned = tmp_path / "tuned"
+    result = CliRunner().invoke(cli, ["train", "--init-from", str(run), "--action-mode", "gait", "--levels", "0",
+                                      "--difficulty", "0", "--steps", "64", "--envs", "1", "--run", str(tuned),
+                                      "--config", str(_write(tmp_path, {"train": {"net_width": 32, "n_steps": 64,
+                                                                                  "batch_size": 32, "n_epochs": 1}}))])
+    assert result.exit_code == 0, result.output
+    refused = CliRunner().invoke(cli, ["train", "--init-from", str(run), "--levels", "0", "--steps", "64",
+                                       "--run", str(tmp_path / "joints")])
+    assert refused.exit_code != 0 and "agent.action_mode: 'gait' there, 'rotation' here" in refused.output
+    assert not (tmp_path / "joints").exists()  # refused before the run folder is made
+
+
+def test_a_student_in_velocity_mode_is_refused():
+    with pytest.raises(ConfigError, match="velocity"):
+        train_student("unused", load_config(TINY, action_mode="velocity"), say=lambda message: None)
+
+
+def _write(folder, data) -> str:
+    path = folder / "config.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return str(path)
+
+
+def test_demos_are_a_minari_dataset_that_loads_and_replays_bit_for_bit(tmp_path):
+    minari = pytest.importorskip("minari", reason="needs the demos extra")
+    from aaai.demos import datasets_path, replay
+
+    out = tmp_path / "demos"
+    result = CliRunner().invoke(cli, ["demos", "--policy", "reference", "--levels", "0,1", "--difficulty", "0",
+                                      "-k", "1", "--action-mode", "gait", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    with datasets_path(out):
+        dataset = minari.load_dataset("aaai/reference-v0")
+        assert dataset.total_episodes == 2
+        metadata = list(dataset.storage.get_episode_metadata(range(2)))
+        assert [m["options"]["level"] for m in metadata] == [0, 1]
+        for index in range(2):
+            episode = dataset[index]
+            assert episode.actions.shape[1] == 3  # gait commands
+            assert episode.terminations[-1] or episode.truncations[-1]
+            rewards, observations = replay(dataset, index)
+            assert np.array_equal(np.asarray(rewards), episode.rewards)
+            for key, value in observations.items():
+                assert np.array_equal(value, episode.observations[key]), key
+    # Re-running the same command adds nothing; the dataset is whole.
+    again = CliRunner().invoke(cli, ["demos", "--policy", "reference", "--levels", "0,1", "--difficulty", "0",
+                                     "-k", "1", "--action-mode", "gait", "--out", str(out)])
+    assert again.exit_code == 0, again.output
+    with datasets_path(out):
+        assert minari.load_dataset("aaai/reference-v0").total_episodes == 2
