@@ -1,7 +1,8 @@
 """One episode of a policy: the loop that `aaai run`, `aaai eval` and `aaai show --video` share.
 
 A policy is a callable from an observation to an action; one with a ``reset(seed)`` method is
-reset to the episode's seed after the environment.
+reset to the episode's seed after the environment, and one with an ``end_episode(result)`` method
+is handed the EpisodeResult when the loop ends (aaai.replays records episodes so).
 """
 from __future__ import annotations
 
@@ -59,4 +60,7 @@ def play(env, policy: Callable, seed: int, options: dict | None = None,
         if terminated or truncated:
             break
     ended = time.perf_counter()
-    return EpisodeResult(total, steps, observation, info, terminated, truncated, ended - started, ended - stepping)
+    result = EpisodeResult(total, steps, observation, info, terminated, truncated, ended - started, ended - stepping)
+    if hasattr(policy, "end_episode"):
+        policy.end_episode(result)
+    return result

@@ -418,12 +418,13 @@ def columns_of(path: Path) -> list[str]:
 
 def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
              on_episode: Callable[[dict], None] | None = None, record: dict | None = None,
-             trust: bool = False) -> list[dict]:
+             make_policy: Callable[[AnimalAIEnv], Callable] | None = None, trust: bool = False) -> list[dict]:
     """Plays every (cell, seed) not yet in ``output`` and appends its row, flushed per episode.
     ``record`` (default: the policy on listed seeds) is what the scoreboard is scored with; with
     the environment's config, action mode and the package version added (:func:`scoring_record`)
     it is kept beside it, and resuming with a different one is refused. ``trust``: load a model
-    with stable-baselines3's own loader (--trust-model)."""
+    with stable-baselines3's own loader (--trust-model). ``make_policy(env)`` (default:
+    ``load_policy(policy_name, env)``) makes the policy, e.g. a human's (aaai.play) or a recorder."""
     check_writable(output, "--out")
     output.parent.mkdir(parents=True, exist_ok=True)
     record = scoring_record(policy_name, record, config)
@@ -432,7 +433,7 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
     done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows if not r["arena"]}
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))  # scores count the task's own reward
     try:
-        policy = load_policy(policy_name, env, trust=trust)
+        policy = make_policy(env) if make_policy is not None else load_policy(policy_name, env, trust=trust)
         with Scoreboard(output, record, columns_of(output), rows, on_episode) as board:
             for cell in cells:
                 for seed in cell.seeds:
@@ -447,7 +448,7 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
 
 def evaluate_arenas(policy_name: str, arenas: list[Path], seeds: list[int], output: Path, config: dict,
                     on_episode: Callable[[dict], None] | None = None, record: dict | None = None,
-                    trust: bool = False) -> list[dict]:
+                    make_policy: Callable[[AnimalAIEnv], Callable] | None = None, trust: bool = False) -> list[dict]:
     """:func:`evaluate` for a battery of arena files: every (arena, seed) not yet in ``output``,
     one row each, its ``arena`` column the file's name. Every file is loaded (and so checked) for
     every seed before any episode runs: nothing is run from an invalid file."""
@@ -468,7 +469,7 @@ def evaluate_arenas(policy_name: str, arenas: list[Path], seeds: list[int], outp
     done = {(r["arena"], int(r["seed"])) for r in rows}
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))
     try:
-        policy = load_policy(policy_name, env, trust=trust)
+        policy = make_policy(env) if make_policy is not None else load_policy(policy_name, env, trust=trust)
         with Scoreboard(output, record, COLUMNS, rows, on_episode) as board:
             for arena in arenas:
                 for seed in seeds:

@@ -1,0 +1,5 @@
+"""``aaai play``: a person plays the levels in a web browser (README, "Play it yourself").
+
+aaai.play.session holds one player's battery, paced in real time; aaai.play.server serves the page
+and a WebSocket per tab (FastAPI and uvicorn, the ``play`` extra).
+"""

@@ -1,0 +1,157 @@
+"""``aaai play``: play the levels yourself in a web browser, scored as a policy named human:NAME."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from aaai.config import ConfigError, load_config
+
+LOOPBACK = ("127.0.0.1", "localhost", "::1")
+
+
+@click.command("play")
+@click.argument("level", required=False)
+@click.option("-d", "difficulty_text", type=click.IntRange(0), help="One episode: its difficulty [default: 0].")
+@click.option("-s", "--seed", type=click.IntRange(0), help="One episode: its seed [default: 0].")
+@click.option("--arena", type=click.Path(exists=True),
+              help="Play an arena file (or a folder of them), on seed -s or the --seeds list.")
+@click.option("--seeds", "seeds_mode", help="A battery: reserved, train or a list like 1,2,3, over --levels x --difficulty.")
+@click.option("--levels", help="Battery levels, e.g. '0-11,12' [default with --seeds: all].")
+@click.option("--difficulty", "difficulties", help="Battery difficulties, e.g. '0,5,10' [default: 0].")
+@click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=1, show_default=True,
+              help="With --seeds reserved or train: episodes per (level, difficulty).")
+@click.option("--seed-key-file", type=click.Path(dir_okay=False),
+              help="With --seeds reserved: the hidden reserved list this key stands for (or AAAI_SEED_KEY).")
+@click.option("--player", help="The player's name, recorded as human:NAME [default: the page asks].")
+@click.option("--out", "output", default="human_{player}.csv", show_default=True,
+              help="Scoreboard CSV; {player} is replaced by the player's name. Re-run with the same --out to "
+                   "resume at the next unplayed episode.")
+@click.option("--replays", type=click.Path(file_okay=False), help="Save each scored episode's replay (JSON) here.")
+@click.option("--host", default="127.0.0.1", show_default=True,
+              help="Address to listen on: 127.0.0.1 is this machine only; 0.0.0.0 lets anyone who can reach it play.")
+@click.option("--port", type=click.IntRange(0, 65535), default=8000, show_default=True, help="0: any free port.")
+@click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
+@click.option("--max-steps", type=int, help="Episode length in control steps (default: each level's time limit).")
+@click.option("--camera-resolution", type=click.IntRange(8, 512), default=84, show_default=True,
+              help="Pixels across the agent's camera view.")
+@click.option("--fps", type=click.FloatRange(1, 50), default=30, show_default=True,
+              help="Frames sent to a page per second, at most (the simulation runs at 50 steps/s regardless).")
+@click.option("--grace", type=click.FloatRange(0), default=20, show_default=True,
+              help="Seconds a page that lost its connection may come back before its episode is abandoned.")
+def play(level, difficulty_text, seed, arena, seeds_mode, levels, difficulties, count, seed_key_file, player, output,
+         replays, host, port, config_path, max_steps, camera_resolution, fps, grace):
+    """Play LEVEL (default L0) in a browser: arrows or WASD walk and turn, C or Shift crouches.
+
+    Starts a web server and prints the address to open. Every finished episode is a scoreboard row
+    of the policy human:NAME (as `aaai eval` writes them); a closed tab's episode is logged in
+    <out>_abandoned.csv, not scored. --seeds runs a battery, one episode after another.
+    """
+    from aaai.evaluation import Cell, cells_for
+    from aaai.play.session import PlaySettings, check_player, InputError
+    from aaai_cli.main import parse_levels, parse_range
+
+    battery = seeds_mode is not None or levels is not None or difficulties is not None
+    if battery and arena is None and (level is not None or difficulty_text is not None or seed is not None):
+        raise click.UsageError("LEVEL, -d and -s choose one episode; --seeds, --levels and --difficulty a battery: "
+                               "use one or the other")
+    if arena is not None and (level is not None or levels is not None or difficulties is not None
+                              or difficulty_text is not None):
+        raise click.UsageError("--arena: LEVEL, --levels, -d and --difficulty cannot be used with it "
+                               "(an arena file is its own level)")
+    if "{player}" not in output and player is None:
+        raise click.UsageError(f"--out: got {output!r} without {{player}}, so every player's rows would go to one "
+                               "file; name the one player with --player, or put {player} in the path")
+    try:
+        if player is not None:
+            check_player(player)
+        overrides = {"camera": True, "camera_resolution": camera_resolution, "action_mode": "gait"}
+        if max_steps is not None:
+            overrides["max_steps"] = max_steps
+        config = load_config(config_path, **overrides)
+        physics = config["physics"]  # one control step per action: each env.step is 1/50 s of play
+        config = load_config(config, decision_interval=physics["timestep"] * physics["action_repeat"])
+        settings = PlaySettings(config=config, output=output, player=player, max_fps=fps, grace_seconds=grace,
+                                replays=Path(replays) if replays else None)
+        if arena is not None:
+            from aaai.arena import arena_files, load_arena
+
+            settings.arenas = arena_files(arena)
+            if seeds_mode is not None:
+                try:
+                    settings.arena_seeds = [int(part) for part in seeds_mode.split(",")]
+                except ValueError:
+                    raise ConfigError(f"--seeds: got {seeds_mode!r} with --arena; allowed: a list like 1,2,3") from None
+            else:
+                settings.arena_seeds = [seed or 0]
+            for path in settings.arenas:  # every instance is checked before anyone plays
+                for arena_seed in settings.arena_seeds:
+                    load_arena(path, arena_seed)
+            settings.seeds_label = ",".join(map(str, settings.arena_seeds))
+        elif battery:
+            from aaai.seeds import read_seed_key
+
+            key = read_seed_key(seed_key_file)
+            level_list = parse_levels(levels)
+            difficulty_list = parse_range(difficulties or "0", "--difficulty", 0, 10)
+            settings.cells = cells_for(level_list, difficulty_list, seeds_mode or "reserved", count, key)
+            settings.seeds_label, settings.seed_key = seeds_mode or "reserved", key
+        else:
+            from aaai.levels import check_difficulty, get_level
+
+            lvl = get_level(level if level is not None else 0)
+            settings.cells = [Cell(lvl.id, check_difficulty(difficulty_text or 0), [seed or 0])]
+            settings.seeds_label = str(seed or 0)
+    except (ConfigError, InputError, ValueError) as error:
+        raise click.UsageError(str(error)) from None
+
+    try:
+        from aaai.play.server import Server
+    except ImportError as error:
+        raise click.UsageError(f"{error}. aaai play needs the play extra: pip install -e '.[play]'") from None
+    try:
+        server = Server(settings, host, port)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    episodes = len(settings.episodes())
+    click.echo(f"aaai play: open {server.url} in a browser ({episodes} episode{'s' * (episodes != 1)} per player; "
+               f"scores to {output}). Ctrl+C stops.")
+    if host not in LOOPBACK:
+        click.echo(f"--host {host}: anyone who can reach this machine on port {server.sock.getsockname()[1]} can "
+                   "open the page and play (there is no login); the scoreboards are written here.")
+    server.run()
+
+
+def run_replay_file(path: str, arena: str | None = None) -> None:
+    """``aaai run --replay FILE``: the recorded episode again, its line of the run table, and
+    whether it ended exactly as recorded (exit status 1 if not)."""
+    from aaai.replays import load_replay, run_replay
+
+    try:
+        replay = load_replay(path)
+        outcome = run_replay(replay, arena=arena)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    result, pose = outcome.result, outcome.final_pose
+    where = replay["arena"]["name"] if replay["arena"] else f"L{replay['level']} {replay['level_name']}"
+    click.echo(f"replay {path}: {replay['policy']} on {where}, difficulty {replay['difficulty']}, seed {replay['seed']}")
+    click.echo(f"steps {result.steps}  return {result.episode_return!r}  food {result.info['food_eaten']}  "
+               f"end {result.end}  final pose x {pose['x']!r} y {pose['y']!r} z {pose['z']!r} yaw {pose['yaw']!r}")
+    if outcome.differences:
+        raise click.ClickException("the replay does not reproduce the recorded episode: " + "; ".join(outcome.differences))
+    click.echo("reproduced bit for bit: the same steps, return and final pose as recorded")
+
+
+def replay_hooks(folder: str | None, policy: str, trust: bool, on_episode, arenas=()) -> dict:
+    """``aaai eval --save-replays``: the keywords that make ``evaluate`` record the policy and
+    write each scored episode's replay into ``folder`` (just ``on_episode`` without a folder)."""
+    if folder is None:
+        return {"on_episode": on_episode}
+    from aaai.evaluation import load_policy
+    from aaai.replays import ReplaySaver
+    from aaai.runs import check_writable
+
+    check_writable(Path(folder), "--save-replays", folder=True)
+    saver = ReplaySaver(folder, policy, lambda env: load_policy(policy, env, trust=trust),
+                        arenas={Path(a).name: Path(a) for a in arenas}, on_episode=on_episode)
+    return {"on_episode": saver.on_episode, "make_policy": saver.make_policy}
