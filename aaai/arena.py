@@ -78,6 +78,11 @@ def _plain(value: Any) -> Any:
     raise TypeError(f"cannot write {value!r} ({type(value).__name__}) to an arena file")
 
 
+FIXED_NOTE = ("# A fixed arena: the one level instance this was written from. Every episode of it starts alike,\n"
+              "# whatever the episode seed; to vary it, put {uniform: [low, high]}, {integers: [low, high]} or\n"
+              "# {choice: [...]} in place of a number (README, Write your own test).")
+
+
 def spec_to_arena(spec: LevelSpec, description: str | None = None, category: str | None = None) -> str:
     """The arena file (YAML text) that loads back to ``spec`` (an equal spec, the same digest)."""
     from aaai.levels import all_levels
@@ -91,7 +96,7 @@ def spec_to_arena(spec: LevelSpec, description: str | None = None, category: str
     }
     objects = data.pop("objects")
     body = _plain({**head, **{key: data[key] for key in SPEC_KEYS if key != "objects"}})
-    lines = []
+    lines = [FIXED_NOTE]
     for key, value in body.items():  # holes and heightfield on one line each, the rest as YAML lays it out
         if key == "holes" and value:
             lines.append(f"{key}: " + yaml.safe_dump(value, default_flow_style=True, width=10**6).strip())

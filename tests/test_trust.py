@@ -341,3 +341,9 @@ def test_objects_that_overlap_exactly_and_numbers_far_out_are_clear_errors(tmp_p
     far.write_text(f"agent: {{x: 1.0e+308, y: 0}}\narena_walls: true\nobjects:\n- {food}\n")
     with pytest.raises(ConfigError, match="agent's start .* lies outside any arena"):
         load_arena(far)
+
+
+def test_spec_yaml_says_plainly_that_the_arena_it_writes_is_fixed():
+    result = CliRunner().invoke(cli, ["spec", "L1", "--yaml"])
+    assert result.exit_code == 0
+    assert result.output.startswith("# A fixed arena") and "{uniform: [low, high]}" in result.output.splitlines()[1]
