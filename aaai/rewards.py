@@ -32,7 +32,7 @@ class StepEvents:
 
     @property
     def green_eaten(self) -> bool:
-        return any(food.kind == "food_green" for food, _ in self.eaten.values())
+        return bool(self.eaten) and any(food.kind == "food_green" for food, _ in self.eaten.values())
 
 
 def limb_eats(limb_food_reward: str) -> bool:
@@ -51,7 +51,8 @@ def step_reward(events: StepEvents, max_steps: int, ground_penalty: bool, limb_f
     return {
         "step": -unit,
         "ground": -unit if (events.head_on_floor or not ground_penalty) else 0.0,
-        "food": sum(food_reward(food, by_head, limb_food_reward) for food, by_head in events.eaten.values()),
+        "food": sum(food_reward(food, by_head, limb_food_reward) for food, by_head in events.eaten.values())
+        if events.eaten else 0,
         "wall": -1.0 * events.new_wall_hits,
         "fall": -1.0 if events.fell else 0.0,
         "shaping": 0.0,  # set by FoodTask when episode.shaping > 0 (training only)
@@ -116,11 +117,12 @@ class FoodTask:
         events.new_wall_hits = len(walls_now - self.wall_contacts)
         self.wall_contacts = walls_now
         self.wall_hits += events.new_wall_hits
-        limbs_eat = limb_eats(self.limb_food_reward)
-        for body, by_head in sorted(touching.items()):
-            if by_head or limbs_eat:
-                events.eaten[body] = (food[body], by_head)
-        self.food_eaten += len(events.eaten)
+        if touching:
+            limbs_eat = limb_eats(self.limb_food_reward)
+            for body, by_head in sorted(touching.items()):
+                if by_head or limbs_eat:
+                    events.eaten[body] = (food[body], by_head)
+            self.food_eaten += len(events.eaten)
         return events
 
     def get_reward(self, events: StepEvents, head, food_positions: Callable[[], list]) -> dict[str, float]:

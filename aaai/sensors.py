@@ -48,6 +48,7 @@ class Rays:
         self.space = spaces.Box(0.0, 1.0, shape, np.float32)
         self._nothing = self.n_kinds
         self._holes = None  # (m, 4) rectangles x0, y0, x1, y1 of missing floor, or None
+        self.threads = 1  # rayTestBatch's numThreads (0: all cores); the hits are the same for any
 
     def set_holes(self, rectangles) -> None:
         """The level's missing floor as world rectangles (x0, y0, x1, y1); empty for none."""
@@ -58,7 +59,7 @@ class Rays:
         dirs = self.local_dirs @ head_rot.T
         starts = head_pos + dirs * EYE_OFFSET
         ends = starts + dirs * self.length
-        hits = p.rayTestBatch(starts.tolist(), ends.tolist(), numThreads=1, collisionFilterMask=RAY_MASK,
+        hits = p.rayTestBatch(starts.tolist(), ends.tolist(), numThreads=self.threads, collisionFilterMask=RAY_MASK,
                               physicsClientId=self.client)
         # A plain loop: for a few dozen rays it is several times faster than numpy's fancy indexing.
         obs = np.zeros(self.grid_shape, np.float32)
@@ -168,7 +169,10 @@ class Senses:
         self.feet[:] = 0.0
 
     def feel(self, contacts) -> None:
-        """Which feet touch anything, from the step's contacts of the body."""
+        """Which feet touch anything, from the step's contacts of the body (only worked out when the
+        feet are observed)."""
+        if not self.foot_contacts:
+            return
         self.feet[:] = 0.0
         slot = self.foot_slot
         for contact in contacts:

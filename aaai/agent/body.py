@@ -130,8 +130,8 @@ class Quadruped:
         """A physics blow-up: a non-finite state, a body moving impossibly fast, or beyond ``bound``
         (a half-size) from the origin. Comparisons are written so that NaN fails them."""
         (vx, vy, vz), _ = p.getBaseVelocity(self.id, physicsClientId=self.client)
-        fastest_joint = float(np.abs(joint_speeds).max())
         x, y, z = position
-        healthy = (vx * vx + vy * vy + vz * vz <= max_speed_sq and fastest_joint <= BLOWUP_JOINT_SPEED
+        healthy = (vx * vx + vy * vy + vz * vz <= max_speed_sq
+                   and all(-BLOWUP_JOINT_SPEED <= speed <= BLOWUP_JOINT_SPEED for speed in joint_speeds.tolist())
                    and -bound <= x <= bound and -bound <= y <= bound and z <= bound)
         return not healthy
