@@ -382,7 +382,7 @@ class Scoreboard:
 
 def write_error(path: Path, error: OSError, kept: int) -> str:
     """The message for an OS error on a file an eval writes: the file, the cause, what stays."""
-    where = getattr(error, "filename", None) or path
+    where = getattr(error, "filename2", None) or getattr(error, "filename", None) or path  # a rename: its target
     cause = error.strerror or str(error) or type(error).__name__
     return (f"--out: cannot write {str(where)!r}: {cause}. The {kept} row(s) of {str(path)!r} written before "
             "stay; free the space or fix the permission, then run the same command again to resume")

@@ -347,3 +347,34 @@ def test_spec_yaml_says_plainly_that_the_arena_it_writes_is_fixed():
     result = CliRunner().invoke(cli, ["spec", "L1", "--yaml"])
     assert result.exit_code == 0
     assert result.output.startswith("# A fixed arena") and "{uniform: [low, high]}" in result.output.splitlines()[1]
+
+
+@pytest.mark.parametrize("fault", ["permission", "folder"])
+def test_a_write_refused_midway_names_the_file_and_a_rerun_resumes(tmp_path, monkeypatch, fault):
+    import builtins
+
+    config = _yaml(tmp_path, "short.yaml", SHORT)
+    out = tmp_path / "board.csv"
+    if fault == "folder":  # a folder where the record file should be
+        record_path(out).mkdir()
+    else:  # the scoreboard cannot be opened (as root, which writes anywhere, the refusal is injected)
+        real_open = builtins.open
+
+        def refusing(file, *args, **kwargs):
+            if str(file) == str(out):
+                raise PermissionError(errno.EACCES, "Permission denied", str(out))
+            return real_open(file, *args, **kwargs)
+
+        monkeypatch.setattr("aaai.evaluation.open", refusing, raising=False)
+    failed = _eval("--policy", "random", "--config", config, "-k", "2", "--out", out)
+    message = " ".join(failed.output.split())
+    assert failed.exit_code != 0 and "Traceback" not in failed.output
+    named = record_path(out) if fault == "folder" else out
+    assert f"cannot write '{named}'" in message, message
+    assert not out.exists()
+    if fault == "folder":
+        record_path(out).rmdir()
+    monkeypatch.undo()
+    resumed = _eval("--policy", "random", "--config", config, "-k", "2", "--out", out)
+    assert resumed.exit_code == 0, resumed.output
+    assert len(out.read_text().splitlines()) == 3
