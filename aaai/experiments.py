@@ -6,8 +6,9 @@ seeds it trained on (per cell, the last K distinct seeds it played): the differe
 generalisation gap. The folder (default experiments/curricula/) gets:
 
   experiment.yaml          what was run: samplers, seeds, budget, cells, the base config
-  runs/<sampler>-seed<N>/  each run's folder (aaai.runs) with scoreboard_reserved.csv and
-                           scoreboard_trained.csv
+  <sampler>-seed<N>/       each run's folder (aaai.runs) with scoreboard_reserved.csv and
+                           scoreboard_trained.csv (models, checkpoints and TensorBoard logs are
+                           not committed: .gitignore)
   runs.csv                 one row per run: pass rates on reserved and trained seeds, the gap
   table.csv, table.md      per sampler: mean and standard deviation over its runs
   curves.csv, curves.png   pass rate against training steps, mean and spread over seeds
@@ -21,10 +22,13 @@ different cells.
 """
 from __future__ import annotations
 
+import concurrent.futures
 import csv
 import io
 import math
+import multiprocessing
 import shutil
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -53,7 +57,7 @@ class Experiment:
         return load_config(self.config, mode="curriculum", sampler=sampler, seed=seed)
 
     def run_dir(self, sampler: str, seed: int) -> Path:
-        return self.folder / "runs" / f"{sampler}-seed{seed}"
+        return self.folder / f"{sampler}-seed{seed}"
 
     def record(self) -> dict:
         return {"samplers": self.samplers, "seeds": self.seeds, "seeds_per_cell": self.seeds_per_cell,
@@ -149,15 +153,43 @@ def score_run(experiment: Experiment, run: RunFolder, echo: Callable[[str], None
     return {name: output for name, (_, output, _) in boards.items()}
 
 
-def run_experiment(experiment: Experiment, echo: Callable[[str], None] = print,
-                   progress_factory: Callable[[int], object] | None = None) -> list[dict]:
-    """Trains and scores every (sampler, seed) not yet done, then writes the table and the plot.
-    ``progress_factory(total_steps)`` makes each run's progress report (aaai.training.Progress)."""
-    for seed in experiment.seeds:  # seed-major: a stopped experiment has every sampler on its first seeds
-        for sampler in experiment.samplers:
-            total = experiment.config["train"]["total_steps"]
-            run = train_run(experiment, sampler, seed, echo, progress_factory(total) if progress_factory else None)
-            score_run(experiment, run, echo)
+def run_one(experiment: Experiment, sampler: str, seed: int, echo: Callable[[str], None] = print,
+            progress_every: float | None = None) -> None:
+    """Trains and scores one (sampler, seed), as far as not done."""
+    from aaai.training import Progress, print_lines
+
+    name = f"{sampler}-seed{seed}"
+    report = None
+    if progress_every is not None:
+        report = Progress(experiment.config["train"]["total_steps"], label=f"training {name}", every=progress_every,
+                          write=print_lines(sys.stdout))
+    run = train_run(experiment, sampler, seed, echo, report)
+    score_run(experiment, run, echo)
+
+
+def _job(experiment: Experiment, sampler: str, seed: int, progress_every: float | None) -> None:
+    run_one(experiment, sampler, seed, print_flushed, progress_every)
+
+
+def print_flushed(text: str) -> None:
+    print(text, flush=True)
+
+
+def run_experiment(experiment: Experiment, echo: Callable[[str], None] = print, progress_every: float | None = None,
+                   jobs: int = 1) -> list[dict]:
+    """Trains and scores every (sampler, seed) not yet done, ``jobs`` runs at a time (each in its
+    own process), then writes the table and the plot. Runs go seed by seed: an experiment stopped
+    early has every sampler on its first seeds."""
+    pairs = [(sampler, seed) for seed in experiment.seeds for sampler in experiment.samplers]
+    if jobs <= 1:
+        for sampler, seed in pairs:
+            run_one(experiment, sampler, seed, echo, progress_every)
+    else:
+        context = multiprocessing.get_context("forkserver")
+        with concurrent.futures.ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+            futures = [pool.submit(_job, experiment, sampler, seed, progress_every) for sampler, seed in pairs]
+            for future in futures:
+                future.result()  # the first failure is raised here, after the runs under way end
     rows = [run_row(experiment, sampler, seed) for sampler in experiment.samplers for seed in experiment.seeds]
     write_results(experiment, rows)
     return rows

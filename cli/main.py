@@ -642,16 +642,18 @@ def default_action_mode() -> str:
               help="Action mode of every run (default: gait where available, else rotation).")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
 @click.option("--out", "folder", type=click.Path(file_okay=False), default="experiments/curricula", show_default=True)
-@click.option("--progress-every", type=click.FloatRange(0.1), default=60.0, show_default=True, help=PROGRESS_HELP)
+@click.option("--jobs", type=click.IntRange(1), default=2, show_default=True,
+              help="Runs trained at once, each in its own process (one per core: a run of 2 workers steps them in "
+                   "its own process when the cores are few, train.vector auto).")
+@click.option("--progress-every", type=click.FloatRange(0.1), default=60.0, show_default=True,
+              help="Seconds between each run's progress lines.")
 def curricula_command(samplers, seeds_text, total_steps, levels, difficulty, count, num_envs, action_mode, config_path,
-                      folder, progress_every):
+                      folder, jobs, progress_every):
     """Train every sampler on one budget, config and cells, several seeds each; score each run on
     reserved and on trained seeds; write a table and a learning-curve plot (make curricula).
     Re-running continues where it stopped."""
     from aaai.experiments import plan, run_experiment
     from aaai.runs import check_writable
-    from aaai.training import Progress, print_lines
-
     seeds = parse_range(seeds_text, "--seeds", 0, 2**32 - 1)
     try:
         check_writable(Path(folder), "--out", folder=True)
@@ -661,15 +663,10 @@ def curricula_command(samplers, seeds_text, total_steps, levels, difficulty, cou
         experiment = plan(folder, [s.strip() for s in samplers.split(",") if s.strip()], seeds, config, count)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
-    echo = lambda message: click.echo(message)  # noqa: E731
-
-    def progress_for(total: int) -> Progress:  # a line every --progress-every seconds, in a terminal too
-        return Progress(total, every=progress_every, write=print_lines(sys.stdout))
-
     click.echo(f"experiment {experiment.folder}: samplers {experiment.samplers}, seeds {experiment.seeds}, "
                f"{total_steps} steps each, action mode {config['agent']['action_mode']}")
     try:
-        run_experiment(experiment, echo=echo, progress_factory=progress_for)
+        run_experiment(experiment, echo=click.echo, progress_every=progress_every, jobs=jobs)
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except ImportError as error:

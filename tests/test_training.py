@@ -333,21 +333,24 @@ def test_tensorboard_gets_the_task_return_without_shaping(tmp_path):
     assert {"cells/pass_rate_L0_d0", "cells/pass_rate_L0_d1", "curriculum/p_L0_d0"} <= set(logged)
 
 
-def test_curricula_experiment_runs_scores_and_resumes(tmp_path):
+@pytest.mark.parametrize("jobs", [1, pytest.param(2, marks=pytest.mark.long)])
+def test_curricula_experiment_runs_scores_and_resumes(tmp_path, jobs):
     config = tmp_path / "random.yaml"
     config.write_text(yaml.safe_dump({"episode": {"max_steps": 50}, "train": {"agent": "random", "checkpoint_every": 100,
                                                                                "heatmap_every": 100}}))
     args = ["experiment", "curricula", "--samplers", "paper,plr", "--seeds", "0", "--steps", 200, "--levels", 0,
-            "--difficulty", "0-1", "-k", 1, "--envs", 1, "--config", config, "--out", tmp_path / "exp"]
+            "--difficulty", "0-1", "-k", 1, "--envs", 1, "--config", config, "--out", tmp_path / "exp", "--jobs", jobs]
     first = aaai(*args)
-    assert "action mode gait" in first.stdout
+    from aaai.config import RULES
+
+    assert f"action mode {'gait' if 'gait' in RULES['agent.action_mode'].choices else 'rotation'}" in first.stdout
     folder = tmp_path / "exp"
     with open(folder / "runs.csv") as handle:
         runs = list(csv.DictReader(handle))
     assert [(r["sampler"], r["seed"]) for r in runs] == [("paper", "0"), ("plr", "0")]
     assert all(r["reserved_episodes"] == "2" and r["trained_episodes"] == "2" and r["cells_played"] == "2" for r in runs)
     for sampler in ("paper", "plr"):
-        run = folder / "runs" / f"{sampler}-seed0"
+        run = folder / f"{sampler}-seed0"
         assert yaml.safe_load((run / "config.yaml").read_text())["curriculum"]["sampler"] == sampler
         with open(run / "episodes.csv") as handle:
             played = {int(row["seed"]) for row in csv.DictReader(handle)}
