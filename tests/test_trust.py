@@ -378,3 +378,66 @@ def test_a_write_refused_midway_names_the_file_and_a_rerun_resumes(tmp_path, mon
     resumed = _eval("--policy", "random", "--config", config, "-k", "2", "--out", out)
     assert resumed.exit_code == 0, resumed.output
     assert len(out.read_text().splitlines()) == 3
+
+
+# --- bad inputs in bulk: each a clear error or a valid result, never another exception -------------
+EXTREMES = [float("inf"), float("nan"), 1e308, "1e400", 2**63]
+MORE_EXTREMES = EXTREMES + [-1e308, 10**30, -10**30, float("-inf"), "0x10", 1e-320, "nan", "  7 ", True, None, [], {}]
+
+
+def _config_sweep(values) -> int:
+    from aaai.config import _flatten
+
+    tried = 0
+    for key in _flatten(load_config(None)):
+        section, _, leaf = key.rpartition(".")
+        for value in values:
+            tried += 1
+            try:
+                load_config({section: {leaf: value}} if section else {leaf: value})
+            except ConfigError as error:
+                assert leaf in str(error), (key, value, str(error))
+    return tried
+
+
+def test_extreme_numbers_for_every_config_key_are_taken_or_refused_naming_the_key():
+    assert _config_sweep(EXTREMES) >= 300
+
+
+@pytest.mark.long
+def test_more_extreme_values_for_every_config_key():
+    assert _config_sweep(MORE_EXTREMES) >= 1000
+
+
+def test_extreme_numbers_anywhere_in_an_arena_file_are_clear_errors(tmp_path):
+    from aaai.arena import load_arena
+
+    source = Path(__file__).parents[1] / "configs" / "arenas" / "l0_food_ahead.yaml"
+    data = yaml.safe_load(source.read_text())
+
+    def numbers(node, where=()):
+        if isinstance(node, dict):
+            for key, value in node.items():
+                yield from numbers(value, where + (key,))
+        elif isinstance(node, list):
+            for index, value in enumerate(node):
+                yield from numbers(value, where + (index,))
+        elif isinstance(node, (int, float)) and not isinstance(node, bool):
+            yield where
+
+    tried = 0
+    for where in list(numbers(data)):
+        for value in [1e308, -1e308, 10**30, 2**63, float("inf"), float("nan"), 1e-320, -1.0, 0, "1e5"]:
+            changed = yaml.safe_load(source.read_text())
+            node = changed
+            for part in where[:-1]:
+                node = node[part]
+            node[where[-1]] = value
+            path = tmp_path / "extreme.yaml"
+            path.write_text(yaml.safe_dump(changed))
+            tried += 1
+            try:
+                load_arena(path, 0)
+            except ConfigError as error:
+                assert "extreme.yaml" in str(error)
+    assert tried >= 100
