@@ -631,11 +631,11 @@ def default_action_mode() -> str:
 @click.option("--samplers", default="paper,uniform,learnability,plr", show_default=True,
               help="Samplers to compare (curriculum.sampler), comma-separated.")
 @click.option("--seeds", "seeds_text", default="0-2", show_default=True, help="Training seeds, e.g. '0-2'.")
-@click.option("--steps", "total_steps", type=click.IntRange(1), default=150_000, show_default=True,
-              help="The budget: training steps of every run.")
+@click.option("--steps", "total_steps", type=click.IntRange(1), default=500_000, show_default=True,
+              help="The budget: training steps (agent decisions) of every run.")
 @click.option("--levels", default="0,1,3,4", show_default=True, help="Active levels of every run.")
 @click.option("--difficulty", default="0-3", show_default=True, help="Active difficulties of every run.")
-@click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=5, show_default=True,
+@click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=10, show_default=True,
               help="Episodes per cell on reserved seeds, and on seeds each run trained on.")
 @click.option("--envs", "num_envs", type=click.IntRange(1), default=2, show_default=True, help="Workers per run.")
 @click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
