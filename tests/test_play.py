@@ -223,8 +223,8 @@ def test_two_sessions_play_side_by_side_and_bad_input_changes_nothing(tmp_path):
     assert sorted(replays) == ["human:ann", "human:bob"]
 
 
-def test_closed_tab_is_abandoned_not_scored_and_the_battery_resumes(tmp_path):
-    server = Server(settings_for(tmp_path, seeds=(0, 1), max_steps=15), port=0).start()
+def test_lost_focus_pauses_a_closed_tab_is_abandoned_not_scored_and_the_battery_resumes(tmp_path):
+    server = Server(settings_for(tmp_path, seeds=(0, 1), max_steps=50), port=0).start()
     try:
         with ExitStack() as stack:
             page = Page(stack, server)
@@ -234,6 +234,15 @@ def test_closed_tab_is_abandoned_not_scored_and_the_battery_resumes(tmp_path):
             page.pump(lambda s: s["phase"] == "ready" and s["episode"]["index"] == 2 and s["accepts_start"])
             page.key("ArrowUp")
             page.pump(lambda s: s["phase"] == "running" and s["steps"] > 3)
+            page.send({"type": "focus", "focused": False})  # the page loses focus: the clock stops
+            paused = page.pump(lambda s: s["phase"] == "paused")
+            page.key(" ")  # keys do not resume a page without focus
+            time.sleep(0.3)
+            page.pump(lambda s: True, timeout=0.2)
+            assert page.status["phase"] == "paused" and page.status["steps"] == paused["steps"]
+            page.send({"type": "focus", "focused": True})
+            page.key(" ")
+            page.pump(lambda s: s["phase"] == "running" and s["steps"] > paused["steps"])
         # the tab is gone mid-episode: with no grace period, its episode is abandoned at once
         deadline = time.monotonic() + 5
         while not abandoned_path(tmp_path / "human_cat.csv").exists():

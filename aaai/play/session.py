@@ -180,7 +180,7 @@ class Session:
         self.last: dict | None = None  # the last scored row
         self.rows: list[dict] = []
         self.version = 0  # bumped on every change a page should see
-        self.frame_no, self.frame_data, self.acked, self.last_frame_at = 0, None, 0, 0.0
+        self.frame_no, self.frame_data, self.acked, self.next_frame_at = 0, None, 0, 0.0
         self.delivered: list[float] = []  # monotonic times of acknowledged frames (the last second's)
         self.force_frame = False
         self.thread = threading.Thread(target=self._run, name=f"aaai-play-{player}", daemon=True)
@@ -370,13 +370,15 @@ class Session:
             self.live = live
             now = time.monotonic()
             wanted = self.attached and (self.force_frame or (
-                self.acked >= self.frame_no and now - self.last_frame_at >= 1.0 / self.settings.max_fps))
+                self.acked >= self.frame_no and now >= self.next_frame_at))
         if wanted:
             images = [encode(camera_image(observation["camera"]), ".png"),
                       encode(draw_snapshot(spec, snapshot, self.settings.map_size), ".jpg")]
             with self.cond:
                 self.frame_no += 1
-                self.frame_data, self.last_frame_at, self.force_frame = images, now, False
+                self.frame_data, self.force_frame = images, False
+                interval = 1.0 / self.settings.max_fps  # frames due on a schedule, so 30 fps is 30, not 25
+                self.next_frame_at = max(self.next_frame_at + interval, now - interval)
         with self.cond:
             self._changed()
 
