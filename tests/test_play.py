@@ -27,6 +27,7 @@ from aaai.play.session import PlaySettings, abandoned_path, command_of, control_
 from aaai.replays import load_replay, run_replay  # noqa: E402
 
 CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver")
+ROOT_ARENAS = Path(__file__).resolve().parent.parent / "configs" / "arenas"
 
 
 def settings_for(folder: Path, seeds=(0,), max_steps: int = 100, **changes) -> PlaySettings:
@@ -289,3 +290,22 @@ def test_eval_replays_run_and_film_again_and_a_changed_replay_is_caught(tmp_path
     changed.write_text("{}")
     with pytest.raises(ConfigError, match="is not an aaai replay"):
         load_replay(changed)
+
+
+def test_play_command_refuses_bad_options_and_a_port_in_use(tmp_path):
+    import socket
+
+    runner = CliRunner()
+    for args, message in ((["1", "--levels", "2"], "use one or the other"),
+                          (["--out", "one.csv"], "without {player}"),
+                          (["--player", "a b"], "player: got 'a b'"),
+                          (["L9", "-d", "11"], "difficulty: got 11"),
+                          (["--arena", str(ROOT_ARENAS), "--levels", "1"], "an arena file is its own level")):
+        result = runner.invoke(cli, ["play", *args])
+        assert result.exit_code == 2 and message in result.output, (args, result.output)
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        result = runner.invoke(cli, ["play", "--port", str(port), "--out", str(tmp_path / "h_{player}.csv")])
+    assert result.exit_code == 2 and f"--port: got {port}, and 127.0.0.1:{port} is in use" in result.output, result.output
