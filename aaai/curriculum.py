@@ -19,10 +19,11 @@ One class, :class:`Curriculum`, draws cells; ``sampler`` says how it weights the
   state, so R - V is the advantage with gamma = lambda = 1); 0 with fewer than two returns.
   It needs no value function, so it works with every learner (PPO, RLlib, random).
 
-Warm-up (every sampler): while any active cell has been drawn fewer than ``warmup`` times, the
-next cell is drawn uniformly among the cells drawn least. So every cell is visited ``warmup``
-times before any statistic is trusted. With ``warmup=0``, ``paper`` is the paper's sampler bit
-for bit. Probabilities are recomputed before every episode.
+Warm-up (every sampler): until every active cell has finished ``warmup`` episodes, the next cell
+is drawn uniformly among the cells drawn least (episodes under way count as drawn). So the first
+``warmup`` x cells draws visit every cell ``warmup`` times, and no statistic is trusted before
+every cell has ``warmup`` results. With ``warmup=0``, ``paper`` is the paper's sampler bit for
+bit. Probabilities are recomputed before every episode.
 """
 from __future__ import annotations
 
@@ -137,7 +138,8 @@ class Curriculum:
         return "episodes", np.array([float(self.episodes[cell]) for cell in self.cells])
 
     def in_warmup(self) -> bool:
-        return int(self.drawn.min()) < self.warmup
+        """Has some active cell finished fewer than ``warmup`` episodes?"""
+        return min(self.episodes.values()) < self.warmup
 
     def probabilities(self) -> np.ndarray:
         """The chance of each cell for the next episode."""

@@ -189,6 +189,17 @@ def test_every_sampler_visits_every_cell_in_its_warmup(sampler):
         assert not np.allclose(curriculum.probabilities(), 1.0 / len(curriculum.cells))
 
 
+def test_the_warmup_lasts_until_every_cell_has_its_results():
+    curriculum = Curriculum([0], [0, 1], sampler="paper", warmup=1, seed=2)
+    first = [curriculum.sample()[1] for _ in range(2)]  # two workers start: one episode in each cell
+    assert sorted(first) == [0, 1]
+    for value in (0.0, 10.0, 0.0, 10.0):
+        curriculum.record(0, 0, value)  # cell 0 has results; cell 1's episode is still under way
+    assert curriculum.in_warmup() and curriculum.probabilities() == pytest.approx([0.5, 0.5])
+    curriculum.record(0, 1, 5.0)
+    assert not curriculum.in_warmup() and curriculum.probabilities()[0] > 0.9
+
+
 def test_no_sampler_without_warmup_visits_every_cell_first():
     curriculum = Curriculum([0, 1], [0, 1, 2], sampler="paper", warmup=0, seed=4)
     for value in (0.0, 10.0):

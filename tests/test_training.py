@@ -363,3 +363,14 @@ def test_curricula_experiment_runs_scores_and_resumes(tmp_path, jobs):
     assert again.stdout.count("skipped") == 6  # two runs and four scoreboards, all done
     other = aaai(*[a if a != 200 else 300 for a in args], check=False)
     assert other.returncode == 2 and "another config" in other.stderr
+
+
+def test_train_sampler_option_and_random_alias_reach_the_runs_sampler(tmp_path):
+    for extra, expected in ((["--sampler", "learnability"], "learnability"), (["--random", "--sampler", "plr"], "uniform")):
+        run = tmp_path / expected
+        result = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "50", "--envs", "1", "--run", str(run),
+                                          *extra])
+        assert result.exit_code == 0, result.output
+        assert read_state(run / "final")["curriculum"]["sampler"] == expected
+    bad = CliRunner().invoke(cli, ["train", "--agent", "random", "--sampler", "best", "--run", str(tmp_path / "x")])
+    assert bad.exit_code == 2 and "'best'" in bad.output and "learnability" in bad.output
