@@ -309,3 +309,35 @@ def test_play_command_refuses_bad_options_and_a_port_in_use(tmp_path):
         port = taken.getsockname()[1]
         result = runner.invoke(cli, ["play", "--port", str(port), "--out", str(tmp_path / "h_{player}.csv")])
     assert result.exit_code == 2 and f"--port: got {port}, and 127.0.0.1:{port} is in use" in result.output, result.output
+
+
+def test_a_dropped_connection_pauses_and_the_tab_carries_on_with_its_token(tmp_path):
+    server = Server(settings_for(tmp_path, max_steps=60, grace_seconds=30.0), port=0).start()
+    try:
+        with ExitStack() as stack:
+            page = Page(stack, server)
+            page.join("eve")
+            page.pump(startable)
+            page.key("ArrowUp")
+            page.pump(lambda s: s["phase"] == "running" and s["steps"] > 5)
+            page.pump(lambda s: page.joined is not None, timeout=1)
+            token = page.joined["token"]
+        deadline = time.monotonic() + 5
+        while server.registry.all()[0].status()["phase"] != "paused":  # the socket dropped: the clock stops
+            assert time.monotonic() < deadline
+            time.sleep(0.02)
+        steps = server.registry.all()[0].status()["steps"]
+        time.sleep(0.3)
+        assert server.registry.all()[0].status()["steps"] == steps
+        with ExitStack() as stack:
+            page = Page(stack, server)
+            page.join("eve", token)  # the same tab, reconnected
+            status = page.pump(lambda s: s["type"] == "frame")  # it gets the picture at once, paused
+            assert status["phase"] == "paused" and status["steps"] == steps
+            page.key(" ")
+            end = page.pump(over)
+    finally:
+        server.stop()
+    assert end["phase"] == "finished" and not abandoned_path(tmp_path / "human_eve.csv").exists()
+    [row] = rows_of(tmp_path / "human_eve.csv")
+    assert row["steps"] == "60"

@@ -222,8 +222,8 @@ class Session:
     def attach(self, notify: Callable[[], None]) -> None:
         with self.cond:
             self.attached, self.notify, self.focused = True, notify, True
-            self.acked = self.frame_no  # the new page has seen nothing: send it the frame again
-            self.force_frame = True
+            self.acked = self.frame_no - 1 if self.frame_data is not None else 0  # the new page has seen nothing:
+            self.force_frame = True  # the newest frame goes to it now (even while paused), and a new one follows
             self._changed()
 
     def detach(self) -> None:
