@@ -357,7 +357,7 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
     if arenas is not None:
         return eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty,
-                           seed_key_file, backend, action_mode, trust_model, save_replays)
+                           seed_key_file, backend, action_mode, trust_model, save_replays, progress_every)
     if save_replays is not None and backend != "local":
         raise click.UsageError("--save-replays: only with --backend local")
     from aaai.evaluation import (cells_for, evaluate, policy_config, policy_record, summarise, summary_markdown,
@@ -411,7 +411,7 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
 
 
 def eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty, seed_key_file,
-                backend, action_mode=None, trust_model=False, save_replays=None):
+                backend, action_mode=None, trust_model=False, save_replays=None, progress_every=30.0):
     """``aaai eval --arenas``: every arena file of the battery on seeds 0..K-1 (or a --seeds list)."""
     from aaai.arena import arena_files, arena_meta
     from aaai.evaluation import evaluate_arenas, policy_config, policy_record, summarise_arenas, summary_markdown, \
@@ -441,9 +441,16 @@ def eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output,
         output = Path(output) if output else (run_folder or Path(".")) / "scoreboard_arenas.csv"
         record = {**policy_record(policy, "list"), "seeds": label, "arenas": str(arenas)}
         episodes = len(files) * len(seeds)
-        with click.progressbar(length=episodes, label=f"scoring {episodes} episodes", show_pos=True) as bar:
+        from aaai.training import Progress
+
+        report = Progress(episodes, label="scoring", unit="episodes", every=progress_every)
+        with progress_output(report) as update:
+            def on_episode(row: dict) -> None:
+                report.add_episodes([row["outcome"] != "failed"], steps=int(row["steps"]))
+                update(1)
+
             rows = evaluate_arenas(policy, files, seeds, output, config, record=record, trust=trust_model,
-                                   **replay_hooks(save_replays, policy, trust_model, lambda row: bar.update(1), files))
+                                   **replay_hooks(save_replays, policy, trust_model, on_episode, files))
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except OSError as error:  # an output that became unwritable midway (its rows so far stay)
