@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 
 from aaai.config import ConfigError
-from aaai.evaluation import Cell, evaluate, evaluate_arenas, policy_record, record_path, scored_episodes
+from aaai.evaluation import Cell, evaluate, evaluate_arenas, policy_record, scored_episodes
 from aaai.levels import get_level
 from aaai.viewer import camera_image, draw_snapshot
 
@@ -447,4 +447,4 @@ def abandoned_path(output: Path) -> Path:
 
 
 __all__ = ["Abandoned", "HumanPolicy", "InputError", "PlaySettings", "Session", "KEYS", "CONTROL_KEYS",
-           "abandoned_path", "check_player", "control_of", "command_of", "record_path"]
+           "abandoned_path", "check_player", "control_of", "command_of"]
