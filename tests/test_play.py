@@ -149,7 +149,7 @@ def test_browser_plays_an_episode_scores_it_and_its_replay_runs_again_bit_for_bi
         assert y > start[1] + 0.5, f"ArrowUp walks forward (north): y {start[1]} -> {y}"
         assert abs(x - start[0]) < 1.0 and abs(yaw - start[2]) < 20
         actions.key_down("c").perform()  # crouch to reach the food on the floor
-        wait(phase_is_over := lambda: phase() == "finished", timeout=12)
+        wait(phase_is_over := lambda: phase() == "finished", timeout=20)
         ActionChains(driver).key_up("c").key_up(Keys.ARROW_UP).perform()
         assert phase_is_over()
     finally:
