@@ -441,3 +441,238 @@ def test_extreme_numbers_anywhere_in_an_arena_file_are_clear_errors(tmp_path):
             except ConfigError as error:
                 assert "extreme.yaml" in str(error)
     assert tried >= 100
+
+
+# --- fuzzing: generated arena files, configs and command lines (Hypothesis) --------------------
+# A fast, derandomised subset runs in make test; make test-long runs FUZZ_LONG examples of each
+# surface (3 x 3,400 = 10,200). Every input must end cleanly: a result or a clear error, no other
+# exception. Inputs that once failed are kept as @example()s.
+from hypothesis import HealthCheck, example, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from aaai.kinds import OBJECT_KINDS  # noqa: E402
+
+FUZZ_FAST, FUZZ_LONG = 40, 3400
+_fuzz = dict(derandomize=True, deadline=None, suppress_health_check=list(HealthCheck))
+extreme = st.sampled_from([float("inf"), float("-inf"), float("nan"), 1e308, -1e308, 2**63, 10**30, 0, -1, 1e-320])
+number = st.one_of(st.floats(-30, 30), st.integers(-30, 30), extreme)
+junk = st.one_of(st.none(), st.booleans(), st.text(max_size=6), st.lists(st.integers(-3, 3), max_size=3), extreme)
+triple = st.one_of(st.lists(number, min_size=3, max_size=3), junk)
+objects = st.fixed_dictionaries(
+    {"kind": st.one_of(st.sampled_from(OBJECT_KINDS), junk), "position": triple, "size": triple},
+    optional={"shape": st.one_of(st.sampled_from(["box", "sphere", "cylinder"]), junk), "yaw": number,
+              "mass": number, "colour": junk, "behaviour": st.one_of(junk, st.fixed_dictionaries(
+                  {"type": st.sampled_from(["random_walk", "sink", "slide", "door", "hinge", "other"])})),
+              "junk": junk})
+arenas = st.fixed_dictionaries(
+    {"agent": st.one_of(st.fixed_dictionaries({"x": number, "y": number}, optional={"yaw": number}), junk),
+     "objects": st.one_of(st.lists(objects, max_size=4), junk)},
+    optional={"arena_walls": st.one_of(st.booleans(), junk), "arena_size": st.one_of(st.lists(number, min_size=2,
+              max_size=2), junk), "time_limit": number, "tiles": junk, "holes": junk, "seed": number,
+              "difficulty": number, "category": st.one_of(st.sampled_from(["food_contact", "L3", "nowhere"]), junk),
+              "colours": junk, "extras": junk, "uniform": junk})
+
+
+def _arena_ends_cleanly(tmp_path: Path, data: dict, seed: int) -> None:
+    from aaai.arena import load_arena
+
+    path = tmp_path / "fuzzed.yaml"
+    path.write_text(yaml.safe_dump(data))
+    try:
+        load_arena(path, seed)
+    except ConfigError as error:
+        assert "fuzzed.yaml" in str(error), str(error)
+
+
+@settings(max_examples=FUZZ_FAST, **_fuzz)
+@given(data=arenas, seed=st.integers(0, 3))
+@example(data={"agent": {"x": 1e308, "y": 0}, "objects": [], "arena_walls": True}, seed=0)  # once a traceback
+@example(data={"agent": {"x": 0, "y": 0}, "arena_walls": True, "objects": [  # once accepted: exact overlap
+    {"kind": "food_green", "position": [-9, -9, 0.5], "size": [1, 1, 1]}] * 2}, seed=0)
+def test_fuzzed_arena_files_end_cleanly(tmp_path_factory, data, seed):
+    _arena_ends_cleanly(tmp_path_factory.mktemp("fuzz"), data, seed)
+
+
+@pytest.mark.long
+@settings(max_examples=FUZZ_LONG, **_fuzz)
+@given(data=arenas, seed=st.integers(0, 3))
+def test_fuzzed_arena_files_end_cleanly_long(tmp_path_factory, data, seed):
+    _arena_ends_cleanly(tmp_path_factory.mktemp("fuzz"), data, seed)
+
+
+def _config_keys():
+    from aaai.config import _flatten
+
+    return sorted(_flatten(load_config(None)))
+
+
+configs = st.dictionaries(st.sampled_from(_config_keys() + ["agent.nothing", "nowhere"]),
+                          st.one_of(number, junk, st.sampled_from(["auto", "gait", "std", "0-3", "1e400"])),
+                          max_size=4)
+
+
+def _config_ends_cleanly(flat: dict) -> None:
+    tree: dict = {}
+    for key, value in flat.items():
+        section, _, leaf = key.rpartition(".")
+        (tree.setdefault(section, {}) if section else tree)[leaf] = value
+    try:
+        load_config(tree)
+    except ConfigError as error:
+        assert any(key.rpartition(".")[2] in str(error) for key in flat), str(error)
+
+
+@settings(max_examples=FUZZ_FAST, **_fuzz)
+@given(configs)
+def test_fuzzed_configs_end_cleanly(flat):
+    _config_ends_cleanly(flat)
+
+
+@pytest.mark.long
+@settings(max_examples=FUZZ_LONG, **_fuzz)
+@given(configs)
+def test_fuzzed_configs_end_cleanly_long(flat):
+    _config_ends_cleanly(flat)
+
+
+small_text = st.one_of(st.sampled_from(["0", "1", "0-1", "1,0", "12", "13", "-1", "x", "", "0-", "1e3", "99999999999999999999"]),
+                       st.text(alphabet="0123456789-,x ", max_size=6))
+OPTIONS = {
+    "spec": {"-d": small_text, "-s": small_text, "--json": None, "--yaml": None},
+    "seeds": {"--levels": small_text, "--difficulty": small_text, "-k": st.sampled_from(["1", "2", "0", "x"])},
+    "validate": {"--levels": small_text, "--difficulty": small_text, "--seeds": st.sampled_from(["1", "0", "x"]),
+                 "--first-seed": small_text},
+    "run": {"--levels": small_text, "--difficulty": small_text, "--episodes": st.sampled_from(["1", "0", "-3", "x"]),
+            "--seed": small_text, "--policy": st.sampled_from(["random", "reference", "json:nothing", "nothing.zip", "x"]),
+            "--max-steps": st.sampled_from(["10", "0", "-5", "1e9", "x"]), "--camera": None, "--no-rays": None},
+    "eval": {"--levels": small_text, "--difficulty": small_text, "-k": st.sampled_from(["1", "0", "x"]),
+             "--seeds": st.sampled_from(["reserved", "train", "1,2", "x", ""]),
+             "--policy": st.sampled_from(["random", "json:nothing", "nothing.zip", "x", "reference"]),
+             "--backend": st.sampled_from(["local", "cluster"]), "--trust-model": None},
+}
+
+
+@st.composite
+def command_lines(draw):
+    command = draw(st.sampled_from(sorted(OPTIONS) + ["levels", "nothing"]))
+    args = [command]
+    if command == "spec":
+        args.append(draw(small_text))
+    for option, values in draw(st.lists(st.sampled_from(sorted(OPTIONS.get(command, {"--x": None}).items())),
+                                        max_size=4, unique_by=lambda item: item[0])):
+        args += [option] if values is None else [option, draw(values)]
+    if draw(st.booleans()):
+        args.append(draw(st.sampled_from(["--nothing", "extra", "--levels"])))
+    return args
+
+
+def _command_ends_cleanly(tmp_path: Path, args: list[str]) -> None:
+    if args[0] in ("run", "eval") and "--max-steps" not in args:  # short episodes: the run is not the point
+        args = args + ["--config", str(_yaml(tmp_path, "short.yaml", {"episode": {"max_steps": 10}}))]
+    if args[0] == "eval":
+        args = args + ["--out", str(tmp_path / "board.csv"), "--difficulty", "0"]
+    if args[0] in ("run", "validate", "eval") and "--levels" not in args:
+        args = args + ["--levels", "0"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exception is None or isinstance(result.exception, SystemExit), (args, result.output)
+    assert "Traceback" not in result.output
+
+
+@settings(max_examples=FUZZ_FAST, **_fuzz)
+@given(args=command_lines())
+def test_fuzzed_command_lines_end_cleanly(tmp_path_factory, args):
+    _command_ends_cleanly(tmp_path_factory.mktemp("cli"), args)
+
+
+@pytest.mark.long
+@settings(max_examples=FUZZ_LONG, **_fuzz)
+@given(args=command_lines())
+def test_fuzzed_command_lines_end_cleanly_long(tmp_path_factory, args):
+    _command_ends_cleanly(tmp_path_factory.mktemp("cli"), args)
+
+
+# --- faults: SIGKILL at seeded random moments -----------------------------------------------
+def _rows_without_timing(path: Path) -> list[dict]:
+    with open(path) as handle:
+        return [{k: v for k, v in row.items() if k != "wall_seconds"} for row in csv.DictReader(handle)]
+
+
+@pytest.mark.long
+@pytest.mark.parametrize("seed", [0, 1, 2, 3, 4])
+def test_an_eval_killed_at_a_random_moment_resumes_to_the_uninterrupted_scoreboard(tmp_path, seed):
+    import os
+    import random
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    config = _yaml(tmp_path, "short.yaml", {"episode": {"max_steps": 40}})
+    command = [sys.executable, "-m", "aaai_cli.main", "eval", "--policy", "reference", "--levels", "0-1",
+               "--difficulty", "0-1", "-k", "2", "--config", str(config)]
+    whole = tmp_path / "whole.csv"
+    subprocess.run(command + ["--out", str(whole)], check=True, capture_output=True)
+    rng = random.Random(seed)
+    killed = tmp_path / "killed.csv"
+    rows_before_kill = rng.randint(0, 6)
+    process = subprocess.Popen(command + ["--out", str(killed)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and process.poll() is None:
+        if killed.exists() and len(killed.read_text().splitlines()) - 1 >= rows_before_kill:
+            time.sleep(rng.uniform(0.0, 0.3))  # somewhere inside the next episode (or its write)
+            break
+        time.sleep(0.01)
+    if process.poll() is None:
+        os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    subprocess.run(command + ["--out", str(killed)], check=True, capture_output=True)
+    assert _rows_without_timing(killed) == _rows_without_timing(whole)
+
+
+# --- soak: a million steps over every level and kind, with resets ------------------------------
+def _rss_mb() -> float:
+    with open("/proc/self/statm") as handle:
+        import os
+
+        return int(handle.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def _pybullet_connections() -> int:
+    import pybullet
+
+    return sum(bool(pybullet.isConnected(i)) for i in range(64))
+
+
+def soak(steps: int, seed: int = 0, warm_up_episodes: int = 100) -> dict:
+    """Random actions over every level at random difficulties, resetting at each episode's end:
+    the RSS after the warm-up and at the end, and the PyBullet connections open at the end."""
+    from aaai.levels import level_ids
+
+    rng = np.random.default_rng(seed)
+    env = AnimalAIEnv(config=load_config({"sensors": {"camera": True, "camera_resolution": 32},
+                                          "episode": {"max_steps": 500}}))
+    env.action_space.seed(seed)
+    levels, episodes, warm = level_ids(), 0, None
+    env.reset(seed=0, options={"level": 0, "difficulty": 0})
+    for _ in range(steps):
+        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+        if terminated or truncated:
+            episodes += 1
+            if episodes == warm_up_episodes:
+                warm = _rss_mb()
+            env.reset(seed=int(rng.integers(10**6)), options={"level": int(rng.choice(levels)),
+                                                              "difficulty": int(rng.integers(0, 11))})
+    end, connections = _rss_mb(), _pybullet_connections()
+    env.close()
+    return {"steps": steps, "episodes": episodes, "rss_after_warm_up_mb": warm, "rss_end_mb": end,
+            "connections": connections, "connections_after_close": _pybullet_connections()}
+
+
+@pytest.mark.long
+def test_a_million_steps_keep_memory_and_connections_bounded():
+    import os
+
+    result = soak(int(os.environ.get("AAAI_SOAK_STEPS", 1_000_000)))
+    print(result)
+    assert result["episodes"] > 100 and result["connections"] == 1 and result["connections_after_close"] == 0
+    assert result["rss_end_mb"] - result["rss_after_warm_up_mb"] < 50
