@@ -36,6 +36,7 @@ from aaai.evaluation import (COLUMNS, Cell, Scoreboard, check_record, columns_of
                              policy_record, run_episode, scored_episodes, scoring_record, write_error)
 from aaai.files import write_atomic
 from aaai.ray_session import RaySession
+from aaai.rllib_learner import run_backend
 from aaai.runs import check_writable
 
 DEFAULT_RETRIES = 3
@@ -64,6 +65,9 @@ def policy_spec(policy: str, put: Callable[[bytes], Any] | None = None, trust: b
     """
     if policy in BUILTIN_POLICIES:
         return PolicySpec(policy)
+    if Path(policy).is_dir() and run_backend(policy) == "rllib":
+        raise ConfigError(f"--policy: {policy!r} is an RLlib run; --backend ray scores stable-baselines3 models, "
+                          "the built-in policies and module:callable; score an RLlib run with --backend local")
     model = policy_record(policy, "list").get("model")  # the model file; a missing or damaged one is refused
     if model is not None:
         data = Path(model).read_bytes()

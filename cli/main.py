@@ -400,7 +400,7 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except OSError as error:  # an output that became unwritable midway (its rows so far stay)
-        raise click.ClickException(f"cannot write {str(error.filename or output)!r}: {error.strerror or error}") from None
+        raise click.ClickException(f"{str(error.filename or output)!r}: {error.strerror or error}") from None
     except ImportError as error:
         raise click.UsageError(f"{error}. Loading a model needs the train extra: pip install -e '.[train]'; "
                                "--backend ray and RLlib runs need the ray extra: pip install -e '.[ray]'") from None
@@ -454,7 +454,7 @@ def eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output,
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except OSError as error:  # an output that became unwritable midway (its rows so far stay)
-        raise click.ClickException(f"cannot write {str(error.filename or output)!r}: {error.strerror or error}") from None
+        raise click.ClickException(f"{str(error.filename or output)!r}: {error.strerror or error}") from None
     except ImportError as error:
         raise click.UsageError(f"{error}. Loading a model needs the train extra: pip install -e '.[train]'") from None
     summary = summarise_arenas(rows, categories)
