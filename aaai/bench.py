@@ -10,8 +10,8 @@ a factor of two; the load average before and after every part is recorded with t
 
 - limit: a bare PyBullet loop over the very world an episode builds (same bodies, timestep,
   substeps and motor commands, reading the same joint states), no environment around it;
-- the environment per level with four sensor settings (and, on levels with missing floor, the rays
-  without the hole casting); reset time per level;
+- the environment per level with four sensor settings, the rays also with rayTestBatch on 2
+  threads (and, on levels with missing floor, without the hole casting); reset time per level;
 - throughput with 1, 2 and 4 worker processes (Gymnasium's AsyncVectorEnv) and 2 in-process;
 - training: PPO and the random agent through the training loop, against the environment alone
   (the same vector env, workers and sensors, random actions, nothing else), for the shipped config;
@@ -44,6 +44,7 @@ SENSOR_SETTINGS = {
     "joints+cam84gray": dict(rays=False, camera=True, camera_resolution=84, camera_grayscale=True),
 }
 NO_HOLE_CASTING = "joints+rays without hole casting"
+RAYS_TWO_THREADS = "joints+rays, rayTestBatch on 2 threads"
 WARM_UP = 50  # untimed steps of each runner before the first round
 
 
@@ -164,11 +165,14 @@ def level_rates(level: int, steps: int, rounds: int) -> dict:
     runners: dict = {"limit": BareLoop(level, steps)}
     for name, sensors in SENSOR_SETTINGS.items():
         runners[name] = EnvLoop(_env(level, sensors), steps)
+    runners[RAYS_TWO_THREADS] = EnvLoop(_env(level, SENSOR_SETTINGS["joints+rays"]), steps)
+    runners[RAYS_TWO_THREADS].env.rays.threads = 2  # PyBullet's numThreads: the same hits, split over threads
     if runners["joints+rays"].env.rays._holes is not None:
         runners[NO_HOLE_CASTING] = EnvLoop(_without_hole_casting(_env(level, SENSOR_SETTINGS["joints+rays"])), steps)
     rates, machine_load = _run_group(runners, rounds)
     ratios = {"joints / limit": per_round(rates["joints"], rates["limit"]),
-              "rays overhead": per_round(rates["joints"], rates["joints+rays"], minus_one=True)}
+              "rays overhead": per_round(rates["joints"], rates["joints+rays"], minus_one=True),
+              "rays overhead, 2 threads": per_round(rates["joints"], rates[RAYS_TWO_THREADS], minus_one=True)}
     if NO_HOLE_CASTING in rates:
         ratios["cost of seeing holes"] = per_round(rates[NO_HOLE_CASTING], rates["joints+rays"], minus_one=True)
     return {"rates": {name: summary(values) for name, values in rates.items()},
@@ -394,9 +398,11 @@ def memory_growth(steps: int = 20000, reset_every: int = 200) -> dict:
 
 # --- the whole run ----------------------------------------------------------------------------
 def run(levels: list[int] | None = None, steps: int = 1000, rounds: int = 5, resets: int = 50,
-        worker_steps: int = 1000, train_steps: int = 4096, memory_steps: int = 20000, log=print) -> dict:
+        worker_steps: int = 1000, train_steps: int = 4096, memory_steps: int = 20000, train_config: dict | None = None,
+        log=print) -> dict:
     """Every figure; ``steps`` (per figure and round), ``worker_steps`` (per worker and round) and
-    ``train_steps`` (per round; 0 leaves training out) set the size of each timed chunk."""
+    ``train_steps`` (per round; 0 leaves training out) set the size of each timed chunk;
+    ``train_config`` overrides the shipped config for the training row."""
     levels = levels if levels is not None else list(all_levels())
     results: dict = {"machine": _machine(), "load": {"before": load()},
                      "settings": {"rounds": rounds, "steps": steps, "resets": resets, "worker_steps": worker_steps,
@@ -412,7 +418,7 @@ def run(levels: list[int] | None = None, steps: int = 1000, rounds: int = 5, res
     results["workers"] = workers_rates(worker_steps, rounds)
     if train_steps:
         log("training ...")
-        results["training"] = training_rates(train_steps, rounds)
+        results["training"] = training_rates(train_steps, rounds, train_config)
     log("Ant-v5 ...")
     results["ant_v5"] = ant_rates(steps, rounds)
     log("memory ...")
@@ -456,15 +462,16 @@ def markdown(results: dict) -> str:
              f"{results['load']['before']} before, {results['load']['after']} after.", "",
              f"Steps per second (medians over {settings['rounds']} alternated rounds); ratios as median "
              "(min..max) of the per-round ratios.", "",
-             "| level | limit | joints | joints / limit | +rays | rays overhead | +cam 64 RGB | +cam 84 gray "
-             "| reset median ms | reset p95 ms |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| level | limit | joints | joints / limit | +rays | rays overhead | rays overhead, rayTestBatch on 2 "
+             "threads | +cam 64 RGB | +cam 84 gray | reset median ms | reset p95 ms |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     holes = []
     for label, level in results["levels"].items():
         rates, level_ratios = level["rates"], level["ratios"]
         lines.append(f"| {label} | {_rate(rates['limit'])} | {_rate(rates['joints'])} | "
                      f"{_ratio(level_ratios['joints / limit'])} | {_rate(rates['joints+rays'])} | "
-                     f"{_ratio(level_ratios['rays overhead'], True)} | {_rate(rates['joints+cam64rgb'])} | "
+                     f"{_ratio(level_ratios['rays overhead'], True)} | "
+                     f"{_ratio(level_ratios['rays overhead, 2 threads'], True)} | {_rate(rates['joints+cam64rgb'])} | "
                      f"{_rate(rates['joints+cam84gray'])} | {level['reset_ms']['median']:.1f} | "
                      f"{level['reset_ms']['p95']:.1f} |")
         if "cost of seeing holes" in level_ratios:

@@ -588,17 +588,20 @@ def seeds_command(levels, difficulty, count, seed_key_file):
               help="Steps per worker and round in the 1/2/4-worker runs.")
 @click.option("--train-steps", type=click.IntRange(0), default=4096, show_default=True,
               help="Steps per round of PPO, the random agent and the environment alone (0: no training row).")
+@click.option("--train-envs", type=click.IntRange(1, 256), help="Workers of the training row (default: the config's).")
 @click.option("--memory-steps", type=click.IntRange(1000), default=20000, show_default=True)
 @click.option("--out", "folder", type=click.Path(), default="bench", show_default=True,
               help="Folder for bench.json and bench.md.")
-def bench_command(levels, rounds, steps, resets, worker_steps, train_steps, memory_steps, folder):
+def bench_command(levels, rounds, steps, resets, worker_steps, train_steps, train_envs, memory_steps, folder):
     """Measure steps/s against a bare PyBullet loop and MuJoCo Ant-v5, training against the
     environment alone, resets, workers and memory; alternated rounds, medians and spreads."""
     from aaai import bench
 
     level_list = parse_levels(levels) if levels else None
     results = bench.run(level_list, steps=steps, rounds=rounds, resets=resets, worker_steps=worker_steps,
-                        train_steps=train_steps, memory_steps=memory_steps, log=lambda text: click.echo(text, err=True))
+                        train_steps=train_steps, memory_steps=memory_steps,
+                        train_config={"train": {"num_envs": train_envs}} if train_envs else None,
+                        log=lambda text: click.echo(text, err=True))
     json_path, md_path = bench.write(results, Path(folder))
     click.echo(bench.markdown(results), nl=False)
     click.echo("ratios (medians): " + ", ".join(f"{k} {v:.2f}" for k, v in results["ratios"].items()))

@@ -45,7 +45,8 @@ def test_bench_writes_every_figure_with_medians_spreads_and_load(tmp_path):
     assert results["settings"]["rounds"] == 2
     assert len(results["load"]["before"]) == 3 and len(results["load"]["after"]) == 3
     level = results["levels"]["L0"]
-    assert set(level["rates"]) == {"limit", "joints", "joints+rays", "joints+cam64rgb", "joints+cam84gray"}
+    assert set(level["rates"]) == {"limit", "joints", "joints+rays", "joints+cam64rgb", "joints+cam84gray",
+                                   bench.RAYS_TWO_THREADS}
     for figure in [*level["rates"].values(), *level["ratios"].values()]:
         assert len(figure["rounds"]) == 2 and figure["min"] <= figure["median"] <= figure["max"]
     assert level["ratios"]["joints / limit"]["rounds"] == [
