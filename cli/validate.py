@@ -25,6 +25,11 @@ def validate(ctx, levels_text, difficulty_text, seeds, first_seed, arena):
     of the agent's footprint. Prints seeds checked, regenerated and failed per (level, difficulty);
     exits with status 1 if any failed."""
     from aaai_cli.main import parse_levels, parse_range  # here, not at the top: main imports this module
+    from aaai.levels import SEED_LIMIT
+
+    if first_seed + seeds > SEED_LIMIT:  # every seed checked must be one a level takes
+        raise click.BadParameter(f"got {first_seed} with --seeds {seeds}; allowed: seeds up to {SEED_LIMIT - 1} "
+                                 f"(a first seed of at most {SEED_LIMIT - seeds})", param_hint="--first-seed")
 
     if arena is not None:
         explicit = ctx.get_parameter_source("seeds") == click.core.ParameterSource.COMMANDLINE

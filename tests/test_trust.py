@@ -580,6 +580,7 @@ def _command_ends_cleanly(tmp_path: Path, args: list[str]) -> None:
 
 @settings(max_examples=FUZZ_FAST, **_fuzz)
 @given(args=command_lines())
+@example(args=["validate", "--first-seed", "99999999999999999999"])  # once a traceback (a seed past the limit)
 def test_fuzzed_command_lines_end_cleanly(tmp_path_factory, args):
     _command_ends_cleanly(tmp_path_factory.mktemp("cli"), args)
 
