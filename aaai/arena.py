@@ -15,6 +15,8 @@ An arena file's keys are the spec's fields (README, "Write your own test"):
   objects give: the largest green plus every yellow), ``time_limit`` (seconds), ``blackout:
   {light, dark}`` or null, ``colours: {kind: [r, g, b, a]}``, ``bridge: [x0, y0, x1, y1]`` or null,
   ``inner: {level, name, difficulty, seed}`` or null, ``regenerated``, ``extras`` (any plain data);
+- ``pass_mark``: the return at or above which an episode of this arena passes (Animal-AI's
+  ``passMark``); kept in the spec's ``extras["pass_mark"]`` (aaai.animalai.passed); optional;
 - and three keys that are not the spec's: ``description`` (one line for people), ``category``
   (the level name, label or id the test belongs to, e.g. ``y_maze``: the scoreboard's summary
   groups by it) and ``arena_walls`` (true: the four walls round the arena, as the generators'
@@ -44,10 +46,10 @@ import yaml
 from aaai import validate
 from aaai.behaviours import REGISTRY
 from aaai.config import ConfigError, _PlainLoader, read_yaml
-from aaai.kinds import FOOD_KINDS, OBJECT_KINDS
+from aaai.kinds import FOOD_KINDS, OBJECT_KINDS, kind_class
 from aaai.spec import SHAPES, AgentPose, Blackout, InnerLevel, LevelSpec, ObjectSpec
 
-META_KEYS = ("description", "category", "arena_walls")
+META_KEYS = ("description", "category", "arena_walls", "pass_mark")
 SPEC_KEYS = ("level", "name", "difficulty", "seed", "agent", "objects", "arena_size", "wall_height", "tiles", "holes",
              "heightfield", "max_food_reward", "time_limit", "blackout", "colours", "bridge", "inner", "regenerated",
              "extras")
@@ -269,8 +271,7 @@ class _Reader:
         before = len(self.problems)
         self.keys(value, OBJECT_KEYS, where, required=("kind", "position", "size"), strict=False)
         kind = self.attempt(lambda: self.text(value["kind"], where + ("kind",), OBJECT_KINDS)) if "kind" in value else None
-        shape = self.attempt(lambda: self.text(value.get("shape", "sphere" if kind in FOOD_KINDS else "box"),
-                                               where + ("shape",), SHAPES))
+        shape = self.attempt(lambda: self.text(value.get("shape", default_shape(kind)), where + ("shape",), SHAPES))
         position = self.attempt(lambda: self.numbers(value["position"], where + ("position",), 3)) \
             if "position" in value else None
         size = self.attempt(lambda: self.numbers(value["size"], where + ("size",), 3, positive=True)) \
@@ -311,6 +312,15 @@ class _Reader:
     def optional(self, key: str, make):
         value = self.draw(self.data.get(key), (key,))
         return None if value is None else make(value)
+
+
+def default_shape(kind: str | None) -> str:
+    """The shape an object of this kind has when the file does not say: food a sphere, a newer
+    kind its own (aaai.kinds), anything else a box."""
+    cls = kind_class(kind) if kind else None
+    if cls is not None:
+        return cls.shape
+    return "sphere" if kind in FOOD_KINDS else "box"
 
 
 def _category(value, source: _Source):
@@ -448,18 +458,23 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
         return value
 
     fields["extras"] = attempt(extras, {})
+    if "pass_mark" in data:
+        mark = attempt(lambda: read.number(data["pass_mark"], ("pass_mark",)))
+        if mark is not None:
+            fields["extras"] = {**(fields["extras"] or {}), "pass_mark": float(mark)}
     if "max_food_reward" in data:
         fields["max_food_reward"] = attempt(lambda: read.number(data["max_food_reward"], ("max_food_reward",)), 0.0)
     else:
         green = [o.food_value for o in objects if o.kind == "food_green"]
-        fields["max_food_reward"] = max(green, default=0.0) + sum(o.food_value for o in objects if o.kind == "food_yellow")
+        fields["max_food_reward"] = max(green, default=0.0) + sum(o.food_value for o in objects
+                                                                  if o.is_food and o.kind != "food_green")
     if read.problems:
         raise ArenaProblems(read.problems)
     spec = LevelSpec(level, name, difficulty, spec_seed, agent, objects, **fields)
     return spec, meta, source
 
 
-_OBJECT_REF = re.compile(r"(food_green|food_yellow|wall|transparent_wall|plank|pillar|floor|deadly_floor) at "
+_OBJECT_REF = re.compile(r"(" + "|".join(sorted(OBJECT_KINDS, key=len, reverse=True)) + r") at "
                          r"\((-?\d+\.\d), (-?\d+\.\d)\)")
 _INDEX_REF = re.compile(r"object (\d+) \((\w+)\)")
 

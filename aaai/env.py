@@ -111,7 +111,8 @@ class AnimalAIEnv(gym.Env):
         self.client, self.control_dt = self.sim.client, self.sim.control_dt  # simulated s per step
         agent = cfg["agent"]
         self.action_mode = agent["action_mode"]
-        self.visuals = cfg["sensors"]["camera"] or render_mode is not None  # visual shapes only if anything draws
+        # visual shapes only if anything draws ("": none), and the camera's look (aaai.world.World)
+        self.visuals = cfg["sensors"]["camera_look"] if cfg["sensors"]["camera"] or render_mode is not None else ""
         drive = "rotation" if self.action_mode == "gait" else self.action_mode  # the gait sends joint angles
         self.body = Quadruped(self.client, agent["body"], drive, agent["max_force"],
                               agent["max_joint_velocity"], agent["friction"], self.visuals,

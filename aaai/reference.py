@@ -13,7 +13,10 @@ own). Its tactic is the same in every level, driven by what the level holds:
 - sectors with doors (L9): only the sector with the most food, and every piece in it;
 - a plank to tip over as a bridge (L10): walk round behind it, push it over, cross on it;
 - everything else (walls, holes, pits, mazes, terrain) is the planner's: the cheapest path on
-  the occupancy grid, kept away from walls and edges where there is room.
+  the occupancy grid, kept away from walls and edges where there is room;
+- the newer kinds (aaai.kinds): multi food is eaten as yellows are; bad food and death zones are
+  blocked on the grid (aaai.validate), so the body keeps clear of them; a path near a hot zone
+  costs HOT_COST more per unit, so it goes round one where it can; tunnels are walked through.
 
 Use it as any policy: ``aaai eval --policy reference``, ``aaai run --policy reference``,
 ``aaai show --video out.mp4 --policy reference``, or ``ReferenceController(env)`` in Python.
@@ -22,6 +25,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pybullet as p
 
@@ -30,9 +34,11 @@ from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.gait import BACK_UP, SineGait, approach, steer
 from aaai.behaviours import Sink, behaviour_class
 from aaai.geometry import corners
+from aaai.kinds import kind_class
 from aaai.spec import ObjectSpec
 from aaai.validate import FOOTPRINT_RADIUS
 
+EAT_FIRST = ("food_yellow", "multi_food")  # pieces that do not end the episode: eaten before the green
 COMFORT = 8.0  # paths keep this far (units) from walls and edges where there is room ...
 CROWDING_COST = 4.0  # ... paying up to this many times a step's length where there is not,
 CLOSE = 6.5  # and far more (CLOSE_COST) nearer than this, where a sweeping foot may touch a wall
@@ -60,6 +66,7 @@ BACK_OFF_SECONDS = 1.0
 APPROACH_GAP = 4.0  # the approach point lies this far beyond head-to-food contact distance
 DETOUR_REACHED = 2.5
 RETRY_TURN = math.radians(50)  # a stuck approach is tried again from a side turned this far
+HOT_COST = 20.0  # extra path cost per unit where a foot may touch a hot zone
 
 
 class ReferenceController:
@@ -101,6 +108,13 @@ class ReferenceController:
         self.walk = walk if walk is not None else self.clearance > HEAD_RADIUS
         self.crowding = (1.0 + CROWDING_COST * np.clip(1.0 - self.clearance / COMFORT, 0.0, 1.0)
                          + CLOSE_COST * np.clip((CLOSE - self.clearance) / (CLOSE - FOOTPRINT_RADIUS), 0.0, 1.0))
+        hot = [obj for obj in self.spec.objects if getattr(kind_class(obj.kind), "hot", False)]
+        if hot:  # where a foot may touch a hot zone
+            zones = np.zeros(self.clearance.shape, np.uint8)
+            for obj in hot:
+                validate.fill(zones, self.spec, corners(obj))
+            away = cv2.distanceTransform((zones == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * validate.GRID
+            self.crowding = self.crowding + HOT_COST * (away < FOOTPRINT_RADIUS)
         self.plan_key = None
 
     def _doors(self, head: np.ndarray) -> None:
@@ -176,7 +190,7 @@ class ReferenceController:
     def _target(self, head: np.ndarray):
         """(goal x y, reach, plan key, things to avoid, wait): what the body goes for now."""
         foods = self._foods()
-        yellows = [f for f in foods if f[1].kind == "food_yellow"]
+        yellows = [f for f in foods if f[1].kind in EAT_FIRST]
         greens = [f for f in foods if f[1].kind == "food_green"]
         down = [f for f in yellows if not _still_sinking(f)]
         sinking = [f for f in yellows if _still_sinking(f)]

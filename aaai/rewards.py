@@ -3,7 +3,9 @@
 T is episode.max_steps. Every step costs 0.5/T, and another 0.5/T while the head touches
 the floor (with ground_penalty off: 1/T flat). Food eaten with the head pays its value
 (green: size, yellow: size/2); with a leg, as agent.limb_food_reward says. Each new
-contact of a body part with a wall costs 1; falling onto the deadly floor costs 1.
+contact of a body part with a wall costs 1; falling onto the deadly floor costs 1. The newer
+kinds (aaai.kinds): bad food touched by any part pays -size and ends the episode; a death zone
+touched is a fall; while a hot zone is touched the step term is ten times as large.
 Optional potential-based shaping (episode.shaping = k > 0) adds k x (how much nearer the head
 came to the nearest food this step); evaluation always runs with k = 0.
 """
@@ -13,13 +15,16 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable
 
-from aaai.kinds import KIND_INDEX
+from aaai.kinds import EDIBLE_KINDS, ENDING_KINDS, HOT_ZONE_FACTOR, KIND_INDEX, KINDS, REGISTRY
 from aaai.spec import LevelSpec, ObjectSpec
 
-LIMB_FLAT_REWARD = {"food_green": 1.0, "food_yellow": 0.5}
+LIMB_FLAT_REWARD = {"food_green": 1.0, "food_yellow": 0.5, **{k: c.flat_value for k, c in REGISTRY.items() if c.edible}}
+ANY_PART = tuple(k for k, c in REGISTRY.items() if c.any_part)  # eaten by any part of the body (bad food)
 TERMS = ("step", "ground", "food", "wall", "fall", "shaping")
 FLOOR, WALL, DEADLY = KIND_INDEX["floor"], KIND_INDEX["wall"], KIND_INDEX["deadly_floor"]
-FOOD = (KIND_INDEX["food_green"], KIND_INDEX["food_yellow"])
+FOOD = tuple(KIND_INDEX[kind] for kind in EDIBLE_KINDS)
+NEWER = len(KINDS)  # kind indices from here on are aaai.kinds plug-ins
+NEWER_CLASSES = tuple(REGISTRY.values())
 HEAD = -1  # the head's link index in a contact
 
 
@@ -29,10 +34,12 @@ class StepEvents:
     eaten: dict[int, tuple[ObjectSpec, bool]] = field(default_factory=dict)  # body -> (food, by the head)
     new_wall_hits: int = 0
     fell: bool = False
+    hot: bool = False  # a part of the body touches a hot zone
 
     @property
     def green_eaten(self) -> bool:
-        return bool(self.eaten) and any(food.kind == "food_green" for food, _ in self.eaten.values())
+        """A piece that ends the episode is eaten (a green, or bad food)."""
+        return bool(self.eaten) and any(food.kind in ENDING_KINDS for food, _ in self.eaten.values())
 
 
 def limb_eats(limb_food_reward: str) -> bool:
@@ -40,7 +47,7 @@ def limb_eats(limb_food_reward: str) -> bool:
 
 
 def food_reward(food: ObjectSpec, by_head: bool, limb_food_reward: str) -> float:
-    if by_head or limb_food_reward == "size":
+    if by_head or limb_food_reward == "size" or food.kind in ANY_PART:
         return food.food_value
     return LIMB_FLAT_REWARD[food.kind] if limb_food_reward == "flat" else 0.0
 
@@ -49,7 +56,7 @@ def step_reward(events: StepEvents, max_steps: int, ground_penalty: bool, limb_f
     """Reward terms of one step; their sum is the step's reward."""
     unit = 0.5 / max_steps
     return {
-        "step": -unit,
+        "step": -unit * HOT_ZONE_FACTOR if events.hot else -unit,
         "ground": -unit if (events.head_on_floor or not ground_penalty) else 0.0,
         "food": sum(food_reward(food, by_head, limb_food_reward) for food, by_head in events.eaten.values())
         if events.eaten else 0,
@@ -114,15 +121,20 @@ class FoodTask:
                 events.fell = True
             elif kind in FOOD:
                 touching[other] = touching.get(other, False) or link == HEAD
+            elif kind >= NEWER:  # a floor area (aaai.kinds): deadly, or hot
+                newer = NEWER_CLASSES[kind - NEWER]
+                events.fell |= newer.deadly
+                events.hot |= newer.hot
+                events.head_on_floor |= newer.zone and link == HEAD
         events.new_wall_hits = len(walls_now - self.wall_contacts)
         self.wall_contacts = walls_now
         self.wall_hits += events.new_wall_hits
         if touching:
             limbs_eat = limb_eats(self.limb_food_reward)
             for body, by_head in sorted(touching.items()):
-                if by_head or limbs_eat:
+                if by_head or limbs_eat or food[body].kind in ANY_PART:
                     events.eaten[body] = (food[body], by_head)
-            self.food_eaten += len(events.eaten)
+            self.food_eaten += sum(piece.is_food for piece, _ in events.eaten.values())
         return events
 
     def get_reward(self, events: StepEvents, head, food_positions: Callable[[], list]) -> dict[str, float]:

@@ -10,7 +10,7 @@ from gymnasium import spaces
 from aaai.agent.body import RAY_MASK, Quadruped
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.geometry import missing_floor
-from aaai.kinds import KIND_INDEX, KINDS
+from aaai.kinds import KIND_INDEX, kind_class, ray_channels
 from aaai.spec import Blackout as SpecBlackout
 from aaai.spec import LevelSpec
 
@@ -33,27 +33,44 @@ class Rays:
     the kind ``hole`` at that distance (0 once the head is over the gap). Rays are lines, not the
     original's sphere casts of radius 0.5: an object narrower than the gap between two rays at its
     distance can lie unseen between them.
+
+    Kinds (``ray_kinds``, aaai.kinds.ray_channels): ``classic`` has the nine classic channels, a
+    newer kind seen on its nearest classic one; ``all`` adds a channel per newer kind a policy
+    must tell apart. Floor areas (hot and death zones, ``set_zones``) are seen along the ground
+    track as holes are.
     """
 
-    def __init__(self, client: int, rays_per_side: int, max_angle: float, length: float, flat: bool = False):
+    def __init__(self, client: int, rays_per_side: int, max_angle: float, length: float, flat: bool = False,
+                 ray_kinds: str = "classic"):
         self.client = client
         self.flat = flat
         self.length = length
         angles = np.radians(np.linspace(-max_angle, max_angle, 2 * rays_per_side + 1))
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
         self.n_rays = len(angles)
-        self.n_kinds = len(KINDS)
+        self.channels, self.column = ray_channels(ray_kinds)  # channel names; kind index -> column
+        self.n_kinds = len(self.channels)
         self.grid_shape = (self.n_rays, self.n_kinds + 2)
         shape = (self.n_rays * (self.n_kinds + 2),) if flat else self.grid_shape
         self.space = spaces.Box(0.0, 1.0, shape, np.float32)
         self._nothing = self.n_kinds
         self._holes = None  # (m, 4) rectangles x0, y0, x1, y1 of missing floor, or None
+        self._zones = None  # (m, 7) floor areas: centre x y, cos and sin of yaw, half x y, column; or None
         self.threads = 1  # rayTestBatch's numThreads (0: all cores); the hits are the same for any
 
     def set_holes(self, rectangles) -> None:
         """The level's missing floor as world rectangles (x0, y0, x1, y1); empty for none."""
         rectangles = np.asarray(rectangles, dtype=np.float64).reshape(-1, 4)
         self._holes = rectangles if len(rectangles) else None
+
+    def set_zones(self, zones) -> None:
+        """The level's floor areas as rows (centre x, y, yaw, half x, half y, kind index); empty for none."""
+        zones = np.asarray(zones, dtype=np.float64).reshape(-1, 6)
+        if not len(zones):
+            self._zones = None
+            return
+        columns = [self.column[int(kind)] for kind in zones[:, 5]]
+        self._zones = np.column_stack([zones[:, :2], np.cos(zones[:, 2]), np.sin(zones[:, 2]), zones[:, 3:5], columns])
 
     def observe(self, head_pos: np.ndarray, head_rot: np.ndarray, kind_index: np.ndarray) -> np.ndarray:
         dirs = self.local_dirs @ head_rot.T
@@ -64,18 +81,43 @@ class Rays:
         # A plain loop: for a few dozen rays it is several times faster than numpy's fancy indexing.
         obs = np.zeros(self.grid_shape, np.float32)
         known = len(kind_index)
+        column = self.column
         for row, hit in enumerate(hits):
             body = hit[0]
             kind = kind_index[body] if 0 <= body < known else -1
             if kind >= 0:
-                obs[row, kind] = 1.0
+                obs[row, column[kind]] = 1.0
                 obs[row, -1] = hit[2]
             else:
                 obs[row, self._nothing] = 1.0
                 obs[row, -1] = 1.0
         if self._holes is not None:
             self._see_holes(obs, starts, dirs)
+        if self._zones is not None:
+            self._see_zones(obs, starts, dirs)
         return obs.reshape(-1) if self.flat else obs
+
+    def _see_zones(self, obs: np.ndarray, starts: np.ndarray, dirs: np.ndarray) -> None:
+        """Marks each ray whose ground track enters a floor area before its hit as seeing that area's
+        kind: the slab method in each area's own frame."""
+        cx, cy, cos, sin, hx, hy, columns = self._zones.T  # (m,)
+        dx, dy = starts[:, 0:1] - cx, starts[:, 1:2] - cy  # (n, m)
+        u0, v0 = dx * cos + dy * sin, -dx * sin + dy * cos
+        du = dirs[:, 0:1] * cos + dirs[:, 1:2] * sin
+        dv = -dirs[:, 0:1] * sin + dirs[:, 1:2] * cos
+        du = np.where(du == 0.0, 1e-12, du)
+        dv = np.where(dv == 0.0, 1e-12, dv)
+        tu0, tu1 = (-hx - u0) / du, (hx - u0) / du
+        tv0, tv1 = (-hy - v0) / dv, (hy - v0) / dv
+        enter = np.maximum(np.maximum(np.minimum(tu0, tu1), np.minimum(tv0, tv1)), 0.0)
+        leave = np.minimum(np.maximum(tu0, tu1), np.maximum(tv0, tv1))
+        distance = np.where(leave >= enter, enter, np.inf) / self.length  # (n, m)
+        nearest = distance.argmin(axis=1)
+        distance = distance[np.arange(len(distance)), nearest]
+        for row in np.flatnonzero(distance < obs[:, -1]):
+            obs[row, :-1] = 0.0
+            obs[row, int(columns[nearest[row]])] = 1.0
+            obs[row, -1] = distance[row]
 
     def _see_holes(self, obs: np.ndarray, starts: np.ndarray, dirs: np.ndarray) -> None:
         """Marks each ray whose ground track enters missing floor before its hit as seeing a hole."""
@@ -138,7 +180,8 @@ class Senses:
 
     def __init__(self, client: int, sensors: dict, body: Quadruped):
         self.rays = Rays(client, sensors["rays_per_side"], sensors["ray_max_angle"],
-                         sensors["ray_length"], sensors["rays_flat"]) if sensors["rays"] else None
+                         sensors["ray_length"], sensors["rays_flat"],
+                         sensors.get("ray_kinds", "classic")) if sensors["rays"] else None
         self.camera = Camera(client, sensors["camera_resolution"],
                              sensors["camera_grayscale"]) if sensors["camera"] else None
         self.blackout = Blackout()
@@ -165,6 +208,8 @@ class Senses:
         """Readies the senses for a new level: the rays learn its missing floor, the camera its blackout."""
         if self.rays:
             self.rays.set_holes(missing_floor(spec))
+            self.rays.set_zones([(*obj.position[:2], obj.yaw, obj.size[0] / 2, obj.size[1] / 2, KIND_INDEX[obj.kind])
+                                 for obj in spec.objects if getattr(kind_class(obj.kind), "zone", False)])
         self.blackout = Blackout(spec.blackout, control_dt)
         self.feet[:] = 0.0
 

@@ -11,7 +11,7 @@ import json
 from dataclasses import asdict, dataclass, field
 
 from aaai.behaviours import names as behaviour_names
-from aaai.kinds import COLOURS, FOOD_KINDS, check_kind
+from aaai.kinds import COLOURS, EDIBLE_KINDS, FOOD_KINDS, check_kind, kind_class
 
 SHAPES = ("box", "sphere", "cylinder")
 
@@ -45,13 +45,20 @@ class ObjectSpec:
         return self.kind in FOOD_KINDS
 
     @property
+    def is_edible(self) -> bool:
+        """Eaten on contact: food, and the kinds with a reward of their own (bad food)."""
+        return self.kind in EDIBLE_KINDS
+
+    @property
     def food_value(self) -> float:
-        """Reward for eating this piece with the head: its size (green) or half its size (yellow)."""
+        """Reward for eating this piece with the head: its size (green) or half its size (yellow);
+        a newer kind's value per unit of size (aaai.kinds) times its size."""
         if self.kind == "food_green":
             return self.size[0]
         if self.kind == "food_yellow":
             return self.size[0] / 2
-        return 0.0
+        cls = kind_class(self.kind)
+        return cls.value * self.size[0] if cls is not None and cls.edible else 0.0
 
 
 @dataclass(frozen=True)

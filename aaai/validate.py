@@ -18,7 +18,7 @@ import numpy as np
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.behaviours import REGISTRY, behaviour_class
-from aaai.kinds import SOLID_KINDS
+from aaai.kinds import SOLID_KINDS, kind_class
 from aaai.geometry import TOLERANCE, corners, footprints_overlap
 from aaai.spec import LevelSpec, ObjectSpec
 
@@ -38,13 +38,40 @@ def z_range(obj: ObjectSpec, z: float | None = None) -> tuple[float, float]:
     return centre - obj.size[2] / 2, centre + obj.size[2] / 2
 
 
-def solids(spec: LevelSpec) -> list[ObjectSpec]:
-    return [obj for obj in spec.objects if obj.kind in SOLID_KINDS]
+def pieces(obj: ObjectSpec) -> list[ObjectSpec]:
+    """An object as the boxes it is built of (aaai.kinds parts: a tunnel's arch, an L block), each
+    as an upright box round that part, in world coordinates; the object itself otherwise."""
+    cls = kind_class(obj.kind)
+    parts = cls.parts(obj) if cls is not None else None
+    if not parts:
+        return [obj]
+    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+    boxes = []
+    for (x, y, z), (length, width, thickness), roll in parts:
+        across = width * abs(math.cos(roll)) + thickness * abs(math.sin(roll))
+        up = width * abs(math.sin(roll)) + thickness * abs(math.cos(roll))
+        boxes.append(ObjectSpec(obj.kind, "box", (obj.position[0] + c * x - s * y, obj.position[1] + s * x + c * y,
+                                                  obj.position[2] + z), (length, across, up), obj.yaw))
+    return boxes
+
+
+def solids(spec: LevelSpec, owners: list[int] | None = None) -> list[ObjectSpec]:
+    """The solid objects, a newer kind made of parts as its pieces; ``owners`` gets each one's
+    object index."""
+    found = []
+    for index, obj in enumerate(spec.objects):
+        if obj.kind in SOLID_KINDS:
+            for piece in pieces(obj):
+                found.append(piece)
+                if owners is not None:
+                    owners.append(index)
+    return found
 
 
 def overlapping_solids(spec: LevelSpec) -> list[str]:
     """Pairs of solid objects that overlap (boxes cut into each other), by index and kind."""
-    objs = solids(spec)
+    owners: list[int] = []
+    objs = solids(spec, owners)
     if len(objs) < 2:
         return []
     quads = [corners(obj) for obj in objs]
@@ -56,7 +83,7 @@ def overlapping_solids(spec: LevelSpec) -> list[str]:
                   & (zs[:, None, 0] < zs[None, :, 1] - TOLERANCE) & (zs[None, :, 0] < zs[:, None, 1] - TOLERANCE))
     problems = []
     for i, j in zip(*np.nonzero(np.triu(candidates, 1))):
-        if footprints_overlap(quads[i], quads[j]):
+        if owners[i] != owners[j] and footprints_overlap(quads[i], quads[j]):
             problems.append(f"solid objects overlap: {objs[i].kind} at {_xy(objs[i].position)} "
                             f"and {objs[j].kind} at {_xy(objs[j].position)}")
     return problems
@@ -134,11 +161,17 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
         moving = behaviour_class(obj)
         if moving and moving.passable:
             continue
+        if getattr(kind_class(obj.kind), "walkable", False):  # a ramp: the body walks over it
+            continue
         if bridge and obj.kind == "plank" and obj.mass > 0:  # it becomes the bridge
             continue
         if obj.position[2] - obj.size[2] / 2 > 2 * HEAD_RADIUS:  # high above the body (none yet)
             continue
         fill(grid, spec, corners(obj))
+    for obj in spec.objects:  # a death zone is missing floor; bad food is to be kept clear of, as a solid
+        cls = kind_class(obj.kind)
+        if cls is not None and (cls.deadly or (cls.edible and cls.value < 0)):
+            fill(grid, spec, corners(obj))
     if spec.holes:  # every cell whose centre lies over a missing tile
         nx, ny = spec.tiles
         missing = np.zeros((ny, nx), bool)
@@ -293,6 +326,9 @@ def malformed(spec: LevelSpec) -> list[str]:
             missing = [f for f in moving.fields if f not in obj.behaviour]
             if missing:
                 problems.append(f"{what}'s behaviour {obj.behaviour['type']!r} lacks {', '.join(missing)}")
+        cls = kind_class(obj.kind)
+        if cls is not None and not problems:
+            problems += [f"{what}: {problem}" for problem in cls.problems(obj)]
     return problems
 
 

@@ -19,7 +19,7 @@ from aaai.agent.urdf_writer import COLOURS as BODY_COLOURS
 from aaai.agent.urdf_writer import HEAD_RADIUS, LEG_REACH, LEGS, SEGMENT_RADIUS
 from aaai.files import PendingFile, atomic_path
 from aaai.behaviours import behaviour_class
-from aaai.kinds import COLOURS
+from aaai.kinds import COLOURS, kind_class
 from aaai.snapshot import Snapshot
 from aaai.spec import LevelSpec, ObjectSpec
 
@@ -252,6 +252,16 @@ def _draw_object(image: np.ndarray, m: Mapping, obj: ObjectSpec, live: bool = Fa
         _dashed(image, _outline_points(m, obj), colour)
         return
     outline = rgb((0.6 * r, 0.6 * g, 0.6 * b))
+    cls = kind_class(obj.kind)
+    if cls is not None and cls.parts(obj):  # a tunnel's arch, an L block: each box it is built of
+        from aaai.validate import pieces
+
+        for piece in sorted(pieces(obj), key=lambda o: o.position[2] + o.size[2] / 2):
+            corners = _box_corners(m, piece)
+            cv2.fillPoly(image, [corners], colour, cv2.LINE_AA, SHIFT)
+            cv2.polylines(image, [corners], True, outline, 1, cv2.LINE_AA, SHIFT)
+        _mark(image, m, obj, cls.mark)
+        return
     layer = image.copy() if alpha < 1.0 else image
     centre = m.fixed(*obj.position[:2])
     radius = int(round(m.length(obj.size[0] / 2) * ONE))
@@ -280,10 +290,49 @@ def _draw_object(image: np.ndarray, m: Mapping, obj: ObjectSpec, live: bool = Fa
             start = m.to_float(x + edge * (tx - x), y + edge * (ty - y))
             _dashed(image, [start, m.to_float(tx, ty)], MOVING_COLOUR, closed=False)
             cv2.drawMarker(image, m.to_px(tx, ty), MOVING_COLOUR, cv2.MARKER_TILTED_CROSS, 8, 1, cv2.LINE_AA)
+    if cls is not None:
+        _mark(image, m, obj, cls.mark)
     if moving and moving.marked:  # a moving part: a white ring
         reach = math.hypot(obj.size[0], obj.size[1]) / 2 if obj.shape == "box" else obj.size[0] / 2
         ring = int(round(m.length(reach + 0.6) * ONE))
         cv2.circle(image, centre, ring, MOVING_COLOUR, 1, cv2.LINE_AA, SHIFT)
+
+
+MARK_COLOUR = (255, 255, 255)
+
+
+def _mark(image: np.ndarray, m: Mapping, obj: ObjectSpec, mark: str) -> None:
+    """A newer kind's mark (aaai.kinds): cross (bad food), dot (multi food, decoy), stripes (floor
+    areas), arrow (a ramp, uphill), rim (a tunnel: its way through, dashed; a block: nothing more)."""
+    x, y = obj.position[:2]
+    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+    if mark == "cross":
+        half = obj.size[0] / 2 * 0.6
+        for dx, dy in ((half, half), (half, -half)):
+            cv2.line(image, m.fixed(x - dx, y - dy), m.fixed(x + dx, y + dy), MARK_COLOUR, 2, cv2.LINE_AA, SHIFT)
+    elif mark == "dot":
+        cv2.circle(image, m.fixed(x, y), int(round(max(1.5, m.length(obj.size[0] / 6)) * ONE)), MARK_COLOUR, -1,
+                   cv2.LINE_AA, SHIFT)
+    elif mark == "stripes":  # diagonal hatching inside the area
+        hx, hy = obj.size[0] / 2, obj.size[1] / 2
+        step = max(1.0, min(hx, hy) / 3)
+        shade = rgb(tuple(0.55 * v for v in obj.rgba[:3]))
+        for k in range(-int((hx + hy) / step), int((hx + hy) / step) + 1):
+            offset = k * step  # the line u - v = offset, clipped to the rectangle
+            u0, u1 = max(-hx, -hy + offset), min(hx, hy + offset)
+            if u0 >= u1:
+                continue
+            points = [(u, u - offset) for u in (u0, u1)]
+            ends = [m.fixed(x + c * u - s * v, y + s * u + c * v) for u, v in points]
+            cv2.line(image, ends[0], ends[1], shade, 1, cv2.LINE_AA, SHIFT)
+    elif mark == "arrow":  # uphill
+        half = obj.size[0] / 2 * 0.7
+        start, end = m.fixed(x - c * half, y - s * half), m.fixed(x + c * half, y + s * half)
+        cv2.arrowedLine(image, start, end, MARK_COLOUR, 2, cv2.LINE_AA, SHIFT, 0.25)
+    elif mark == "rim" and obj.kind == "tunnel":  # the way through, along its axis
+        half = obj.size[0] / 2 + 1.5
+        _dashed(image, [m.to_float(x - c * half, y - s * half), m.to_float(x + c * half, y + s * half)], MARK_COLOUR,
+                closed=False)
 
 
 def _draw_agent(image: np.ndarray, m: Mapping, agent: AgentShape) -> None:

@@ -15,7 +15,7 @@ import pybullet as p
 
 from aaai.behaviours import Behaviour, Door, behaviour_class
 from aaai.geometry import footprint, merge_tiles
-from aaai.kinds import COLOURS, KIND_INDEX
+from aaai.kinds import CAMERA_HIDDEN, COLOURS, ENDING_KINDS, KIND_INDEX, kind_class
 from aaai.snapshot import Pose
 from aaai.spec import LevelSpec, ObjectSpec
 
@@ -27,15 +27,18 @@ MAX_COMPOUND_SHAPES = 16  # PyBullet's limit on shapes in one createCollisionSha
 # Bullet multiplies the two bodies' frictions; the floor's default is 0.5. A plank must grip the
 # floor (1.0 combined) or a body climbing onto the L10 bridge shoves it into the trench.
 PLANK_FRICTION = 2.0
+HIDDEN_VISUAL = 1e-3  # radius of the visual shape of a kind the camera does not see
 HIDDEN_Z = -30.0  # where an open door waits: below the deadly floor, out of sight and reach
 
 
 class World:
     """The level's bodies in one client. Build it after every resetSimulation."""
 
-    def __init__(self, client: int, spec: LevelSpec, motion_rng: np.random.Generator, visuals: bool = True):
+    def __init__(self, client: int, spec: LevelSpec, motion_rng: np.random.Generator, visuals: bool | str = True):
         self.client = client
-        self.visuals = visuals  # without them building is faster; nothing can be drawn
+        self.visuals = bool(visuals)  # without them building is faster; nothing can be drawn
+        # the camera's look (sensors.camera_look): "task" hides what the task says is not seen
+        self.look = visuals if isinstance(visuals, str) and visuals else "classic"
         self.spec = spec
         self.motion_rng = motion_rng
         self.kind_index = np.full(64, NO_KIND, dtype=np.int64)  # body id -> index into KINDS
@@ -52,11 +55,14 @@ class World:
         self.index: dict[int, int] = {}  # body id -> the object's index in spec.objects
         for i, obj in enumerate(spec.objects):
             self.index[self._build_object(obj)] = i
-        self.had_food = bool(self.food)
+        self.had_food = any(obj.is_food for obj in self.food.values())
+        # the multi_food rule: the episode ends once every piece of such a kind is eaten
+        self.all_end = {obj.kind for obj in self.food.values() if getattr(kind_class(obj.kind), "all_end", False)}
         self._eaten: bool | None = None  # all_eaten's answer, until food is eaten or a door closes
         self._obstacles = [  # footprints that random walkers steer clear of
             footprint(obj) for obj in spec.objects
-            if not obj.is_food and obj.mass == 0 and _inside_arena(obj, spec)
+            if not obj.is_edible and obj.mass == 0 and _inside_arena(obj, spec)
+            and not getattr(kind_class(obj.kind), "zone", False)
         ]
 
     # --- building -------------------------------------------------------------------
@@ -109,7 +115,9 @@ class World:
         middle = (heights.min() + heights.max()) / 2
         body = p.createMultiBody(0, collision, basePosition=(0, 0, middle), physicsClientId=c)
         if self.visuals:
-            p.changeVisualShape(body, -1, rgbaColor=self.colours["floor"], physicsClientId=c)
+            # textureUniqueId -1: TinyRenderer draws a checker texture over the colour otherwise
+            texture = {"textureUniqueId": -1} if self.look == "task" else {}
+            p.changeVisualShape(body, -1, rgbaColor=self.colours["floor"], **texture, physicsClientId=c)
         self._register(body, "floor")
 
     def _build_deadly_floor(self) -> None:
@@ -123,8 +131,9 @@ class World:
         self._register(body, "deadly_floor")
 
     def _shape(self, obj: ObjectSpec) -> tuple[int, int]:
-        """Collision and visual shapes for an object, made once per (shape, size, colour)."""
-        key = (obj.shape, obj.size, obj.rgba)
+        """Collision and visual shapes for an object, made once per (shape, size, colour, kind seen)."""
+        hidden = obj.kind in CAMERA_HIDDEN and self.look == "task"
+        key = (obj.shape, obj.size, obj.rgba, hidden)
         if key not in self._shapes:
             c = self.client
             if obj.shape == "box":
@@ -136,14 +145,51 @@ class World:
             collision_extra = {"height": obj.size[2]} if obj.shape == "cylinder" else {}
             visual_extra = {"length": obj.size[2]} if obj.shape == "cylinder" else {}
             collision = p.createCollisionShape(**geometry, **collision_extra, physicsClientId=c)
-            visual = p.createVisualShape(**geometry, **visual_extra, rgbaColor=obj.rgba,
-                                         physicsClientId=c) if self.visuals else -1
+            visual = -1
+            if self.visuals and hidden:  # a speck inside the body: TinyRenderer ignores alpha, and draws
+                # a body without any visual shape from its collision shape
+                visual = p.createVisualShape(p.GEOM_SPHERE, radius=HIDDEN_VISUAL, rgbaColor=obj.rgba, physicsClientId=c)
+            elif self.visuals:
+                visual = p.createVisualShape(**geometry, **visual_extra, rgbaColor=obj.rgba, physicsClientId=c)
             self._shapes[key] = (collision, visual)
+        return self._shapes[key]
+
+    def _kind_shape(self, obj: ObjectSpec) -> tuple[int, int]:
+        """Shapes for a newer kind (aaai.kinds): its boxes, its mesh, or its one shape (a floor
+        area as a slab ZONE_THICKNESS thick)."""
+        cls = kind_class(obj.kind)
+        key = (obj.kind, obj.shape, obj.size, obj.rgba)
+        if key in self._shapes:
+            return self._shapes[key]
+        c = self.client
+        parts, mesh = cls.parts(obj), cls.mesh(obj)
+        visual = -1
+        if parts:
+            count = len(parts)
+            centres = [list(centre) for centre, _, _ in parts]
+            halves = [[v / 2 for v in size] for _, size, _ in parts]
+            turns = [list(p.getQuaternionFromEuler((roll, 0, 0))) for _, _, roll in parts]
+            collision = p.createCollisionShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
+                                                    collisionFramePositions=centres,
+                                                    collisionFrameOrientations=turns, physicsClientId=c)
+            if self.visuals:
+                visual = p.createVisualShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
+                                                  visualFramePositions=centres, visualFrameOrientations=turns,
+                                                  rgbaColors=[obj.rgba] * count, physicsClientId=c)
+        elif mesh:
+            vertices, indices = mesh
+            collision = p.createCollisionShape(p.GEOM_MESH, vertices=vertices, physicsClientId=c)
+            if self.visuals:
+                visual = p.createVisualShape(p.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=obj.rgba,
+                                             physicsClientId=c)
+        else:
+            return self._shape(obj)
+        self._shapes[key] = (collision, visual)
         return self._shapes[key]
 
     def _build_object(self, obj: ObjectSpec) -> int:
         c = self.client
-        collision, visual = self._shape(obj)
+        collision, visual = self._kind_shape(obj) if kind_class(obj.kind) else self._shape(obj)
         orientation = p.getQuaternionFromEuler((0, 0, obj.yaw))
         moving = behaviour_class(obj)
         position = (*obj.position[:2], HIDDEN_Z) if moving and moving.starts_hidden else obj.position
@@ -154,7 +200,7 @@ class World:
         if obj.kind == "plank":
             p.changeDynamics(body, -1, lateralFriction=PLANK_FRICTION, physicsClientId=c)
         self.objects[body] = obj
-        if obj.is_food:
+        if obj.is_edible:  # food, and bad food: eaten on contact (aaai.rewards)
             self.food[body] = obj
         if moving:
             part = moving(obj)
@@ -199,7 +245,7 @@ class World:
         """Takes the eaten yellow pieces (body -> (food, by the head)) out of the world; a green
         one ends the episode and stays."""
         for body, (food, _) in eaten.items():
-            if food.kind != "food_green":
+            if food.kind not in ENDING_KINDS:
                 self.remove(body)
 
     def object_poses(self) -> tuple[list[Pose | None], set[int]]:
@@ -214,7 +260,8 @@ class World:
 
     def food_positions(self) -> list[tuple[float, float, float]]:
         """Where each piece of food still in the world is now."""
-        return [p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0] for body in self.food]
+        return [p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0]
+                for body, obj in self.food.items() if obj.is_food]
 
     def remove(self, body: int) -> None:
         """Takes an object (an eaten food piece) out of the world."""
@@ -241,7 +288,10 @@ class World:
             self._eaten = self.had_food and not any(
                 all(door.entered(*p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0][:2])
                     for door in self.closed)
-                for body in self.food)
+                for body, obj in self.food.items() if obj.is_food)
+            if self.all_end and not self._eaten:  # every piece of a multi_food kind is eaten
+                left = {obj.kind for obj in self.food.values()}
+                self._eaten = any(kind not in left for kind in self.all_end)
         return self._eaten
 
     def blocked(self, x: float, y: float, radius: float) -> bool:
