@@ -1,12 +1,369 @@
-"""Animal-AI arena files (``!ArenaConfig``) as aaai arena files: ``aaai import-animalai``."""
+"""Animal-AI arena files (``!ArenaConfig``) as aaai arena files: ``aaai import-animalai``.
+
+Animal-AI's arena is 40 x 40 with its origin at a corner, y up, for a sphere agent 1 across; ours
+is centred, z up, for a body whose walking footprint is 10 across (aaai.validate.FOOTPRINT_RADIUS).
+One Animal-AI unit becomes ``scale`` units here (default DEFAULT_SCALE = 5: the arena 200 x 200,
+a gap of 2 Animal-AI units the narrowest our body walks through):
+
+- position (x, y, z) -> (scale (x - 20), scale (z - 20)), the object's bottom at scale y;
+- size (x, y, z) -> (scale x, scale z, scale y): width, depth, height; a goal's size x is its diameter;
+- rotation r (degrees, clockwise seen from above, 0 facing +z) -> yaw -r in radians (the agent, a
+  ramp and a tunnel, whose forward is their own +z: pi/2 - r);
+- ``t`` / ``timeLimit`` (steps) -> time_limit t x SECONDS_PER_STEP x scale seconds (250 steps: 160 s
+  at scale 5), at most 200 (t = 0, no limit: 200);
+- ``pass_mark`` / ``passMark`` p -> pass_mark: food rewards grow with the scale and the time costs
+  (at most 1 in an episode in both) do not, so p <= 0 becomes scale x p and p > 0 becomes
+  max(scale x p - (scale - 1) / 2, scale x p / 2);
+- ``blackouts: [-n]`` (dark and light every n frames) -> blackout {light, dark} of n steps each;
+  lists of frames cannot be mapped;
+- -1 (or a missing value) in a position or rotation -> ``{uniform: [low, high]}``, drawn afresh
+  for every episode seed as any arena file's randomisation; a random size is drawn once, here,
+  from ``np.random.default_rng([IMPORT_SEED, crc32(file name), arena])`` (a random height would
+  move the object's centre, which an arena file cannot express);
+- colours (0..255) -> colour (0..1); a missing colour: the kind's own.
+
+Several arenas in one file become several files (``NAME_aK.yaml``; one arena: ``NAME.yaml``). An
+item with no counterpart here (spawners, sign boards, ripening or shrinking goals, ...) is named
+with its file, arena and index, and that arena is skipped. Bouncing goals become a random walk
+(aaai.behaviours) at BOUNCE_SPEED; a cylinder tunnel an arch (aaai.kinds.Tunnel) open at the floor.
+"""
 from __future__ import annotations
 
+import math
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from aaai.config import ConfigError
 from aaai.evaluation import PASS_RATIO
+from aaai.files import write_atomic
+from aaai.kinds import ZONE_THICKNESS
 from aaai.spec import LevelSpec
 
 STEP_ALLOWANCE = 0.5  # the scoreboard's max reward is the food's best minus this (aaai.evaluation)
+DEFAULT_SCALE = 5.0
+AAI_ARENA = 40.0
+# Seconds per Animal-AI step and unit of scale (0.64 s at scale 5): 250 steps, Animal-AI's usual
+# episode, give 160 s, in which our body (3.2 units/s) crosses the 200-unit arena two and a half times.
+SECONDS_PER_STEP = 0.128
+MAX_TIME = 200.0  # an arena file's longest time limit (aaai.arena)
+BOUNCE_SPEED = 2.0  # units/s of the random walk a bouncing goal becomes
+IMPORT_SEED = 20260
+MAX_FILE_BYTES = 1_000_000
+WALL_HEIGHT = 4.0
+PLANK_MASS = {"light": 2.0, "heavy": 20.0}  # movable blocks (LightBlock, HeavyBlock)
+BLOCK_MASS = 5.0  # movable L, J, U blocks and hollow boxes
+
+# Animal-AI name -> (our kind, how it maps): "box" (x, z, y), "forward" (z, x, y: its own +z is
+# our +x), "goal" (a sphere), "zone" (a floor slab). Sizes: Animal-AI's range (low, high) per axis.
+ITEMS = {
+    "Wall": ("wall", "box", ((0.1, 0.1, 0.1), (40, 10, 40))),
+    "WallTransparent": ("transparent_wall", "box", ((0.1, 0.1, 0.1), (40, 10, 40))),
+    "Ramp": ("ramp", "forward", ((0.5, 0.1, 0.5), (40, 10, 40))),
+    "CylinderTunnel": ("tunnel", "forward", ((2.5, 2.5, 2.5), (10, 10, 10))),
+    "CylinderTunnelTransparent": ("transparent_tunnel", "forward", ((2.5, 2.5, 2.5), (10, 10, 10))),
+    "Cardbox1": ("plank", "box", ((0.5, 0.5, 0.5), (10, 10, 10))),
+    "LightBlock": ("plank", "box", ((0.5, 0.5, 0.5), (10, 10, 10))),
+    "Cardbox2": ("plank", "box", ((0.5, 0.5, 0.5), (10, 10, 10))),
+    "HeavyBlock": ("plank", "box", ((0.5, 0.5, 0.5), (10, 10, 10))),
+    "UObject": ("u_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "UBlock": ("u_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "LObject": ("l_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "LBlock": ("l_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "LObject2": ("j_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "JBlock": ("j_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "HollowBox": ("hollow_box", "box", ((0.5, 0.5, 0.5), (5, 5, 5))),
+    "GoodGoal": ("food_green", "goal", ((0.5,) * 3, (5,) * 3)),
+    "GoodGoalBounce": ("food_green", "goal", ((0.5,) * 3, (5,) * 3)),
+    "GoodGoalMulti": ("multi_food", "goal", ((0.5,) * 3, (5,) * 3)),
+    "GoodGoalMultiBounce": ("multi_food", "goal", ((0.5,) * 3, (5,) * 3)),
+    "BadGoal": ("bad_food", "goal", ((0.5,) * 3, (5,) * 3)),
+    "BadGoalBounce": ("bad_food", "goal", ((0.5,) * 3, (5,) * 3)),
+    "DecoyGoal": ("decoy", "goal", ((0.5,) * 3, (5,) * 3)),
+    "DeathZone": ("death_zone", "zone", ((1, 0.5, 1), (40, 10, 40))),
+    "HotZone": ("hot_zone", "zone", ((1, 0.5, 1), (40, 10, 40))),
+}
+HEAVY = ("Cardbox2", "HeavyBlock")
+MOVABLE_BLOCKS = ("UObject", "UBlock", "LObject", "LBlock", "LObject2", "JBlock", "HollowBox")
+NOT_HERE = {  # known Animal-AI items without a counterpart, and why
+    "SpawnerTree": "spawners are not built here", "SpawnerDispenser": "spawners are not built here",
+    "SpawnerDispenserTall": "spawners are not built here", "SpawnerDispenserShort": "spawners are not built here",
+    "SpawnerContainer": "spawners are not built here", "SpawnerContainerShort": "spawners are not built here",
+    "SpawnerButton": "buttons and spawners are not built here", "Pillar-Button": "buttons are not built here",
+    "SignBoard": "sign boards are not built here", "SignPosterboard": "sign boards are not built here",
+    "RipenGoal": "food that ripens is not built here", "AntiDecayGoal": "food that ripens is not built here",
+    "DecayGoal": "food that decays is not built here", "GrowGoal": "food that grows is not built here",
+    "ShrinkGoal": "food that shrinks is not built here", "DataZone": "data zones are not built here",
+    "Datazone": "data zones are not built here", "BadGoalMulti": "non-ending bad food is not built here",
+}
 
 
+# --- reading ------------------------------------------------------------------------------
+class _Loader(yaml.SafeLoader):
+    """Safe YAML with Animal-AI's tags read as plain mappings: nothing in the file is run."""
+
+
+for _tag in ("!ArenaConfig", "!Arena", "!Item", "!Vector3", "!RGB"):
+    _Loader.add_constructor(_tag, lambda loader, node: loader.construct_mapping(node, deep=True))
+
+
+class Unmappable(Exception):
+    """An item or setting with no counterpart here; its arena is skipped."""
+
+
+def read_arena_config(path: Path) -> dict:
+    """The parsed ``!ArenaConfig`` of a file, checked for its outline."""
+    if path.stat().st_size > MAX_FILE_BYTES:
+        raise ConfigError(f"{path.name}: larger than {MAX_FILE_BYTES:,} bytes; allowed: an Animal-AI arena file")
+    try:
+        data = yaml.load(path.read_text(encoding="utf-8"), Loader=_Loader)  # noqa: S506 (a safe loader)
+    except (yaml.YAMLError, UnicodeDecodeError) as error:
+        raise ConfigError(f"{path.name}: not Animal-AI arena YAML: {error}") from None
+    if not isinstance(data, dict) or not isinstance(data.get("arenas"), dict) or not data["arenas"]:
+        raise ConfigError(f"{path.name}: got no 'arenas' mapping; allowed: an Animal-AI !ArenaConfig with arenas: "
+                          "{0: !Arena {...}}")
+    return data
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+# --- converting -------------------------------------------------------------------------------
+@dataclass
+class Converted:
+    """One arena of a file: its output file and text, or why it was skipped."""
+
+    source: str
+    arena: str
+    name: str
+    text: str = ""
+    problem: str = ""
+    items: list[str] = field(default_factory=list)
+
+
+class _Arena:
+    def __init__(self, source: str, key, arena: dict, scale: float, rng: np.random.Generator):
+        self.source, self.key, self.arena, self.scale, self.rng = source, key, arena, scale, rng
+        self.half = AAI_ARENA / 2 * scale
+
+    def where(self, index: int, name: str) -> str:
+        return f"{self.source}, arena {self.key}, item {index} ({name})"
+
+    # numbers
+    def _xy(self, value, low: float, high: float):
+        """An Animal-AI horizontal coordinate as ours, or a uniform draw for -1."""
+        if not _number(value) or value == -1:
+            return {"uniform": [round(low, 3), round(high, 3)]}
+        return round(self.scale * (value - AAI_ARENA / 2), 4)
+
+    def _size(self, value, low: float, high: float) -> float:
+        if not _number(value) or value == -1:
+            value = float(self.rng.uniform(low, high))
+        return round(self.scale * max(float(value), 1e-3), 4)
+
+    @staticmethod
+    def _entry(values, index: int):
+        return values[index] if isinstance(values, list) and index < len(values) else None
+
+    def _yaw(self, rotation, offset: float = 0.0):
+        if not _number(rotation) or rotation == -1:
+            return {"uniform": [round(-math.pi, 6), round(math.pi, 6)]}
+        return round((offset - math.radians(rotation) + math.pi) % (2 * math.pi) - math.pi, 6)
+
+    # the arena
+    def convert(self) -> tuple[dict, list[str]]:
+        arena = self.arena
+        if not isinstance(arena, dict):
+            raise Unmappable(f"{self.source}, arena {self.key}: got {arena!r}; allowed: an !Arena mapping")
+        items = arena.get("items", arena.get("Items", []))
+        if not isinstance(items, list):
+            raise Unmappable(f"{self.source}, arena {self.key}: items must be a list, got {items!r}")
+        steps = arena.get("timeLimit", arena.get("t", 0))
+        if not _number(steps) or steps < 0:
+            raise Unmappable(f"{self.source}, arena {self.key}: t / timeLimit {steps!r}; allowed: a number of steps")
+        time_limit = MAX_TIME if steps == 0 else min(MAX_TIME, max(1.0, steps * SECONDS_PER_STEP * self.scale))
+        out: dict = {"description": f"Animal-AI {self.source} arena {self.key}, imported at scale {self.scale:g}",
+                     "arena_walls": True, "arena_size": [2 * self.half, 2 * self.half], "wall_height": WALL_HEIGHT,
+                     "time_limit": round(time_limit, 3)}
+        mark = arena.get("passMark", arena.get("pass_mark"))
+        if mark is not None:
+            if not _number(mark):
+                raise Unmappable(f"{self.source}, arena {self.key}: pass mark {mark!r}; allowed: a number")
+            s = self.scale
+            out["pass_mark"] = round(s * mark if mark <= 0 else max(s * mark - (s - 1) / 2, s * mark / 2), 4)
+        blackouts = arena.get("blackouts")
+        if blackouts:
+            if isinstance(blackouts, list) and len(blackouts) == 1 and _number(blackouts[0]) and blackouts[0] < 0:
+                seconds = -blackouts[0] * SECONDS_PER_STEP * self.scale
+                out["blackout"] = {"light": round(seconds, 4), "dark": round(seconds, 4)}
+            else:
+                raise Unmappable(f"{self.source}, arena {self.key}: blackouts {blackouts!r} at listed frames cannot "
+                                 "be mapped; allowed here: [-n], dark and light every n frames")
+        objects, names, agent = [], [], None
+        for index, item in enumerate(items):
+            if not isinstance(item, dict) or not isinstance(item.get("name"), str):
+                raise Unmappable(f"{self.source}, arena {self.key}, item {index}: got {item!r}; allowed: an !Item "
+                                 "with a name")
+            name = item["name"]
+            if name == "Agent":
+                agent = self.agent(item)
+                continue
+            objects += self.item(index, name, item)
+            names.append(name)
+        if agent is None:
+            agent = {"x": {"uniform": [-self.half + 6, self.half - 6]},
+                     "y": {"uniform": [-self.half + 6, self.half - 6]}, "yaw": self._yaw(None)}
+        out["agent"] = agent
+        out["objects"] = objects
+        return out, names
+
+    def agent(self, item: dict) -> dict:
+        position = self._entry(item.get("positions"), 0) or {}
+        margin = 6.0
+        return {"x": self._xy(position.get("x", -1), -self.half + margin, self.half - margin),
+                "y": self._xy(position.get("z", -1), -self.half + margin, self.half - margin),
+                "yaw": self._yaw(self._entry(item.get("rotations"), 0), math.pi / 2)}
+
+    def item(self, index: int, name: str, item: dict) -> list[dict]:
+        if name not in ITEMS:
+            why = NOT_HERE.get(name, "no such kind here")
+            raise Unmappable(f"{self.where(index, name)}: cannot be mapped ({why}); arena skipped")
+        kind, form, (low, high) = ITEMS[name]
+        positions = item.get("positions") or [None]
+        if not isinstance(positions, list):
+            raise Unmappable(f"{self.where(index, name)}: positions {positions!r}; allowed: a list of !Vector3")
+        objects = []
+        for k, position in enumerate(positions):
+            position = position if isinstance(position, dict) else {}
+            size = self._entry(item.get("sizes"), k)
+            size = size if isinstance(size, dict) else {}
+            sx, sy, sz = (self._size(size.get(axis, -1), low[i], high[i]) for i, axis in enumerate("xyz"))
+            bottom = position.get("y", 0)
+            bottom = self.scale * bottom if _number(bottom) and bottom > 0 else 0.0
+            rotation = self._entry(item.get("rotations"), k)
+            obj: dict = {"kind": kind}
+            if form == "goal":
+                diameter = sx
+                obj.update(shape="sphere", size=[diameter] * 3)
+                centre_z, footprint = bottom + diameter / 2, diameter / 2
+            elif form == "zone":
+                obj.update(size=[sx, sz, ZONE_THICKNESS], yaw=self._yaw(rotation))
+                centre_z, footprint = ZONE_THICKNESS / 2, math.hypot(sx, sz) / 2
+            elif form == "forward":  # its own +z is our +x: length first
+                obj.update(size=[sz, sx, sy], yaw=self._yaw(rotation, math.pi / 2))
+                centre_z, footprint = bottom + sy / 2, math.hypot(sx, sz) / 2
+            else:
+                obj.update(size=[sx, sz, sy], yaw=self._yaw(rotation))
+                centre_z, footprint = bottom + sy / 2, math.hypot(sx, sz) / 2
+            reach = max(0.0, min(self.half - footprint, self.half - 1.0))
+            obj["position"] = [self._xy(position.get("x", -1), -reach, reach),
+                               self._xy(position.get("z", -1), -reach, reach), round(centre_z, 4)]
+            colour = self._entry(item.get("colors"), k)
+            if isinstance(colour, dict) and all(_number(colour.get(c)) and colour.get(c) >= 0 for c in "rgb") \
+                    and kind in ("wall", "ramp", "tunnel", "plank", "u_block", "l_block", "j_block", "hollow_box"):
+                obj["colour"] = [round(min(colour[c], 255) / 255, 4) for c in "rgb"] + [1.0]
+            if kind == "plank":
+                obj["mass"] = PLANK_MASS["heavy" if name in HEAVY else "light"]
+            elif name in MOVABLE_BLOCKS:
+                obj["mass"] = BLOCK_MASS
+            if name.endswith("Bounce"):
+                obj["behaviour"] = {"type": "random_walk", "speed": BOUNCE_SPEED}
+            objects.append({key: obj[key] for key in ("kind", "shape", "position", "size", "yaw", "colour", "mass",
+                                                       "behaviour") if key in obj})
+        return objects
+
+
+def _dump(data: dict) -> str:
+    """An arena file: the keys in order, one flow mapping per object."""
+    objects = data.pop("objects")
+    lines = ["# Imported from an Animal-AI arena file by `aaai import-animalai` (aaai/animalai.py)."]
+    for key, value in data.items():
+        if isinstance(value, (list, dict)):
+            lines.append(f"{key}: " + yaml.safe_dump(value, sort_keys=False, default_flow_style=True, width=10**6).strip())
+        else:
+            lines.append(yaml.safe_dump({key: value}, sort_keys=False, default_flow_style=False, width=10**6).rstrip("\n"))
+    lines.append("objects:" if objects else "objects: []")
+    for obj in objects:
+        lines.append("  - " + yaml.safe_dump(obj, sort_keys=False, default_flow_style=True, width=10**6).strip())
+    return "\n".join(lines) + "\n"
+
+
+def convert_file(path: Path, scale: float = DEFAULT_SCALE) -> list[Converted]:
+    """Every arena of an Animal-AI file, converted or with the reason it was skipped."""
+    data = read_arena_config(path)
+    arenas = data["arenas"]
+    results = []
+    for number, (key, arena) in enumerate(arenas.items()):
+        name = f"{path.stem}.yaml" if len(arenas) == 1 else f"{path.stem}_a{key}.yaml"
+        rng = np.random.default_rng([IMPORT_SEED, zlib.crc32(path.name.encode()), number])
+        try:
+            out, names = _Arena(path.name, key, arena, scale, rng).convert()
+        except Unmappable as error:
+            results.append(Converted(path.name, str(key), name, problem=str(error)))
+            continue
+        results.append(Converted(path.name, str(key), name, text=_dump(out), items=names))
+    return results
+
+
+def animalai_files(path: Path) -> list[Path]:
+    path = Path(path)
+    if path.is_dir():
+        files = sorted(list(path.rglob("*.yaml")) + list(path.rglob("*.yml")))
+        if not files:
+            raise ConfigError(f"{str(path)!r} holds no .yaml files; allowed: an Animal-AI arena file or a folder of them")
+        return files
+    if not path.is_file():
+        raise ConfigError(f"{str(path)!r} is neither a file nor a folder; allowed: an Animal-AI arena file or a folder")
+    return [path]
+
+
+def import_animalai(source: Path, out: Path, scale: float = DEFAULT_SCALE, echo=print) -> list[Converted]:
+    """Converts a file or a folder of them into ``out`` (one aaai arena file per arena), printing
+    each skipped arena's reason and a summary; returns every arena's result."""
+    if not (_number(scale) and 0.1 <= scale <= 20):
+        raise ConfigError(f"--scale: got {scale!r}; allowed: a number from 0.1 to 20")
+    files = animalai_files(source)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    results: list[Converted] = []
+    unreadable = 0
+    for path in files:
+        try:
+            converted = convert_file(path, scale)
+        except ConfigError as error:
+            echo(f"SKIPPED {error}")
+            unreadable += 1
+            continue
+        for result in converted:
+            if result.problem:
+                echo(f"SKIPPED {result.problem}")
+            else:
+                write_atomic(out / result.name, result.text)
+        results += converted
+    done = [r for r in results if not r.problem]
+    kinds: dict[str, int] = {}
+    for result in done:
+        for name in result.items:
+            kinds[name] = kinds.get(name, 0) + 1
+    echo(f"{len(files)} files, {len(results)} arenas: {len(done)} converted into {out}, "
+         f"{len(results) - len(done)} skipped" + (f", {unreadable} files unreadable" if unreadable else ""))
+    if kinds:
+        echo("items converted: " + ", ".join(f"{name} {count}" for name, count in sorted(kinds.items())))
+    reasons: dict[str, int] = {}
+    for result in results:
+        if result.problem:
+            reason = result.problem.split(": ", 1)[-1]
+            reasons[reason] = reasons.get(reason, 0) + 1
+    for reason, count in sorted(reasons.items(), key=lambda kv: -kv[1]):
+        echo(f"  skipped {count}: {reason}")
+    return results
+
+
+# --- judging ----------------------------------------------------------------------------------
 def passed(episode_return: float, spec: LevelSpec) -> bool:
     """Did an episode of this level pass? At or above the arena's pass mark (``extras["pass_mark"]``)
     when it has one, else the scoreboard's rule (return / max reward >= PASS_RATIO)."""
@@ -15,3 +372,58 @@ def passed(episode_return: float, spec: LevelSpec) -> bool:
         return episode_return >= mark
     best = spec.max_food_reward - STEP_ALLOWANCE
     return best > 0 and episode_return / best >= PASS_RATIO
+
+
+def reference_episode(env, spec: LevelSpec, seed: int) -> tuple[float, bool]:
+    """One episode of the reference controller (aaai.reference) on a level: its return and
+    whether it passed (:func:`passed`)."""
+    from aaai.reference import ReferenceController
+
+    observation, _ = env.reset(seed=seed, options={"spec": spec, "check": False})
+    controller = ReferenceController(env)
+    controller.reset(seed)
+    total = 0.0
+    while True:
+        observation, reward, terminated, truncated, _ = env.step(controller(observation))
+        total += reward
+        if terminated or truncated:
+            return total, passed(total, spec)
+
+
+def coverage(folder: Path, sample: int = 0, seed: int = 0, echo=print) -> dict:
+    """Of the arena files in ``folder`` (as ``import-animalai`` wrote them): how many load and pass
+    aaai.validate for ``seed``, and how many of those (every one, or ``sample`` of them spread
+    evenly in name order) the reference controller passes in gait mode:
+    ``python -m aaai.animalai FOLDER [SAMPLE]``."""
+    from aaai.arena import load_arena
+    from aaai.env import AnimalAIEnv
+
+    files = sorted(Path(folder).glob("*.yaml"))
+    valid = []
+    for file in files:
+        try:
+            valid.append((file, load_arena(file, seed)))
+        except ConfigError:
+            pass
+    chosen = valid if not sample or sample >= len(valid) else [valid[round(i * (len(valid) - 1) / (sample - 1))]
+                                                                for i in range(sample)] if sample > 1 else valid[:1]
+    env = AnimalAIEnv(action_mode="gait")
+    passes = 0
+    try:
+        for file, spec in chosen:
+            total, ok = reference_episode(env, spec, seed)
+            passes += ok
+            echo(f"{file.name}: return {total:.2f}, pass mark {spec.extras.get('pass_mark')}, "
+                 f"{'passed' if ok else 'failed'}")
+    finally:
+        env.close()
+    result = {"files": len(files), "valid": len(valid), "run": len(chosen), "passed": passes}
+    echo(f"{result['files']} arena files, {result['valid']} valid (seed {seed}), reference passed "
+         f"{passes} of {len(chosen)} run")
+    return result
+
+
+if __name__ == "__main__":
+    import sys
+
+    coverage(Path(sys.argv[1]), int(sys.argv[2]) if len(sys.argv) > 2 else 0)

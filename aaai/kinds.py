@@ -56,7 +56,7 @@ REGISTRY: dict[str, type["Kind"]] = {}
 # --- the tables every module reads -------------------------------------------------------
 def _refresh() -> None:
     """The tables derived from the classic kinds and the registry."""
-    global ALL_KINDS, KIND_INDEX, OBJECT_KINDS, FOOD_KINDS, EDIBLE_KINDS, SOLID_KINDS, ENDING_KINDS
+    global ALL_KINDS, KIND_INDEX, OBJECT_KINDS, FOOD_KINDS, EDIBLE_KINDS, SOLID_KINDS, ENDING_KINDS, CAMERA_HIDDEN
     ALL_KINDS = KINDS + tuple(REGISTRY)
     KIND_INDEX = {kind: index for index, kind in enumerate(ALL_KINDS)}
     OBJECT_KINDS = tuple(kind for kind in ALL_KINDS if kind not in RAY_ONLY_KINDS)
@@ -64,6 +64,7 @@ def _refresh() -> None:
     EDIBLE_KINDS = FOOD_KINDS + tuple(k for k, c in REGISTRY.items() if c.edible and not c.good)
     SOLID_KINDS = SOLID_CLASSIC + tuple(k for k, c in REGISTRY.items() if c.solid)
     ENDING_KINDS = ("food_green",) + tuple(k for k, c in REGISTRY.items() if c.edible and c.ends)
+    CAMERA_HIDDEN = frozenset({"transparent_wall", *(k for k, c in REGISTRY.items() if c.camera_hidden)})
 
 
 
@@ -102,6 +103,7 @@ class Kind:
     all_end: ClassVar[bool] = False  # the episode ends once every piece of this kind is eaten
     mark: ClassVar[str] = ""  # the viewer's mark on it: cross, stripes, arrow, rim, dot
     camera: ClassVar[str] = "its colour"  # how the head camera draws it
+    camera_hidden: ClassVar[bool] = False  # unseen by the head camera with sensors.camera_look: task
     rule: ClassVar[str] = ""  # one line for people: what it does
 
     @classmethod
@@ -261,6 +263,16 @@ class Tunnel(Kind):
             parts.append(((0.0, side * (width / 2 - TUNNEL_WALL / 2), bottom + TUNNEL_WALL / 2),
                           (length, TUNNEL_WALL, TUNNEL_WALL), 0.0))
         return parts
+
+
+@register
+class TransparentTunnel(Tunnel):
+    name = "transparent_tunnel"
+    colour = (0.7, 0.85, 1.0, 0.3)
+    classic = "transparent_wall"
+    camera_hidden = True
+    camera = "unseen with camera_look: task (as a transparent wall); a pale blue arch with classic"
+    rule = "a tunnel the camera sees through (CylinderTunnelTransparent)"
 
 
 class Block(Kind):

@@ -158,7 +158,8 @@ class World:
         """Shapes for a newer kind (aaai.kinds): its boxes, its mesh, or its one shape (a floor
         area as a slab ZONE_THICKNESS thick)."""
         cls = kind_class(obj.kind)
-        key = (obj.kind, obj.shape, obj.size, obj.rgba)
+        hidden = obj.kind in CAMERA_HIDDEN and self.look == "task"
+        key = (obj.kind, obj.shape, obj.size, obj.rgba, hidden)
         if key in self._shapes:
             return self._shapes[key]
         c = self.client
@@ -172,7 +173,10 @@ class World:
             collision = p.createCollisionShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
                                                     collisionFramePositions=centres,
                                                     collisionFrameOrientations=turns, physicsClientId=c)
-            if self.visuals:
+            if self.visuals and hidden:  # a speck inside it, as for a transparent wall
+                visual = p.createVisualShape(p.GEOM_SPHERE, radius=HIDDEN_VISUAL, rgbaColor=obj.rgba,
+                                             visualFramePosition=centres[0], physicsClientId=c)
+            elif self.visuals:
                 visual = p.createVisualShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
                                                   visualFramePositions=centres, visualFrameOrientations=turns,
                                                   rgbaColors=[obj.rgba] * count, physicsClientId=c)

@@ -685,6 +685,23 @@ def curricula_command(samplers, seeds_text, total_steps, levels, difficulty, cou
     click.echo(f"table {experiment.folder / 'table.md'}, plot {experiment.folder / 'curves.png'}")
 
 
+@cli.command("import-animalai")
+@click.argument("source", type=click.Path())
+@click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="Folder for the arena files.")
+@click.option("--scale", type=float, default=5.0, show_default=True,
+              help="Units here per Animal-AI unit (its arena is 40 across; our body's footprint 10).")
+def import_animalai_command(source, out, scale):
+    """Convert Animal-AI arena files (!ArenaConfig; a FILE or a DIR of them) into aaai arena files."""
+    from aaai.animalai import import_animalai
+
+    try:
+        results = import_animalai(Path(source), Path(out), scale, echo=click.echo)
+    except (ConfigError, OSError) as error:
+        raise click.UsageError(str(error)) from None
+    if not any(not result.problem for result in results):
+        raise SystemExit(1)
+
+
 # Commands that live in their own files.
 from aaai_cli.play import play as play_command, replay_hooks  # noqa: E402
 from aaai_cli.show import show  # noqa: E402

@@ -1,0 +1,95 @@
+"""aaai import-animalai: Animal-AI arena files (fixtures in tests/fixtures/animalai, written in its
+format) converted into aaai arena files."""
+import math
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from aaai.animalai import DEFAULT_SCALE, convert_file, import_animalai, passed, reference_episode
+from aaai.arena import load_arena, parse_arena
+from aaai.config import ConfigError
+from aaai_cli.main import cli
+
+FIXTURES = Path(__file__).with_name("fixtures") / "animalai"
+S = DEFAULT_SCALE
+
+
+def imported(tmp_path, scale=S):
+    lines = []
+    results = import_animalai(FIXTURES, tmp_path / "out", scale, echo=lines.append)
+    return results, "\n".join(lines), tmp_path / "out"
+
+
+def test_several_arenas_become_several_files_and_an_unmappable_arena_is_skipped_by_name(tmp_path):
+    results, printed, out = imported(tmp_path)
+    assert sorted(p.name for p in out.glob("*.yaml")) == ["spawner_a0.yaml", "two_arenas_a0.yaml", "two_arenas_a1.yaml"]
+    skipped = [r for r in results if r.problem]
+    assert len(skipped) == 1
+    assert "spawner.yaml, arena 1, item 2 (SpawnerTree): cannot be mapped (spawners are not built here)" in printed
+    assert "2 files, 4 arenas: 3 converted" in printed and "1 skipped" in printed
+    assert "GoodGoal 2, GoodGoalMulti 1, HotZone 1, Wall 1" in printed  # the summary counts what converted
+
+
+def test_positions_sizes_and_rotations_are_mapped_with_the_scale(tmp_path):
+    _, _, out = imported(tmp_path)
+    spec, meta, _ = parse_arena(out / "two_arenas_a0.yaml", 0)
+    assert spec.arena_size == (40 * S, 40 * S)
+    assert (spec.agent.x, spec.agent.y) == (0.0, -15 * S) and spec.agent.yaw == pytest.approx(math.pi / 2)
+    by_kind = {obj.kind: obj for obj in spec.objects[4:]}  # after the arena's walls
+    food = by_kind["food_green"]
+    assert food.position == (0.0, 10 * S, S / 2) and food.size == (S, S, S) and food.shape == "sphere"
+    wall = by_kind["wall"]
+    assert wall.position == (-15 * S, 0.0, S) and wall.size == (6 * S, 1 * S, 2 * S)
+    assert wall.yaw == pytest.approx(-math.pi / 2) and wall.colour == (1.0, 0.0, 0.0, 1.0)
+    assert by_kind["bad_food"].position[:2] == (12 * S, 12 * S)
+    zone = by_kind["hot_zone"]
+    assert zone.size[:2] == (4 * S, 4 * S) and zone.size[2] <= 0.1
+    assert spec.time_limit == pytest.approx(160.0) and spec.extras["pass_mark"] == pytest.approx(S - (S - 1) / 2)
+    other, _, _ = parse_arena(out / "two_arenas_a1.yaml", 0)
+    assert other.time_limit == 200.0 and other.extras["pass_mark"] == 0.0  # 500 steps, capped; passMark spelling
+    assert other.blackout is not None and other.blackout.light == other.blackout.dark
+    tunnel = next(obj for obj in other.objects if obj.kind == "tunnel")
+    assert tunnel.size == (3 * S, 4 * S, 4 * S) and tunnel.yaw == pytest.approx(0.0)  # its own +z turned to +x
+
+
+def test_a_random_value_becomes_seeded_randomisation(tmp_path):
+    _, _, out = imported(tmp_path)
+    xs = {seed: [o for o in parse_arena(out / "two_arenas_a1.yaml", seed)[0].objects if o.kind == "multi_food"][0]
+          .position[0] for seed in range(6)}
+    assert len(set(xs.values())) > 1  # x was -1: drawn per episode seed
+    assert all(abs(x) <= 20 * S for x in xs.values())
+    again = [o for o in parse_arena(out / "two_arenas_a1.yaml", 3)[0].objects if o.kind == "multi_food"][0]
+    assert again.position[0] == xs[3]  # the same seed, the same draw
+
+
+def test_converted_arenas_validate_and_the_reference_passes_one(tmp_path, make_env):
+    _, _, out = imported(tmp_path)
+    spec = load_arena(out / "spawner_a0.yaml", 0)  # a green 20 Animal-AI units ahead
+    env = make_env(action_mode="gait")
+    total, ok = reference_episode(env, spec, 0)
+    assert ok and total > S - 1
+    assert not passed(-1.0, spec)  # standing still to the end fails
+
+
+def test_the_scale_option_and_bad_input(tmp_path):
+    _, _, out = imported(tmp_path, scale=3.0)
+    assert parse_arena(out / "two_arenas_a0.yaml", 0)[0].arena_size == (120.0, 120.0)
+    with pytest.raises(ConfigError, match="--scale"):
+        import_animalai(FIXTURES, tmp_path / "x", 0.0)
+    code = tmp_path / "code.yaml"
+    code.write_text("!!python/object/apply:os.system ['echo hi']\n")
+    with pytest.raises(ConfigError, match="code.yaml: not Animal-AI arena YAML"):
+        convert_file(code)
+    empty = tmp_path / "empty.yaml"
+    empty.write_text("!ArenaConfig\narenas: {}\n")
+    with pytest.raises(ConfigError, match="empty.yaml: got no 'arenas' mapping"):
+        convert_file(empty)
+
+
+def test_the_command(tmp_path):
+    result = CliRunner().invoke(cli, ["import-animalai", str(FIXTURES / "two_arenas.yaml"), "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert "1 files, 2 arenas: 2 converted" in result.output
+    missing = CliRunner().invoke(cli, ["import-animalai", str(tmp_path / "nothing"), "--out", str(tmp_path)])
+    assert missing.exit_code == 2 and "neither a file nor a folder" in missing.output
