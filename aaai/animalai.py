@@ -24,8 +24,8 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
 
 Several arenas in one file become several files (``NAME_aK.yaml``; one arena: ``NAME.yaml``). An
 item with no counterpart here (spawners, sign boards, ripening or shrinking goals, ...) is named
-with its file, arena and index, and that arena is skipped. Bouncing goals become a random walk
-(aaai.behaviours) at BOUNCE_SPEED; a cylinder tunnel an arch (aaai.kinds.Tunnel) open at the floor.
+with its file, arena and index, and that arena is skipped. Bouncing goals bounce (aaai.behaviours.
+Bounce) at BOUNCE_SPEED; a cylinder tunnel becomes an arch (aaai.kinds.Tunnel) open at the floor.
 """
 from __future__ import annotations
 
@@ -50,7 +50,7 @@ AAI_ARENA = 40.0
 # episode, give 160 s, in which our body (3.2 units/s) crosses the 200-unit arena two and a half times.
 SECONDS_PER_STEP = 0.128
 MAX_TIME = 200.0  # an arena file's longest time limit (aaai.arena)
-BOUNCE_SPEED = 2.0  # units/s of the random walk a bouncing goal becomes
+BOUNCE_SPEED = 3.0  # units/s of a bouncing goal (aaai.behaviours.Bounce), off in its forward direction
 IMPORT_SEED = 20260
 MAX_FILE_BYTES = 1_000_000
 WALL_HEIGHT = 4.0
@@ -271,7 +271,8 @@ class _Arena:
             elif name in MOVABLE_BLOCKS:
                 obj["mass"] = BLOCK_MASS
             if name.endswith("Bounce"):
-                obj["behaviour"] = {"type": "random_walk", "speed": BOUNCE_SPEED}
+                heading = self._yaw(rotation, math.pi / 2)
+                obj["behaviour"] = {"type": "bounce", "speed": BOUNCE_SPEED, "heading": heading}
             objects.append({key: obj[key] for key in ("kind", "shape", "position", "size", "yaw", "colour", "mass",
                                                        "behaviour") if key in obj})
         return objects

@@ -10,6 +10,8 @@ calls; this module holds no simulator state of its own beyond each part's progre
 - sink {"depth", "duration"}: moves straight down by depth over duration seconds (the L2b pillar
   and the food on it);
 - slide {"to": [x, y], "speed"}: moves in a straight line to (x, y), then stops (L8 food);
+- bounce {"speed", "heading"}: moves in a straight line from heading (radians), bouncing off the
+  arena's edge and static solids (Animal-AI's bouncing goals);
 - door {"direction": [ux, uy], "distance"}: hidden below the arena until the agent's head is
   farther than distance along direction and inside that 90-degree sector, then stands at its
   position for good (L9 sector openings);
@@ -91,6 +93,29 @@ class RandomWalk(Behaviour):
             nx, ny = x, y
         self.state[:] = [nx, ny, z, heading]
         world.place(body, (nx, ny, z), None)
+        return False
+
+
+@register
+class Bounce(Behaviour):
+    """Moves at a constant speed in a straight line, reflected off whatever blocks it."""
+
+    name = "bounce"
+    fields = ("speed", "heading")
+
+    def start(self, world, body: int) -> None:
+        heading = float(self.obj.behaviour["heading"])
+        self.state = [*self.obj.position, math.cos(heading), math.sin(heading)]  # x, y, z, direction
+
+    def advance(self, world, body: int, dt: float, head) -> bool:
+        x, y, z, ux, uy = self.state
+        step, radius = self.obj.behaviour["speed"] * dt, self.obj.size[0] / 2
+        for dx, dy in ((ux, uy), (-ux, uy), (ux, -uy), (-ux, -uy)):  # on, or reflected off a side, or back
+            nx, ny = x + step * dx, y + step * dy
+            if not world.blocked(nx, ny, radius):
+                self.state[:] = [nx, ny, z, dx, dy]
+                world.place(body, (nx, ny, z), None)
+                break
         return False
 
 

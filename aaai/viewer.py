@@ -21,7 +21,7 @@ from aaai.files import PendingFile, atomic_path
 from aaai.behaviours import behaviour_class
 from aaai.kinds import COLOURS, kind_class
 from aaai.snapshot import Snapshot
-from aaai.spec import LevelSpec, ObjectSpec
+from aaai.spec import AgentPose, LevelSpec, ObjectSpec
 
 LEG_WIDTH = 2 * SEGMENT_RADIUS  # a leg capsule's diameter
 LEG_ANGLES = tuple(angle for _, angle in LEGS)  # fl, fr, bl, br, degrees from the heading
@@ -507,3 +507,46 @@ def video_extension_error(path: str) -> str:
     if path.lower().endswith(".gif"):
         message += " (OpenCV cannot write GIF; make an .mp4 and convert it, e.g. with ffmpeg)"
     return message
+
+
+# --- the object kinds ---------------------------------------------------------------------
+def kind_example(kind: str) -> ObjectSpec:
+    """An object of a newer kind (aaai.kinds) as the README's pictures show it: 12 ahead of the agent."""
+    from aaai.kinds import REGISTRY, ZONE_THICKNESS
+
+    cls = REGISTRY[kind]
+    if cls.zone:
+        return ObjectSpec(kind, "box", (12.0, 0.0, ZONE_THICKNESS / 2), (8.0, 10.0, ZONE_THICKNESS))
+    if cls.shape == "sphere":
+        return ObjectSpec(kind, "sphere", (12.0, 0.0, 1.5), (3.0, 3.0, 3.0))
+    if "tunnel" in kind:
+        return ObjectSpec(kind, "box", (14.0, 0.0, 4.5), (8.0, 16.0, 9.0))
+    if kind == "ramp":
+        return ObjectSpec(kind, "box", (14.0, 0.0, 1.0), (8.0, 8.0, 2.0), math.pi)
+    return ObjectSpec(kind, "box", (14.0, 0.0, 1.5), (8.0, 8.0, 3.0), math.pi / 2)
+
+
+def draw_kind(kind: str, size_px: int = 320, camera_px: int = 96) -> np.ndarray:
+    """One kind in a 40 x 40 arena, the agent facing it: the top view beside the head camera's view
+    (sensors.camera_look: task)."""
+    from aaai.env import AnimalAIEnv
+    from aaai.levels.common import arena_walls
+
+    objects = tuple(arena_walls((40.0, 40.0), 4.0)) + (kind_example(kind),)
+    spec = LevelSpec(level=0, name=kind, difficulty=0, seed=0, agent=AgentPose(-4.0, 0.0, 0.0), objects=objects,
+                     arena_size=(40.0, 40.0))
+    env = AnimalAIEnv(camera=True, camera_resolution=camera_px, camera_look="task", rays=False)
+    try:
+        observation, _ = env.reset(seed=0, options={"spec": spec, "check": False})
+    finally:
+        env.close()
+    return compose(draw_top_down(spec, size_px), observation["camera"], (kind.replace("_", " "), "head camera"))
+
+
+def write_kind_pictures(folder: str | os.PathLike) -> list[Path]:
+    """docs/kinds/KIND.png for every newer kind (``python -c "from aaai.viewer import
+    write_kind_pictures as w; w('docs/kinds')"``)."""
+    from aaai.kinds import REGISTRY
+
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    return [save_png(draw_kind(kind), Path(folder) / f"{kind}.png") for kind in REGISTRY]

@@ -270,3 +270,19 @@ def test_reference_passes_the_animal_ai_style_arenas(make_env, path):
 
 def test_every_kind_is_listed_once_with_a_colour():
     assert len(set(ALL_KINDS)) == len(ALL_KINDS) and all(kind in COLOURS for kind in ALL_KINDS)
+
+
+def test_bouncing_food_goes_straight_and_comes_back_off_a_wall(make_env):
+    env = make_env()
+    food = ObjectSpec("food_green", "sphere", (10.0, 15.0, 1.5), (3.0, 3.0, 3.0),
+                      behaviour={"type": "bounce", "speed": 5.0, "heading": 0.0})
+    env.reset(seed=0, options={"spec": open_arena(food)})
+    xs, ys = [], []
+    for _ in range(250):  # 5 s: 15 units east to the wall (at 25 less its radius), then back
+        env.step(STILL)
+        x, y, _ = env.world.food_positions()[0]
+        xs.append(x)
+        ys.append(y)
+    turn = int(np.argmax(xs))
+    assert 23.0 < xs[turn] <= 23.5 and xs[-1] < xs[turn] - 5.0
+    assert max(ys) - min(ys) < 1e-9  # a straight line, reflected
