@@ -20,7 +20,10 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
   for every episode seed as any arena file's randomisation; a random size is drawn once, here,
   from ``np.random.default_rng([IMPORT_SEED, crc32(file name), arena])`` (a random height would
   move the object's centre, which an arena file cannot express);
-- colours (0..255) -> colour (0..1); a missing colour: the kind's own.
+- colours (0..255) -> colour (0..1); a missing colour: the kind's own;
+- the agent starts at least AGENT_MARGIN inside the walls (its body is 10 across); a goal or
+  movable block above the floor lands, as it would fall in Animal-AI, on the highest static box
+  beneath it or on the floor.
 
 Several arenas in one file become several files (``NAME_aK.yaml``; one arena: ``NAME.yaml``). An
 item with no counterpart here (spawners, sign boards, ripening or shrinking goals, ...) is named
@@ -56,6 +59,7 @@ MAX_FILE_BYTES = 1_000_000
 WALL_HEIGHT = 4.0
 PLANK_MASS = {"light": 2.0, "heavy": 20.0}  # movable blocks (LightBlock, HeavyBlock)
 BLOCK_MASS = 5.0  # movable L, J, U blocks and hollow boxes
+AGENT_MARGIN = 6.0  # the agent starts at least this far inside the arena's walls
 
 # Animal-AI name -> (our kind, how it maps): "box" (x, z, y), "forward" (z, x, y: its own +z is
 # our +x), "goal" (a sphere), "zone" (a floor slab). Sizes: Animal-AI's range (low, high) per axis.
@@ -215,17 +219,21 @@ class _Arena:
             objects += self.item(index, name, item)
             names.append(name)
         if agent is None:
-            agent = {"x": {"uniform": [-self.half + 6, self.half - 6]},
-                     "y": {"uniform": [-self.half + 6, self.half - 6]}, "yaw": self._yaw(None)}
+            agent = {"x": {"uniform": [-self.half + AGENT_MARGIN, self.half - AGENT_MARGIN]},
+                     "y": {"uniform": [-self.half + AGENT_MARGIN, self.half - AGENT_MARGIN]}, "yaw": self._yaw(None)}
         out["agent"] = agent
-        out["objects"] = objects
+        out["objects"] = [_settled(obj, objects) for obj in objects]
         return out, names
 
     def agent(self, item: dict) -> dict:
         position = self._entry(item.get("positions"), 0) or {}
-        margin = 6.0
-        return {"x": self._xy(position.get("x", -1), -self.half + margin, self.half - margin),
-                "y": self._xy(position.get("z", -1), -self.half + margin, self.half - margin),
+        inside = self.half - AGENT_MARGIN  # our body is 10 across: a start by the wall moves in to clear it
+
+        def coordinate(value):
+            mapped = self._xy(value, -inside, inside)
+            return mapped if isinstance(mapped, dict) else min(max(mapped, -inside), inside)
+
+        return {"x": coordinate(position.get("x", -1)), "y": coordinate(position.get("z", -1)),
                 "yaw": self._yaw(self._entry(item.get("rotations"), 0), math.pi / 2)}
 
     def item(self, index: int, name: str, item: dict) -> list[dict]:
@@ -276,6 +284,39 @@ class _Arena:
             objects.append({key: obj[key] for key in ("kind", "shape", "position", "size", "yaw", "colour", "mass",
                                                        "behaviour") if key in obj})
         return objects
+
+
+SUPPORTS = ("wall", "transparent_wall", "plank", "u_block", "l_block", "j_block", "hollow_box")
+
+
+def _inside(x: float, y: float, box: dict) -> bool:
+    """Is (x, y) over an imported box's footprint?"""
+    bx, by, _ = box["position"]
+    c, s = math.cos(box["yaw"]), math.sin(box["yaw"])
+    u, v = c * (x - bx) + s * (y - by), -s * (x - bx) + c * (y - by)
+    return abs(u) <= box["size"][0] / 2 and abs(v) <= box["size"][1] / 2
+
+
+def _settled(obj: dict, objects: list[dict]) -> dict:
+    """A goal or movable block given above the floor, where Animal-AI would let it fall: onto the
+    highest box beneath it that it is above, or the floor (positions drawn at random stay as given)."""
+    position = obj["position"]
+    if obj["kind"] in SUPPORTS and not obj.get("mass") or not all(isinstance(v, (int, float)) for v in position):
+        return obj
+    height = obj["size"][2]
+    bottom = position[2] - height / 2
+    if bottom <= 0:
+        return obj
+    landing = 0.0
+    for box in objects:
+        if box is obj or box["kind"] not in SUPPORTS or box.get("mass"):
+            continue
+        if not all(isinstance(v, (int, float)) for v in (*box["position"], *box["size"], box.get("yaw", 0.0))):
+            continue
+        top = box["position"][2] + box["size"][2] / 2
+        if top <= bottom + 1e-6 and _inside(position[0], position[1], {**box, "yaw": box.get("yaw", 0.0)}):
+            landing = max(landing, top)
+    return {**obj, "position": [position[0], position[1], round(landing + height / 2, 4)]}
 
 
 def _dump(data: dict) -> str:

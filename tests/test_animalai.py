@@ -93,3 +93,37 @@ def test_the_command(tmp_path):
     assert "1 files, 2 arenas: 2 converted" in result.output
     missing = CliRunner().invoke(cli, ["import-animalai", str(tmp_path / "nothing"), "--out", str(tmp_path)])
     assert missing.exit_code == 2 and "neither a file nor a folder" in missing.output
+
+
+def test_a_goal_above_the_floor_lands_on_the_box_beneath_and_the_agent_starts_clear_of_the_wall(tmp_path):
+    source = tmp_path / "falling.yaml"
+    source.write_text("""!ArenaConfig
+arenas:
+  0: !Arena
+    t: 250
+    items:
+    - !Item
+      name: Agent
+      positions:
+      - !Vector3 {x: 20, y: 0, z: 0.5}
+    - !Item
+      name: Wall
+      positions:
+      - !Vector3 {x: 20, y: 0, z: 30}
+      rotations: [0]
+      sizes:
+      - !Vector3 {x: 4, y: 2, z: 4}
+    - !Item
+      name: GoodGoal
+      positions:
+      - !Vector3 {x: 20, y: 5, z: 30}
+      - !Vector3 {x: 10, y: 5, z: 10}
+      sizes:
+      - !Vector3 {x: 1, y: 1, z: 1}
+      - !Vector3 {x: 1, y: 1, z: 1}
+""")
+    import_animalai(source, tmp_path / "out", echo=lambda line: None)
+    spec, _, _ = parse_arena(tmp_path / "out" / "falling.yaml", 0)
+    on_box, on_floor = [obj for obj in spec.objects if obj.kind == "food_green"]
+    assert on_box.position[2] == pytest.approx(2 * S + S / 2) and on_floor.position[2] == pytest.approx(S / 2)
+    assert spec.agent.y == pytest.approx(-20 * S + 6.0)  # 0.5 from the wall there, 6 here
