@@ -407,6 +407,8 @@ def run(levels: list[int] | None = None, steps: int = 1000, rounds: int = 5, res
     results: dict = {"machine": _machine(), "load": {"before": load()},
                      "settings": {"rounds": rounds, "steps": steps, "resets": resets, "worker_steps": worker_steps,
                                   "train_steps": train_steps, "memory_steps": memory_steps}}
+    log("memory ...")  # first: the peak is this process's, before anything else is built
+    results["memory"] = memory_growth(memory_steps)
     results["levels"] = {}
     for level in levels:
         label = get_level(level).label
@@ -421,8 +423,6 @@ def run(levels: list[int] | None = None, steps: int = 1000, rounds: int = 5, res
         results["training"] = training_rates(train_steps, rounds, train_config)
     log("Ant-v5 ...")
     results["ant_v5"] = ant_rates(steps, rounds)
-    log("memory ...")
-    results["memory"] = memory_growth(memory_steps)
     results["load"]["after"] = load()
     results["ratios"] = ratios(results)
     return results
@@ -488,7 +488,7 @@ def markdown(results: dict) -> str:
     training = results.get("training")
     if training:
         c, t_rates, t_ratios = training["config"], training["rates"], training["ratios"]
-        lines += ["", f"Training (the shipped config: {c['num_envs']} workers, train.vector {c['vector']}: "
+        lines += ["", f"Training ({c['num_envs']} workers, train.vector {c['vector']}: "
                       f"{c['runs']}; levels {c['levels']}, difficulties {c['difficulties']}; sensors "
                       f"{', '.join(c['sensors'])}; load {training['load']['before']} -> {training['load']['after']}):", "",
                   "| | steps/s (median, min..max) | / env alone, same vector env | / env alone, the faster |",
