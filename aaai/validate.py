@@ -6,7 +6,10 @@ by a body of the agent's footprint. Reachability is a search on an occupancy gri
 arena: solids and holes (missing floor tiles: holes, pits, trenches) are blocked, sinking
 pillars and sector doors are passable (a pillar ends flush with the floor; a door is open
 until the agent has gone through it), and a level's ``bridge`` rectangle (where
-the L10 plank lands when pushed over) is floor again.
+the L10 plank lands when pushed over) is floor again. The newer kinds (aaai.kinds): a kind built of
+parts (a tunnel's arch, an L block) is checked part by part (``pieces``), so the body walks through
+a tunnel and food may lie in a U; a ramp is walkable; a death zone and bad food are blocked (the
+body keeps clear of them); a hot zone is walkable (the reference controller avoids it by cost).
 """
 from __future__ import annotations
 
