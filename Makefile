@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: install install-train install-all test play-screenshot test-long demo baselines gait tune-gait bench mutants curricula clean
+.PHONY: install install-train install-all test play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -65,6 +65,24 @@ demo: install-train
 baselines: install-train
 	test -f $(DEMO_RUN)/final/model.zip || $(MAKE) demo
 	$(BIN)/aaai baselines --demo-run $(DEMO_RUN) --out baselines
+
+# The learned rows of the baseline table (README, Learned agents): the student of the reference
+# (DAgger, configs/student.yaml) and PPO in gait mode with the paper's curriculum over every cell
+# (configs/ppo_gait.yaml), each trained (or resumed) if its run is not finished, then scored on all
+# 1,430 reserved episodes; the table and heatmap keep the other rows.
+STUDENT_RUN ?= runs/student
+PPO_GAIT_RUN ?= runs/ppo_gait
+baselines-learned: install-all
+	if [ ! -f $(STUDENT_RUN)/final/model.zip ]; then if [ -f $(STUDENT_RUN)/config.yaml ]; then \
+	  $(BIN)/aaai train --resume $(STUDENT_RUN); else $(BIN)/aaai train --config configs/student.yaml --run $(STUDENT_RUN); fi; fi
+	if [ ! -f $(PPO_GAIT_RUN)/final/model.zip ]; then if [ -f $(PPO_GAIT_RUN)/config.yaml ]; then \
+	  $(BIN)/aaai train --resume $(PPO_GAIT_RUN); else $(BIN)/aaai train --config configs/ppo_gait.yaml --run $(PPO_GAIT_RUN); fi; fi
+	$(BIN)/aaai baselines --student-run $(STUDENT_RUN) --ppo-gait-run $(PPO_GAIT_RUN) --only student,ppo_gait --out baselines
+
+# Time to competence (README, Learned agents): PPO on L0 d0-2 in gait and in rotation mode, each
+# checkpoint scored on the 30 reserved episodes; resumes where it stopped.
+competence: install-train
+	$(BIN)/aaai experiment competence --out experiments/competence
 
 # The curricula experiment (README, Curricula): every sampler (paper, uniform, learnability, plr)
 # trained on one budget, config and cells, 3 seeds each, scored on reserved and trained seeds; writes

@@ -188,6 +188,7 @@ RULES: dict[str, Rule] = {
     "train.dagger_episodes": Rule("int", 1, 10**6),
     "train.dagger_beta": Rule("float", 0, 1),
     "train.dagger_epochs": Rule("int", 1, 1000),
+    "train.dagger_episode_cap": Rule("int", 1, 10**6),
     "eval.seeds_per_cell": Rule("int", 1, 1000),
 }
 

@@ -228,6 +228,16 @@ class ReferenceController:
         this controller learns, in any action mode."""
         return np.asarray(self.gait.target, np.float32)
 
+    def student_drove(self, seconds: float) -> None:
+        """As a teacher (aaai.student): another policy chose the last ``seconds`` of actions. Its
+        progress, or lack of it, is not this controller's: the clocks that detect being stuck and
+        time its pushes are held, and a back-off in progress is called off, so that the next label
+        is what it would do here, not a reaction to the student's walk."""
+        self.progress_time += seconds
+        self.back_off_until = -1.0
+        if getattr(self, "phase_started", None) is not None:
+            self.phase_started += seconds
+
     def _act(self) -> np.ndarray:
         env = self.env
         if self.spec is not env.level_spec or env.steps == 0 and self.plan_key is not None:

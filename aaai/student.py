@@ -5,13 +5,20 @@ student visits with the action it would take there. Here the teacher is the refe
 (aaai.reference), which reads the level spec and the live positions of every object; the student
 gets only the ordinary observation (rays, proprioception, the camera if on). Each iteration
 
-1. plays ``dagger_episodes`` episodes spread evenly over the curriculum's cells, on training seeds;
-   at every agent decision the teacher's action is recorded as the label, and the action taken is
-   the teacher's with probability beta ** iteration, else the student's (iteration 0: the teacher
-   alone, which is behaviour cloning);
+1. plays ``dagger_episodes`` episodes spread evenly over the curriculum's cells, on training seeds,
+   each for at most ``dagger_episode_cap`` decisions; at every agent decision the teacher's action
+   is recorded as the label, and the action taken is the teacher's with probability
+   beta ** iteration, else the student's (iteration 0: the teacher alone, which is behaviour
+   cloning);
 2. adds the (observation, label) pairs to everything gathered so far;
-3. refits the student by supervised learning: the mean action of a stable-baselines3
-   ``MultiInputPolicy`` regressed on the labels (mean squared error, Adam).
+3. refits the student to all of it by supervised learning: the mean action of a
+   stable-baselines3 ``MultiInputPolicy`` regressed on the labels (mean squared error, Adam),
+   continuing from the last round's weights.
+
+The teacher is stateful: it notices when it makes no progress and backs off, and it times its
+plank pushes. While the student drives, those clocks are held (``ReferenceController.
+student_drove``): a first version let them run, and labelled the student's detours "stuck, back
+off", and its students got worse with every round after the third (README, Learned agents).
 
 The student is an ordinary stable-baselines3 PPO model in an ordinary run folder, so ``aaai eval
 --policy RUN`` scores it and ``aaai train --init-from RUN`` fine-tunes it with PPO. Every
@@ -19,9 +26,9 @@ iteration is a checkpoint (its model, and its data in ``dagger/``), so ``--resum
 after the last finished iteration. Episodes run in worker processes (``train.num_envs``); with the
 same config a run repeats exactly.
 
-The student's inputs are only the observation; memory comes from ``sensors.history`` (frames
-stacked by the environment), which a level that needs memory (L7 in the dark, L8's occluder,
-L2b's wait) may use.
+The student's inputs are only the observation, and it has no memory: what a level needs beyond
+what the senses show now (L8's food behind the occluder, L2b's wait) is measured by
+``aaai diagnose`` (README, Learned agents).
 """
 from __future__ import annotations
 
@@ -55,6 +62,7 @@ class DaggerSettings:
     episodes: int  # train.dagger_episodes: per iteration, spread evenly over the cells
     beta: float  # train.dagger_beta: the teacher acts with probability beta ** iteration
     epochs: int  # train.dagger_epochs: passes over the aggregated data per refit
+    episode_cap: int  # train.dagger_episode_cap: decisions an episode is played for at most
     net_width: int  # train.net_width: two hidden layers of this width, as PPO's
     log_std_init: float  # train.log_std_init: the exploration a PPO fine-tune starts from
     workers: int  # train.num_envs: worker processes playing episodes
@@ -64,7 +72,8 @@ class DaggerSettings:
     def from_config(cls, config: dict) -> "DaggerSettings":
         train = config["train"]
         return cls(train["dagger_iterations"], train["dagger_episodes"], train["dagger_beta"],
-                   train["dagger_epochs"], train["net_width"], train["log_std_init"], train["num_envs"], train["seed"])
+                   train["dagger_epochs"], train["dagger_episode_cap"], train["net_width"], train["log_std_init"],
+                   train["num_envs"], train["seed"])
 
 
 # --- the student's network --------------------------------------------------------------
@@ -98,6 +107,7 @@ class Job:
     beta: float  # the probability that the teacher's action is taken
     iteration: int
     episodes: tuple[tuple[int, int, int], ...]  # (level, difficulty, seed)
+    cap: int = 10**9  # decisions an episode is played for at most
 
 
 def play_job(job: Job) -> dict:
@@ -133,11 +143,12 @@ def play_job(job: Job) -> dict:
                     action, taught = label, taught + 1
                 else:
                     action = act(student, observation)
+                    teacher.student_drove(env.hold * env.control_dt)
                 observation, reward, terminated, truncated, info = env.step(action)
                 total += reward
                 task += reward - info["reward_terms"].get("shaping", 0.0)
                 length += 1
-                if terminated or truncated:
+                if terminated or truncated or length >= job.cap:
                     break
             records.append(Episode(0, level, difficulty, seed, total, task, length, info["food_eaten"],
                                    info["wall_hits"], bool(info["fell"]), bool(info["blew_up"]), info["max_reward"]))
@@ -273,8 +284,8 @@ def train_student(run_dir: str | Path, config: dict | None = None, resume: bool 
             plan = plan_episodes(cells, settings.episodes, rng)
             beta = settings.beta ** iteration
             weights = None if iteration == 0 else {k: v.clone() for k, v in model.policy.state_dict().items()}
-            jobs = [Job(config, weights, settings.net_width, beta, iteration,
-                        tuple(plan[i:i + EPISODES_PER_JOB])) for i in range(0, len(plan), EPISODES_PER_JOB)]
+            jobs = [Job(config, weights, settings.net_width, beta, iteration, tuple(plan[i:i + EPISODES_PER_JOB]),
+                        settings.episode_cap) for i in range(0, len(plan), EPISODES_PER_JOB)]
             results = list(pool.map(play_job, jobs))
             new_obs = {key: np.concatenate([r["observations"][key] for r in results]) for key in results[0]["observations"]}
             new_labels = np.concatenate([r["labels"] for r in results])

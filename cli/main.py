@@ -175,6 +175,14 @@ def with_action_mode(config: dict, action_mode: str | None) -> dict:
     return config
 
 
+def step_note(config: dict) -> str:
+    """The unit of a progress line's steps: 'steps: gait decisions of 0.1 s' or 'steps: control steps of 0.02 s'."""
+    agent, physics = config["agent"], config["physics"]
+    if agent["action_mode"] == "gait":
+        return f"steps: gait decisions of {agent['decision_interval']:g} s"
+    return f"steps: control steps of {physics['timestep'] * physics['action_repeat']:g} s"
+
+
 def step_unit(config: dict) -> str:
     """What a training step counts in a run of this config: agent decisions or control steps."""
     agent = config["agent"]
@@ -300,7 +308,9 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
             return
         from aaai.model_io import trusting
 
-        report = Progress(total, done=steps_done(resume_dir), every=progress_every)
+        unit_config = load_config(config or RunFolder(run_dir).read_config())
+        report = Progress(total, done=steps_done(resume_dir), every=progress_every,
+                          label=f"training ({step_note(unit_config)})")
         with trusting(trust_model), progress_output(report) as update:
             if use_rllib:
                 result = train_rllib(run_dir, config, resume=bool(resume_dir), progress=update, address=address,
@@ -515,6 +525,27 @@ def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, co
                f"MINARI_DATASETS_PATH={out} python -c \"import minari; minari.load_dataset('{dataset_id}')\"")
 
 
+@cli.command("diagnose")
+@click.option("--policy", required=True, help=POLICY_HELP)
+@click.option("--scoreboard", type=click.Path(exists=True, dir_okay=False), required=True,
+              help="The policy's scoreboard CSV (aaai eval): its failed episodes are replayed.")
+@click.option("--levels", help="Only these levels, e.g. '7,8'.")
+@click.option("--limit", type=click.IntRange(1), help="At most this many failed episodes per level.")
+@click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
+def diagnose_command(policy, scoreboard, levels, limit, config_path):
+    """Why a policy fails: its failed episodes replayed, each sorted into a first cause (fell, never
+    saw food, lost sight of it, saw it but did not reach it, ate the wrong food)."""
+    from aaai.diagnose import diagnose, table_markdown
+    from aaai.evaluation import policy_config
+
+    try:
+        failures = diagnose(policy, Path(scoreboard), policy_config(policy, config_path),
+                            parse_levels(levels) if levels else None, limit)
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    click.echo(table_markdown(failures), nl=False)
+
+
 @cli.command("baselines")
 @click.option("--demo-run", type=click.Path(file_okay=False), default="runs/demo", show_default=True,
               help="The trained run scored as ppo_demo (make demo writes it).")
@@ -683,6 +714,27 @@ def curricula_command(samplers, seeds_text, total_steps, levels, difficulty, cou
         raise click.UsageError(f"{error}. The experiment needs the train extra: pip install -e '.[train]'") from None
     click.echo((experiment.folder / "table.md").read_text(), nl=False)
     click.echo(f"table {experiment.folder / 'table.md'}, plot {experiment.folder / 'curves.png'}")
+
+
+@experiment_group.command("competence")
+@click.option("--out", "folder", type=click.Path(file_okay=False), default="experiments/competence", show_default=True)
+@click.option("--gait-steps", type=click.IntRange(1), default=60_000, show_default=True,
+              help="Budget of the gait-mode run, in agent decisions (0.1 s each).")
+@click.option("--rotation-steps", type=click.IntRange(1), default=200_000, show_default=True,
+              help="Budget of the rotation-mode run, in agent decisions (control steps of 0.02 s).")
+def competence_command(folder, gait_steps, rotation_steps):
+    """Time to competence: PPO on the default config (L0 d0-2) in gait and in rotation mode, every
+    checkpoint scored on the 30 reserved episodes; the first to pass 90 % (make competence)."""
+    from aaai.competence import CompetenceSettings, run_experiment
+
+    settings = CompetenceSettings(budgets={"gait": gait_steps, "rotation": rotation_steps},
+                                  checkpoint_every={"gait": max(gait_steps // 12, 1),
+                                                    "rotation": max(rotation_steps // 10, 1)})
+    try:
+        table = run_experiment(folder, settings, echo=click.echo)
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    click.echo(table.read_text(), nl=False)
 
 
 @cli.command("import-animalai")

@@ -138,3 +138,20 @@ def test_demos_are_a_minari_dataset_that_loads_and_replays_bit_for_bit(tmp_path)
     assert again.exit_code == 0, again.output
     with datasets_path(out):
         assert minari.load_dataset("aaai/reference-v0").total_episodes == 2
+
+
+def test_diagnose_replays_each_failed_episode_into_one_first_cause(tmp_path):
+    from aaai.diagnose import CAUSES, diagnose, food_in_view
+
+    out = tmp_path / "random.csv"
+    scored = CliRunner().invoke(cli, ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0",
+                                      "--seeds", "1,2", "--out", str(out),
+                                      "--config", _write(tmp_path, {"episode": {"max_steps": 200}})])
+    assert scored.exit_code == 0, scored.output
+    failures = diagnose("random", out, load_config(max_steps=200), [0])
+    assert [(f.level, f.seed) for f in failures] == [(0, 1), (0, 2)]  # random actions fail both
+    assert all(f.cause in CAUSES and 0.0 <= f.seen_share <= 1.0 for f in failures)
+    rays = np.zeros((17, 11), np.float32)
+    assert not food_in_view({"rays": rays})
+    rays[3, 0] = 1.0  # a ray on green food
+    assert food_in_view({"rays": rays}) and food_in_view({"rays": rays.reshape(-1)})
