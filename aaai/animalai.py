@@ -28,7 +28,8 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
 Several arenas in one file become several files (``NAME_aK.yaml``; one arena: ``NAME.yaml``). An
 item with no counterpart here (spawners, sign boards, ripening or shrinking goals, ...) is named
 with its file, arena and index, and that arena is skipped. Bouncing goals bounce (aaai.behaviours.
-Bounce) at BOUNCE_SPEED; a cylinder tunnel becomes an arch (aaai.kinds.Tunnel) open at the floor.
+Bounce) at BOUNCE_SPEED; a cylinder tunnel becomes an arch (aaai.kinds.Tunnel) open at the floor; a
+sign board with a preset symbol a ``sign_SYMBOL`` board.
 """
 from __future__ import annotations
 
@@ -91,13 +92,14 @@ ITEMS = {
     "HotZone": ("hot_zone", "zone", ((1, 0.5, 1), (40, 10, 40))),
 }
 HEAVY = ("Cardbox2", "HeavyBlock")
+SIGNS = ("SignBoard", "SignPosterboard")
+SIGN_SIZE = 1.4  # Animal-AI's sign boards are this big, whatever the file says
 MOVABLE_BLOCKS = ("UObject", "UBlock", "LObject", "LBlock", "LObject2", "JBlock", "HollowBox")
 NOT_HERE = {  # known Animal-AI items without a counterpart, and why
     "SpawnerTree": "spawners are not built here", "SpawnerDispenser": "spawners are not built here",
     "SpawnerDispenserTall": "spawners are not built here", "SpawnerDispenserShort": "spawners are not built here",
     "SpawnerContainer": "spawners are not built here", "SpawnerContainerShort": "spawners are not built here",
     "SpawnerButton": "buttons and spawners are not built here", "Pillar-Button": "buttons are not built here",
-    "SignBoard": "sign boards are not built here", "SignPosterboard": "sign boards are not built here",
     "RipenGoal": "food that ripens is not built here", "AntiDecayGoal": "food that ripens is not built here",
     "DecayGoal": "food that decays is not built here", "GrowGoal": "food that grows is not built here",
     "ShrinkGoal": "food that shrinks is not built here", "DataZone": "data zones are not built here",
@@ -236,7 +238,35 @@ class _Arena:
         return {"x": coordinate(position.get("x", -1)), "y": coordinate(position.get("z", -1)),
                 "yaw": self._yaw(self._entry(item.get("rotations"), 0), math.pi / 2)}
 
+    def signs(self, index: int, name: str, item: dict) -> list[dict]:
+        """Sign boards: one of the preset symbols each (aaai.kinds.SYMBOLS); a special symbol (a
+        pixel grid of the file's own) cannot be mapped."""
+        from aaai.kinds import SYMBOLS
+
+        symbols = item.get("symbolNames") or []
+        positions = item.get("positions") or [None]
+        objects = []
+        for k, position in enumerate(positions if isinstance(positions, list) else [None]):
+            symbol = self._entry(symbols, k)
+            key = symbol.replace("-", "_") if isinstance(symbol, str) else None
+            if key not in SYMBOLS:
+                raise Unmappable(f"{self.where(index, name)}: cannot be mapped (symbol {symbol!r}; allowed: "
+                                 f"{', '.join(s.replace('_', '-') for s in SYMBOLS)}); arena skipped")
+            position = position if isinstance(position, dict) else {}
+            side = SIGN_SIZE * self.scale
+            reach = self.half - side
+            bottom = position.get("y", 0)
+            bottom = self.scale * bottom if _number(bottom) and bottom > 0 else 0.0
+            objects.append({"kind": f"sign_{key}", "position": [self._xy(position.get("x", -1), -reach, reach),
+                                                                   self._xy(position.get("z", -1), -reach, reach),
+                                                                   round(bottom + side / 2, 4)],
+                            "size": [round(max(0.3, 0.05 * side), 4), side, side],
+                            "yaw": self._yaw(self._entry(item.get("rotations"), k), math.pi / 2)})
+        return objects
+
     def item(self, index: int, name: str, item: dict) -> list[dict]:
+        if name in SIGNS:
+            return self.signs(index, name, item)
         if name not in ITEMS:
             why = NOT_HERE.get(name, "no such kind here")
             raise Unmappable(f"{self.where(index, name)}: cannot be mapped ({why}); arena skipped")

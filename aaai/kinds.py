@@ -124,6 +124,11 @@ class Kind:
         """Vertices and triangle indices (own frame) of a convex mesh, or None."""
         return None
 
+    @classmethod
+    def part_colours(cls, obj) -> list | None:
+        """An RGBA per part (None: the object's colour for every part)."""
+        return None
+
 
 # --- food -------------------------------------------------------------------------
 @register
@@ -387,3 +392,54 @@ def check_kind(kind: str) -> str:
     if kind not in OBJECT_KINDS:
         raise ValueError(f"object kind {kind!r} is not known; allowed: {', '.join(OBJECT_KINDS)}")
     return kind
+
+
+# --- sign boards ------------------------------------------------------------------------
+SYMBOLS = {  # 5 x 5 pixels, top row first (Animal-AI's SignBoard symbols)
+    "tick": ("....#", "...#.", "#.#..", ".#...", "....."),
+    "cross": ("#...#", ".#.#.", "..#..", ".#.#.", "#...#"),
+    "circle": (".###.", "#...#", "#...#", "#...#", ".###."),
+    "letter_a": (".###.", "#...#", "#####", "#...#", "#...#"),
+    "left_arrow": ("..#..", ".#...", "#####", ".#...", "..#.."),
+    "right_arrow": ("..#..", "...#.", "#####", "...#.", "..#.."),
+    "up_arrow": ("..#..", ".###.", "#.#.#", "..#..", "..#.."),
+    "down_arrow": ("..#..", "..#..", "#.#.#", ".###.", "..#.."),
+    "u_turn_arrow": (".###.", "#...#", "#...#", "#.#.#", "..##."),
+}
+SYMBOL_COLOUR = (0.05, 0.05, 0.05, 1.0)
+
+
+class Sign(Kind):
+    """A standing board, ``size`` = (thickness, width, height), its symbol in dark squares on both
+    faces (its own -x and +x), as a 5 x 5 picture filling the middle of the board."""
+
+    classic = "wall"
+    own_channel = False  # the rays see a board; only the camera tells its symbol
+    solid = True
+    colour = (0.95, 0.95, 0.9, 1.0)
+    mark = "symbol"
+    symbol: ClassVar[str] = ""
+
+    @classmethod
+    def parts(cls, obj):
+        thickness, width, height = obj.size
+        pixel = min(width, height) * 0.7 / 5
+        parts = [((0.0, 0.0, 0.0), (thickness, width, height), 0.0)]
+        for row, line in enumerate(SYMBOLS[cls.symbol]):
+            for column, cell in enumerate(line):
+                if cell == "#":  # seen from -x, the board's +y is on the left
+                    parts.append(((0.0, (2 - column) * pixel, (2 - row) * pixel),
+                                  (thickness + 0.1, pixel, pixel), 0.0))
+        return parts
+
+    @classmethod
+    def part_colours(cls, obj):
+        return [obj.rgba] + [SYMBOL_COLOUR] * (len(cls.parts(obj)) - 1)
+
+
+for _symbol in SYMBOLS:
+    register(type(f"Sign_{_symbol}", (Sign,), {
+        "name": f"sign_{_symbol}", "symbol": _symbol, "camera": f"a pale board with a dark {_symbol.replace('_', ' ')}",
+        "rule": f"a sign board showing {_symbol.replace('_', ' ')} (SignBoard); a solid",
+        "__doc__": f"A sign board showing {_symbol.replace('_', ' ')}."}))
+

@@ -329,7 +329,20 @@ def _mark(image: np.ndarray, m: Mapping, obj: ObjectSpec, mark: str) -> None:
         half = obj.size[0] / 2 * 0.7
         start, end = m.fixed(x - c * half, y - s * half), m.fixed(x + c * half, y + s * half)
         cv2.arrowedLine(image, start, end, MARK_COLOUR, 2, cv2.LINE_AA, SHIFT, 0.25)
-    elif mark == "rim" and obj.kind == "tunnel":  # the way through, along its axis
+    elif mark == "symbol":  # a sign board: its 5 x 5 symbol laid flat over it, as seen from its -x side
+        from aaai.kinds import REGISTRY, SYMBOLS
+
+        cell = max(obj.size[1], 3.0) / 5
+        for row, line in enumerate(SYMBOLS[REGISTRY[obj.kind].symbol]):
+            for column, pixel in enumerate(line):
+                u, v = -cell * (row - 2), cell * (2 - column)  # the picture's top away from the viewer
+                px, py = x + c * u - s * v, y + s * u + c * v
+                colour = (20, 20, 20) if pixel == "#" else (235, 235, 225)
+                half = cell / 2
+                corners = np.array([m.fixed(px + dx, py + dy) for dx, dy in ((-half, -half), (half, -half),
+                                                                             (half, half), (-half, half))], np.int32)
+                cv2.fillPoly(image, [corners], colour, cv2.LINE_AA, SHIFT)
+    elif mark in ("rim",) and "tunnel" in obj.kind:  # the way through, along its axis
         half = obj.size[0] / 2 + 1.5
         _dashed(image, [m.to_float(x - c * half, y - s * half), m.to_float(x + c * half, y + s * half)], MARK_COLOUR,
                 closed=False)
@@ -521,6 +534,8 @@ def kind_example(kind: str) -> ObjectSpec:
         return ObjectSpec(kind, "sphere", (12.0, 0.0, 1.5), (3.0, 3.0, 3.0))
     if "tunnel" in kind:
         return ObjectSpec(kind, "box", (14.0, 0.0, 4.5), (8.0, 16.0, 9.0))
+    if kind.startswith("sign_"):
+        return ObjectSpec(kind, "box", (12.0, 0.0, 3.0), (0.4, 6.0, 6.0))
     if kind == "ramp":
         return ObjectSpec(kind, "box", (14.0, 0.0, 1.0), (8.0, 8.0, 2.0), math.pi)
     return ObjectSpec(kind, "box", (14.0, 0.0, 1.5), (8.0, 8.0, 3.0), math.pi / 2)

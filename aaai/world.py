@@ -179,7 +179,8 @@ class World:
             elif self.visuals:
                 visual = p.createVisualShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
                                                   visualFramePositions=centres, visualFrameOrientations=turns,
-                                                  rgbaColors=[obj.rgba] * count, physicsClientId=c)
+                                                  rgbaColors=cls.part_colours(obj) or [obj.rgba] * count,
+                                                  physicsClientId=c)
         elif mesh:
             vertices, indices = mesh
             collision = p.createCollisionShape(p.GEOM_MESH, vertices=vertices, physicsClientId=c)

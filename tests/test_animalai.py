@@ -127,3 +127,33 @@ arenas:
     on_box, on_floor = [obj for obj in spec.objects if obj.kind == "food_green"]
     assert on_box.position[2] == pytest.approx(2 * S + S / 2) and on_floor.position[2] == pytest.approx(S / 2)
     assert spec.agent.y == pytest.approx(-20 * S + 6.0)  # 0.5 from the wall there, 6 here
+
+
+def test_sign_boards_with_a_preset_symbol_convert_and_special_symbols_are_named(tmp_path):
+    source = tmp_path / "signs.yaml"
+    source.write_text("""!ArenaConfig
+arenas:
+  0: !Arena
+    t: 250
+    items:
+    - !Item
+      name: SignBoard
+      positions:
+      - !Vector3 {x: 20, y: 0, z: 30}
+      rotations: [0]
+      symbolNames: ["left-arrow"]
+  1: !Arena
+    t: 250
+    items:
+    - !Item
+      name: SignPosterboard
+      positions:
+      - !Vector3 {x: 20, y: 0, z: 30}
+      symbolNames: ["1/0/1/0/1"]
+""")
+    lines = []
+    import_animalai(source, tmp_path / "out", echo=lines.append)
+    sign = parse_arena(tmp_path / "out" / "signs_a0.yaml", 0)[0].objects[4]
+    assert sign.kind == "sign_left_arrow" and sign.size[1:] == (1.4 * S, 1.4 * S)
+    assert sign.yaw == pytest.approx(math.pi / 2)  # Animal-AI's forward (+z) is our north
+    assert "signs.yaml, arena 1, item 0 (SignPosterboard): cannot be mapped (symbol '1/0/1/0/1'" in "\n".join(lines)

@@ -17,6 +17,8 @@ from conftest import open_arena, sphere
 
 ARENAS = Path(__file__).resolve().parents[1] / "configs" / "arenas"
 STILL = np.zeros(8, np.float32)
+# every newer kind, with one of the nine sign boards standing for them all (the others differ only in symbol)
+TESTED = [kind for kind in sorted(REGISTRY) if not kind.startswith("sign_") or kind == "sign_tick"]
 
 
 def example(kind: str, x: float, y: float, yaw: float = 0.0) -> ObjectSpec:
@@ -30,6 +32,8 @@ def example(kind: str, x: float, y: float, yaw: float = 0.0) -> ObjectSpec:
         return ObjectSpec(kind, "box", (x, y, 4.0), (4.0, 16.0, 8.0), yaw)
     if kind == "ramp":
         return ObjectSpec(kind, "box", (x, y, 1.5), (6.0, 6.0, 3.0), yaw)
+    if kind.startswith("sign_"):
+        return ObjectSpec(kind, "box", (x, y, 3.0), (0.4, 6.0, 6.0), yaw)
     return ObjectSpec(kind, "box", (x, y, 2.0), (6.0, 6.0, 4.0), yaw)
 
 
@@ -80,7 +84,7 @@ def test_l11_terrain_has_the_floor_colour_in_the_camera_with_the_task_look(make_
         assert floor_like.mean() < 0.8
 
 
-@pytest.mark.parametrize("kind", sorted(REGISTRY))
+@pytest.mark.parametrize("kind", TESTED)
 def test_every_newer_kind_shows_in_the_camera_in_its_colour(make_env, kind):
     env = make_env(camera=True, camera_resolution=48, camera_look="task")
     spec = open_arena(example(kind, 14.0, 0.0, yaw=math.pi / 2 if "tunnel" in kind else 0.0))
@@ -151,7 +155,8 @@ def test_a_death_zone_touched_is_a_fall(make_env):
     assert terminated and info["fell"] and info["reward_terms"]["fall"] == -1.0
 
 
-@pytest.mark.parametrize("kind", ["decoy", "ramp", "tunnel", "transparent_tunnel", "l_block", "j_block", "u_block", "hollow_box"])
+@pytest.mark.parametrize("kind", ["decoy", "ramp", "tunnel", "transparent_tunnel", "l_block", "j_block", "u_block",
+                                  "hollow_box", "sign_tick"])
 def test_touching_a_solid_newer_kind_pays_nothing_and_ends_nothing(make_env, kind):
     env = make_env()
     obj = example(kind, 4.0, 0.0)
@@ -171,7 +176,8 @@ def test_rays_see_each_newer_kind_on_its_channel(make_env, ray_kinds):
     env = make_env(rays=True, ray_kinds=ray_kinds, rays_per_side=4, ray_length=20.0)
     names, _ = ray_channels(ray_kinds)
     assert env.observation_space["rays"].shape == (9, len(names) + 2)
-    for kind, cls in REGISTRY.items():
+    for kind in TESTED:
+        cls = REGISTRY[kind]
         # a tunnel turned across the ray: the ray meets its side, not its mouth
         obj = example(kind, 14.0 if "tunnel" in kind else 10.0, 0.0, yaw=math.pi / 2 if "tunnel" in kind else 0.0)
         observation, _ = env.reset(seed=0, options={"spec": open_arena(obj), "check": False})
@@ -196,7 +202,7 @@ def test_classic_rays_keep_their_width_and_all_adds_a_channel_per_kind_to_tell_a
 
 
 # --- viewer, validation, the reference ------------------------------------------------------
-@pytest.mark.parametrize("kind", sorted(REGISTRY))
+@pytest.mark.parametrize("kind", TESTED)
 def test_the_viewer_draws_and_marks_each_newer_kind(kind):
     obj = example(kind, 10.0, 0.0)
     plain = draw_top_down(open_arena(), 320)
@@ -286,3 +292,17 @@ def test_bouncing_food_goes_straight_and_comes_back_off_a_wall(make_env):
     turn = int(np.argmax(xs))
     assert 23.0 < xs[turn] <= 23.5 and xs[-1] < xs[turn] - 5.0
     assert max(ys) - min(ys) < 1e-9  # a straight line, reflected
+
+
+def test_a_sign_shows_its_symbol_to_the_camera_and_symbols_differ(make_env):
+    env = make_env(camera=True, camera_resolution=64, camera_look="task")
+    seen = {}
+    for kind in ("sign_cross", "sign_circle", "sign_left_arrow"):
+        spec = open_arena(ObjectSpec(kind, "box", (10.0, 0.0, 3.0), (0.4, 6.0, 6.0)))
+        observation, _ = env.reset(seed=0, options={"spec": spec})
+        image = observation["camera"].astype(int)
+        dark = image.sum(axis=2) < 120  # the symbol's squares
+        assert dark.sum() > 20, kind
+        seen[kind] = dark
+    assert (seen["sign_cross"] != seen["sign_circle"]).sum() > 20
+    assert (seen["sign_left_arrow"] != np.fliplr(seen["sign_left_arrow"])).sum() > 20  # not its own mirror image
