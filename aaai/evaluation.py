@@ -352,24 +352,46 @@ class Scoreboard:
             self.writer.writeheader()
 
     def append(self, row: dict) -> None:
-        """Writes one episode's row and makes it durable before the next episode starts."""
+        """Writes one episode's row and makes it durable before the next episode starts. A row
+        that cannot be written whole is cut off again, so that the file ends with the last whole row."""
+        durable = None
         try:
             if self.handle is None:
                 self._open()
+            durable = os.fstat(self.handle.fileno()).st_size
             self.writer.writerow(row)
             self.handle.flush()
             os.fsync(self.handle.fileno())
         except OSError as error:
+            self._abandon(durable)
             raise ConfigError(write_error(self.output, error, len(self.rows))) from None
         self.rows.append({k: str(v) for k, v in row.items()})
         if self.on_episode:
             self.on_episode(row)
 
+    def _abandon(self, durable: int | None) -> None:
+        """After a failed write: drops what is still buffered (it must not reach the file later,
+        mid-line) and cuts the file back to its whole rows."""
+        if self.handle is None:
+            return
+        descriptor = self.handle.fileno()
+        try:
+            if durable is not None:
+                os.ftruncate(descriptor, durable)
+        except OSError:
+            pass  # a torn last line is cut when the scoreboard is next read
+        try:
+            self.handle.buffer.raw.close()  # closed under the buffers: what they hold is discarded, not written
+            self.handle.close()  # (a no-op once the file below is closed)
+        except (OSError, ValueError):
+            pass
+        self.handle = self.writer = None
+
     def close(self) -> None:
         if self.handle is not None:
             try:
                 self.handle.close()
-            except OSError:
+            except (OSError, ValueError):
                 pass  # what could not be flushed was reported by append
             self.handle = None
 
@@ -398,6 +420,11 @@ def scored_episodes(path: Path) -> list[dict]:
             handle.truncate(text.rfind("\n") + 1)
         text = text[: text.rfind("\n") + 1]
     rows = list(csv.DictReader(text.splitlines()))
+    whole = [row for row in rows if None not in row and None not in row.values()]
+    if len(whole) < len(rows):  # a line torn mid-file (a write cut short, then appended to): played again
+        lines = text.splitlines(keepends=True)
+        write_atomic(path, lines[0] + "".join(line for line, row in zip(lines[1:], rows) if row in whole))
+        rows = whole
     if rows and list(rows[0].keys()) == LEGACY_COLUMNS:
         return [{**row, "arena": ""} for row in rows]
     if rows and list(rows[0].keys()) != COLUMNS:

@@ -135,6 +135,7 @@ def score_run(experiment: Experiment, run: RunFolder, echo: Callable[[str], None
     """The run's two scoreboards (reserved seeds, seeds it trained on), each played only as far as missing."""
     from aaai.evaluation import Cell, cells_for, evaluate, policy_record, scored_episodes
 
+    one_torch_thread()
     config = load_config(run.read_config())
     cur = config["curriculum"]
     k = experiment.seeds_per_cell
@@ -173,6 +174,16 @@ def _job(experiment: Experiment, sampler: str, seed: int, progress_every: float 
 
 def print_flushed(text: str) -> None:
     print(text, flush=True)
+
+
+def one_torch_thread() -> None:
+    """One torch thread per run: runs share the cores, and torch's idle threads spinning beside
+    another run made scoring several times slower (as the learner, aaai.learner, does in training)."""
+    try:
+        import torch
+    except ImportError:
+        return
+    torch.set_num_threads(1)
 
 
 def run_experiment(experiment: Experiment, echo: Callable[[str], None] = print, progress_every: float | None = None,
