@@ -156,7 +156,7 @@ class CurriculumVecEnv:
         episode = Episode(i, level, difficulty, seed, float(self.returns[i]),
                           float(self.returns[i] - infos["shaping"][i]), int(self.lengths[i]),
                           **{key: infos[key][i].item() for key in EPISODE_INFO_KEYS})
-        self.curriculum.record(level, difficulty, episode.task_return)
+        self.curriculum.record(level, difficulty, episode.task_return, episode.max_reward)
         self.returns[i] = 0.0
         self.lengths[i] = 0
         return episode
