@@ -331,3 +331,20 @@ def test_heatmap_shows_the_samplers_weights(tmp_path, sampler):
     y = MARGIN_PX + 4
     high, low = image[y, 3 * panel + MARGIN_PX + 4], image[y, 3 * panel + MARGIN_PX + CELL_PX + 4]
     assert np.abs(high.astype(int) - low.astype(int)).sum() > 100
+
+
+def test_the_training_workers_tell_the_curriculum_whether_each_episode_passed():
+    from aaai.vector import CurriculumVecEnv
+
+    config = load_config(rays=False, max_steps=20, levels="0", difficulties="0")
+    curriculum = Curriculum.from_config(load_config(config, sampler="learnability"))
+    vec = CurriculumVecEnv(config, curriculum, num_envs=1, asynchronous=False)
+    vec.reset()
+    finished = []
+    while len(finished) < 2:
+        finished += vec.step(np.zeros((1, *vec.single_action_space.shape), np.float32))[4]
+    vec.close()
+    assert curriculum.episodes[(0, 0)] == 2
+    from aaai.curriculum import episode_passed
+
+    assert list(curriculum.passes[(0, 0)]) == [episode_passed(e.task_return, e.max_reward) for e in finished]
