@@ -75,7 +75,8 @@ def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: dict
     path = experiment.folder / "experiment.yaml"
     if path.exists():
         earlier = yaml.safe_load(path.read_text())
-        if earlier.get("config") != yaml.safe_load(yaml.safe_dump(config)) or \
+        # resolved again: keys added to the config since then take their defaults, as in `config`
+        if load_config(earlier.get("config") or {}) != load_config(config) or \
                 earlier.get("seeds_per_cell") != seeds_per_cell:
             raise ConfigError(f"--out: {str(experiment.folder)!r} holds an experiment with another config or K; "
                               "re-run it with the same options to continue it, or choose another --out")
