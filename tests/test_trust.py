@@ -279,7 +279,7 @@ def test_a_full_disk_names_the_file_keeps_the_rows_and_a_rerun_resumes(tmp_path,
     message = " ".join(full.output.split())
     assert str(out) in message and "No space left on device" in message and "run the same command again" in message
     with open(out) as handle:
-        assert len(list(csv.DictReader(handle))) >= 2  # the rows made durable before stay
+        assert len(list(csv.DictReader(handle))) >= 1  # the rows made durable before stay (the failed one is cut)
     monkeypatch.undo()
     resumed = _eval("--policy", "random", "--config", config, "-k", "4", "--out", out)
     assert resumed.exit_code == 0, resumed.output
@@ -370,7 +370,7 @@ def test_a_write_refused_midway_names_the_file_and_a_rerun_resumes(tmp_path, mon
     message = " ".join(failed.output.split())
     assert failed.exit_code != 0 and "Traceback" not in failed.output
     named = record_path(out) if fault == "folder" else out
-    assert f"cannot write '{named}'" in message, message
+    assert f"'{named}'" in message and ("Permission denied" in message or "Is a directory" in message), message
     assert not out.exists()
     if fault == "folder":
         record_path(out).rmdir()
@@ -573,6 +573,8 @@ def _command_ends_cleanly(tmp_path: Path, args: list[str]) -> None:
         args = args + ["--out", str(tmp_path / "board.csv"), "--difficulty", "0"]
     if args[0] in ("run", "validate", "eval") and "--levels" not in args:
         args = args + ["--levels", "0"]
+    if args[0] == "validate" and "--seeds" not in args:  # not 100 seeds x 11 difficulties
+        args = args + ["--seeds", "1"]
     result = CliRunner().invoke(cli, args)
     assert result.exception is None or isinstance(result.exception, SystemExit), (args, result.output)
     assert "Traceback" not in result.output
@@ -677,3 +679,55 @@ def test_a_million_steps_keep_memory_and_connections_bounded():
     print(result)
     assert result["episodes"] > 100 and result["connections"] == 1 and result["connections_after_close"] == 0
     assert result["rss_end_mb"] - result["rss_after_warm_up_mb"] < 50
+
+
+@pytest.mark.long
+def test_a_real_full_disk_keeps_the_rows_and_a_rerun_after_freeing_space_completes(tmp_path):
+    """On a 64 KiB tmpfs filled to two free pages (needs the right to mount, as root in CI's container)."""
+    import subprocess
+    import sys
+
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(disk)], capture_output=True).returncode:
+        pytest.skip("cannot mount a small filesystem here")
+    try:
+        filler = disk / "filler"
+        with open(filler, "wb", buffering=0) as handle:  # fill it, then give back two pages: the record, a page of rows
+            try:
+                while True:
+                    handle.write(b"x" * 4096)
+            except OSError:
+                pass
+        with open(filler, "r+b") as handle:
+            handle.truncate(max(0, filler.stat().st_size - 2 * 4096))
+        config = _yaml(tmp_path, "short.yaml", {"episode": {"max_steps": 10}})
+        out = disk / "board.csv"
+        command = [sys.executable, "-m", "aaai_cli.main", "eval", "--policy", "random", "--levels", "0",
+                   "--difficulty", "0-1", "-k", "60", "--config", str(config), "--out", str(out)]
+        full = subprocess.run(command, capture_output=True, text=True)
+        message = " ".join((full.stdout + full.stderr).split())
+        assert full.returncode != 0 and "Traceback" not in message, message
+        assert str(out) in message and "No space left on device" in message
+        with open(out) as handle:
+            kept = list(csv.DictReader(handle))
+        assert 10 <= len(kept) < 120  # about a page of rows
+        filler.unlink()
+        subprocess.run(command, check=True, capture_output=True)
+        with open(out) as handle:
+            rows = list(csv.DictReader(handle))
+        assert len(rows) == 120 and rows[:len(kept) - 1] == kept[:-1]  # (the last kept may have been torn)
+    finally:
+        subprocess.run(["umount", str(disk)], capture_output=True)
+
+
+def test_a_line_torn_mid_file_is_cut_and_played_again(tmp_path):
+    config = _yaml(tmp_path, "short.yaml", SHORT)
+    out = tmp_path / "board.csv"
+    assert _eval("--policy", "random", "--config", config, "-k", "4", "--out", out).exit_code == 0
+    whole = _rows_without_timing(out)
+    lines = out.read_text().splitlines(keepends=True)
+    out.write_text("".join(lines[:2] + [lines[2][:20] + lines[3]] + lines[4:]))  # a write cut short, then appended to
+    resumed = _eval("--policy", "random", "--config", config, "-k", "4", "--out", out)
+    assert resumed.exit_code == 0, resumed.output
+    assert sorted(map(str, _rows_without_timing(out))) == sorted(map(str, whole))
