@@ -56,7 +56,8 @@ class CurriculumService:
         return self.curriculum.sample()
 
     def record(self, episode: dict) -> None:
-        self.curriculum.record(episode["level"], episode["difficulty"], episode["task_return"])
+        self.curriculum.record(episode["level"], episode["difficulty"], episode["task_return"],
+                               episode.get("max_reward"))  # with it, whether the episode passed
         self.finished.append(episode)
 
     def collect(self) -> list[dict]:

@@ -196,6 +196,9 @@ PROGRESS_HELP = ("Seconds between progress lines when the output is not a termin
                  "a progress bar.")
 
 
+REDRAW = 0.25  # seconds between redraws of a terminal's progress bar
+
+
 @contextlib.contextmanager
 def progress_output(report):
     """Yields the function to advance ``report`` (an aaai.training.Progress) with: a progress bar
@@ -207,11 +210,17 @@ def progress_output(report):
         with click.progressbar(length=report.total, label=report.label, show_pos=True, show_eta=False,
                                item_show_func=lambda item: item) as bar:
             bar.update(report.done)
+            pending, drawn = [0], [0.0]
 
-            def update(n: int) -> None:
-                report.update(n)
-                bar.update(n, current_item=report.details())
+            def update(n: int) -> None:  # the bar is redrawn at most every REDRAW seconds: a redraw
+                report.update(n)  # costs about 1000 times a step's bookkeeping
+                pending[0] += n
+                now = time.monotonic()
+                if now - drawn[0] >= REDRAW:
+                    bar.update(pending[0], current_item=report.details())
+                    pending[0], drawn[0] = 0, now
             yield update
+            bar.update(pending[0], current_item=report.details())
     else:
         report.write = print_lines(sys.stdout)
         yield report.update
@@ -365,6 +374,9 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
 def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output, seed_key_file,
                  backend, address, workers, arenas, action_mode, trust_model, progress_every, save_replays):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
+    from aaai.baselines import one_thread
+
+    one_thread()  # one episode at a time: a small network gains nothing from more torch threads
     if arenas is not None:
         return eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty,
                            seed_key_file, backend, action_mode, trust_model, save_replays, progress_every)
