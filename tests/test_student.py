@@ -1,6 +1,8 @@
 """The student of the reference (DAgger) and demonstrations as a Minari dataset."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import yaml
@@ -155,3 +157,28 @@ def test_diagnose_replays_each_failed_episode_into_one_first_cause(tmp_path):
     assert not food_in_view({"rays": rays})
     rays[3, 0] = 1.0  # a ray on green food
     assert food_in_view({"rays": rays}) and food_in_view({"rays": rays.reshape(-1)})
+
+
+MODELS = Path(__file__).resolve().parent.parent / "baselines" / "models"
+
+
+def test_the_committed_student_fails_l8_for_want_of_object_permanence(tmp_path):
+    """Pinned from the baseline table (README, Learned agents): on reserved L8 d0 seed 1429051819
+    the student sees the food once, at the start; it slides behind the occluder, no ray shows it
+    again, and the student, which has no memory, never goes behind. The reference passes it."""
+    from aaai.diagnose import replay_failure
+    from aaai.evaluation import load_policy
+
+    config = load_config(str(MODELS / "student.yaml"))
+    env = AnimalAIEnv(config={k: v for k, v in config.items() if k not in ("curriculum", "train", "eval")})
+    try:
+        row = {"level": "8", "difficulty": "0", "seed": "1429051819"}
+        failure = replay_failure(env, load_policy(str(MODELS / "student.zip"), env), row)
+        assert failure.cause == "lost sight" and failure.food_eaten == 0
+        assert 0.0 < failure.seen_share < 0.01  # in view for a moment at the start, then never again
+    finally:
+        env.close()
+    reference = CliRunner().invoke(cli, ["eval", "--policy", "reference", "--levels", "8", "--difficulty", "0",
+                                         "--seeds", "1429051819", "--action-mode", "gait", "--out",
+                                         str(tmp_path / "reference.csv")])
+    assert reference.exit_code == 0 and "| 100% |" in reference.output, reference.output
