@@ -244,9 +244,9 @@ class _Arena:
         from aaai.kinds import SYMBOLS
 
         symbols = item.get("symbolNames") or []
-        positions = item.get("positions") or [None]
         objects = []
-        for k, position in enumerate(positions if isinstance(positions, list) else [None]):
+        for k in range(_count(item, self.where(index, name))):
+            position = self._entry(item.get("positions"), k)
             symbol = self._entry(symbols, k)
             key = symbol.replace("-", "_") if isinstance(symbol, str) else None
             if key not in SYMBOLS:
@@ -271,11 +271,9 @@ class _Arena:
             why = NOT_HERE.get(name, "no such kind here")
             raise Unmappable(f"{self.where(index, name)}: cannot be mapped ({why}); arena skipped")
         kind, form, (low, high) = ITEMS[name]
-        positions = item.get("positions") or [None]
-        if not isinstance(positions, list):
-            raise Unmappable(f"{self.where(index, name)}: positions {positions!r}; allowed: a list of !Vector3")
         objects = []
-        for k, position in enumerate(positions):
+        for k in range(_count(item, self.where(index, name))):
+            position = self._entry(item.get("positions"), k)
             position = position if isinstance(position, dict) else {}
             size = self._entry(item.get("sizes"), k)
             size = size if isinstance(size, dict) else {}
@@ -314,6 +312,18 @@ class _Arena:
             objects.append({key: obj[key] for key in ("kind", "shape", "position", "size", "yaw", "colour", "mass",
                                                        "behaviour") if key in obj})
         return objects
+
+
+def _count(item: dict, where: str) -> int:
+    """How many objects an item stands for: its longest list of positions, sizes, rotations or
+    colours (Animal-AI draws what a shorter list lacks), at least one."""
+    lengths = [1]
+    for key in ("positions", "sizes", "rotations", "colors"):
+        value = item.get(key)
+        if value is not None and not isinstance(value, list):
+            raise Unmappable(f"{where}: {key} {value!r}; allowed: a list")
+        lengths.append(len(value or []))
+    return max(lengths)
 
 
 SUPPORTS = ("wall", "transparent_wall", "plank", "u_block", "l_block", "j_block", "hollow_box")

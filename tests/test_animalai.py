@@ -157,3 +157,22 @@ arenas:
     assert sign.kind == "sign_left_arrow" and sign.size[1:] == (1.4 * S, 1.4 * S)
     assert sign.yaw == pytest.approx(math.pi / 2)  # Animal-AI's forward (+z) is our north
     assert "signs.yaml, arena 1, item 0 (SignPosterboard): cannot be mapped (symbol '1/0/1/0/1'" in "\n".join(lines)
+
+
+def test_an_item_stands_for_as_many_objects_as_its_longest_list(tmp_path):
+    source = tmp_path / "five.yaml"
+    source.write_text("""!ArenaConfig
+arenas:
+  0: !Arena
+    t: 250
+    items:
+    - !Item
+      name: GoodGoalMulti
+      sizes:
+      - !Vector3 {x: 1, y: 1, z: 1}
+      - !Vector3 {x: 1, y: 1, z: 1}
+      - !Vector3 {x: 2, y: 2, z: 2}
+""")
+    import_animalai(source, tmp_path / "out", echo=lambda line: None)
+    foods = [o for o in parse_arena(tmp_path / "out" / "five.yaml", 0)[0].objects if o.kind == "multi_food"]
+    assert [food.size[0] for food in foods] == [S, S, 2 * S]  # positions drawn at random for each
