@@ -19,7 +19,7 @@ from typing import Any, Callable
 import numpy as np
 
 from aaai.config import ConfigError, env_part, load_config
-from aaai.gait import SineGait
+from aaai.gait import gait_policy
 from aaai.env import AnimalAIEnv
 from aaai.episodes import play
 from aaai.files import write_atomic
@@ -271,7 +271,7 @@ def load_policy(policy: str, env: AnimalAIEnv, trust: bool = False, extra_keys: 
 
         return ReferenceController(env)
     if policy == "gait":
-        return SineGait.for_env(env)
+        return gait_policy(env)
     if Path(policy).is_dir() and run_backend(policy) == "rllib":
         from aaai.rllib_learner import RLlibPolicy
 

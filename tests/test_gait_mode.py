@@ -173,3 +173,25 @@ def test_out_of_range_commands_are_clipped_to_the_box():
         assert env.gait.target == (1.0, -1.0, 0.0)
     finally:
         env.close()
+
+
+def test_every_built_in_policy_acts_in_gait_mode():
+    from aaai.evaluation import load_policy
+    from aaai.episodes import play
+
+    env = AnimalAIEnv(level=0, difficulty=0, action_mode="gait", max_steps=100)
+    try:
+        for name in ("random", "gait", "reference"):
+            policy = load_policy(name, env)
+            result = play(env, policy, seed=3)
+            assert result.info["steps"] == 100 or result.terminated, name
+        start, yaw = None, None
+        env.reset(seed=5, options={"spec": open_floor(env)})
+        start, yaw = pose(env)
+        walker = load_policy("gait", env)
+        for _ in range(20):
+            env.step(walker(None))
+        end, _ = pose(env)
+        assert (end - start)[:2] @ np.array([math.cos(yaw), math.sin(yaw)]) > 2.0  # "gait" walks straight ahead
+    finally:
+        env.close()
