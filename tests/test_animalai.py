@@ -63,7 +63,14 @@ def test_a_random_value_becomes_seeded_randomisation(tmp_path):
     assert again.position[0] == xs[3]  # the same seed, the same draw
 
 
-def test_converted_arenas_validate_and_the_reference_passes_one(tmp_path, make_env):
+def test_converted_arenas_validate(tmp_path):
+    _, _, out = imported(tmp_path)
+    for name in ("spawner_a0.yaml", "two_arenas_a0.yaml", "two_arenas_a1.yaml"):
+        load_arena(out / name, 0)  # raises on any problem
+
+
+@pytest.mark.long
+def test_the_reference_passes_a_converted_arena(tmp_path, make_env):
     _, _, out = imported(tmp_path)
     spec = load_arena(out / "spawner_a0.yaml", 0)  # a green 20 Animal-AI units ahead
     env = make_env(action_mode="gait")
