@@ -86,12 +86,13 @@ competence: install-train
 
 # The curricula experiment (README, Curricula): every sampler (paper, uniform, learnability, plr)
 # trained on one budget, config and cells, 3 seeds each, scored on reserved and trained seeds; writes
-# experiments/curricula/ (table.md, table.csv, curves.png, runs.csv, each run's CSVs). Long: see the
-# README for its wall time. Re-running continues where it stopped. CURRICULA_ARGS adds options, e.g.
-# CURRICULA_ARGS="--steps 20000 --seeds 0 --out /tmp/curricula" for a small version.
+# experiments/curricula/ (table.md, table.csv, curves.png, runs.csv, each run's CSVs). The committed
+# results are this budget: 50,000 gait decisions per run, 5 seeds per cell scored (about 25 minutes
+# on 2 cores). Re-running continues where it stopped. CURRICULA_ARGS adds options, e.g.
+# CURRICULA_ARGS="--steps 500000 -k 10 --out experiments/curricula-500k" for the larger budget.
 CURRICULA_ARGS ?=
 curricula: install-train
-	$(BIN)/aaai experiment curricula --out experiments/curricula $(CURRICULA_ARGS)
+	$(BIN)/aaai experiment curricula --steps 50000 -k 5 --out experiments/curricula $(CURRICULA_ARGS)
 
 # The gait: measure its speeds (README, "The body"), or tune it again (CMA-ES, the tune extra).
 gait: install
