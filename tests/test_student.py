@@ -182,3 +182,13 @@ def test_the_committed_student_fails_l8_for_want_of_object_permanence(tmp_path):
                                          "--seeds", "1429051819", "--action-mode", "gait", "--out",
                                          str(tmp_path / "reference.csv")])
     assert reference.exit_code == 0 and "| 100% |" in reference.output, reference.output
+
+
+def test_a_student_learns_in_rotation_mode_too(tmp_path):
+    """In the joint modes the labels are the reference's joint targets (its gait's output)."""
+    config = load_config(TINY, action_mode="rotation", dagger_iterations=1, dagger_episodes=1, levels="0",
+                         difficulties="0")
+    gathered = play_job(Job(config, None, 32, 1.0, 0, ((0, 0, 3),)))
+    assert gathered["labels"].shape[1] == 8 and gathered["episodes"][0].food_eaten == 1
+    result = train_student(tmp_path / "joints", config, say=lambda message: None)
+    assert result.steps > 0 and (tmp_path / "joints" / "final" / "model.zip").is_file()
