@@ -23,6 +23,7 @@ import gymnasium as gym
 import numpy as np
 
 from aaai.config import ConfigError, env_part
+from aaai.episodes import play
 
 DEFAULT_ID = "aaai/{policy}-v0"
 BATCH = 10  # episodes written to the dataset at a time: at most this many are lost to a crash
@@ -52,21 +53,25 @@ def record_episode(env, policy: Callable, level: int, difficulty: int, seed: int
     from minari.data_collector import EpisodeBuffer
 
     options = {"level": level, "difficulty": difficulty}
-    observation, _ = env.reset(seed=seed, options=options)
-    if hasattr(policy, "reset"):
-        policy.reset(seed)
-    observations = [observation]
-    actions, rewards, terminations, truncations = [], [], [], []
-    while True:
-        action = np.asarray(policy(observation), env.action_space.dtype)
-        observation, reward, terminated, truncated, _ = env.step(action)
+    observations, actions, rewards = [], [], []
+
+    def start(observation, info) -> None:  # play resets the policy it is given: here that is `act`
         observations.append(observation)
+        if hasattr(policy, "reset"):
+            policy.reset(seed)
+
+    def act(observation):
+        action = np.asarray(policy(observation), env.action_space.dtype)
         actions.append(action)
+        return action
+
+    def step(_, observation, reward, info) -> None:
+        observations.append(observation)
         rewards.append(reward)
-        terminations.append(terminated)
-        truncations.append(truncated)
-        if terminated or truncated:
-            break
+
+    result = play(env, act, seed, options=options, on_reset=start, on_step=step)
+    terminations = [False] * (len(actions) - 1) + [result.terminated]
+    truncations = [False] * (len(actions) - 1) + [result.truncated]
     stacked = {key: np.stack([o[key] for o in observations]) for key in observations[0]}
     return EpisodeBuffer(id=episode_id, seed=seed, options=options, observations=stacked,
                          actions=np.stack(actions), rewards=rewards, terminations=terminations,

@@ -26,6 +26,7 @@ import numpy as np
 
 from aaai.config import env_part
 from aaai.env import AnimalAIEnv
+from aaai.episodes import play
 from aaai.kinds import KIND_INDEX
 
 FOOD_CHANNELS = (KIND_INDEX["food_green"], KIND_INDEX["food_yellow"])
@@ -54,15 +55,11 @@ def food_in_view(observation: dict) -> bool:
 
 def replay_failure(env: AnimalAIEnv, policy, row: dict) -> Failure:
     level, difficulty, seed = int(row["level"]), int(row["difficulty"]), int(row["seed"])
-    observation, info = env.reset(seed=seed, options={"level": level, "difficulty": difficulty})
-    if hasattr(policy, "reset"):
-        policy.reset(seed)
-    seen = [food_in_view(observation)]
-    while True:
-        observation, _, terminated, truncated, info = env.step(policy(observation))
-        seen.append(food_in_view(observation))
-        if terminated or truncated:
-            break
+    seen: list[bool] = []
+    result = play(env, policy, seed, options={"level": level, "difficulty": difficulty},
+                  on_reset=lambda observation, info: seen.append(food_in_view(observation)),
+                  on_step=lambda step, observation, reward, info: seen.append(food_in_view(observation)))
+    info = result.info
     seen_array = np.array(seen)
     late = seen_array[len(seen_array) * 2 // 3:]
     if info["fell"]:

@@ -94,9 +94,7 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
 
-    def picture(observation, info=None) -> None:
-        image = compose(draw_top_down(env.level_spec, size), observation["camera"])
-        click.echo(f"wrote {save_png(image, output)} ({image.shape[1]} x {image.shape[0]})")
+    picture = picture_writer(env, output, size)
 
     try:
         if video is None:
@@ -105,6 +103,15 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
             record(env, actor, seed, video, steps, fps, size, on_reset=picture if output is not None else None)
     finally:
         env.close()
+
+
+def picture_writer(env, output: str | None, size: int):
+    """``picture(observation, info=None)``: writes the level's top-down map beside the head camera's
+    view to the PNG ``output``."""
+    def picture(observation, info=None) -> None:
+        image = compose(draw_top_down(env.level_spec, size), observation["camera"])
+        click.echo(f"wrote {save_png(image, output)} ({image.shape[1]} x {image.shape[0]})")
+    return picture
 
 
 ENDS = {"ate green": "ate green food", "time": "reached max_steps"}  # how the messages name them
@@ -154,9 +161,7 @@ def show_replay(path: str, video: str | None, output: str | None, steps: int | N
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
 
-    def picture(observation, info=None) -> None:
-        image = compose(draw_top_down(env.level_spec, size), observation["camera"])
-        click.echo(f"wrote {save_png(image, output)} ({image.shape[1]} x {image.shape[0]})")
+    picture = picture_writer(env, output, size)
 
     try:
         record(env, ReplayPolicy(data), data["seed"], video, min(steps or data["steps"], data["steps"]), fps, size,

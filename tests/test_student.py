@@ -192,3 +192,26 @@ def test_a_student_learns_in_rotation_mode_too(tmp_path):
     assert gathered["labels"].shape[1] == 8 and gathered["episodes"][0].food_eaten == 1
     result = train_student(tmp_path / "joints", config, say=lambda message: None)
     assert result.steps > 0 and (tmp_path / "joints" / "final" / "model.zip").is_file()
+
+
+def test_a_teacher_does_not_take_the_students_standing_still_for_its_own_lack_of_progress():
+    """While the student drives, the reference's stuck clock is held: a student that stands still
+    for 6 s does not make the teacher label "back off" (it would after 3 s of its own)."""
+    def labels(held: bool) -> list:
+        env = AnimalAIEnv(level=4, difficulty=3, action_mode="gait")
+        teacher = ReferenceController(env)
+        try:
+            observation, _ = env.reset(seed=2)
+            teacher.reset(2)
+            out = []
+            for _ in range(60):  # 6 s of the student standing on the spot
+                out.append(tuple(teacher(observation)))
+                if held:
+                    teacher.student_drove(env.hold * env.control_dt)
+                observation, *_ = env.step(np.zeros(3))
+            return out
+        finally:
+            env.close()
+
+    assert not any(forward < 0 for forward, _, _ in labels(held=True))
+    assert any(forward < 0 for forward, _, _ in labels(held=False))  # the clock running: it backs off
