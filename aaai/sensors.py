@@ -22,7 +22,9 @@ EYE_OFFSET = HEAD_RADIUS + 0.05  # eye and ray origins sit just outside the head
 
 
 class Rays:
-    """2n+1 rays in the head's horizontal plane, from -max_angle (right) to +max_angle (left).
+    """2n+1 rays in the head's horizontal plane, from -max_angle (right) to +max_angle (left); with
+    ``down_fan`` > 0 degrees, the same 2n+1 again pitched that far below the plane (rows 2n+1 on),
+    for food lower than the head (the level rays pass over it).
 
     Each ray reports a one-hot of the kind hit (aaai.kinds.KINDS order), a hit-nothing flag,
     and the hit distance over the ray length (1 when nothing is hit).
@@ -41,13 +43,18 @@ class Rays:
     """
 
     def __init__(self, client: int, rays_per_side: int, max_angle: float, length: float, flat: bool = False,
-                 ray_kinds: str = "classic"):
+                 ray_kinds: str = "classic", down_fan: float = 0.0):
         self.client = client
         self.flat = flat
         self.length = length
         angles = np.radians(np.linspace(-max_angle, max_angle, 2 * rays_per_side + 1))
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
-        self.n_rays = len(angles)
+        if down_fan > 0:  # the same fan again, pitched down_fan degrees below the head's plane
+            pitch = np.radians(down_fan)
+            lower = np.stack([np.cos(angles) * np.cos(pitch), np.sin(angles) * np.cos(pitch),
+                              np.full_like(angles, -np.sin(pitch))], axis=1)
+            self.local_dirs = np.concatenate([self.local_dirs, lower])
+        self.n_rays = len(self.local_dirs)
         self.channels, self.column = ray_channels(ray_kinds)  # channel names; kind index -> column
         self.n_kinds = len(self.channels)
         self.grid_shape = (self.n_rays, self.n_kinds + 2)
@@ -180,8 +187,8 @@ class Senses:
 
     def __init__(self, client: int, sensors: dict, body: Quadruped):
         self.rays = Rays(client, sensors["rays_per_side"], sensors["ray_max_angle"],
-                         sensors["ray_length"], sensors["rays_flat"],
-                         sensors.get("ray_kinds", "classic")) if sensors["rays"] else None
+                         sensors["ray_length"], sensors["rays_flat"], sensors.get("ray_kinds", "classic"),
+                         sensors.get("ray_down_fan", 0.0)) if sensors["rays"] else None
         self.camera = Camera(client, sensors["camera_resolution"],
                              sensors["camera_grayscale"]) if sensors["camera"] else None
         self.blackout = Blackout()
