@@ -138,6 +138,7 @@ RULES: dict[str, Rule] = {
     "sensors.ray_kinds": Rule("choice", choices=("classic", "all")),  # aaai.kinds.ray_channels
     "sensors.ray_max_angle": Rule("float", 5, 180),
     "sensors.ray_length": Rule("float", 1, 100),
+    "sensors.ray_memory": Rule("int", 0, 10),  # earlier food sightings 1, 2, 4 .. 2^(n-1) steps back (0: none)
     "sensors.ray_down_fan": Rule("float", 0, 45),  # degrees: a second fan pitched down (0: none)
     "sensors.camera": Rule("bool"),
     "sensors.camera_resolution": Rule("int", 8, 512),

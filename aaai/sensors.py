@@ -182,6 +182,41 @@ class Blackout:
         return self.steps is not None and step % self.steps[1] >= self.steps[0]
 
 
+class RayMemory:
+    """What the rays showed of food before: ``depth`` earlier observations, 1, 2, 4 ... 2^(depth-1)
+    observations (env steps) back, each ray's green-food and yellow-food flags and its distance (a
+    ray that saw no food reads 0, 0, 1; so do the steps before the episode began).
+
+    Rays are lines through the present: food that slides behind an occluder, or that the body
+    turns away from, leaves them at once. This is the short memory of it, in the rays' own frame
+    at the time (the frames are not turned with the body)."""
+
+    def __init__(self, rays: Rays, depth: int):
+        self.lags = 2 ** np.arange(depth)
+        self.columns = [rays.column[KIND_INDEX["food_green"]], rays.column[KIND_INDEX["food_yellow"]]]
+        self.grid_shape = rays.grid_shape
+        self.space = spaces.Box(0.0, 1.0, (depth, rays.n_rays, 3), np.float32)
+        self._frames = np.zeros((int(self.lags[-1]), rays.n_rays, 3), np.float32)  # a ring, newest at _newest
+        self._newest = -1
+        self.clear()
+
+    def clear(self) -> None:
+        self._frames[:] = 0.0
+        self._frames[:, :, 2] = 1.0
+        self._newest = -1
+
+    def recall(self, rays: np.ndarray) -> np.ndarray:
+        """The memory as it stands before ``rays`` (this step's), then ``rays`` remembered."""
+        size = len(self._frames)
+        recalled = self._frames[(self._newest - self.lags + 1) % size]
+        grid = rays.reshape(self.grid_shape)
+        self._newest = (self._newest + 1) % size
+        frame = self._frames[self._newest]
+        frame[:, :2] = grid[:, self.columns]
+        frame[:, 2] = np.where(frame[:, :2].any(axis=1), grid[:, -1], 1.0)
+        return recalled
+
+
 class Senses:
     """The body's senses as the config's ``sensors`` section sets them, and their Dict space."""
 
@@ -198,6 +233,10 @@ class Senses:
         space = {"joints": spaces.Box(-1.0, 1.0, (n,), np.float32)}
         if self.rays:
             space["rays"] = self.rays.space
+        depth = sensors.get("ray_memory", 0) if self.rays else 0
+        self.memory = RayMemory(self.rays, depth) if depth else None
+        if self.memory:
+            space["ray_memory"] = self.memory.space
         if self.camera:
             space["camera"] = self.camera.space
         if sensors["joint_velocities"]:
@@ -219,6 +258,8 @@ class Senses:
                                  for obj in spec.objects if getattr(kind_class(obj.kind), "zone", False)])
         self.blackout = Blackout(spec.blackout, control_dt)
         self.feet[:] = 0.0
+        if self.memory:
+            self.memory.clear()
 
     def feel(self, contacts) -> None:
         """Which feet touch anything, from the step's contacts of the body (only worked out when the
@@ -239,6 +280,8 @@ class Senses:
             head_rot = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
         if self.rays:
             observation["rays"] = self.rays.observe(head_pos, head_rot, kind_index)
+            if self.memory:
+                observation["ray_memory"] = self.memory.recall(observation["rays"])
         if self.camera:
             observation["camera"] = self.camera.blank() if dark else self.camera.observe(head_pos, head_rot)
         if self.joint_velocities:
