@@ -7,7 +7,7 @@ An arena file's keys are the spec's fields (README, "Write your own test"):
   ``seed`` to the episode's seed;
 - ``agent: {x, y, yaw}`` (required; yaw in radians, 0 facing east, pi/2 north);
 - ``objects``: a list of ``{kind, shape, position: [x, y, z], size: [sx, sy, sz], yaw, colour:
-  [r, g, b, a] or null, mass, behaviour}`` (``kind``, ``position`` and ``size`` required; ``shape``
+  [r, g, b, a] or null, mass, behaviour, timing}`` (``kind``, ``position`` and ``size`` required; ``shape``
   default box, food a sphere);
 - ``arena_size: [x, y]``, ``wall_height``, ``tiles: [nx, ny]``, ``holes: [[i, j], ...]`` (an item
   may also be ``{rect: [i0, j0, i1, j1]}``: every tile of that block, both ends included),
@@ -46,7 +46,7 @@ import yaml
 from aaai import validate
 from aaai.behaviours import REGISTRY
 from aaai.config import ConfigError, _PlainLoader, read_yaml
-from aaai.kinds import FOOD_KINDS, OBJECT_KINDS, kind_class
+from aaai.kinds import ENDING_KINDS, FOOD_KINDS, OBJECT_KINDS, kind_class
 from aaai.spec import SHAPES, AgentPose, Blackout, InnerLevel, LevelSpec, ObjectSpec
 
 META_KEYS = ("description", "category", "arena_walls", "pass_mark")
@@ -54,7 +54,7 @@ SPEC_KEYS = ("level", "name", "difficulty", "seed", "agent", "objects", "arena_s
              "heightfield", "max_food_reward", "time_limit", "blackout", "colours", "bridge", "inner", "regenerated",
              "extras")
 TOP_KEYS = META_KEYS + SPEC_KEYS
-OBJECT_KEYS = ("kind", "shape", "position", "size", "yaw", "colour", "mass", "behaviour")
+OBJECT_KEYS = ("kind", "shape", "position", "size", "yaw", "colour", "mass", "behaviour", "timing")
 AGENT_KEYS = ("x", "y", "yaw")
 BLACKOUT_KEYS = ("light", "dark")
 INNER_KEYS = ("level", "name", "difficulty", "seed")
@@ -282,10 +282,11 @@ class _Reader:
         if mass < 0:
             self.attempt(lambda: self.fail(where + ("mass",), f"got {mass!r}; allowed: 0 (static) or more"))
         behaviour = self.attempt(lambda: self._behaviour(value, where))
+        timing = self.attempt(lambda: self.plain(value.get("timing"), where + ("timing",)))
         if len(self.problems) > before:
             raise _Skip
         try:
-            return ObjectSpec(kind, shape, position, size, yaw, colour, mass, behaviour)
+            return ObjectSpec(kind, shape, position, size, yaw, colour, mass, behaviour, timing)
         except ValueError as error:
             self.fail(where, str(error))
 
@@ -465,9 +466,9 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
     if "max_food_reward" in data:
         fields["max_food_reward"] = attempt(lambda: read.number(data["max_food_reward"], ("max_food_reward",)), 0.0)
     else:
-        green = [o.food_value for o in objects if o.kind == "food_green"]
+        green = [o.food_value for o in objects if o.is_food and o.kind in ENDING_KINDS]
         fields["max_food_reward"] = max(green, default=0.0) + sum(o.food_value for o in objects
-                                                                  if o.is_food and o.kind != "food_green")
+                                                                  if o.is_food and o.kind not in ENDING_KINDS)
     if read.problems:
         raise ArenaProblems(read.problems)
     spec = LevelSpec(level, name, difficulty, spec_seed, agent, objects, **fields)

@@ -129,6 +129,8 @@ class Kind:
         """An RGBA per part (None: the object's colour for every part)."""
         return None
 
+    timed: ClassVar[bool] = False  # its value changes over the episode (TimedFood): it needs ``timing``
+
 
 # --- food -------------------------------------------------------------------------
 @register
@@ -167,6 +169,100 @@ class Decoy(Kind):
     mark = "dot"
     camera = "a grey sphere"
     rule = "looks like food, is an obstacle: no reward (DecoyGoal)"
+
+
+# --- food whose value changes over a set time ------------------------------------------
+TIMING_KEYS = ("start", "end", "delay", "duration")
+MAX_TIMED_VALUE = 25.0  # Animal-AI's 0..5 valence at the importer's default scale 5
+
+
+class TimedFood(Kind):
+    """Food whose reward goes from ``timing.start`` to ``timing.end`` in a straight line over
+    ``timing.duration`` seconds, after ``timing.delay`` seconds of the episode (Animal-AI's
+    RipenGoal, DecayGoal, GrowGoal and ShrinkGoal). Its body keeps one size all episode (a PyBullet
+    body cannot be rescaled): the object's ``size``, for growing and shrinking food the importer's
+    largest size. Only the reward changes, as a function of the episode's simulated time, so an
+    episode stays deterministic and costs nothing more per step. ``value`` is the reward itself,
+    not per unit of size."""
+
+    shape, shapes = "sphere", ("sphere",)
+    edible, good, any_part = True, True, False
+    timed = True
+    rising: ClassVar[bool] = True  # the value grows (ripen, grow) or falls (decay, shrink)
+
+    @classmethod
+    def value_at(cls, obj, seconds: float) -> float:
+        """The reward for eating ``obj`` ``seconds`` into the episode."""
+        timing = obj.timing
+        start, end = timing["start"], timing["end"]
+        done = min(1.0, max(0.0, (seconds - timing["delay"]) / timing["duration"]))
+        return start + (end - start) * done
+
+    @classmethod
+    def best_value(cls, obj) -> float:
+        """Its best value (0 while its timing is malformed: aaai.validate then refuses it)."""
+        ends = [obj.timing.get(k) for k in ("start", "end")] if isinstance(obj.timing, dict) else []
+        numbers = [v for v in ends if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)]
+        return float(max(numbers)) if len(numbers) == 2 else 0.0
+
+    @classmethod
+    def problems(cls, obj) -> list[str]:
+        problems = super().problems(obj)
+        timing = obj.timing
+        allowed = (f"a mapping with {', '.join(TIMING_KEYS)}: numbers, start and end in 0..{MAX_TIMED_VALUE:g} with "
+                   f"end {'above' if cls.rising else 'below'} start, delay 0 or more, duration above 0 (seconds)")
+        if not isinstance(timing, dict) or set(timing) != set(TIMING_KEYS) or not all(
+                isinstance(timing[k], (int, float)) and not isinstance(timing[k], bool) and math.isfinite(timing[k])
+                for k in TIMING_KEYS):
+            return problems + [f"a {cls.name}'s timing is {timing!r}; allowed: {allowed}"]
+        start, end, delay, duration = (timing[k] for k in TIMING_KEYS)
+        if not (0 <= start <= MAX_TIMED_VALUE and 0 <= end <= MAX_TIMED_VALUE) or delay < 0 or duration <= 0 \
+                or (end > start) != cls.rising or end == start:
+            problems.append(f"a {cls.name}'s timing is {timing!r}; allowed: {allowed}")
+        return problems
+
+
+@register
+class RipeningFood(TimedFood):
+    name = "ripening_food"
+    colour = (0.55, 0.7, 0.3, 1.0)
+    classic = "food_yellow"
+    mark = "clock"
+    camera = "an olive sphere"
+    rule = "eaten: the value at that time (start -> end, rising), taken out; the episode goes on (RipenGoal)"
+
+
+@register
+class DecayingFood(TimedFood):
+    name = "decaying_food"
+    colour = (0.75, 0.55, 0.2, 1.0)
+    classic = "food_yellow"
+    rising = False
+    mark = "clock"
+    camera = "an ochre sphere"
+    rule = "eaten: the value at that time (start -> end, falling), taken out; the episode goes on (DecayGoal)"
+
+
+@register
+class GrowingFood(TimedFood):
+    name = "growing_food"
+    colour = (0.2, 0.9, 0.5, 1.0)
+    classic = "food_green"
+    ends = True
+    mark = "clock"
+    camera = "a mint-green sphere"
+    rule = "eaten: the value at that time (start -> end, rising); the episode ends (GrowGoal)"
+
+
+@register
+class ShrinkingFood(TimedFood):
+    name = "shrinking_food"
+    colour = (0.1, 0.55, 0.25, 1.0)
+    classic = "food_green"
+    ends, rising = True, False
+    mark = "clock"
+    camera = "a dark green sphere"
+    rule = "eaten: the value at that time (start -> end, falling); the episode ends (ShrinkGoal)"
 
 
 # --- floor areas ------------------------------------------------------------------

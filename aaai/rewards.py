@@ -5,7 +5,8 @@ the floor (with ground_penalty off: 1/T flat). Food eaten with the head pays its
 (green: size, yellow: size/2); with a leg, as agent.limb_food_reward says. Each new
 contact of a body part with a wall costs 1; falling onto the deadly floor costs 1. The newer
 kinds (aaai.kinds): bad food touched by any part pays -size and ends the episode; a death zone
-touched is a fall; while a hot zone is touched the step term is ten times as large.
+touched is a fall; while a hot zone is touched the step term is ten times as large. Food that
+ripens, decays, grows or shrinks pays its value at the time it is eaten (aaai.kinds.TimedFood).
 Optional potential-based shaping (episode.shaping = k > 0) adds k x (how much nearer the head
 came to the nearest food this step); evaluation always runs with k = 0.
 """
@@ -35,6 +36,7 @@ class StepEvents:
     new_wall_hits: int = 0
     fell: bool = False
     hot: bool = False  # a part of the body touches a hot zone
+    seconds: float = 0.0  # simulated time at the end of this step: the value of food that ripens or decays
 
     @property
     def green_eaten(self) -> bool:
@@ -46,9 +48,11 @@ def limb_eats(limb_food_reward: str) -> bool:
     return limb_food_reward != "none"
 
 
-def food_reward(food: ObjectSpec, by_head: bool, limb_food_reward: str) -> float:
+def food_reward(food: ObjectSpec, by_head: bool, limb_food_reward: str, seconds: float = 0.0) -> float:
+    """What eating ``food`` pays ``seconds`` into the episode (only timed food's value depends on it)."""
     if by_head or limb_food_reward == "size" or food.kind in ANY_PART:
-        return food.food_value
+        timed = REGISTRY.get(food.kind)
+        return timed.value_at(food, seconds) if timed is not None and timed.timed else food.food_value
     return LIMB_FLAT_REWARD[food.kind] if limb_food_reward == "flat" else 0.0
 
 
@@ -58,7 +62,8 @@ def step_reward(events: StepEvents, max_steps: int, ground_penalty: bool, limb_f
     return {
         "step": -unit * HOT_ZONE_FACTOR if events.hot else -unit,
         "ground": -unit if (events.head_on_floor or not ground_penalty) else 0.0,
-        "food": sum(food_reward(food, by_head, limb_food_reward) for food, by_head in events.eaten.values())
+        "food": sum(food_reward(food, by_head, limb_food_reward, events.seconds)
+                    for food, by_head in events.eaten.values())
         if events.eaten else 0,
         "wall": -1.0 * events.new_wall_hits,
         "fall": -1.0 if events.fell else 0.0,
@@ -87,6 +92,7 @@ class FoodTask:
         self.control_dt = control_dt
         self.max_steps = 0  # T of the current episode
         self.food_eaten = self.wall_hits = 0
+        self.steps = 0  # control steps read this episode: the clock of timed food
         self.food_distance = 0.0
         self.wall_contacts: set[tuple[int, int]] = set()
 
@@ -101,12 +107,14 @@ class FoodTask:
         self.max_steps = self.episode_steps(spec)
         self.wall_contacts = set()
         self.food_eaten = self.wall_hits = 0
+        self.steps = 0
         self.food_distance = nearest_food_distance(head, food_positions()) if self.shaping else 0.0
 
     def after_step(self, contacts, kind_index, food: dict[int, ObjectSpec]) -> StepEvents:
         """Turns the body's contacts of this step into events: the head on the floor, new wall
         hits, a fall onto the deadly floor, food eaten (with the head; with a leg if legs eat)."""
-        events = StepEvents()
+        self.steps += 1
+        events = StepEvents(seconds=self.steps * self.control_dt)
         touching: dict[int, bool] = {}  # food body -> touched by the head
         walls_now: set[tuple[int, int]] = set()
         known = len(kind_index)

@@ -16,6 +16,18 @@ from aaai.kinds import COLOURS, EDIBLE_KINDS, FOOD_KINDS, check_kind, kind_class
 SHAPES = ("box", "sphere", "cylinder")
 
 
+def _drop_no_timing(data) -> None:
+    """Takes ``timing: None`` out of every object in a spec's dict."""
+    if isinstance(data, dict):
+        if "kind" in data and "timing" in data and data["timing"] is None:
+            del data["timing"]
+        for value in data.values():
+            _drop_no_timing(value)
+    elif isinstance(data, (list, tuple)):
+        for value in data:
+            _drop_no_timing(value)
+
+
 @dataclass(frozen=True)
 class ObjectSpec:
     kind: str
@@ -26,6 +38,7 @@ class ObjectSpec:
     colour: tuple[float, float, float, float] | None = None  # None: the kind's colour
     mass: float = 0.0  # 0: static
     behaviour: dict | None = None  # a moving part (aaai.behaviours), e.g. {"type": "random_walk", "speed": 4.0}
+    timing: dict | None = None  # food whose value changes (aaai.kinds.TimedFood): start, end, delay, duration
 
     def __post_init__(self):
         check_kind(self.kind)
@@ -58,6 +71,8 @@ class ObjectSpec:
         if self.kind == "food_yellow":
             return self.size[0] / 2
         cls = kind_class(self.kind)
+        if cls is not None and cls.timed:
+            return cls.best_value(self)  # its best; the value when eaten: aaai.kinds.TimedFood.value_at
         return cls.value * self.size[0] if cls is not None and cls.edible else 0.0
 
 
@@ -112,7 +127,9 @@ class LevelSpec:
     extras: dict = field(default_factory=dict)  # facts about the instance for people and analysis (JSON types)
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        data = asdict(self)
+        _drop_no_timing(data)  # a spec without timed food has the digest it had before timing existed
+        return data
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))

@@ -21,6 +21,7 @@ import numpy as np
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.behaviours import REGISTRY, behaviour_class
+from aaai.kinds import REGISTRY as REGISTRY_KINDS
 from aaai.kinds import SOLID_KINDS, kind_class
 from aaai.geometry import TOLERANCE, corners, footprints_overlap
 from aaai.spec import LevelSpec, ObjectSpec
@@ -330,6 +331,9 @@ def malformed(spec: LevelSpec) -> list[str]:
             if missing:
                 problems.append(f"{what}'s behaviour {obj.behaviour['type']!r} lacks {', '.join(missing)}")
         cls = kind_class(obj.kind)
+        if obj.timing is not None and not (cls is not None and cls.timed):
+            problems.append(f"{what} has timing {obj.timing!r}; allowed: timing only on "
+                            f"{', '.join(k for k, c in REGISTRY_KINDS.items() if c.timed)}")
         if cls is not None and not problems:
             problems += [f"{what}: {problem}" for problem in cls.problems(obj)]
     return problems

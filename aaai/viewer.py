@@ -302,8 +302,8 @@ MARK_COLOUR = (255, 255, 255)
 
 
 def _mark(image: np.ndarray, m: Mapping, obj: ObjectSpec, mark: str) -> None:
-    """A newer kind's mark (aaai.kinds): cross (bad food), dot (multi food, decoy), stripes (floor
-    areas), arrow (a ramp, uphill), rim (a tunnel: its way through, dashed; a block: nothing more)."""
+    """A newer kind's mark (aaai.kinds): cross (bad food), dot (multi food, decoy), clock (food that
+    ripens, decays, grows or shrinks), stripes (floor areas), arrow (a ramp, uphill), rim (a tunnel: its way through, dashed; a block: nothing more)."""
     x, y = obj.position[:2]
     c, s = math.cos(obj.yaw), math.sin(obj.yaw)
     if mark == "cross":
@@ -342,6 +342,10 @@ def _mark(image: np.ndarray, m: Mapping, obj: ObjectSpec, mark: str) -> None:
                 corners = np.array([m.fixed(px + dx, py + dy) for dx, dy in ((-half, -half), (half, -half),
                                                                              (half, half), (-half, half))], np.int32)
                 cv2.fillPoly(image, [corners], colour, cv2.LINE_AA, SHIFT)
+    elif mark == "clock":  # food whose value changes over time: a white ring and one hand
+        radius = max(1.5, m.length(obj.size[0] / 3))
+        cv2.circle(image, m.fixed(x, y), int(round(radius * ONE)), MARK_COLOUR, 1, cv2.LINE_AA, SHIFT)
+        cv2.line(image, m.fixed(x, y), m.fixed(x, y + obj.size[0] / 3), MARK_COLOUR, 2, cv2.LINE_AA, SHIFT)
     elif mark in ("rim",) and "tunnel" in obj.kind:  # the way through, along its axis
         half = obj.size[0] / 2 + 1.5
         _dashed(image, [m.to_float(x - c * half, y - s * half), m.to_float(x + c * half, y + s * half)], MARK_COLOUR,

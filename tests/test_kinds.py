@@ -26,6 +26,10 @@ def example(kind: str, x: float, y: float, yaw: float = 0.0) -> ObjectSpec:
     cls = REGISTRY[kind]
     if cls.zone:
         return ObjectSpec(kind, "box", (x, y, ZONE_THICKNESS / 2), (6.0, 6.0, ZONE_THICKNESS), yaw)
+    if cls.timed:
+        rising = {"start": 1.0, "end": 3.0, "delay": 1.0, "duration": 2.0}
+        timing = rising if cls.rising else {**rising, "start": 3.0, "end": 1.0}
+        return ObjectSpec(kind, "sphere", (x, y, 1.5), (3.0, 3.0, 3.0), yaw, timing=timing)
     if cls.shape == "sphere":
         return ObjectSpec(kind, "sphere", (x, y, 1.5), (3.0, 3.0, 3.0), yaw)
     if "tunnel" in kind:
@@ -215,7 +219,7 @@ def test_the_viewer_draws_and_marks_each_newer_kind(kind):
     colour = np.array([round(255 * c) for c in REGISTRY[kind].colour[:3]])
     assert (np.abs(picture[window].astype(int) - colour).sum(axis=2) < 40).any()
     mark = REGISTRY[kind].mark
-    if mark in ("cross", "dot", "arrow"):  # white on the object
+    if mark in ("cross", "dot", "arrow", "clock"):  # white on the object
         assert (picture[window] == 255).all(axis=2).any()
 
 

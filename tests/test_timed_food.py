@@ -1,0 +1,98 @@
+"""Food that ripens, decays, grows or shrinks (aaai.kinds.TimedFood): its reward is its value at the
+time it is eaten, and ripening and decaying food leave the episode running, growing and shrinking
+food end it."""
+import math
+
+import numpy as np
+import pytest
+
+from aaai import validate
+from aaai.arena import ArenaProblems, load_arena
+from aaai.kinds import REGISTRY
+from aaai.spec import ObjectSpec
+from conftest import open_arena, sphere
+
+STILL = np.zeros(8, np.float32)
+TIMED = ("ripening_food", "decaying_food", "growing_food", "shrinking_food")
+
+
+def timing_for(kind: str) -> dict:
+    rising = REGISTRY[kind].rising
+    return {"start": 1.0 if rising else 4.0, "end": 4.0 if rising else 1.0, "delay": 0.2, "duration": 0.4}
+
+
+def eaten_at(env, kind: str, steps: int):
+    """The food starts out of reach and is put against the head for the ``steps``-th step."""
+    spec = open_arena(ObjectSpec(kind, "sphere", (-18.0, 18.0, 1.5), (3.0, 3.0, 3.0), timing=timing_for(kind)),
+                      sphere("food_green", 18.0, -18.0, 3.0))
+    env.reset(seed=0, options={"spec": spec, "check": False})
+    body = next(b for b, obj in env.world.food.items() if obj.kind == kind)
+    for _ in range(steps - 1):
+        _, _, terminated, _, info = env.step(STILL)
+        assert not terminated and info["reward_terms"]["food"] == 0
+    env.world.place(body, (2.7, 0.0, 1.5), 0.0)
+    return env.step(STILL)
+
+
+@pytest.mark.parametrize("kind", TIMED)
+def test_timed_food_pays_its_value_at_the_time_it_is_eaten(make_env, kind):
+    env = make_env(limb_food_reward="none")
+    dt = env.control_dt
+    timing = timing_for(kind)
+    start, end = timing["start"], timing["end"]
+    # before the delay, halfway through the change, after it
+    for seconds, value in ((0.1, start), (0.4, (start + end) / 2), (0.8, end)):
+        steps = round(seconds / dt)
+        _, _, terminated, _, info = eaten_at(env, kind, steps)
+        assert info["reward_terms"]["food"] == pytest.approx(value, abs=1e-9), (kind, seconds)
+        assert info["food_eaten"] == 1
+        assert terminated == REGISTRY[kind].ends  # growing and shrinking food end it, like green
+        if not REGISTRY[kind].ends:
+            assert len(env.world.food) == 1  # taken out; the green is left
+
+
+def test_a_timed_food_value_moves_in_a_straight_line_between_delay_and_end():
+    obj = ObjectSpec("ripening_food", "sphere", (0, 0, 1.5), (3, 3, 3),
+                     timing={"start": 0.0, "end": 10.0, "delay": 2.0, "duration": 5.0})
+    cls = REGISTRY["ripening_food"]
+    assert [cls.value_at(obj, t) for t in (0, 2, 3, 4.5, 7, 100)] == [0, 0, 2, 5, 10, 10]
+    assert obj.food_value == 10.0  # its best, for the level's best reward
+
+
+@pytest.mark.parametrize("kind,timing,words", [
+    ("ripening_food", None, "timing is None"),
+    ("ripening_food", {"start": 3, "end": 1, "delay": 0, "duration": 1}, "end above start"),
+    ("decaying_food", {"start": 1, "end": 3, "delay": 0, "duration": 1}, "end below start"),
+    ("growing_food", {"start": 1, "end": 3, "delay": -1, "duration": 1}, "delay 0 or more"),
+    ("shrinking_food", {"start": 3, "end": 1, "delay": 0, "duration": 0}, "duration above 0"),
+    ("growing_food", {"start": 1, "end": 3, "delay": 0}, "with start, end, delay, duration"),
+    ("growing_food", {"start": 1, "end": "3", "delay": 0, "duration": 1}, "numbers"),
+    ("growing_food", {"start": 1, "end": 99, "delay": 0, "duration": 1}, "0..25"),
+    ("food_green", {"start": 1, "end": 3, "delay": 0, "duration": 1}, "timing only on ripening_food"),
+])
+def test_bad_timing_is_refused_naming_the_object_the_value_and_what_is_allowed(kind, timing, words):
+    spec = open_arena(ObjectSpec(kind, "sphere", (10.0, 0.0, 1.5), (3.0, 3.0, 3.0), timing=timing))
+    problems = [p for p in validate.check(spec) if kind in p]
+    assert problems and words in problems[0] and "allowed" in problems[0], problems
+
+
+def test_an_arena_file_takes_timing_and_refuses_it_when_wrong(tmp_path):
+    text = """
+agent: {x: 0, y: 0}
+objects:
+  - {kind: decaying_food, position: [10, 0, 1.5], size: [3, 3, 3], timing: {start: 5, end: 1, delay: 2, duration: 10}}
+"""
+    (tmp_path / "a.yaml").write_text(text)
+    spec = load_arena(tmp_path / "a.yaml", 0)
+    assert spec.foods[0].timing == {"start": 5, "end": 1, "delay": 2, "duration": 10}
+    assert spec.max_food_reward == 5
+    (tmp_path / "b.yaml").write_text(text.replace("end: 1", "end: 7"))
+    with pytest.raises(ArenaProblems, match="timing"):
+        load_arena(tmp_path / "b.yaml", 0)
+
+
+def test_a_spec_without_timed_food_keeps_its_digest_keys():
+    spec = open_arena(sphere("food_green", 10.0, 0.0, 3.0))
+    assert "timing" not in spec.to_json()
+    timed = open_arena(ObjectSpec("growing_food", "sphere", (10, 0, 1.5), (3, 3, 3), timing=timing_for("growing_food")))
+    assert '"timing"' in timed.to_json() and math.isfinite(timed.foods[0].food_value)
