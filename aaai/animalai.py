@@ -26,10 +26,11 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
   beneath it or on the floor.
 
 Several arenas in one file become several files (``NAME_aK.yaml``; one arena: ``NAME.yaml``). An
-item with no counterpart here (spawners, sign boards, ripening or shrinking goals, ...) is named
+item with no counterpart here (spawners, buttons, data zones, ...) is named
 with its file, arena and index, and that arena is skipped. Bouncing goals bounce (aaai.behaviours.
 Bounce) at BOUNCE_SPEED; a cylinder tunnel becomes an arch (aaai.kinds.Tunnel) open at the floor; a
-sign board with a preset symbol a ``sign_SYMBOL`` board.
+sign board with a preset symbol a ``sign_SYMBOL`` board; goals that ripen, decay, grow or shrink
+the timed food of aaai.kinds (see TIMED).
 """
 from __future__ import annotations
 
@@ -91,6 +92,15 @@ ITEMS = {
     "DeathZone": ("death_zone", "zone", ((1, 0.5, 1), (40, 10, 40))),
     "HotZone": ("hot_zone", "zone", ((1, 0.5, 1), (40, 10, 40))),
 }
+# Goals whose value changes (aaai.kinds.TimedFood): name -> (our kind, default delay in frames).
+# initialValues / finalValues (valence, 0..5) -> timing start / end x scale (a green of diameter d
+# pays d x scale here); delays (frames) and |final - initial| / |changeRates| (frames) -> delay and
+# duration, a frame counted as a step (SECONDS_PER_STEP x scale seconds), as blackouts are. The body
+# is a sphere of the larger value's size (Animal-AI's sizes are ignored for these, as there).
+TIMED = {"RipenGoal": ("ripening_food", 150), "AntiDecayGoal": ("ripening_food", 150),
+         "DecayGoal": ("decaying_food", 150), "GrowGoal": ("growing_food", 0), "ShrinkGoal": ("shrinking_food", 0),
+         "DecayGoalBounce": ("decaying_food", 150), "RipenGoalBounce": ("ripening_food", 150)}
+CHANGE_RATE = 0.005  # valence per frame when a file gives no changeRates
 HEAVY = ("Cardbox2", "HeavyBlock")
 SIGNS = ("SignBoard", "SignPosterboard")
 SIGN_SIZE = 1.4  # Animal-AI's sign boards are this big, whatever the file says
@@ -100,9 +110,7 @@ NOT_HERE = {  # known Animal-AI items without a counterpart, and why
     "SpawnerDispenserTall": "spawners are not built here", "SpawnerDispenserShort": "spawners are not built here",
     "SpawnerContainer": "spawners are not built here", "SpawnerContainerShort": "spawners are not built here",
     "SpawnerButton": "buttons and spawners are not built here", "Pillar-Button": "buttons are not built here",
-    "RipenGoal": "food that ripens is not built here", "AntiDecayGoal": "food that ripens is not built here",
-    "DecayGoal": "food that decays is not built here", "GrowGoal": "food that grows is not built here",
-    "ShrinkGoal": "food that shrinks is not built here", "DataZone": "data zones are not built here",
+    "DataZone": "data zones are not built here",
     "Datazone": "data zones are not built here", "BadGoalMulti": "non-ending bad food is not built here",
 }
 
@@ -264,9 +272,59 @@ class _Arena:
                             "yaw": self._yaw(self._entry(item.get("rotations"), k), math.pi / 2)})
         return objects
 
+    def timed(self, index: int, name: str, item: dict) -> list[dict]:
+        """Goals that ripen, decay, grow or shrink: a sphere of the larger value's size whose reward
+        moves from the initial to the final value (aaai.kinds.TimedFood)."""
+        from aaai.kinds import REGISTRY
+
+        kind, default_delay = TIMED[name]
+        where = self.where(index, name)
+        objects = []
+        for k in range(_count(item, where)):
+            values = {}
+            for key in ("initialValues", "finalValues", "delays", "changeRates"):
+                value = self._entry(item.get(key), k)
+                if value is not None and not _number(value):
+                    raise Unmappable(f"{where}: cannot be mapped ({key} {value!r}; allowed: numbers); arena skipped")
+                values[key] = value
+            start, end = values["initialValues"], values["finalValues"]
+            if start is None or end is None:
+                raise Unmappable(f"{where}: cannot be mapped (initialValues {start!r}, finalValues {end!r}; allowed: "
+                                 "both given, 0..5); arena skipped")
+            rising = REGISTRY[kind].rising
+            if not (0 <= start <= 5 and 0 <= end <= 5) or start == end or (end > start) != rising:
+                raise Unmappable(f"{where}: cannot be mapped (initialValues {start!r}, finalValues {end!r}; allowed: "
+                                 f"0..5 with the final value {'above' if rising else 'below'} the initial); "
+                                 "arena skipped")
+            delay = values["delays"] if values["delays"] is not None else default_delay
+            rate = abs(values["changeRates"]) if values["changeRates"] is not None else CHANGE_RATE
+            if delay < 0 or rate <= 0:
+                raise Unmappable(f"{where}: cannot be mapped (delays {delay!r}, changeRates {rate!r}; allowed: a delay "
+                                 "of 0 or more and a non-zero rate); arena skipped")
+            frame = SECONDS_PER_STEP * self.scale
+            position = self._entry(item.get("positions"), k)
+            position = position if isinstance(position, dict) else {}
+            diameter = round(max(start, end) * self.scale, 4)
+            reach = max(0.0, self.half - diameter / 2 - 1.0)
+            bottom = position.get("y", 0)
+            bottom = self.scale * bottom if _number(bottom) and bottom > 0 else 0.0
+            obj = {"kind": kind, "shape": "sphere",
+                   "position": [self._xy(position.get("x", -1), -reach, reach),
+                                self._xy(position.get("z", -1), -reach, reach), round(bottom + diameter / 2, 4)],
+                   "size": [diameter] * 3,
+                   "timing": {"start": round(start * self.scale, 4), "end": round(end * self.scale, 4),
+                              "delay": round(delay * frame, 4), "duration": round(abs(end - start) / rate * frame, 4)}}
+            if name.endswith("Bounce"):
+                obj["behaviour"] = {"type": "bounce", "speed": BOUNCE_SPEED,
+                                    "heading": self._yaw(self._entry(item.get("rotations"), k), math.pi / 2)}
+            objects.append(obj)
+        return objects
+
     def item(self, index: int, name: str, item: dict) -> list[dict]:
         if name in SIGNS:
             return self.signs(index, name, item)
+        if name in TIMED:
+            return self.timed(index, name, item)
         if name not in ITEMS:
             why = NOT_HERE.get(name, "no such kind here")
             raise Unmappable(f"{self.where(index, name)}: cannot be mapped ({why}); arena skipped")

@@ -173,7 +173,7 @@ class Decoy(Kind):
 
 # --- food whose value changes over a set time ------------------------------------------
 TIMING_KEYS = ("start", "end", "delay", "duration")
-MAX_TIMED_VALUE = 25.0  # Animal-AI's 0..5 valence at the importer's default scale 5
+MAX_TIMED_VALUE = 100.0  # Animal-AI's 0..5 valence at an import scale up to 20
 
 
 class TimedFood(Kind):

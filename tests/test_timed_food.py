@@ -67,7 +67,7 @@ def test_a_timed_food_value_moves_in_a_straight_line_between_delay_and_end():
     ("shrinking_food", {"start": 3, "end": 1, "delay": 0, "duration": 0}, "duration above 0"),
     ("growing_food", {"start": 1, "end": 3, "delay": 0}, "with start, end, delay, duration"),
     ("growing_food", {"start": 1, "end": "3", "delay": 0, "duration": 1}, "numbers"),
-    ("growing_food", {"start": 1, "end": 99, "delay": 0, "duration": 1}, "0..25"),
+    ("growing_food", {"start": 1, "end": 199, "delay": 0, "duration": 1}, "0..100"),
     ("food_green", {"start": 1, "end": 3, "delay": 0, "duration": 1}, "timing only on ripening_food"),
 ])
 def test_bad_timing_is_refused_naming_the_object_the_value_and_what_is_allowed(kind, timing, words):
@@ -96,3 +96,33 @@ def test_a_spec_without_timed_food_keeps_its_digest_keys():
     assert "timing" not in spec.to_json()
     timed = open_arena(ObjectSpec("growing_food", "sphere", (10, 0, 1.5), (3, 3, 3), timing=timing_for("growing_food")))
     assert '"timing"' in timed.to_json() and math.isfinite(timed.foods[0].food_value)
+
+
+# --- aaai import-animalai ---------------------------------------------------------------------
+def test_animal_ai_goals_that_ripen_decay_grow_and_shrink_are_imported_with_their_timing(tmp_path):
+    from pathlib import Path
+
+    from aaai.animalai import DEFAULT_SCALE as S, SECONDS_PER_STEP, import_animalai
+
+    fixtures = Path(__file__).with_name("fixtures") / "animalai_timed"
+    lines = []
+    import_animalai(fixtures, tmp_path, S, echo=lines.append)
+    printed = "\n".join(lines)
+    assert sorted(p.name for p in tmp_path.glob("*.yaml")) == ["timed_goals_a0.yaml"]
+    assert ("arena 1, item 1 (RipenGoal): cannot be mapped (initialValues 3, finalValues 1; allowed: 0..5 with the "
+            "final value above the initial)") in printed
+    assert "arena 2, item 1 (ShrinkGoal): cannot be mapped (initialValues None, finalValues 1" in printed
+    spec = load_arena(tmp_path / "timed_goals_a0.yaml", 0)
+    by_kind = {obj.kind: obj for obj in spec.objects}
+    frame = SECONDS_PER_STEP * S
+    ripe = by_kind["ripening_food"]
+    assert ripe.timing == pytest.approx({"start": S, "end": 3 * S, "delay": 100 * frame, "duration": 200 * frame})
+    assert ripe.size == (3 * S,) * 3 and ripe.position[:2] == (-10 * S, 0.0)
+    decay = by_kind["decaying_food"]  # the default delay, 150 frames; its size is its larger value's, not sizes'
+    assert decay.timing == pytest.approx({"start": 4 * S, "end": 3 * S, "delay": 150 * frame, "duration": 200 * frame})
+    assert decay.size == (4 * S,) * 3
+    grow, shrink = by_kind["growing_food"], by_kind["shrinking_food"]
+    assert grow.timing == pytest.approx({"start": S, "end": 3.5 * S, "delay": 0.0, "duration": 250 * frame})
+    assert shrink.timing == pytest.approx({"start": 2.5 * S, "end": 1.5 * S, "delay": 40 * frame, "duration": 5 * frame})
+    # the best reward: the better of the two ending foods, plus both that leave the episode running
+    assert spec.max_food_reward == pytest.approx(3.5 * S + 3 * S + 4 * S)
