@@ -14,7 +14,9 @@ own). Its tactic is the same in every level, driven by what the level holds:
 - a plank to tip over as a bridge (L10): walk round behind it, push it over, cross on it;
 - everything else (walls, holes, pits, mazes, terrain) is the planner's: the cheapest path on
   the occupancy grid, kept away from walls and edges where there is room;
-- the newer kinds (aaai.kinds): multi food is eaten as yellows are; bad food and death zones are
+- the newer kinds (aaai.kinds): multi food, and food that ripens or decays, is eaten as yellows
+  are (nearest first, whatever its value now); food that grows or shrinks is a green, chosen by
+  its best value; bad food and death zones are
   blocked on the grid (aaai.validate), so the body keeps clear of them; a path near a hot zone
   costs HOT_COST more per unit, so it goes round one where it can; tunnels are walked through.
 
@@ -34,11 +36,13 @@ from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.gait import BACK_UP, SineGait, approach, steer
 from aaai.behaviours import Sink, behaviour_class
 from aaai.geometry import corners
-from aaai.kinds import kind_class
+from aaai.kinds import ENDING_KINDS, FOOD_KINDS, kind_class
 from aaai.spec import ObjectSpec
 from aaai.validate import FOOTPRINT_RADIUS
 
-EAT_FIRST = ("food_yellow", "multi_food")  # pieces that do not end the episode: eaten before the green
+# pieces that do not end the episode (yellow, multi, ripening, decaying food): eaten before the green
+EAT_FIRST = tuple(kind for kind in FOOD_KINDS if kind not in ENDING_KINDS)
+LAST = tuple(kind for kind in FOOD_KINDS if kind in ENDING_KINDS)  # green, growing and shrinking food
 COMFORT = 8.0  # paths keep this far (units) from walls and edges where there is room ...
 CROWDING_COST = 4.0  # ... paying up to this many times a step's length where there is not,
 CLOSE = 6.5  # and far more (CLOSE_COST) nearer than this, where a sweeping foot may touch a wall
@@ -191,7 +195,7 @@ class ReferenceController:
         """(goal x y, reach, plan key, things to avoid, wait): what the body goes for now."""
         foods = self._foods()
         yellows = [f for f in foods if f[1].kind in EAT_FIRST]
-        greens = [f for f in foods if f[1].kind == "food_green"]
+        greens = [f for f in foods if f[1].kind in LAST]
         down = [f for f in yellows if not _still_sinking(f)]
         sinking = [f for f in yellows if _still_sinking(f)]
         avoid = [(pos[0], pos[1], food.size[0] / 2 + HEAD_RADIUS + GREEN_BERTH) for _, food, pos in greens]

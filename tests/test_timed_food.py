@@ -126,3 +126,28 @@ def test_animal_ai_goals_that_ripen_decay_grow_and_shrink_are_imported_with_thei
     assert shrink.timing == pytest.approx({"start": 2.5 * S, "end": 1.5 * S, "delay": 40 * frame, "duration": 5 * frame})
     # the best reward: the better of the two ending foods, plus both that leave the episode running
     assert spec.max_food_reward == pytest.approx(3.5 * S + 3 * S + 4 * S)
+
+
+def test_the_reference_eats_the_timed_food_of_its_animal_ai_style_arena_and_passes(make_env):
+    from pathlib import Path
+
+    from aaai.animalai import passed
+    from aaai.reference import ReferenceController
+
+    path = Path(__file__).resolve().parents[1] / "configs" / "arenas" / "animalai" / "timed_food.yaml"
+    env = make_env(action_mode="gait")
+    spec = load_arena(path, 0)
+    observation, _ = env.reset(seed=0, options={"spec": spec})
+    controller = ReferenceController(env)
+    controller.reset(0)
+    total, eaten = 0.0, []
+    while True:
+        before = dict(env.world.food)
+        observation, reward, terminated, truncated, info = env.step(controller(observation))
+        total += reward
+        for body in set(before) - set(env.world.food):
+            eaten.append(before[body].kind)
+        if terminated or truncated:
+            break
+    assert terminated and eaten[:2] in (["decaying_food", "ripening_food"], ["ripening_food", "decaying_food"])
+    assert passed(total, spec), f"return {total:.2f} of {info['max_reward']:.2f}"
