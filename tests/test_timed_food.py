@@ -151,3 +151,14 @@ def test_the_reference_eats_the_timed_food_of_its_animal_ai_style_arena_and_pass
             break
     assert terminated and eaten[:2] in (["decaying_food", "ripening_food"], ["ripening_food", "decaying_food"])
     assert passed(total, spec), f"return {total:.2f} of {info['max_reward']:.2f}"
+
+
+def test_the_solvability_check_requires_timed_food_to_be_reachable():
+    ring = [ObjectSpec("wall", "box", (15.0, 0.0, 2.0), (1.0, 12.0, 4.0)),
+            ObjectSpec("wall", "box", (5.0, 0.0, 2.0), (1.0, 12.0, 4.0)),
+            ObjectSpec("wall", "box", (10.0, 5.5, 2.0), (11.0, 1.0, 4.0)),
+            ObjectSpec("wall", "box", (10.0, -5.5, 2.0), (11.0, 1.0, 4.0))]
+    food = ObjectSpec("growing_food", "sphere", (10.0, 0.0, 1.5), (3.0, 3.0, 3.0), timing=timing_for("growing_food"))
+    assert validate.check(open_arena(food, agent=(-15.0, 0.0, 0.0))) == []
+    problems = validate.check(open_arena(*ring, food, agent=(-15.0, 0.0, 0.0)))
+    assert any("growing_food" in p and "cannot be reached" in p for p in problems), problems
