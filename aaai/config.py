@@ -140,6 +140,7 @@ RULES: dict[str, Rule] = {
     "sensors.ray_length": Rule("float", 1, 100),
     "sensors.ray_memory": Rule("int", 0, 10),  # earlier food sightings 1, 2, 4 .. 2^(n-1) steps back (0: none)
     "sensors.ray_down_fan": Rule("float", 0, 45),  # degrees: a second fan pitched down (0: none)
+    "sensors.ray_width": Rule("float", 0, 5),  # aaai.sensors.Rays: 0 thin lines; w: two more rays +-w/2 aside
     "sensors.camera": Rule("bool"),
     "sensors.camera_resolution": Rule("int", 8, 512),
     "sensors.camera_grayscale": Rule("bool"),

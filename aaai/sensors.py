@@ -43,7 +43,7 @@ class Rays:
     """
 
     def __init__(self, client: int, rays_per_side: int, max_angle: float, length: float, flat: bool = False,
-                 ray_kinds: str = "classic", down_fan: float = 0.0):
+                 ray_kinds: str = "classic", down_fan: float = 0.0, width: float = 0.0):
         self.client = client
         self.flat = flat
         self.length = length
@@ -55,6 +55,11 @@ class Rays:
                               np.full_like(angles, -np.sin(pitch))], axis=1)
             self.local_dirs = np.concatenate([self.local_dirs, lower])
         self.n_rays = len(self.local_dirs)
+        # ray_width > 0: two more rays beside each, width / 2 to its left and right (level, across
+        # it), in the same batch; the nearest of the three hits is the ray's (a sphere cast, roughly)
+        self.width = width
+        across = np.stack([-self.local_dirs[:, 1], self.local_dirs[:, 0], np.zeros(self.n_rays)], axis=1)
+        self.local_sides = across / np.linalg.norm(across, axis=1, keepdims=True) * width / 2
         self.channels, self.column = ray_channels(ray_kinds)  # channel names; kind index -> column
         self.n_kinds = len(self.channels)
         self.grid_shape = (self.n_rays, self.n_kinds + 2)
@@ -83,8 +88,16 @@ class Rays:
         dirs = self.local_dirs @ head_rot.T
         starts = head_pos + dirs * EYE_OFFSET
         ends = starts + dirs * self.length
-        hits = p.rayTestBatch(starts.tolist(), ends.tolist(), numThreads=self.threads, collisionFilterMask=RAY_MASK,
-                              physicsClientId=self.client)
+        if self.width:
+            sides = self.local_sides @ head_rot.T
+            batch_starts = np.concatenate([starts, starts + sides, starts - sides])
+            batch_ends = np.concatenate([ends, ends + sides, ends - sides])
+        else:
+            batch_starts, batch_ends = starts, ends
+        hits = p.rayTestBatch(batch_starts.tolist(), batch_ends.tolist(), numThreads=self.threads,
+                              collisionFilterMask=RAY_MASK, physicsClientId=self.client)
+        if self.width:
+            hits = self._nearest(hits, kind_index)
         # A plain loop: for a few dozen rays it is several times faster than numpy's fancy indexing.
         obs = np.zeros(self.grid_shape, np.float32)
         known = len(kind_index)
@@ -103,6 +116,19 @@ class Rays:
         if self._zones is not None:
             self._see_zones(obs, starts, dirs)
         return obs.reshape(-1) if self.flat else obs
+
+    def _nearest(self, hits, kind_index) -> list:
+        """Of each ray's three hits (centre, left, right), the nearest of a known kind."""
+        n, known = self.n_rays, len(kind_index)
+        nearest = []
+        for row in range(n):
+            best = hits[row]
+            for hit in (hits[row + n], hits[row + 2 * n]):
+                if 0 <= hit[0] < known and kind_index[hit[0]] >= 0 and (
+                        not (0 <= best[0] < known and kind_index[best[0]] >= 0) or hit[2] < best[2]):
+                    best = hit
+            nearest.append(best)
+        return nearest
 
     def _see_zones(self, obs: np.ndarray, starts: np.ndarray, dirs: np.ndarray) -> None:
         """Marks each ray whose ground track enters a floor area before its hit as seeing that area's
@@ -223,7 +249,7 @@ class Senses:
     def __init__(self, client: int, sensors: dict, body: Quadruped):
         self.rays = Rays(client, sensors["rays_per_side"], sensors["ray_max_angle"],
                          sensors["ray_length"], sensors["rays_flat"], sensors.get("ray_kinds", "classic"),
-                         sensors.get("ray_down_fan", 0.0)) if sensors["rays"] else None
+                         sensors.get("ray_down_fan", 0.0), sensors.get("ray_width", 0.0)) if sensors["rays"] else None
         self.camera = Camera(client, sensors["camera_resolution"],
                              sensors["camera_grayscale"]) if sensors["camera"] else None
         self.blackout = Blackout()
