@@ -11,7 +11,8 @@ a factor of two; the load average before and after every part is recorded with t
 - limit: a bare PyBullet loop over the very world an episode builds (same bodies, timestep,
   substeps and motor commands, reading the same joint states), no environment around it;
 - the environment per level with four sensor settings, the rays also with rayTestBatch on 2
-  threads (and, on levels with missing floor, without the hole casting); reset time per level;
+  threads, 1.0 wide (sensors.ray_width) and, on levels with missing floor, without the hole
+  casting; reset time per level;
 - throughput with 1, 2 and 4 worker processes (Gymnasium's AsyncVectorEnv) and 2 in-process;
 - training: PPO and the random agent through the training loop, against the environment alone
   (the same vector env, workers and sensors, random actions, nothing else), for the shipped config;
@@ -45,6 +46,7 @@ SENSOR_SETTINGS = {
 }
 NO_HOLE_CASTING = "joints+rays without hole casting"
 RAYS_TWO_THREADS = "joints+rays, rayTestBatch on 2 threads"
+WIDE_RAYS = "joints+rays 1.0 wide"  # sensors.ray_width 1.0: three casts a ray (Animal-AI's 0.5 sphere casts)
 WARM_UP = 50  # untimed steps of each runner before the first round
 
 
@@ -167,12 +169,14 @@ def level_rates(level: int, steps: int, rounds: int) -> dict:
         runners[name] = EnvLoop(_env(level, sensors), steps)
     runners[RAYS_TWO_THREADS] = EnvLoop(_env(level, SENSOR_SETTINGS["joints+rays"]), steps)
     runners[RAYS_TWO_THREADS].env.rays.threads = 2  # PyBullet's numThreads: the same hits, split over threads
+    runners[WIDE_RAYS] = EnvLoop(_env(level, {**SENSOR_SETTINGS["joints+rays"], "ray_width": 1.0}), steps)
     if runners["joints+rays"].env.rays._holes is not None:
         runners[NO_HOLE_CASTING] = EnvLoop(_without_hole_casting(_env(level, SENSOR_SETTINGS["joints+rays"])), steps)
     rates, machine_load = _run_group(runners, rounds)
     ratios = {"joints / limit": per_round(rates["joints"], rates["limit"]),
               "rays overhead": per_round(rates["joints"], rates["joints+rays"], minus_one=True),
-              "rays overhead, 2 threads": per_round(rates["joints"], rates[RAYS_TWO_THREADS], minus_one=True)}
+              "rays overhead, 2 threads": per_round(rates["joints"], rates[RAYS_TWO_THREADS], minus_one=True),
+              "wide rays overhead": per_round(rates["joints"], rates[WIDE_RAYS], minus_one=True)}
     if NO_HOLE_CASTING in rates:
         ratios["cost of seeing holes"] = per_round(rates[NO_HOLE_CASTING], rates["joints+rays"], minus_one=True)
     return {"rates": {name: summary(values) for name, values in rates.items()},
@@ -479,6 +483,11 @@ def markdown(results: dict) -> str:
                          f"the hole casting: {_rate(rates[NO_HOLE_CASTING])} steps/s "
                          f"({_ratio(level_ratios['cost of seeing holes'], True)} for seeing holes)")
     lines += [""] + holes + ([""] if holes else [])
+    wide = [f"{label} {_ratio(level['ratios']['wide rays overhead'], True)}" for label, level in results["levels"].items()
+            if "wide rays overhead" in level["ratios"]]
+    if wide:
+        lines += ["- Rays 1.0 wide (sensors.ray_width 1.0, three casts a ray), overhead over joints-only: "
+                  + ", ".join(wide), ""]
     workers = results["workers"]
     w_rates, w_ratios = workers["rates"], workers["ratios"]
     lines += [f"- Workers (L0 joints, AsyncVectorEnv): 1: {_rate(w_rates['1'])}, 2: {_rate(w_rates['2'])}, "

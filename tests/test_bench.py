@@ -46,20 +46,21 @@ def test_bench_writes_every_figure_with_medians_spreads_and_load(tmp_path):
     assert len(results["load"]["before"]) == 3 and len(results["load"]["after"]) == 3
     level = results["levels"]["L0"]
     assert set(level["rates"]) == {"limit", "joints", "joints+rays", "joints+cam64rgb", "joints+cam84gray",
-                                   bench.RAYS_TWO_THREADS}
+                                   bench.RAYS_TWO_THREADS, bench.WIDE_RAYS}
     for figure in [*level["rates"].values(), *level["ratios"].values()]:
         assert len(figure["rounds"]) == 2 and figure["min"] <= figure["median"] <= figure["max"]
     assert level["ratios"]["joints / limit"]["rounds"] == [
         j / lim for j, lim in zip(level["rates"]["joints"]["rounds"], level["rates"]["limit"]["rounds"])]
     assert set(level["reset_ms"]) == {"median", "p95"} and level["load"]["before"]
     assert set(results["workers"]["rates"]) == {"1", "2", "4", "2 in-process"}
-    assert {"L0 joints / limit", "L0 rays overhead", "2 workers / 1"} <= set(results["ratios"])
+    assert {"L0 joints / limit", "L0 rays overhead", "L0 wide rays overhead", "2 workers / 1"} <= set(results["ratios"])
     assert "training" not in results  # --train-steps 0
     # only a level with missing floor casts for holes, and its cost is measured alternated too
     assert "cost of seeing holes" in results["levels"]["L10"]["ratios"]
     assert "cost of seeing holes" not in level["ratios"]
     markdown = (tmp_path / "bench.md").read_text()
     assert "| L0 |" in markdown and "| L0 |" in result.stdout and "L10 rays seeing holes" in markdown
+    assert "Rays 1.0 wide (sensors.ray_width 1.0, three casts a ray), overhead over joints-only: L0 " in markdown
     assert "Load average" in markdown and "2 alternated rounds" in markdown
 
 
