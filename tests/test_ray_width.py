@@ -45,3 +45,10 @@ def test_wide_rays_keep_the_shape_and_report_the_nearest_of_their_hits(make_env)
 def test_a_bad_ray_width_is_refused_by_name(make_env):
     with pytest.raises(ConfigError, match="ray_width"):
         make_env(rays=True, ray_width=-1.0)
+
+
+def test_wide_rays_work_with_the_pitched_down_fan(make_env):
+    env = make_env(rays=True, ray_width=1.0, ray_down_fan=8.0)
+    observation, _ = env.reset(options={"spec": open_arena()})
+    assert observation["rays"].shape == (34, 11) and env.rays.local_sides.shape == (34, 3)
+    assert np.allclose(np.linalg.norm(env.rays.local_sides, axis=1), 0.5)  # level, across each ray
