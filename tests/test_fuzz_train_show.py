@@ -125,13 +125,14 @@ def _train_ends_cleanly(place: Path, args: list[str]) -> None:
     shutil.copytree(place / "run", work / "run")  # each example gets the finished run afresh
     names = {"RUN": str(work / "run"), "CONFIG": str(place / "short.yaml"), "BROKEN": str(place / "broken.yaml")}
     args = [names.get(arg, arg) for arg in args]
-    if "--config" not in args and "--resume" not in args:
+    resuming = "--resume" in args and args[args.index("--resume") + 1:][:1] == [names["RUN"]]
+    if "--config" not in args and not resuming:  # not the default config's long run (or DAgger's 8 x 143 episodes)
         args += ["--config", names["CONFIG"]]
     if "--steps" not in args:
         args += ["--steps", "32"]
     if "--envs" not in args:
         args += ["--envs", "1"]
-    if "--run" not in args and "--resume" not in args:
+    if "--run" not in args and not resuming:
         args += ["--run", str(work / "new")]
     if "--progress-every" not in args:
         args += ["--progress-every", "1000"]
