@@ -181,7 +181,8 @@ BAD_LINES = [
 ]
 
 
-def test_bad_command_lines_end_in_one_clear_error(tmp_path):
+def test_bad_command_lines_end_in_one_clear_error(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # a line taken by mistake writes its default outputs here
     broken = tmp_path / "broken.yaml"
     broken.write_text("episode: {max_steps: [\n")
     (tmp_path / "dir").mkdir()

@@ -262,7 +262,8 @@ def test_fuzzed_show_command_lines_end_cleanly_long(show_place, args):
 # --- inputs that once failed -------------------------------------------------------------------
 @pytest.mark.parametrize("command", [["train"], ["eval"], ["experiment", "curricula"]])
 @pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
-def test_progress_every_that_is_not_a_finite_number_is_refused(command, value):
+def test_progress_every_that_is_not_a_finite_number_is_refused(command, value, tmp_path, monkeypatch):
     """Once taken: FloatRange(0.1) lets NaN and infinity through (NaN compares false with its bounds)."""
+    monkeypatch.chdir(tmp_path)  # taken by mistake, the command writes its default outputs here
     result = CliRunner().invoke(cli, [*command, "--progress-every", value])
     assert result.exit_code == 2 and "--progress-every" in result.output, result.output
