@@ -7,7 +7,9 @@ process) and returns the episode's row; the driver appends rows to the CSV as th
 and fsynced per row) and, when all are in, rewrites the file atomically so that it reads as the
 local backend's would: the rows that were there before, then this run's rows in cell and seed
 order. An interrupted eval leaves every row that had arrived; running it again scores only the
-missing (level, difficulty, seed) episodes. A task whose worker process dies (killed, out of
+missing (level, difficulty, seed) episodes and puts the killed run's rows and its own in that order
+(a hidden ``.<out>.ray-unordered`` file beside the scoreboard says where they start), so the file
+equals an uninterrupted run's. A task whose worker process dies (killed, out of
 memory, its node lost) is run again (``max_retries``), so no episode is lost and none is written
 twice.
 
@@ -24,6 +26,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
+import json
 import os
 import tempfile
 from collections import deque
@@ -171,18 +174,20 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
     check_record(output, record)
     rows = scored_episodes(output)  # also cuts a torn last line
     done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows}
+    order: dict[Key, int] = {}
     plan: list[Key] = []
     for cell in cells:
         for seed in cell.seeds:
             key = (cell.level, cell.difficulty, int(seed))
+            order.setdefault(key, len(order))
             if key not in done:
                 plan.append(key)
                 done.add(key)
+    settled = _settled_rows(output, len(rows))  # rows before them arrived in a Ray eval that was killed
     if not plan:
-        return rows
+        return _put_in_order(output, rows, settled, order) if settled < len(rows) else rows
     policy_spec(policy_name)  # a bad policy is refused before Ray starts (the model is read again below)
     _check_policy(policy_name, config, trust)  # and a model that does not fit the environment, before any file
-    before = output.read_text() if output.exists() else ""
     finished: dict[Key, dict] = {}
     with RaySession(address, workers):
         import ray
@@ -194,6 +199,7 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
         chunks = deque(plan[i:i + episodes_per_task] for i in range(0, len(plan), episodes_per_task))
         window = 2 * max(1, int(ray.cluster_resources().get("CPU", workers)))
         pending: dict = {}
+        write_atomic(_unordered_path(output), json.dumps({"settled_rows": settled}) + "\n")
         with Scoreboard(output, record, columns_of(output), list(rows), on_episode) as board:
             try:
                 while chunks or pending:
@@ -214,13 +220,43 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
                         finished[(row["level"], row["difficulty"], row["seed"])] = row
                     if on_task:
                         on_task(new_rows, where)
+            except BaseException:
+                if not finished and settled == len(rows):  # nothing streamed: leave nothing behind
+                    _unordered_path(output).unlink(missing_ok=True)
+                raise
             finally:
                 for ref in pending:  # an error or an interrupt: nothing more is started for this eval
                     ray.cancel(ref, force=True)
-    ordered = [finished[key] for key in plan]
-    prefix = before if before else _format_rows([], header=True)
+    new = [{k: str(v) for k, v in finished[key].items()} for key in plan]
+    return _put_in_order(output, rows + new, settled, order)
+
+
+def _unordered_path(output: Path) -> Path:
+    """Beside a scoreboard while a Ray eval streams rows into it in the order they finish: how
+    many rows were there before (in their final order). Gone once the file is rewritten in order."""
+    return output.with_name(f".{output.name}.ray-unordered")
+
+
+def _settled_rows(output: Path, count: int) -> int:
+    """How many of the scoreboard's ``count`` rows are in their final order: all, unless a Ray eval
+    streaming rows into it was killed before it rewrote the file in order."""
     try:
-        write_atomic(output, prefix + _format_rows(ordered, header=False, columns=columns_of(output)))  # as the local backend would have it
+        return min(count, int(json.loads(_unordered_path(output).read_text())["settled_rows"]))
+    except (OSError, ValueError, KeyError, TypeError):
+        return count
+
+
+def _put_in_order(output: Path, rows: list[dict], settled: int, order: dict[Key, int]) -> list[dict]:
+    """Rewrites the scoreboard atomically as the local backend would have it: the ``settled`` rows
+    as they are, then the rest in this eval's cell and seed order (those of the rows streamed by an
+    eval that was killed, then run again, included), and removes the unordered marker."""
+    def place(row: dict) -> int:
+        return order.get((int(row["level"]), int(row["difficulty"]), int(row["seed"])), -1)
+
+    ordered = rows[:settled] + sorted(rows[settled:], key=place)  # stable: foreign rows first, as they came
+    try:
+        write_atomic(output, _format_rows(ordered, header=True, columns=columns_of(output)))
     except OSError as error:  # the rows stay as they arrived (each fsynced); only their order is not the local one
-        raise ConfigError(write_error(output, error, len(rows) + len(ordered))) from None
-    return rows + [{k: str(v) for k, v in row.items()} for row in ordered]
+        raise ConfigError(write_error(output, error, len(rows))) from None
+    _unordered_path(output).unlink(missing_ok=True)
+    return ordered

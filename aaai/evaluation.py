@@ -281,7 +281,12 @@ def load_policy(policy: str, env: AnimalAIEnv, trust: bool = False, extra_keys: 
         return ModelPolicy(path, env, trust=trust, extra_keys=extra_keys)
     if Path(policy).is_dir():
         return RandomPolicy(env)
-    return policy_factory(policy)(env)
+    factory = policy_factory(policy)
+    try:
+        return factory(env)
+    except TypeError as error:  # a callable that does not take the env (os:system, a class of other arguments)
+        raise ConfigError(f"--policy: {policy!r} could not be called with the environment ({error}); allowed: a "
+                          "module:callable that takes the env and returns the policy") from None
 
 
 def policy_factory(policy: str) -> Callable:

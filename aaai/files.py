@@ -77,3 +77,45 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as temporary:
         temporary.write_text(text)
+
+
+def append_row(path: str | os.PathLike, columns: list[str], row: dict) -> None:
+    """Appends one CSV row to ``path`` durably: the header with it if the file is new or empty, a
+    torn last line (a write cut short by a crash) cut off first, header and row written in one
+    call, fsynced before returning. If the write fails the file is cut back to its whole rows and
+    the OSError propagates."""
+    import csv
+    import io
+
+    path = Path(path)
+    descriptor = os.open(path, os.O_RDWR | os.O_CREAT, creation_mode())
+    try:
+        size = os.fstat(descriptor).st_size
+        if size:
+            tail = os.pread(descriptor, min(size, 1 << 16), max(0, size - (1 << 16)))
+            if not tail.endswith(b"\n"):
+                cut = tail.rfind(b"\n")
+                while cut < 0 and size > len(tail):  # a very long torn line: look further back
+                    tail = os.pread(descriptor, size, 0)
+                    cut = tail.rfind(b"\n")
+                size = size - len(tail) + cut + 1 if cut >= 0 else 0
+                os.ftruncate(descriptor, size)
+        text = io.StringIO(newline="")
+        writer = csv.DictWriter(text, fieldnames=columns, extrasaction="ignore")
+        if size == 0:
+            writer.writeheader()
+        writer.writerow(row)
+        data = text.getvalue().encode()
+        try:
+            written = 0
+            while written < len(data):
+                written += os.pwrite(descriptor, data[written:], size + written)
+            os.fsync(descriptor)
+        except OSError:
+            try:
+                os.ftruncate(descriptor, size)
+            except OSError:
+                pass  # the torn tail is cut by the next append
+            raise
+    finally:
+        os.close(descriptor)

@@ -308,6 +308,9 @@ def malformed(spec: LevelSpec) -> list[str]:
             abs(v) <= MAX_ARENA / 2 for v in (spec.agent.x, spec.agent.y)):
         problems.append(f"the agent's start ({spec.agent.x:.4g}, {spec.agent.y:.4g}) lies outside any arena "
                         f"(allowed: -{MAX_ARENA / 2:g} to {MAX_ARENA / 2:g} on each axis)")
+    if finite((spec.time_limit,), "the time limit") and not 0.2 <= spec.time_limit <= 200.0:
+        problems.append(f"the time limit {spec.time_limit!r} must lie between 0.2 and 200 seconds, as a level's or "
+                        "an arena file's")
     nx, ny = spec.tiles
     if not (isinstance(nx, int) and isinstance(ny, int) and 1 <= nx <= 400 and 1 <= ny <= 400):
         problems.append(f"the floor tiles {spec.tiles!r} must be two integers from 1 to 400")

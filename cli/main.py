@@ -192,6 +192,20 @@ def step_unit(config: dict) -> str:
     return f"agent decisions (control steps of {physics['timestep'] * physics['action_repeat']:g} s)"
 
 
+class Seconds(click.FloatRange):
+    """A number of seconds, at least ``min``: not NaN or infinity (which FloatRange lets through)."""
+
+    name = "seconds"
+
+    def convert(self, value, param, ctx):
+        import math
+
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"got {value!r}; allowed: a finite number of seconds, {self.min} or more", param, ctx)
+        return number
+
+
 PROGRESS_HELP = ("Seconds between progress lines when the output is not a terminal (piped, nohup); in a terminal "
                  "a progress bar.")
 
@@ -262,7 +276,7 @@ def _overrides(**values) -> dict:
 @click.option("--address", help="With --backend rllib: join the Ray cluster whose head is at this address.")
 @click.option("--sampler", type=click.Choice(["paper", "uniform", "learnability", "plr"]),
               help="How the curriculum weights cells (curriculum.sampler; README, Curricula). --random is uniform.")
-@click.option("--progress-every", type=click.FloatRange(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
+@click.option("--progress-every", type=Seconds(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
 @click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
               help="rotation or velocity: 8 joint targets a control step; gait: forward, turn, crouch of the gait, "
                    "held for agent.decision_interval (default: the config's).")
@@ -367,7 +381,7 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
               help="Score in this action mode (default: the run's or config's). A model is scored only in the "
                    "mode it was trained in.")
 @click.option("--trust-model", is_flag=True, help=TRUST_HELP)
-@click.option("--progress-every", type=click.FloatRange(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
+@click.option("--progress-every", type=Seconds(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
 @click.option("--save-replays", type=click.Path(file_okay=False),
               help="Save each scored episode's replay (JSON: level, seed, config, actions) in this folder, for "
                    "aaai run --replay and aaai show --replay (--backend local only).")
@@ -698,7 +712,7 @@ def default_action_mode() -> str:
 @click.option("--jobs", type=click.IntRange(1), default=2, show_default=True,
               help="Runs trained at once, each in its own process (one per core: a run of 2 workers steps them in "
                    "its own process when the cores are few, train.vector auto).")
-@click.option("--progress-every", type=click.FloatRange(0.1), default=60.0, show_default=True,
+@click.option("--progress-every", type=Seconds(0.1), default=60.0, show_default=True,
               help="Seconds between each run's progress lines.")
 def curricula_command(samplers, seeds_text, total_steps, levels, difficulty, count, num_envs, action_mode, config_path,
                       folder, jobs, progress_every):

@@ -672,13 +672,30 @@ def soak(steps: int, seed: int = 0, warm_up_episodes: int = 100) -> dict:
 
 
 @pytest.mark.long
-def test_a_million_steps_keep_memory_and_connections_bounded():
+def test_a_million_steps_keep_memory_and_connections_bounded(tmp_path):
+    """bench/soak.py: one JSON line per 25,000 steps in AAAI_SOAK_OUT (default: a temporary file), so
+    that a soak stopped part-way resumes where it was when the test is run again with the same file."""
+    import importlib.util
     import os
 
-    result = soak(int(os.environ.get("AAAI_SOAK_STEPS", 1_000_000)))
+    loader = importlib.util.spec_from_file_location("soak", Path(__file__).parents[1] / "bench" / "soak.py")
+    soak_script = importlib.util.module_from_spec(loader)
+    loader.loader.exec_module(soak_script)
+    out = Path(os.environ.get("AAAI_SOAK_OUT", tmp_path / "soak.jsonl"))
+    records = soak_script.run(int(os.environ.get("AAAI_SOAK_STEPS", 1_000_000)), out)
+    result = soak_script.summary(records)
     print(result)
-    assert result["episodes"] > 100 and result["connections"] == 1 and result["connections_after_close"] == 0
-    assert result["rss_end_mb"] - result["rss_after_warm_up_mb"] < 50
+    assert result["episodes"] >= result["steps"] // 1000 and result["connections"] == [1]
+    assert result["levels"] == sorted(soak_script_levels())
+    assert result["rss_max_mb"] - result["rss_after_warm_up_mb"] < 50
+    if "connections_after_close" in records[-1]:
+        assert records[-1]["connections_after_close"] == 0
+
+
+def soak_script_levels() -> list[int]:
+    from aaai.levels import level_ids
+
+    return list(level_ids())
 
 
 @pytest.mark.long

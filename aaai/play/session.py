@@ -14,8 +14,6 @@ acknowledgements in, and sends out what ``status()`` and ``frame()`` give.
 """
 from __future__ import annotations
 
-import csv
-import os
 import re
 import secrets
 import threading
@@ -31,6 +29,7 @@ import numpy as np
 
 from aaai.config import ConfigError
 from aaai.evaluation import Cell, evaluate, evaluate_arenas, policy_record, scored_episodes
+from aaai.files import append_row
 from aaai.levels import get_level
 from aaai.viewer import camera_image, draw_snapshot
 
@@ -402,18 +401,15 @@ class Session:
         if not started or not episode:
             return
         path = abandoned_path(self.output)
-        new = not path.exists() or path.stat().st_size == 0
-        with open(path, "a", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=ABANDONED_COLUMNS)
-            if new:
-                writer.writeheader()
-            writer.writerow({"player": self.player, "level": episode["level"], "level_name": episode["name"],
-                             "difficulty": episode["difficulty"], "seed": episode["seed"], "arena": episode["arena"],
-                             "steps": live.get("steps", 0), "max_steps": episode["max_steps"],
-                             "food_eaten": live.get("food_eaten", 0), "reason": reason,
-                             "utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")})
-            handle.flush()
-            os.fsync(handle.fileno())
+        try:
+            append_row(path, ABANDONED_COLUMNS, {
+                "player": self.player, "level": episode["level"], "level_name": episode["name"],
+                "difficulty": episode["difficulty"], "seed": episode["seed"], "arena": episode["arena"],
+                "steps": live.get("steps", 0), "max_steps": episode["max_steps"],
+                "food_eaten": live.get("food_eaten", 0), "reason": reason,
+                "utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")})
+        except OSError as error:
+            self._fail(f"cannot write {str(path)!r}: {error.strerror or error}; the episode left was not logged")
 
     # --- helpers (called holding the lock) ---------------------------------------------
     def _set_phase(self, phase: str, message: str = "") -> None:
