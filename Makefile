@@ -43,12 +43,12 @@ install-all: $(VENV)/.installed-all
 
 test: install-all $(CHROMIUM_BINARIES)
 	$(BIN)/python -m pytest -q -m "not long" $(PYTEST_ARGS)
-	$(BIN)/python -m mkdocs build --strict --quiet
+	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --quiet
 
 # The documentation site (docs/ + mkdocs.yml) into site/; a broken link or a page missing from the
 # nav fails it. `$(BIN)/mkdocs serve` shows it at http://127.0.0.1:8000 while you edit.
 docs: install-all
-	$(BIN)/python -m mkdocs build --strict
+	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict
 
 # The README's picture of the page (docs/play.png), taken by the browser test of `aaai play`.
 play-screenshot: install-all $(CHROMIUM_BINARIES)
