@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: install install-train install-all test play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
+.PHONY: install install-train install-all test docs play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -25,7 +25,7 @@ $(VENV)/.installed-train: $(VENV)/.installed
 # Everything the tests use: the train extra and the RL libraries of examples/ (RLlib, TorchRL,
 # RL Zoo3). ray[rllib] pins its own gymnasium; `pip check` proves the result is consistent.
 $(VENV)/.installed-all: $(VENV)/.installed-train
-	$(BIN)/python -m pip install --quiet -e ".[dev,train,ray,torchrl,zoo,demos,play]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,train,ray,torchrl,zoo,demos,play,docs]"
 	$(BIN)/python -m pip check
 	touch $@
 
@@ -43,6 +43,12 @@ install-all: $(VENV)/.installed-all
 
 test: install-all $(CHROMIUM_BINARIES)
 	$(BIN)/python -m pytest -q -m "not long" $(PYTEST_ARGS)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --quiet
+
+# The documentation site (docs/ + mkdocs.yml) into site/; a broken link or a page missing from the
+# nav fails it. `$(BIN)/mkdocs serve` shows it at http://127.0.0.1:8000 while you edit.
+docs: install-all
+	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict
 
 # The README's picture of the page (docs/play.png), taken by the browser test of `aaai play`.
 play-screenshot: install-all $(CHROMIUM_BINARIES)
@@ -127,4 +133,4 @@ mutants: install-train
 	          k, n, 100 * k / n, s, t, o }'
 
 clean:
-	rm -rf $(VENV) *.egg-info .pytest_cache
+	rm -rf $(VENV) *.egg-info .pytest_cache site

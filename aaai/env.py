@@ -59,7 +59,7 @@ class AnimalAIEnv(gym.Env):
     steps and ``info["steps"]`` still counts control steps.
 
     Observations: a Dict: ``joints`` (8,) always; ``rays``, ``camera``, ``joint_velocities``,
-    ``head_orientation`` and ``foot_contacts`` as the ``sensors`` config turns them on (README,
+    ``head_orientation`` and ``foot_contacts`` as the ``sensors`` config turns them on (docs/environment.md,
     "Observations").
 
     Rewards: the sum of the terms in ``info["reward_terms"]`` (step, ground, food, wall, fall,
@@ -72,7 +72,7 @@ class AnimalAIEnv(gym.Env):
     Args:
         level: level id 0..12, label ("L1", "L2b") or name ("food_retrieval").
         difficulty: 0..10.
-        arena: an arena file (aaai.arena, README "Write your own test"): every reset loads it with
+        arena: an arena file (aaai.arena, docs/writing-levels.md): every reset loads it with
             the episode's seed instead of generating ``level`` (a reset with ``options={"spec": …}``
             still runs that spec).
         config: a YAML path or nested mapping overriding configs/default.yaml.
