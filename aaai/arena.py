@@ -1,6 +1,6 @@
 """Arena files: a level written by hand as YAML, one to one with aaai.spec.LevelSpec.
 
-An arena file's keys are the spec's fields (README, "Write your own test"):
+An arena file's keys are the spec's fields (docs, "Write your own test"):
 
 - ``level``, ``name``, ``difficulty``, ``seed``: what the episode reports. Optional: ``level`` and
   ``name`` default to the ``category``'s (or 0 and ``food_contact``), ``difficulty`` to 0 and
@@ -82,7 +82,7 @@ def _plain(value: Any) -> Any:
 
 FIXED_NOTE = ("# A fixed arena: the one level instance this was written from. Every episode of it starts alike,\n"
               "# whatever the episode seed; to vary it, put {uniform: [low, high]}, {integers: [low, high]} or\n"
-              "# {choice: [...]} in place of a number (README, Write your own test).")
+              "# {choice: [...]} in place of a number (docs, Write your own test).")
 
 
 def spec_to_arena(spec: LevelSpec, description: str | None = None, category: str | None = None) -> str:

@@ -12,8 +12,8 @@ what the rays showed and where the body was, to sort the failure into one first 
 - ``ate the wrong food``: it ate, but not enough to pass (a green before the yellows, a smaller
   green).
 
-``aaai diagnose --policy RUN --scoreboard CSV [--levels …]`` prints the table per level; the README's
-learned-agent section quotes it.
+``aaai diagnose --policy RUN --scoreboard CSV [--levels …]`` prints the table per level; the docs'
+Learned agents page quotes it.
 """
 from __future__ import annotations
 

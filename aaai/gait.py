@@ -12,7 +12,7 @@ command never jerks the legs.
 
 The parameters (configs/gait.yaml) come from ``python -m aaai.gait_tuning`` (CMA-ES over them and
 the joint drive, scored by how fast the body eats its way along random courses of food); the
-README gives the speeds they reach.
+docs (The environment, The body) give the speeds they reach.
 """
 from __future__ import annotations
 

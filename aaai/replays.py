@@ -3,7 +3,7 @@
 A replay holds what decides an episode: the level (id, difficulty, seed; or an arena file, by
 path and content hash), the environment's configuration (and its digest), and the action given
 at every ``env.step``, run-length encoded. The same configuration, seed and actions give the same
-trajectory bit for bit (README, Determinism), so ``run_replay`` checks that the episode ends as
+trajectory bit for bit (docs, Determinism), so ``run_replay`` checks that the episode ends as
 recorded: the same number of steps, the same return and the same final head pose, compared
 exactly. A replay is data, never code: nothing in it is imported or evaluated.
 

@@ -158,7 +158,8 @@ def with_proprioception(config: dict) -> dict:
     """The run's config with the extra body senses on when train.proprioception asks for them.
 
     The environment leaves them off by default; a learner without joint speeds, body tilt and foot
-    contacts learned next to nothing on L0 in our runs (see the README), so training turns them on.
+    contacts learned next to nothing on L0 in our runs (see the docs, Training and curricula), so
+    training turns them on.
     The run folder's config records the result, and evaluation reads it from there.
     """
     if not config["train"]["proprioception"]:

@@ -528,7 +528,7 @@ def video_extension_error(path: str) -> str:
 
 # --- the object kinds ---------------------------------------------------------------------
 def kind_example(kind: str) -> ObjectSpec:
-    """An object of a newer kind (aaai.kinds) as the README's pictures show it: 12 ahead of the agent."""
+    """An object of a newer kind (aaai.kinds) as the docs' pictures show it: 12 ahead of the agent."""
     from aaai.kinds import REGISTRY, ZONE_THICKNESS
 
     cls = REGISTRY[kind]

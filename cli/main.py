@@ -20,7 +20,7 @@ from aaai.runs import RunFolder
 POLICY_HELP = ("random, reference (the privileged reference controller), gait (the example trot), "
                "a model .zip, a run folder or module:callable")
 TRUST_HELP = ("Load a model file with stable-baselines3's own loader, which unpickles it and so runs any code in "
-              "it (default: rebuilt without unpickling; README, Scoring agents you did not write). Only for files "
+              "it (default: rebuilt without unpickling; docs, Scoring agents you did not write). Only for files "
               "you trust.")
 
 
@@ -101,7 +101,7 @@ def spec_command(level, difficulty, seed, as_json, as_yaml):
 @click.option("--max-steps", type=int, help="Episode length T (overrides the config and the level's time limit).")
 @click.option("--camera/--no-camera", default=None, help="Turn the head camera on or off.")
 @click.option("--rays/--no-rays", default=None, help="Turn the rays on or off.")
-@click.option("--arena", "arena", type=click.Path(), help="Run this arena file (README, Write your own test) instead "
+@click.option("--arena", "arena", type=click.Path(), help="Run this arena file (docs, Write your own test) instead "
               "of generated levels: --episodes episodes, seeds from --seed.")
 @click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
               help="rotation or velocity: 8 joint targets a control step; gait: forward, turn, crouch of the gait, "
@@ -275,14 +275,14 @@ def _overrides(**values) -> dict:
                    "extra), its env runners anywhere on a cluster. --resume uses the run's own.")
 @click.option("--address", help="With --backend rllib: join the Ray cluster whose head is at this address.")
 @click.option("--sampler", type=click.Choice(["paper", "uniform", "learnability", "plr"]),
-              help="How the curriculum weights cells (curriculum.sampler; README, Curricula). --random is uniform.")
+              help="How the curriculum weights cells (curriculum.sampler; docs, Training and curricula). --random is uniform.")
 @click.option("--progress-every", type=Seconds(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
 @click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
               help="rotation or velocity: 8 joint targets a control step; gait: forward, turn, crouch of the gait, "
                    "held for agent.decision_interval (default: the config's).")
 @click.option("--teacher", type=click.Choice(["reference"]),
               help="Train a student of this teacher by DAgger instead of PPO: it sees only the agent's senses and "
-                   "learns the teacher's actions (train.dagger_* keys; README, Learned agents).")
+                   "learns the teacher's actions (train.dagger_* keys; docs, Learned agents).")
 @click.option("--init-from", type=click.Path(exists=True),
               help="A run folder or model .zip whose policy weights PPO starts from (e.g. a student, to fine-tune).")
 @click.option("--trust-model", is_flag=True,
@@ -684,7 +684,7 @@ def plot_command(runs, output, smooth):
 
 @cli.group("experiment")
 def experiment_group():
-    """Experiments whose results the README reports."""
+    """Experiments whose results the docs report."""
 
 
 def default_action_mode() -> str:

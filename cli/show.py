@@ -23,7 +23,7 @@ def frame_every(fps: float, control_dt: float) -> int:
 @click.command("show")
 @click.argument("level", required=False)
 @click.option("--arena", type=click.Path(dir_okay=False),
-              help="Draw this arena file (README, Write your own test) instead of LEVEL, at --seed.")
+              help="Draw this arena file (docs, Write your own test) instead of LEVEL, at --seed.")
 @click.option("-d", "--difficulty", type=int, default=0, show_default=True)
 @click.option("-s", "--seed", type=int, default=0, show_default=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
