@@ -171,6 +171,7 @@ RULES: dict[str, Rule] = {
     "train.total_steps": Rule("int", 1, 10**10),
     "train.num_envs": Rule("int", 1, 256),
     "train.vector": Rule("choice", choices=("auto", "sync", "async")),  # aaai.vector.runs_in_process
+    "train.processes": Rule("int", 0, 256),  # aaai.vector.worker_processes; 0 = auto
     "train.seed": Rule("int", 0, 2**32 - 1),
     "train.checkpoint_every": Rule("int", 1, 10**10),
     "train.heatmap_every": Rule("int", 1, 10**10),

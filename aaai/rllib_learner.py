@@ -33,7 +33,7 @@ from aaai.config import ConfigError, env_part, load_config
 from aaai.curriculum import Curriculum
 from aaai.runs import RunFolder, check_writable
 from aaai.training import TrainResult, Tracker, check_trainable, move_end, with_proprioception
-from aaai.vector import EPISODE_INFO_KEYS, Episode
+from aaai.vector import EPISODE_INFO_KEYS, Episode, worker_processes
 
 ENV_NAME = "aaai-curriculum"
 MAX_RUNNER_RESTARTS = 100  # replacements of failed EnvRunners over a run, before it gives up
@@ -317,7 +317,8 @@ def train_rllib(run_dir: str | Path, config: dict | None = None, resume: bool = 
 
     ``address``: None starts a local Ray (``env_runners`` + 1 CPUs) for this call and stops it after;
     an address joins that cluster. ``env_runners``: RLlib EnvRunner processes (default
-    ``train.num_envs``, each with one environment; 0 samples in this process), all sharing the one
+    ``train.processes``, see :func:`aaai.vector.worker_processes`; the ``train.num_envs``
+    environments are shared out over them; 0 samples in this process), all sharing the one
     sampler actor. ``progress(n)`` is told the environment steps of each iteration.
     """
     from aaai.ray_session import RaySession
@@ -348,7 +349,7 @@ def train_rllib(run_dir: str | Path, config: dict | None = None, resume: bool = 
             raise ConfigError("config key 'sensors.camera': got true; allowed with the rllib backend: false "
                               "(FlattenObservations feeds an MLP; no CNN encoder is set up)")
         run.create(config)
-    env_runners = config["train"]["num_envs"] if env_runners is None else env_runners
+    env_runners = worker_processes(config["train"]) if env_runners is None else env_runners
     start_step = state["step"] if state else 0
     if state:
         run.trim_episodes(start_step)

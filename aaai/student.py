@@ -23,7 +23,8 @@ off", and its students got worse with every round after the third (README, Learn
 The student is an ordinary stable-baselines3 PPO model in an ordinary run folder, so ``aaai eval
 --policy RUN`` scores it and ``aaai train --init-from RUN`` fine-tunes it with PPO. Every
 iteration is a checkpoint (its model, and its data in ``dagger/``), so ``--resume`` continues a run
-after the last finished iteration. Episodes run in worker processes (``train.num_envs``); with the
+after the last finished iteration. Episodes run in worker processes (``train.processes``, by default ``train.num_envs`` up to the
+usable cores); with the
 same config a run repeats exactly.
 
 The student's inputs are only the observation, and it has no memory: what a level needs beyond
@@ -46,7 +47,7 @@ import numpy as np
 from aaai.config import ConfigError, env_part, load_config
 from aaai.runs import RunFolder, check_writable
 from aaai.seeds import TRAIN_SEEDS
-from aaai.vector import Episode
+from aaai.vector import Episode, worker_processes
 
 BATCH_SIZE = 1024
 LEARNING_RATE = 1e-3
@@ -65,7 +66,7 @@ class DaggerSettings:
     episode_cap: int  # train.dagger_episode_cap: decisions an episode is played for at most
     net_width: int  # train.net_width: two hidden layers of this width, as PPO's
     log_std_init: float  # train.log_std_init: the exploration a PPO fine-tune starts from
-    workers: int  # train.num_envs: worker processes playing episodes
+    workers: int  # train.processes (aaai.vector.worker_processes): worker processes playing episodes
     seed: int  # train.seed
 
     @classmethod
@@ -73,7 +74,7 @@ class DaggerSettings:
         train = config["train"]
         return cls(train["dagger_iterations"], train["dagger_episodes"], train["dagger_beta"],
                    train["dagger_epochs"], train["dagger_episode_cap"], train["net_width"], train["log_std_init"],
-                   train["num_envs"], train["seed"])
+                   worker_processes(train), train["seed"])
 
 
 # --- the student's network --------------------------------------------------------------

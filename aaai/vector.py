@@ -47,6 +47,17 @@ def runs_in_process(mode: str, num_envs: int, cores: int | None = None) -> bool:
     return num_envs == 1 or num_envs > free
 
 
+def worker_processes(train: dict, cores: int | None = None) -> int:
+    """Processes the rllib backend (EnvRunners) and the student (episode workers) start:
+    ``train.processes``, or with 0 ``train.num_envs`` but no more than the usable cores. Apart from
+    ``num_envs`` so that stable-baselines3 can step many environments in this process
+    (``train.vector: sync``) without the other learners starting one process per environment."""
+    asked = int(train.get("processes", 0))
+    if asked > 0:
+        return asked
+    return max(1, min(int(train["num_envs"]), usable_cores() if cores is None else cores))
+
+
 @dataclass
 class Episode:
     """A finished training episode."""

@@ -122,3 +122,33 @@ def test_an_observation_handed_out_stays_as_it_was_after_the_next_step(asynchron
             assert all(np.array_equal(observation[key], kept[key]) for key in kept)
     finally:
         vec.close()
+
+
+def test_processes_are_apart_from_num_envs():
+    """16 environments stepping in this process do not make the rllib backend or the student start 16
+    processes: train.processes (0: num_envs up to the usable cores) sets those."""
+    from aaai.config import ConfigError
+    from aaai.student import DaggerSettings
+    from aaai.vector import worker_processes
+
+    many = load_config(num_envs=16, vector="sync")
+    assert worker_processes(many["train"], cores=2) == 2
+    assert worker_processes(load_config(num_envs=2)["train"], cores=8) == 2
+    assert worker_processes(load_config(num_envs=16, processes=3)["train"], cores=2) == 3
+    assert DaggerSettings.from_config(load_config(num_envs=16, processes=3)).workers == 3
+    with pytest.raises(ConfigError, match="processes"):
+        load_config(processes=-1)
+
+
+def test_rllib_env_runners_follow_processes():
+    """The rllib backend's EnvRunners come from train.processes; the num_envs environments are shared
+    out over them and a rollout is still n_steps x num_envs steps."""
+    pytest.importorskip("ray")
+    from aaai.rllib_learner import ppo_config
+    from aaai.vector import worker_processes
+
+    config = load_config(num_envs=16, processes=2, n_steps=128)
+    runners = worker_processes(config["train"])
+    rl = ppo_config(config, "sampler", runners)
+    assert (rl.num_env_runners, rl.num_envs_per_env_runner) == (2, 8)
+    assert rl.train_batch_size_per_learner == 128 * 16
