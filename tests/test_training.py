@@ -26,7 +26,7 @@ def aaai(*args, check=True):
 
 def small_config(tmp_path, **train):
     config = {"episode": {"max_steps": 100}, "curriculum": {"levels": "0-1", "difficulties": "0-1"},
-              "train": {"checkpoint_every": 400, "heatmap_every": 200, "n_steps": 64, "batch_size": 64,
+              "train": {"num_envs": 2, "checkpoint_every": 400, "heatmap_every": 200, "n_steps": 64, "batch_size": 64,
                         "n_epochs": 2, "net_width": 32, **train}}
     path = tmp_path / "small.yaml"
     path.write_text(yaml.safe_dump(config))
