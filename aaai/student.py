@@ -27,9 +27,10 @@ after the last finished iteration. Episodes run in worker processes (``train.pro
 usable cores); with the
 same config a run repeats exactly.
 
-The student's inputs are only the observation, and it has no memory: what a level needs beyond
-what the senses show now (L8's food behind the occluder, L2b's wait) is measured by
-``aaai diagnose`` (README, Learned agents).
+The student's inputs are only the observation. Its network has no state; what it remembers is
+what the senses keep (``sensors.ray_memory``: the rays' sightings of food 1, 2, 4 ... 64 decisions
+back in configs/student.yaml). What a level needs beyond that is measured by ``aaai diagnose``
+(docs, Learned agents).
 """
 from __future__ import annotations
 
