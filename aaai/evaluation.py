@@ -448,6 +448,20 @@ def columns_of(path: Path) -> list[str]:
     return COLUMNS
 
 
+def episode_plan(cells: list[Cell], rows: list[dict]) -> list[tuple[int, int, int]]:
+    """The (level, difficulty, seed) episodes still to play, in cell and seed order: each once,
+    and none already scored in ``rows`` (a resumed scoreboard's level rows). Both backends play this."""
+    done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows if not r.get("arena")}
+    plan = []
+    for cell in cells:
+        for seed in cell.seeds:
+            key = (int(cell.level), int(cell.difficulty), int(seed))
+            if key not in done:
+                plan.append(key)
+                done.add(key)
+    return plan
+
+
 def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
              on_episode: Callable[[dict], None] | None = None, record: dict | None = None,
              make_policy: Callable[[AnimalAIEnv], Callable] | None = None, trust: bool = False) -> list[dict]:
@@ -462,17 +476,13 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
     record = scoring_record(policy_name, record, config)
     check_record(output, record)
     rows = scored_episodes(output)
-    done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows if not r["arena"]}
+    plan = episode_plan(cells, rows)
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))  # scores count the task's own reward
     try:
         policy = make_policy(env) if make_policy is not None else load_policy(policy_name, env, trust=trust)
         with Scoreboard(output, record, columns_of(output), rows, on_episode) as board:
-            for cell in cells:
-                for seed in cell.seeds:
-                    if (cell.level, cell.difficulty, seed) in done:
-                        continue
-                    row = run_episode(env, policy, cell.level, cell.difficulty, seed)
-                    board.append(row)
+            for level, difficulty, seed in plan:
+                board.append(run_episode(env, policy, level, difficulty, seed))
     finally:
         env.close()
     return rows
@@ -552,15 +562,7 @@ def summarise(rows: list[dict]) -> list[dict]:
     for name, group in ordered:
         if not group:
             continue
-        ratios = np.array([float(r["ratio"]) for r in group])
-        outcomes = [r["outcome"] for r in group]
-        summary.append({
-            "level": name, "episodes": len(group),
-            "mean_return": float(np.mean([float(r["return"]) for r in group])),
-            "mean_ratio": float(np.nanmean(ratios)) if np.isfinite(ratios).any() else math.nan,
-            "passed_pct": 100.0 * sum(o != "failed" for o in outcomes) / len(group),
-            "succeeded_pct": 100.0 * outcomes.count("succeeded") / len(group),
-        })
+        summary.append(_summary_row(name, group))
     return summary
 
 
