@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from aaai.config import ConfigError, env_part
-from aaai.evaluation import (COLUMNS, Cell, Scoreboard, check_record, columns_of, load_policy, policy_factory,
+from aaai.evaluation import (COLUMNS, Cell, Scoreboard, check_record, columns_of, episode_plan, load_policy, policy_factory,
                              policy_record, run_episode, scored_episodes, scoring_record, write_error)
 from aaai.files import write_atomic
 from aaai.ray_session import RaySession
@@ -173,16 +173,11 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
     record = scoring_record(policy_name, record, config)
     check_record(output, record)
     rows = scored_episodes(output)  # also cuts a torn last line
-    done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows}
-    order: dict[Key, int] = {}
-    plan: list[Key] = []
+    order: dict[Key, int] = {}  # every episode of the cells, in cell and seed order
     for cell in cells:
         for seed in cell.seeds:
-            key = (cell.level, cell.difficulty, int(seed))
-            order.setdefault(key, len(order))
-            if key not in done:
-                plan.append(key)
-                done.add(key)
+            order.setdefault((int(cell.level), int(cell.difficulty), int(seed)), len(order))
+    plan: list[Key] = episode_plan(cells, rows)
     settled = _settled_rows(output, len(rows))  # rows before them arrived in a Ray eval that was killed
     if not plan:
         return _put_in_order(output, rows, settled, order) if settled < len(rows) else rows

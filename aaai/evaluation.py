@@ -39,7 +39,13 @@ PASS_RATIO, SUCCESS_RATIO = 0.8, 1.0
 TRAIN_EVAL_KEY = 7  # seeds `--seeds train` picks: fixed draws from the training range
 
 
-def outcome(ratio: float) -> str:
+def outcome(ratio: float, episode_return: float | None = None, pass_mark: float | None = None) -> str:
+    """failed, passed or succeeded. With an arena's own ``pass_mark`` (Animal-AI's passMark, as
+    aaai.animalai.passed reads it) the return at or above it passes instead of the 0.8 ratio."""
+    if pass_mark is not None and episode_return is not None:
+        if episode_return < pass_mark:
+            return "failed"
+        return "succeeded" if ratio >= SUCCESS_RATIO else "passed"
     if ratio >= SUCCESS_RATIO:
         return "succeeded"
     return "passed" if ratio >= PASS_RATIO else "failed"
@@ -314,18 +320,20 @@ class Cell:
 def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int, seed: int,
                 arena: Path | None = None) -> dict:
     """Plays one episode of the cell (or of the arena file, with the seed) to its end; its scoreboard row."""
+    pass_mark = None
     if arena is None:
         options = {"level": level, "difficulty": difficulty}
     else:
         spec = load_arena(arena, seed)
         options, level, difficulty = {"spec": spec, "check": False}, spec.level, spec.difficulty  # checked on load
+        pass_mark = (spec.extras or {}).get("pass_mark")
     result = play(env, policy, seed, options=options)
     total, info = result.episode_return, result.info
     ratio = total / info["max_reward"] if info["max_reward"] > 0 else math.nan
     return {
         "level": level, "level_name": info["level_name"], "difficulty": difficulty, "seed": seed,
         "return": round(total, 6), "max_reward": round(info["max_reward"], 6), "ratio": round(ratio, 6),
-        "outcome": outcome(ratio), "steps": info["steps"], "max_steps": info["max_steps"],
+        "outcome": outcome(ratio, total, pass_mark), "steps": info["steps"], "max_steps": info["max_steps"],
         "food_eaten": info["food_eaten"],
         "wall_hits": info["wall_hits"], "fell": info["fell"],
         "arena": arena.name if arena is not None else "", "wall_seconds": round(result.wall_seconds, 3),
@@ -448,6 +456,20 @@ def columns_of(path: Path) -> list[str]:
     return COLUMNS
 
 
+def episode_plan(cells: list[Cell], rows: list[dict]) -> list[tuple[int, int, int]]:
+    """The (level, difficulty, seed) episodes still to play, in cell and seed order: each once,
+    and none already scored in ``rows`` (a resumed scoreboard's level rows). Both backends play this."""
+    done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows if not r.get("arena")}
+    plan = []
+    for cell in cells:
+        for seed in cell.seeds:
+            key = (int(cell.level), int(cell.difficulty), int(seed))
+            if key not in done:
+                plan.append(key)
+                done.add(key)
+    return plan
+
+
 def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
              on_episode: Callable[[dict], None] | None = None, record: dict | None = None,
              make_policy: Callable[[AnimalAIEnv], Callable] | None = None, trust: bool = False) -> list[dict]:
@@ -462,17 +484,13 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
     record = scoring_record(policy_name, record, config)
     check_record(output, record)
     rows = scored_episodes(output)
-    done = {(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows if not r["arena"]}
+    plan = episode_plan(cells, rows)
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))  # scores count the task's own reward
     try:
         policy = make_policy(env) if make_policy is not None else load_policy(policy_name, env, trust=trust)
         with Scoreboard(output, record, columns_of(output), rows, on_episode) as board:
-            for cell in cells:
-                for seed in cell.seeds:
-                    if (cell.level, cell.difficulty, seed) in done:
-                        continue
-                    row = run_episode(env, policy, cell.level, cell.difficulty, seed)
-                    board.append(row)
+            for level, difficulty, seed in plan:
+                board.append(run_episode(env, policy, level, difficulty, seed))
     finally:
         env.close()
     return rows
@@ -552,15 +570,7 @@ def summarise(rows: list[dict]) -> list[dict]:
     for name, group in ordered:
         if not group:
             continue
-        ratios = np.array([float(r["ratio"]) for r in group])
-        outcomes = [r["outcome"] for r in group]
-        summary.append({
-            "level": name, "episodes": len(group),
-            "mean_return": float(np.mean([float(r["return"]) for r in group])),
-            "mean_ratio": float(np.nanmean(ratios)) if np.isfinite(ratios).any() else math.nan,
-            "passed_pct": 100.0 * sum(o != "failed" for o in outcomes) / len(group),
-            "succeeded_pct": 100.0 * outcomes.count("succeeded") / len(group),
-        })
+        summary.append(_summary_row(name, group))
     return summary
 
 

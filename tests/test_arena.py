@@ -209,3 +209,21 @@ def test_arena_env_pickles_with_its_arena():
     finally:
         env.close()
         copy.close()
+
+
+def test_eval_arenas_honours_an_arenas_own_pass_mark(tmp_path):
+    """Guards `aaai eval --arenas` with an arena's pass_mark (imported Animal-AI arenas carry one):
+    a return at or above the mark passes whatever the ratio, below it fails."""
+    source = sorted(ARENAS.glob("*.yaml"))[0].read_text()
+    battery = tmp_path / "battery"
+    battery.mkdir()
+    (battery / "easy.yaml").write_text(source + "\npass_mark: -1000\n")
+    (battery / "hard.yaml").write_text(source + "\npass_mark: 1000\n")
+    (battery / "plain.yaml").write_text(source)
+    config = write(tmp_path, "episode:\n  max_steps: 10\n", "short.yaml")
+    out = tmp_path / "board.csv"
+    result = CliRunner().invoke(cli, ["eval", "--arenas", str(battery), "--policy", "random", "-k", "1",
+                                      "--config", str(config), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    outcomes = {row["arena"]: row["outcome"] for row in scored_episodes(out)}
+    assert outcomes == {"easy.yaml": "passed", "hard.yaml": "failed", "plain.yaml": "failed"}

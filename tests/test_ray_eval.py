@@ -246,6 +246,14 @@ def test_without_an_address_a_local_ray_is_started_and_stopped(tmp_path):
     assert before is not None or os.environ.get("RAY_AUTH_MODE") == "disabled"
 
 
+def test_repeated_seeds_score_once_on_both_backends(tmp_path):
+    """Guards the episode plan both backends play: seeds [5, 5, 6] are two rows on Ray as locally."""
+    rows = evaluate_on_ray("random", cells((0, 0, [5, 5, 6])), tmp_path / "ray.csv", CONFIG, workers=1)
+    evaluate("random", cells((0, 0, [5, 5, 6])), tmp_path / "local.csv", CONFIG)
+    assert [row["seed"] for row in rows] == ["5", "6"]
+    assert table(tmp_path / "ray.csv") == table(tmp_path / "local.csv")
+
+
 def test_the_eval_command_scores_the_same_on_ray(tmp_path):
     """`aaai eval --backend ray` as a user types it: a local Ray for the eval, the same scoreboard."""
     args = [sys.executable, "-m", "aaai_cli.main", "eval", "--policy", "random", "-k", "2", "--levels", "0-1",
