@@ -163,9 +163,10 @@ MODELS = Path(__file__).resolve().parent.parent / "baselines" / "models"
 
 
 def test_the_committed_student_fails_l8_for_want_of_object_permanence(tmp_path):
-    """Pinned from the baseline table (README, Learned agents): on reserved L8 d0 seed 1429051819
-    the student sees the food once, at the start; it slides behind the occluder, no ray shows it
-    again, and the student, which has no memory, never goes behind. The reference passes it."""
+    """Pinned from the baseline table (docs, Learned agents): on reserved L8 d0 seed 1429051819
+    the student sees the food at the start (2 decisions of 600); it slides behind the occluder, no
+    ray shows it again, and the rays' memory of it (6.4 s at most) runs out before the student goes
+    behind. The reference passes it."""
     from aaai.diagnose import replay_failure
     from aaai.evaluation import load_policy
 
