@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: install install-train install-all test docs play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
+.PHONY: lint install install-train install-all test docs play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -37,11 +37,16 @@ $(CHROMIUM_BINARIES):
 
 install: $(VENV)/.installed
 
+# Lint and format checks (ruff, configured in pyproject.toml); `ruff format .` fixes the format.
+lint: install
+	$(BIN)/python -m ruff check .
+	$(BIN)/python -m ruff format --check .
+
 install-train: $(VENV)/.installed-train
 
 install-all: $(VENV)/.installed-all
 
-test: install-all $(CHROMIUM_BINARIES)
+test: install-all $(CHROMIUM_BINARIES) lint
 	$(BIN)/python -m pytest -q -m "not long" $(PYTEST_ARGS)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --quiet
 

@@ -3,6 +3,7 @@
 `experiments/curricula/curves.png` and `baselines/heatmap.png` are rewritten by `make curricula`
 and `make baselines`; the site serves them as `figures/...` so that they are never copied by hand.
 """
+
 from pathlib import Path
 
 from mkdocs.structure.files import File

@@ -2,6 +2,7 @@
 
 Importing the package registers the Gymnasium ids (``aaai/AnimalAI-v0`` and one per level).
 """
+
 import os
 import sys
 
@@ -18,6 +19,7 @@ def _import_pybullet_quietly() -> None:
         saved, quiet = [os.dup(1), os.dup(2)], os.open(os.devnull, os.O_WRONLY)
     except (OSError, ValueError, AttributeError):  # no file descriptors to redirect: import as it is
         import pybullet  # noqa: F401
+
         return
     try:
         os.dup2(quiet, 1)

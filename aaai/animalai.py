@@ -32,6 +32,7 @@ Bounce) at BOUNCE_SPEED; a cylinder tunnel becomes an arch (aaai.kinds.Tunnel) o
 sign board with a preset symbol a ``sign_SYMBOL`` board; goals that ripen, decay, grow or shrink
 the timed food of aaai.kinds (see TIMED).
 """
+
 from __future__ import annotations
 
 import math
@@ -97,21 +98,32 @@ ITEMS = {
 # pays d x scale here); delays (frames) and |final - initial| / |changeRates| (frames) -> delay and
 # duration, a frame counted as a step (SECONDS_PER_STEP x scale seconds), as blackouts are. The body
 # is a sphere of the larger value's size (Animal-AI's sizes are ignored for these, as there).
-TIMED = {"RipenGoal": ("ripening_food", 150), "AntiDecayGoal": ("ripening_food", 150),
-         "DecayGoal": ("decaying_food", 150), "GrowGoal": ("growing_food", 0), "ShrinkGoal": ("shrinking_food", 0),
-         "DecayGoalBounce": ("decaying_food", 150), "RipenGoalBounce": ("ripening_food", 150)}
+TIMED = {
+    "RipenGoal": ("ripening_food", 150),
+    "AntiDecayGoal": ("ripening_food", 150),
+    "DecayGoal": ("decaying_food", 150),
+    "GrowGoal": ("growing_food", 0),
+    "ShrinkGoal": ("shrinking_food", 0),
+    "DecayGoalBounce": ("decaying_food", 150),
+    "RipenGoalBounce": ("ripening_food", 150),
+}
 CHANGE_RATE = 0.005  # valence per frame when a file gives no changeRates
 HEAVY = ("Cardbox2", "HeavyBlock")
 SIGNS = ("SignBoard", "SignPosterboard")
 SIGN_SIZE = 1.4  # Animal-AI's sign boards are this big, whatever the file says
 MOVABLE_BLOCKS = ("UObject", "UBlock", "LObject", "LBlock", "LObject2", "JBlock", "HollowBox")
 NOT_HERE = {  # known Animal-AI items without a counterpart, and why
-    "SpawnerTree": "spawners are not built here", "SpawnerDispenser": "spawners are not built here",
-    "SpawnerDispenserTall": "spawners are not built here", "SpawnerDispenserShort": "spawners are not built here",
-    "SpawnerContainer": "spawners are not built here", "SpawnerContainerShort": "spawners are not built here",
-    "SpawnerButton": "buttons and spawners are not built here", "Pillar-Button": "buttons are not built here",
+    "SpawnerTree": "spawners are not built here",
+    "SpawnerDispenser": "spawners are not built here",
+    "SpawnerDispenserTall": "spawners are not built here",
+    "SpawnerDispenserShort": "spawners are not built here",
+    "SpawnerContainer": "spawners are not built here",
+    "SpawnerContainerShort": "spawners are not built here",
+    "SpawnerButton": "buttons and spawners are not built here",
+    "Pillar-Button": "buttons are not built here",
     "DataZone": "data zones are not built here",
-    "Datazone": "data zones are not built here", "BadGoalMulti": "non-ending bad food is not built here",
+    "Datazone": "data zones are not built here",
+    "BadGoalMulti": "non-ending bad food is not built here",
 }
 
 
@@ -137,8 +149,10 @@ def read_arena_config(path: Path) -> dict:
     except (yaml.YAMLError, UnicodeDecodeError) as error:
         raise ConfigError(f"{path.name}: not Animal-AI arena YAML: {error}") from None
     if not isinstance(data, dict) or not isinstance(data.get("arenas"), dict) or not data["arenas"]:
-        raise ConfigError(f"{path.name}: got no 'arenas' mapping; allowed: an Animal-AI !ArenaConfig with arenas: "
-                          "{0: !Arena {...}}")
+        raise ConfigError(
+            f"{path.name}: got no 'arenas' mapping; allowed: an Animal-AI !ArenaConfig with arenas: "
+            "{0: !Arena {...}}"
+        )
     return data
 
 
@@ -200,9 +214,13 @@ class _Arena:
         if not _number(steps) or steps < 0:
             raise Unmappable(f"{self.source}, arena {self.key}: t / timeLimit {steps!r}; allowed: a number of steps")
         time_limit = MAX_TIME if steps == 0 else min(MAX_TIME, max(1.0, steps * SECONDS_PER_STEP * self.scale))
-        out: dict = {"description": f"Animal-AI {self.source} arena {self.key}, imported at scale {self.scale:g}",
-                     "arena_walls": True, "arena_size": [2 * self.half, 2 * self.half], "wall_height": WALL_HEIGHT,
-                     "time_limit": round(time_limit, 3)}
+        out: dict = {
+            "description": f"Animal-AI {self.source} arena {self.key}, imported at scale {self.scale:g}",
+            "arena_walls": True,
+            "arena_size": [2 * self.half, 2 * self.half],
+            "wall_height": WALL_HEIGHT,
+            "time_limit": round(time_limit, 3),
+        }
         mark = arena.get("passMark", arena.get("pass_mark"))
         if mark is not None:
             if not _number(mark):
@@ -215,13 +233,16 @@ class _Arena:
                 seconds = -blackouts[0] * SECONDS_PER_STEP * self.scale
                 out["blackout"] = {"light": round(seconds, 4), "dark": round(seconds, 4)}
             else:
-                raise Unmappable(f"{self.source}, arena {self.key}: blackouts {blackouts!r} at listed frames cannot "
-                                 "be mapped; allowed here: [-n], dark and light every n frames")
+                raise Unmappable(
+                    f"{self.source}, arena {self.key}: blackouts {blackouts!r} at listed frames cannot "
+                    "be mapped; allowed here: [-n], dark and light every n frames"
+                )
         objects, names, agent = [], [], None
         for index, item in enumerate(items):
             if not isinstance(item, dict) or not isinstance(item.get("name"), str):
-                raise Unmappable(f"{self.source}, arena {self.key}, item {index}: got {item!r}; allowed: an !Item "
-                                 "with a name")
+                raise Unmappable(
+                    f"{self.source}, arena {self.key}, item {index}: got {item!r}; allowed: an !Item with a name"
+                )
             name = item["name"]
             if name == "Agent":
                 agent = self.agent(item)
@@ -229,8 +250,11 @@ class _Arena:
             objects += self.item(index, name, item)
             names.append(name)
         if agent is None:
-            agent = {"x": {"uniform": [-self.half + AGENT_MARGIN, self.half - AGENT_MARGIN]},
-                     "y": {"uniform": [-self.half + AGENT_MARGIN, self.half - AGENT_MARGIN]}, "yaw": self._yaw(None)}
+            agent = {
+                "x": {"uniform": [-self.half + AGENT_MARGIN, self.half - AGENT_MARGIN]},
+                "y": {"uniform": [-self.half + AGENT_MARGIN, self.half - AGENT_MARGIN]},
+                "yaw": self._yaw(None),
+            }
         out["agent"] = agent
         out["objects"] = [_settled(obj, objects) for obj in objects]
         return out, names
@@ -243,8 +267,11 @@ class _Arena:
             mapped = self._xy(value, -inside, inside)
             return mapped if isinstance(mapped, dict) else min(max(mapped, -inside), inside)
 
-        return {"x": coordinate(position.get("x", -1)), "y": coordinate(position.get("z", -1)),
-                "yaw": self._yaw(self._entry(item.get("rotations"), 0), math.pi / 2)}
+        return {
+            "x": coordinate(position.get("x", -1)),
+            "y": coordinate(position.get("z", -1)),
+            "yaw": self._yaw(self._entry(item.get("rotations"), 0), math.pi / 2),
+        }
 
     def signs(self, index: int, name: str, item: dict) -> list[dict]:
         """Sign boards: one of the preset symbols each (aaai.kinds.SYMBOLS); a special symbol (a
@@ -258,18 +285,27 @@ class _Arena:
             symbol = self._entry(symbols, k)
             key = symbol.replace("-", "_") if isinstance(symbol, str) else None
             if key not in SYMBOLS:
-                raise Unmappable(f"{self.where(index, name)}: cannot be mapped (symbol {symbol!r}; allowed: "
-                                 f"{', '.join(s.replace('_', '-') for s in SYMBOLS)}); arena skipped")
+                raise Unmappable(
+                    f"{self.where(index, name)}: cannot be mapped (symbol {symbol!r}; allowed: "
+                    f"{', '.join(s.replace('_', '-') for s in SYMBOLS)}); arena skipped"
+                )
             position = position if isinstance(position, dict) else {}
             side = SIGN_SIZE * self.scale
             reach = self.half - side
             bottom = position.get("y", 0)
             bottom = self.scale * bottom if _number(bottom) and bottom > 0 else 0.0
-            objects.append({"kind": f"sign_{key}", "position": [self._xy(position.get("x", -1), -reach, reach),
-                                                                   self._xy(position.get("z", -1), -reach, reach),
-                                                                   round(bottom + side / 2, 4)],
-                            "size": [round(max(0.3, 0.05 * side), 4), side, side],
-                            "yaw": self._yaw(self._entry(item.get("rotations"), k), math.pi / 2)})
+            objects.append(
+                {
+                    "kind": f"sign_{key}",
+                    "position": [
+                        self._xy(position.get("x", -1), -reach, reach),
+                        self._xy(position.get("z", -1), -reach, reach),
+                        round(bottom + side / 2, 4),
+                    ],
+                    "size": [round(max(0.3, 0.05 * side), 4), side, side],
+                    "yaw": self._yaw(self._entry(item.get("rotations"), k), math.pi / 2),
+                }
+            )
         return objects
 
     def timed(self, index: int, name: str, item: dict) -> list[dict]:
@@ -289,18 +325,24 @@ class _Arena:
                 values[key] = value
             start, end = values["initialValues"], values["finalValues"]
             if start is None or end is None:
-                raise Unmappable(f"{where}: cannot be mapped (initialValues {start!r}, finalValues {end!r}; allowed: "
-                                 "both given, 0..5); arena skipped")
+                raise Unmappable(
+                    f"{where}: cannot be mapped (initialValues {start!r}, finalValues {end!r}; allowed: "
+                    "both given, 0..5); arena skipped"
+                )
             rising = REGISTRY[kind].rising
             if not (0 <= start <= 5 and 0 <= end <= 5) or start == end or (end > start) != rising:
-                raise Unmappable(f"{where}: cannot be mapped (initialValues {start!r}, finalValues {end!r}; allowed: "
-                                 f"0..5 with the final value {'above' if rising else 'below'} the initial); "
-                                 "arena skipped")
+                raise Unmappable(
+                    f"{where}: cannot be mapped (initialValues {start!r}, finalValues {end!r}; allowed: "
+                    f"0..5 with the final value {'above' if rising else 'below'} the initial); "
+                    "arena skipped"
+                )
             delay = values["delays"] if values["delays"] is not None else default_delay
             rate = abs(values["changeRates"]) if values["changeRates"] is not None else CHANGE_RATE
             if delay < 0 or rate <= 0:
-                raise Unmappable(f"{where}: cannot be mapped (delays {delay!r}, changeRates {rate!r}; allowed: a delay "
-                                 "of 0 or more and a non-zero rate); arena skipped")
+                raise Unmappable(
+                    f"{where}: cannot be mapped (delays {delay!r}, changeRates {rate!r}; allowed: a delay "
+                    "of 0 or more and a non-zero rate); arena skipped"
+                )
             frame = SECONDS_PER_STEP * self.scale
             position = self._entry(item.get("positions"), k)
             position = position if isinstance(position, dict) else {}
@@ -308,15 +350,28 @@ class _Arena:
             reach = max(0.0, self.half - diameter / 2 - 1.0)
             bottom = position.get("y", 0)
             bottom = self.scale * bottom if _number(bottom) and bottom > 0 else 0.0
-            obj = {"kind": kind, "shape": "sphere",
-                   "position": [self._xy(position.get("x", -1), -reach, reach),
-                                self._xy(position.get("z", -1), -reach, reach), round(bottom + diameter / 2, 4)],
-                   "size": [diameter] * 3,
-                   "timing": {"start": round(start * self.scale, 4), "end": round(end * self.scale, 4),
-                              "delay": round(delay * frame, 4), "duration": round(abs(end - start) / rate * frame, 4)}}
+            obj = {
+                "kind": kind,
+                "shape": "sphere",
+                "position": [
+                    self._xy(position.get("x", -1), -reach, reach),
+                    self._xy(position.get("z", -1), -reach, reach),
+                    round(bottom + diameter / 2, 4),
+                ],
+                "size": [diameter] * 3,
+                "timing": {
+                    "start": round(start * self.scale, 4),
+                    "end": round(end * self.scale, 4),
+                    "delay": round(delay * frame, 4),
+                    "duration": round(abs(end - start) / rate * frame, 4),
+                },
+            }
             if name.endswith("Bounce"):
-                obj["behaviour"] = {"type": "bounce", "speed": BOUNCE_SPEED,
-                                    "heading": self._yaw(self._entry(item.get("rotations"), k), math.pi / 2)}
+                obj["behaviour"] = {
+                    "type": "bounce",
+                    "speed": BOUNCE_SPEED,
+                    "heading": self._yaw(self._entry(item.get("rotations"), k), math.pi / 2),
+                }
             objects.append(obj)
         return objects
 
@@ -354,11 +409,17 @@ class _Arena:
                 obj.update(size=[sx, sz, sy], yaw=self._yaw(rotation))
                 centre_z, footprint = bottom + sy / 2, math.hypot(sx, sz) / 2
             reach = max(0.0, min(self.half - footprint, self.half - 1.0))
-            obj["position"] = [self._xy(position.get("x", -1), -reach, reach),
-                               self._xy(position.get("z", -1), -reach, reach), round(centre_z, 4)]
+            obj["position"] = [
+                self._xy(position.get("x", -1), -reach, reach),
+                self._xy(position.get("z", -1), -reach, reach),
+                round(centre_z, 4),
+            ]
             colour = self._entry(item.get("colors"), k)
-            if isinstance(colour, dict) and all(_number(colour.get(c)) and colour.get(c) >= 0 for c in "rgb") \
-                    and kind in ("wall", "ramp", "tunnel", "plank", "u_block", "l_block", "j_block", "hollow_box"):
+            if (
+                isinstance(colour, dict)
+                and all(_number(colour.get(c)) and colour.get(c) >= 0 for c in "rgb")
+                and kind in ("wall", "ramp", "tunnel", "plank", "u_block", "l_block", "j_block", "hollow_box")
+            ):
                 obj["colour"] = [round(min(colour[c], 255) / 255, 4) for c in "rgb"] + [1.0]
             if kind == "plank":
                 obj["mass"] = PLANK_MASS["heavy" if name in HEAVY else "light"]
@@ -367,8 +428,13 @@ class _Arena:
             if name.endswith("Bounce"):
                 heading = self._yaw(rotation, math.pi / 2)
                 obj["behaviour"] = {"type": "bounce", "speed": BOUNCE_SPEED, "heading": heading}
-            objects.append({key: obj[key] for key in ("kind", "shape", "position", "size", "yaw", "colour", "mass",
-                                                       "behaviour") if key in obj})
+            objects.append(
+                {
+                    key: obj[key]
+                    for key in ("kind", "shape", "position", "size", "yaw", "colour", "mass", "behaviour")
+                    if key in obj
+                }
+            )
         return objects
 
 
@@ -423,9 +489,13 @@ def _dump(data: dict) -> str:
     lines = ["# Imported from an Animal-AI arena file by `aaai import-animalai` (aaai/animalai.py)."]
     for key, value in data.items():
         if isinstance(value, (list, dict)):
-            lines.append(f"{key}: " + yaml.safe_dump(value, sort_keys=False, default_flow_style=True, width=10**6).strip())
+            lines.append(
+                f"{key}: " + yaml.safe_dump(value, sort_keys=False, default_flow_style=True, width=10**6).strip()
+            )
         else:
-            lines.append(yaml.safe_dump({key: value}, sort_keys=False, default_flow_style=False, width=10**6).rstrip("\n"))
+            lines.append(
+                yaml.safe_dump({key: value}, sort_keys=False, default_flow_style=False, width=10**6).rstrip("\n")
+            )
     lines.append("objects:" if objects else "objects: []")
     for obj in objects:
         lines.append("  - " + yaml.safe_dump(obj, sort_keys=False, default_flow_style=True, width=10**6).strip())
@@ -454,7 +524,9 @@ def animalai_files(path: Path) -> list[Path]:
     if path.is_dir():
         files = sorted(list(path.rglob("*.yaml")) + list(path.rglob("*.yml")))
         if not files:
-            raise ConfigError(f"{str(path)!r} holds no .yaml files; allowed: an Animal-AI arena file or a folder of them")
+            raise ConfigError(
+                f"{str(path)!r} holds no .yaml files; allowed: an Animal-AI arena file or a folder of them"
+            )
         return files
     if not path.is_file():
         raise ConfigError(f"{str(path)!r} is neither a file nor a folder; allowed: an Animal-AI arena file or a folder")
@@ -489,8 +561,10 @@ def import_animalai(source: Path, out: Path, scale: float = DEFAULT_SCALE, echo=
     for result in done:
         for name in result.items:
             kinds[name] = kinds.get(name, 0) + 1
-    echo(f"{len(files)} files, {len(results)} arenas: {len(done)} converted into {out}, "
-         f"{len(results) - len(done)} skipped" + (f", {unreadable} files unreadable" if unreadable else ""))
+    echo(
+        f"{len(files)} files, {len(results)} arenas: {len(done)} converted into {out}, "
+        f"{len(results) - len(done)} skipped" + (f", {unreadable} files unreadable" if unreadable else "")
+    )
     if kinds:
         echo("items converted: " + ", ".join(f"{name} {count}" for name, count in sorted(kinds.items())))
     reasons: dict[str, int] = {}
@@ -545,21 +619,30 @@ def coverage(folder: Path, sample: int = 0, seed: int = 0, echo=print) -> dict:
             valid.append((file, load_arena(file, seed)))
         except ConfigError:
             pass
-    chosen = valid if not sample or sample >= len(valid) else [valid[round(i * (len(valid) - 1) / (sample - 1))]
-                                                                for i in range(sample)] if sample > 1 else valid[:1]
+    chosen = (
+        valid
+        if not sample or sample >= len(valid)
+        else [valid[round(i * (len(valid) - 1) / (sample - 1))] for i in range(sample)]
+        if sample > 1
+        else valid[:1]
+    )
     env = AnimalAIEnv(action_mode="gait")
     passes = 0
     try:
         for file, spec in chosen:
             total, ok = reference_episode(env, spec, seed)
             passes += ok
-            echo(f"{file.name}: return {total:.2f}, pass mark {spec.extras.get('pass_mark')}, "
-                 f"{'passed' if ok else 'failed'}")
+            echo(
+                f"{file.name}: return {total:.2f}, pass mark {spec.extras.get('pass_mark')}, "
+                f"{'passed' if ok else 'failed'}"
+            )
     finally:
         env.close()
     result = {"files": len(files), "valid": len(valid), "run": len(chosen), "passed": passes}
-    echo(f"{result['files']} arena files, {result['valid']} valid (seed {seed}), reference passed "
-         f"{passes} of {len(chosen)} run")
+    echo(
+        f"{result['files']} arena files, {result['valid']} valid (seed {seed}), reference passed "
+        f"{passes} of {len(chosen)} run"
+    )
     return result
 
 

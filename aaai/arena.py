@@ -32,6 +32,7 @@ Errors are ConfigErrors naming the file, the line and the object: an unknown key
 and every problem aaai.validate.check finds (overlapping solids, food that cannot be reached, an
 agent inside a wall). Nothing is run from an invalid file.
 """
+
 from __future__ import annotations
 
 import math
@@ -50,9 +51,27 @@ from aaai.kinds import ENDING_KINDS, FOOD_KINDS, OBJECT_KINDS, kind_class
 from aaai.spec import SHAPES, AgentPose, Blackout, InnerLevel, LevelSpec, ObjectSpec
 
 META_KEYS = ("description", "category", "arena_walls", "pass_mark")
-SPEC_KEYS = ("level", "name", "difficulty", "seed", "agent", "objects", "arena_size", "wall_height", "tiles", "holes",
-             "heightfield", "max_food_reward", "time_limit", "blackout", "colours", "bridge", "inner", "regenerated",
-             "extras")
+SPEC_KEYS = (
+    "level",
+    "name",
+    "difficulty",
+    "seed",
+    "agent",
+    "objects",
+    "arena_size",
+    "wall_height",
+    "tiles",
+    "holes",
+    "heightfield",
+    "max_food_reward",
+    "time_limit",
+    "blackout",
+    "colours",
+    "bridge",
+    "inner",
+    "regenerated",
+    "extras",
+)
 TOP_KEYS = META_KEYS + SPEC_KEYS
 OBJECT_KEYS = ("kind", "shape", "position", "size", "yaw", "colour", "mass", "behaviour", "timing")
 AGENT_KEYS = ("x", "y", "yaw")
@@ -80,9 +99,11 @@ def _plain(value: Any) -> Any:
     raise TypeError(f"cannot write {value!r} ({type(value).__name__}) to an arena file")
 
 
-FIXED_NOTE = ("# A fixed arena: the one level instance this was written from. Every episode of it starts alike,\n"
-              "# whatever the episode seed; to vary it, put {uniform: [low, high]}, {integers: [low, high]} or\n"
-              "# {choice: [...]} in place of a number (docs, Write your own test).")
+FIXED_NOTE = (
+    "# A fixed arena: the one level instance this was written from. Every episode of it starts alike,\n"
+    "# whatever the episode seed; to vary it, put {uniform: [low, high]}, {integers: [low, high]} or\n"
+    "# {choice: [...]} in place of a number (docs, Write your own test)."
+)
 
 
 def spec_to_arena(spec: LevelSpec, description: str | None = None, category: str | None = None) -> str:
@@ -92,8 +113,11 @@ def spec_to_arena(spec: LevelSpec, description: str | None = None, category: str
     known = all_levels().get(spec.level)
     data = spec.to_dict()
     head = {
-        "description": description or (f"{known.label if known else 'L' + str(spec.level)} {spec.name} difficulty "
-                                       f"{spec.difficulty} seed {spec.seed}, as generated"),
+        "description": description
+        or (
+            f"{known.label if known else 'L' + str(spec.level)} {spec.name} difficulty "
+            f"{spec.difficulty} seed {spec.seed}, as generated"
+        ),
         "category": category or (known.name if known else spec.name),
     }
     objects = data.pop("objects")
@@ -104,8 +128,11 @@ def spec_to_arena(spec: LevelSpec, description: str | None = None, category: str
             lines.append(f"{key}: " + yaml.safe_dump(value, default_flow_style=True, width=10**6).strip())
             continue
         flow = None if isinstance(value, (list, dict)) and value else False
-        lines.append(yaml.safe_dump({key: value}, sort_keys=False, default_flow_style=flow, width=10**6,
-                                    allow_unicode=True).rstrip("\n"))
+        lines.append(
+            yaml.safe_dump(
+                {key: value}, sort_keys=False, default_flow_style=flow, width=10**6, allow_unicode=True
+            ).rstrip("\n")
+        )
     lines.append("objects:" if objects else "objects: []")
     for index, obj in enumerate(objects):  # one flow mapping per object: one line each, easy to read
         line = yaml.safe_dump(_plain(obj), sort_keys=False, default_flow_style=True, width=10**6).strip()
@@ -196,8 +223,9 @@ class _Reader:
         before = len(self.problems)
         for key in mapping:
             if key not in allowed:
-                self.problems.append(str(self.source.error(
-                    where + (key,), f"key {key!r} does not exist; allowed: {', '.join(allowed)}")))
+                self.problems.append(
+                    str(self.source.error(where + (key,), f"key {key!r} does not exist; allowed: {', '.join(allowed)}"))
+                )
         for key in required:
             if key not in mapping:
                 self.problems.append(str(self.source.error(where, f"key {key!r} is missing")))
@@ -213,8 +241,13 @@ class _Reader:
                 if not isinstance(args, list) or not args:
                     self.fail(here, f"got {args!r}; allowed: a list of one or more values to choose from")
                 return args[int(self.rng.integers(len(args)))]
-            if not (isinstance(args, list) and len(args) == 2 and all(_number(a) for a in args)
-                    and all(math.isfinite(a) for a in args) and args[0] <= args[1]):
+            if not (
+                isinstance(args, list)
+                and len(args) == 2
+                and all(_number(a) for a in args)
+                and all(math.isfinite(a) for a in args)
+                and args[0] <= args[1]
+            ):
                 self.fail(here, f"got {args!r}; allowed: [low, high], two finite numbers, low <= high")
             if form == "integers":
                 if not all(float(a).is_integer() for a in args):
@@ -263,19 +296,30 @@ class _Reader:
     def agent(self, value) -> AgentPose:
         where = ("agent",)
         self.keys(value, AGENT_KEYS, where, required=("x", "y"))
-        return AgentPose(self.number(value["x"], where + ("x",)), self.number(value["y"], where + ("y",)),
-                         self.number(value.get("yaw", math.pi / 2), where + ("yaw",)))
+        return AgentPose(
+            self.number(value["x"], where + ("x",)),
+            self.number(value["y"], where + ("y",)),
+            self.number(value.get("yaw", math.pi / 2), where + ("yaw",)),
+        )
 
     def obj(self, value, index: int) -> ObjectSpec:
         where = ("objects", index)
         before = len(self.problems)
         self.keys(value, OBJECT_KEYS, where, required=("kind", "position", "size"), strict=False)
-        kind = self.attempt(lambda: self.text(value["kind"], where + ("kind",), OBJECT_KINDS)) if "kind" in value else None
+        kind = (
+            self.attempt(lambda: self.text(value["kind"], where + ("kind",), OBJECT_KINDS)) if "kind" in value else None
+        )
         shape = self.attempt(lambda: self.text(value.get("shape", default_shape(kind)), where + ("shape",), SHAPES))
-        position = self.attempt(lambda: self.numbers(value["position"], where + ("position",), 3)) \
-            if "position" in value else None
-        size = self.attempt(lambda: self.numbers(value["size"], where + ("size",), 3, positive=True)) \
-            if "size" in value else None
+        position = (
+            self.attempt(lambda: self.numbers(value["position"], where + ("position",), 3))
+            if "position" in value
+            else None
+        )
+        size = (
+            self.attempt(lambda: self.numbers(value["size"], where + ("size",), 3, positive=True))
+            if "size" in value
+            else None
+        )
         yaw = self.attempt(lambda: self.number(value.get("yaw", 0.0), where + ("yaw",)), 0.0)
         colour = self.attempt(lambda: self._colour(value, where))
         mass = self.attempt(lambda: self.number(value.get("mass", 0.0), where + ("mass",)), 0.0)
@@ -298,13 +342,18 @@ class _Reader:
         behaviour = self.plain(value.get("behaviour"), where + ("behaviour",))
         if behaviour is not None:
             if not isinstance(behaviour, dict) or behaviour.get("type") not in REGISTRY:
-                self.fail(where + ("behaviour",), f"got {behaviour!r}; allowed: null or a mapping with type one of "
-                                                  f"{', '.join(REGISTRY)} and its fields")
+                self.fail(
+                    where + ("behaviour",),
+                    f"got {behaviour!r}; allowed: null or a mapping with type one of "
+                    f"{', '.join(REGISTRY)} and its fields",
+                )
             fields = REGISTRY[behaviour["type"]].fields
             for key in behaviour:
                 if key != "type" and key not in fields:
-                    self.fail(where + ("behaviour", key), f"key {key!r} does not exist for {behaviour['type']}; "
-                                                          f"allowed: type, {', '.join(fields)}")
+                    self.fail(
+                        where + ("behaviour", key),
+                        f"key {key!r} does not exist for {behaviour['type']}; allowed: type, {', '.join(fields)}",
+                    )
             missing = [f for f in fields if f not in behaviour]
             if missing:
                 self.fail(where + ("behaviour",), f"behaviour {behaviour['type']!r} lacks {', '.join(missing)}")
@@ -376,12 +425,19 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
         return value
 
     objects_value = attempt(object_list, []) if "objects" in data else []
-    objects = tuple(obj for obj in (attempt(lambda i=i, obj=obj: read.obj(read.draw(obj, ("objects", i)), i))
-                                    for i, obj in enumerate(objects_value)) if obj is not None)
+    objects = tuple(
+        obj
+        for obj in (
+            attempt(lambda i=i, obj=obj: read.obj(read.draw(obj, ("objects", i)), i))
+            for i, obj in enumerate(objects_value)
+        )
+        if obj is not None
+    )
     fields: dict[str, Any] = {}
     if "arena_size" in data:
-        fields["arena_size"] = attempt(lambda: read.numbers(data["arena_size"], ("arena_size",), 2, positive=True),
-                                       (50.0, 50.0))
+        fields["arena_size"] = attempt(
+            lambda: read.numbers(data["arena_size"], ("arena_size",), 2, positive=True), (50.0, 50.0)
+        )
     if "wall_height" in data:
         fields["wall_height"] = attempt(lambda: read.number(data["wall_height"], ("wall_height",), positive=True), 4.0)
     walls = data.get("arena_walls", False)
@@ -393,8 +449,9 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
         objects = tuple(arena_walls(fields.get("arena_size", (50.0, 50.0)), fields.get("wall_height", 4.0))) + objects
         source.offset = 4
     if "tiles" in data:
-        fields["tiles"] = attempt(lambda: read.numbers(data["tiles"], ("tiles",), 2, integer=True, positive=True),
-                                  (1, 1))
+        fields["tiles"] = attempt(
+            lambda: read.numbers(data["tiles"], ("tiles",), 2, integer=True, positive=True), (1, 1)
+        )
 
     def hole_list():
         holes = read.draw(data["holes"], ("holes",))
@@ -407,7 +464,9 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
                 read.keys(hole, ("rect",), ("holes", i), required=("rect",))
                 i0, j0, i1, j1 = read.numbers(hole["rect"], ("holes", i, "rect"), 4, integer=True)
                 if i0 > i1 or j0 > j1:
-                    read.fail(("holes", i, "rect"), f"got {hole['rect']!r}; allowed: [i0, j0, i1, j1], i0 <= i1, j0 <= j1")
+                    read.fail(
+                        ("holes", i, "rect"), f"got {hole['rect']!r}; allowed: [i0, j0, i1, j1], i0 <= i1, j0 <= j1"
+                    )
                 tiles += [(a, b) for a in range(i0, i1 + 1) for b in range(j0, j1 + 1)]
             else:
                 tiles.append(read.numbers(hole, ("holes", i), 2, integer=True))
@@ -415,9 +474,16 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
 
     if "holes" in data:
         fields["holes"] = attempt(hole_list, ())
-    fields["heightfield"] = attempt(lambda: read.optional("heightfield", lambda rows: tuple(
-        read.numbers(row, ("heightfield", i), None) for i, row in enumerate(rows)) if isinstance(rows, list)
-        else read.fail(("heightfield",), f"got {rows!r}; allowed: null or a list of rows of heights")))
+    fields["heightfield"] = attempt(
+        lambda: read.optional(
+            "heightfield",
+            lambda rows: (
+                tuple(read.numbers(row, ("heightfield", i), None) for i, row in enumerate(rows))
+                if isinstance(rows, list)
+                else read.fail(("heightfield",), f"got {rows!r}; allowed: null or a list of rows of heights")
+            ),
+        )
+    )
 
     def time_limit():
         value = read.number(data.get("time_limit", DEFAULT_TIME_LIMIT), ("time_limit",), positive=True)
@@ -433,10 +499,12 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
 
     def inner(value):
         read.keys(value, INNER_KEYS, ("inner",), required=INNER_KEYS)
-        return InnerLevel(read.number(value["level"], ("inner", "level"), integer=True),
-                          read.text(value["name"], ("inner", "name")),
-                          read.number(value["difficulty"], ("inner", "difficulty"), integer=True),
-                          read.number(value["seed"], ("inner", "seed"), integer=True))
+        return InnerLevel(
+            read.number(value["level"], ("inner", "level"), integer=True),
+            read.text(value["name"], ("inner", "name")),
+            read.number(value["difficulty"], ("inner", "difficulty"), integer=True),
+            read.number(value["seed"], ("inner", "seed"), integer=True),
+        )
 
     def colours(value):
         if not isinstance(value, dict):
@@ -467,16 +535,19 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
         fields["max_food_reward"] = attempt(lambda: read.number(data["max_food_reward"], ("max_food_reward",)), 0.0)
     else:
         green = [o.food_value for o in objects if o.is_food and o.kind in ENDING_KINDS]
-        fields["max_food_reward"] = max(green, default=0.0) + sum(o.food_value for o in objects
-                                                                  if o.is_food and o.kind not in ENDING_KINDS)
+        fields["max_food_reward"] = max(green, default=0.0) + sum(
+            o.food_value for o in objects if o.is_food and o.kind not in ENDING_KINDS
+        )
     if read.problems:
         raise ArenaProblems(read.problems)
     spec = LevelSpec(level, name, difficulty, spec_seed, agent, objects, **fields)
     return spec, meta, source
 
 
-_OBJECT_REF = re.compile(r"(" + "|".join(sorted(OBJECT_KINDS, key=len, reverse=True)) + r") at "
-                         r"\((-?\d+\.\d), (-?\d+\.\d)\)")
+_OBJECT_REF = re.compile(
+    r"(" + "|".join(sorted(OBJECT_KINDS, key=len, reverse=True)) + r") at "
+    r"\((-?\d+\.\d), (-?\d+\.\d)\)"
+)
 _INDEX_REF = re.compile(r"object (\d+) \((\w+)\)")
 
 

@@ -5,9 +5,11 @@ the reserved seeds of every level and difficulty (``make baselines``, ``make bas
 Each policy's scoreboard is the ordinary ``aaai eval`` CSV (``baselines/<name>.csv``); the
 episodes are shared out over worker processes one (policy, level) at a time, each writing its own
 part (``baselines/parts/``), so an interrupted run resumes where it stopped. From the scoreboards
-in the folder (those scored now and those kept from earlier) come ``baselines/table.md`` (pass rates per level, overall and at difficulties 0, 5
-and 10) and ``baselines/heatmap.png`` (the pass rate of every cell, one panel per policy).
+in the folder (those scored now and those kept from earlier) come ``baselines/table.md`` (pass rates
+per level, overall and at difficulties 0, 5 and 10) and ``baselines/heatmap.png`` (the pass rate of
+every cell, one panel per policy).
 """
+
 from __future__ import annotations
 
 import csv
@@ -21,8 +23,8 @@ import numpy as np
 
 from aaai.curriculum import heatmap_panel
 from aaai.evaluation import COLUMNS, cells_for, evaluate, policy_config, policy_record, scored_episodes
-from aaai.levels import all_levels, get_level
 from aaai.files import atomic_path, write_atomic
+from aaai.levels import all_levels, get_level
 
 SHOWN_DIFFICULTIES = (0, 5, 10)
 
@@ -53,14 +55,27 @@ def policies(demo_run: Path | None, learned: dict[str, Path] | None = None) -> d
 def _score_part(policy: str, level: int, difficulties: list[int], count: int, part: Path) -> tuple[Path, float]:
     one_thread()
     started = time.perf_counter()
-    evaluate(policy, cells_for([level], difficulties, "reserved", count), part, policy_config(policy),
-             record=policy_record(policy, "reserved"))
+    evaluate(
+        policy,
+        cells_for([level], difficulties, "reserved", count),
+        part,
+        policy_config(policy),
+        record=policy_record(policy, "reserved"),
+    )
     return part, time.perf_counter() - started
 
 
-def run(out: Path, demo_run: Path | None, levels: list[int] | None = None, difficulties: list[int] | None = None,
-        count: int = 10, workers: int = 2, echo=print, learned: dict[str, Path] | None = None,
-        only: list[str] | None = None) -> dict[str, Path]:
+def run(
+    out: Path,
+    demo_run: Path | None,
+    levels: list[int] | None = None,
+    difficulties: list[int] | None = None,
+    count: int = 10,
+    workers: int = 2,
+    echo=print,
+    learned: dict[str, Path] | None = None,
+    only: list[str] | None = None,
+) -> dict[str, Path]:
     """Scores every policy (or the ``only`` ones) on ``count`` reserved seeds per cell; the table
     and heatmap then show every scoreboard in ``out``. Returns the merged scoreboards."""
     levels = sorted(all_levels()) if levels is None else levels
@@ -73,8 +88,11 @@ def run(out: Path, demo_run: Path | None, levels: list[int] | None = None, diffi
     started = time.perf_counter()
     seconds: dict[str, float] = {name: 0.0 for name in named}
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        jobs = {pool.submit(_score_part, policy, level, difficulties, count, parts / f"{name}_L{level}.csv"): name
-                for name, policy in named.items() for level in levels}
+        jobs = {
+            pool.submit(_score_part, policy, level, difficulties, count, parts / f"{name}_L{level}.csv"): name
+            for name, policy in named.items()
+            for level in levels
+        }
         for job in jobs:
             part, spent = job.result()
             seconds[jobs[job]] += spent
@@ -91,8 +109,11 @@ def run(out: Path, demo_run: Path | None, levels: list[int] | None = None, diffi
     boards = {name: _read(path) for name, path in sorted(shown.items(), key=lambda item: _rank(item[0]))}
     write_atomic(out / "table.md", table_markdown(boards))
     write_heatmap(boards, levels, difficulties, out / "heatmap.png")
-    echo(f"baselines written to {out} in {wall / 60:.1f} min on {workers} workers ("
-         + ", ".join(f"{name} {spent / 60:.1f} min" for name, spent in seconds.items()) + " of worker time)")
+    echo(
+        f"baselines written to {out} in {wall / 60:.1f} min on {workers} workers ("
+        + ", ".join(f"{name} {spent / 60:.1f} min" for name, spent in seconds.items())
+        + " of worker time)"
+    )
     return scoreboards
 
 

@@ -19,6 +19,7 @@ calls; this module holds no simulator state of its own beyond each part's progre
   turn about the line through them (the L10 plank tips over its trench-side edge and lands across
   the trench).
 """
+
 from __future__ import annotations
 
 import math

@@ -19,6 +19,7 @@ a factor of two; the load average before and after every part is recorded with t
 - the peer: Gymnasium's MuJoCo Ant-v5 with random actions (needs the `bench` extra);
 - peak memory, and memory growth over 20,000 steps with a reset every 200.
 """
+
 from __future__ import annotations
 
 import json
@@ -65,8 +66,12 @@ def alternate(runners: dict[str, Callable[[], float]], rounds: int) -> dict[str,
 
 def summary(values: list[float]) -> dict:
     """The median of per-round values and their spread."""
-    return {"median": float(np.median(values)), "min": float(min(values)), "max": float(max(values)),
-            "rounds": [float(v) for v in values]}
+    return {
+        "median": float(np.median(values)),
+        "min": float(min(values)),
+        "max": float(max(values)),
+        "rounds": [float(v) for v in values],
+    }
 
 
 def per_round(numerator: list[float], denominator: list[float], minus_one: bool = False) -> list[float]:
@@ -116,8 +121,9 @@ class BareLoop:
         env.reset(seed=0)
         body = env.body
         self.steps = steps
-        self.targets = [t.tolist() for t in body.lower + (_actions(body.n_axes, steps) + 1.0) * 0.5
-                        * (body.upper - body.lower)]
+        self.targets = [
+            t.tolist() for t in body.lower + (_actions(body.n_axes, steps) + 1.0) * 0.5 * (body.upper - body.lower)
+        ]
         self.forces = [body.max_force] * body.n_axes
         self.kp, self.kd = [body.position_gain] * body.n_axes, [body.velocity_gain] * body.n_axes
 
@@ -126,9 +132,16 @@ class BareLoop:
         targets = self.targets[: steps or self.steps]
         started = time.perf_counter()
         for target in targets:
-            p.setJointMotorControlArray(body.id, body.joint_ids, p.POSITION_CONTROL, targetPositions=target,
-                                        forces=self.forces, positionGains=self.kp, velocityGains=self.kd,
-                                        physicsClientId=c)
+            p.setJointMotorControlArray(
+                body.id,
+                body.joint_ids,
+                p.POSITION_CONTROL,
+                targetPositions=target,
+                forces=self.forces,
+                positionGains=self.kp,
+                velocityGains=self.kd,
+                physicsClientId=c,
+            )
             p.stepSimulation(physicsClientId=c)
             p.getJointStates(body.id, body.joint_ids, physicsClientId=c)
         return len(targets) / (time.perf_counter() - started)
@@ -173,14 +186,19 @@ def level_rates(level: int, steps: int, rounds: int) -> dict:
     if runners["joints+rays"].env.rays._holes is not None:
         runners[NO_HOLE_CASTING] = EnvLoop(_without_hole_casting(_env(level, SENSOR_SETTINGS["joints+rays"])), steps)
     rates, machine_load = _run_group(runners, rounds)
-    ratios = {"joints / limit": per_round(rates["joints"], rates["limit"]),
-              "rays overhead": per_round(rates["joints"], rates["joints+rays"], minus_one=True),
-              "rays overhead, 2 threads": per_round(rates["joints"], rates[RAYS_TWO_THREADS], minus_one=True),
-              "wide rays overhead": per_round(rates["joints"], rates[WIDE_RAYS], minus_one=True)}
+    ratios = {
+        "joints / limit": per_round(rates["joints"], rates["limit"]),
+        "rays overhead": per_round(rates["joints"], rates["joints+rays"], minus_one=True),
+        "rays overhead, 2 threads": per_round(rates["joints"], rates[RAYS_TWO_THREADS], minus_one=True),
+        "wide rays overhead": per_round(rates["joints"], rates[WIDE_RAYS], minus_one=True),
+    }
     if NO_HOLE_CASTING in rates:
         ratios["cost of seeing holes"] = per_round(rates[NO_HOLE_CASTING], rates["joints+rays"], minus_one=True)
-    return {"rates": {name: summary(values) for name, values in rates.items()},
-            "ratios": {name: summary(values) for name, values in ratios.items()}, "load": machine_load}
+    return {
+        "rates": {name: summary(values) for name, values in rates.items()},
+        "ratios": {name: summary(values) for name, values in ratios.items()},
+        "load": machine_load,
+    }
 
 
 def reset_times_ms(level: int, resets: int) -> tuple[float, float]:
@@ -224,13 +242,23 @@ class VectorLoop:
 
 
 def workers_rates(steps_per_worker: int, rounds: int) -> dict:
-    runners = {"1": VectorLoop(1, steps_per_worker), "2": VectorLoop(2, steps_per_worker),
-               "4": VectorLoop(4, steps_per_worker), "2 in-process": VectorLoop(2, steps_per_worker, False)}
+    runners = {
+        "1": VectorLoop(1, steps_per_worker),
+        "2": VectorLoop(2, steps_per_worker),
+        "4": VectorLoop(4, steps_per_worker),
+        "2 in-process": VectorLoop(2, steps_per_worker, False),
+    }
     rates, machine_load = _run_group(runners, rounds)
-    ratios = {"2 workers / 1": per_round(rates["2"], rates["1"]), "4 workers / 1": per_round(rates["4"], rates["1"]),
-              "2 in-process / 2 workers": per_round(rates["2 in-process"], rates["2"])}
-    return {"rates": {name: summary(values) for name, values in rates.items()},
-            "ratios": {name: summary(values) for name, values in ratios.items()}, "load": machine_load}
+    ratios = {
+        "2 workers / 1": per_round(rates["2"], rates["1"]),
+        "4 workers / 1": per_round(rates["4"], rates["1"]),
+        "2 in-process / 2 workers": per_round(rates["2 in-process"], rates["2"]),
+    }
+    return {
+        "rates": {name: summary(values) for name, values in rates.items()},
+        "ratios": {name: summary(values) for name, values in ratios.items()},
+        "load": machine_load,
+    }
 
 
 class _AntLoop(EnvLoop):
@@ -249,11 +277,14 @@ def ant_rates(steps: int, rounds: int) -> dict | None:
         ant = _AntLoop(steps)
     except Exception:  # mujoco (the `bench` extra) is missing
         return None
-    rates, machine_load = _run_group({"L0 joints": EnvLoop(_env(0, SENSOR_SETTINGS["joints"]), steps),
-                                      "Ant-v5": ant}, rounds)
-    return {"rates": {name: summary(values) for name, values in rates.items()},
-            "ratios": {"L0 joints / Ant-v5": summary(per_round(rates["L0 joints"], rates["Ant-v5"]))},
-            "load": machine_load}
+    rates, machine_load = _run_group(
+        {"L0 joints": EnvLoop(_env(0, SENSOR_SETTINGS["joints"]), steps), "Ant-v5": ant}, rounds
+    )
+    return {
+        "rates": {name: summary(values) for name, values in rates.items()},
+        "ratios": {"L0 joints / Ant-v5": summary(per_round(rates["L0 joints"], rates["Ant-v5"]))},
+        "load": machine_load,
+    }
 
 
 # --- training against the environment alone ---------------------------------------------------
@@ -352,26 +383,38 @@ def training_rates(steps: int, rounds: int, config: dict | None = None, ppo: boo
     train = config["train"]
     in_process = runs_in_process(train["vector"], train["num_envs"])
     with tempfile.TemporaryDirectory(prefix="aaai-bench-") as folder:
-        runners: dict = {"env alone, in-process": _VecLoop(config, False, steps),
-                         "env alone, worker processes": _VecLoop(config, True, steps),
-                         "random agent": _VecLoop(config, None, steps, Path(folder) / "random")}
+        runners: dict = {
+            "env alone, in-process": _VecLoop(config, False, steps),
+            "env alone, worker processes": _VecLoop(config, True, steps),
+            "random agent": _VecLoop(config, None, steps, Path(folder) / "random"),
+        }
         if ppo:
             runners["PPO"] = _PPOLoop(config, steps, Path(folder) / "ppo")
         rates, machine_load = _run_group(runners, rounds)
     same = "env alone, in-process" if in_process else "env alone, worker processes"
     best = [max(a, b) for a, b in zip(rates["env alone, in-process"], rates["env alone, worker processes"])]
-    ratios = {"random agent / env alone": per_round(rates["random agent"], rates[same]),
-              "random agent / env alone (best)": per_round(rates["random agent"], best)}
+    ratios = {
+        "random agent / env alone": per_round(rates["random agent"], rates[same]),
+        "random agent / env alone (best)": per_round(rates["random agent"], best),
+    }
     if ppo:
         ratios["PPO / env alone"] = per_round(rates["PPO"], rates[same])
         ratios["PPO / env alone (best)"] = per_round(rates["PPO"], best)
     sensors = [name for name, on in config["sensors"].items() if on is True]
-    return {"config": {"num_envs": train["num_envs"], "vector": train["vector"],
-                       "runs": "in-process" if in_process else "worker processes", "n_steps": train["n_steps"],
-                       "levels": sorted(config["curriculum"]["levels"]),
-                       "difficulties": sorted(config["curriculum"]["difficulties"]), "sensors": sensors},
-            "rates": {name: summary(values) for name, values in rates.items()},
-            "ratios": {name: summary(values) for name, values in ratios.items()}, "load": machine_load}
+    return {
+        "config": {
+            "num_envs": train["num_envs"],
+            "vector": train["vector"],
+            "runs": "in-process" if in_process else "worker processes",
+            "n_steps": train["n_steps"],
+            "levels": sorted(config["curriculum"]["levels"]),
+            "difficulties": sorted(config["curriculum"]["difficulties"]),
+            "sensors": sensors,
+        },
+        "rates": {name: summary(values) for name, values in rates.items()},
+        "ratios": {name: summary(values) for name, values in ratios.items()},
+        "load": machine_load,
+    }
 
 
 # --- memory ---------------------------------------------------------------------------------
@@ -401,16 +444,33 @@ def memory_growth(steps: int = 20000, reset_every: int = 200) -> dict:
 
 
 # --- the whole run ----------------------------------------------------------------------------
-def run(levels: list[int] | None = None, steps: int = 1000, rounds: int = 5, resets: int = 50,
-        worker_steps: int = 1000, train_steps: int = 4096, memory_steps: int = 20000, train_config: dict | None = None,
-        log=print) -> dict:
+def run(
+    levels: list[int] | None = None,
+    steps: int = 1000,
+    rounds: int = 5,
+    resets: int = 50,
+    worker_steps: int = 1000,
+    train_steps: int = 4096,
+    memory_steps: int = 20000,
+    train_config: dict | None = None,
+    log=print,
+) -> dict:
     """Every figure; ``steps`` (per figure and round), ``worker_steps`` (per worker and round) and
     ``train_steps`` (per round; 0 leaves training out) set the size of each timed chunk;
     ``train_config`` overrides the shipped config for the training row."""
     levels = levels if levels is not None else list(all_levels())
-    results: dict = {"machine": _machine(), "load": {"before": load()},
-                     "settings": {"rounds": rounds, "steps": steps, "resets": resets, "worker_steps": worker_steps,
-                                  "train_steps": train_steps, "memory_steps": memory_steps}}
+    results: dict = {
+        "machine": _machine(),
+        "load": {"before": load()},
+        "settings": {
+            "rounds": rounds,
+            "steps": steps,
+            "resets": resets,
+            "worker_steps": worker_steps,
+            "train_steps": train_steps,
+            "memory_steps": memory_steps,
+        },
+    }
     log("memory ...")  # first: the peak is this process's, before anything else is built
     results["memory"] = memory_growth(memory_steps)
     results["levels"] = {}
@@ -444,8 +504,12 @@ def ratios(results: dict) -> dict:
 
 
 def _machine() -> dict:
-    return {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-            "cpus": os.cpu_count(), "versions": package_versions()}
+    return {
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpus": os.cpu_count(),
+        "versions": package_versions(),
+    }
 
 
 def _rate(figure: dict) -> str:
@@ -461,60 +525,88 @@ def _ratio(figure: dict, percent: bool = False) -> str:
 
 def markdown(results: dict) -> str:
     m, settings = results["machine"], results["settings"]
-    lines = [f"Machine: {m['platform']}, {m['cpus']} CPUs; Python {m['versions']['python']}, "
-             f"pybullet {m['versions']['pybullet']}. Settings: {settings}. Load average (1, 5, 15 min): "
-             f"{results['load']['before']} before, {results['load']['after']} after.", "",
-             f"Steps per second (medians over {settings['rounds']} alternated rounds); ratios as median "
-             "(min..max) of the per-round ratios.", "",
-             "| level | limit | joints | joints / limit | +rays | rays overhead | rays overhead, rayTestBatch on 2 "
-             "threads | +cam 64 RGB | +cam 84 gray | reset median ms | reset p95 ms |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        f"Machine: {m['platform']}, {m['cpus']} CPUs; Python {m['versions']['python']}, "
+        f"pybullet {m['versions']['pybullet']}. Settings: {settings}. Load average (1, 5, 15 min): "
+        f"{results['load']['before']} before, {results['load']['after']} after.",
+        "",
+        f"Steps per second (medians over {settings['rounds']} alternated rounds); ratios as median "
+        "(min..max) of the per-round ratios.",
+        "",
+        "| level | limit | joints | joints / limit | +rays | rays overhead | rays overhead, rayTestBatch on 2 "
+        "threads | +cam 64 RGB | +cam 84 gray | reset median ms | reset p95 ms |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
     holes = []
     for label, level in results["levels"].items():
         rates, level_ratios = level["rates"], level["ratios"]
-        lines.append(f"| {label} | {_rate(rates['limit'])} | {_rate(rates['joints'])} | "
-                     f"{_ratio(level_ratios['joints / limit'])} | {_rate(rates['joints+rays'])} | "
-                     f"{_ratio(level_ratios['rays overhead'], True)} | "
-                     f"{_ratio(level_ratios['rays overhead, 2 threads'], True)} | {_rate(rates['joints+cam64rgb'])} | "
-                     f"{_rate(rates['joints+cam84gray'])} | {level['reset_ms']['median']:.1f} | "
-                     f"{level['reset_ms']['p95']:.1f} |")
+        lines.append(
+            f"| {label} | {_rate(rates['limit'])} | {_rate(rates['joints'])} | "
+            f"{_ratio(level_ratios['joints / limit'])} | {_rate(rates['joints+rays'])} | "
+            f"{_ratio(level_ratios['rays overhead'], True)} | "
+            f"{_ratio(level_ratios['rays overhead, 2 threads'], True)} | {_rate(rates['joints+cam64rgb'])} | "
+            f"{_rate(rates['joints+cam84gray'])} | {level['reset_ms']['median']:.1f} | "
+            f"{level['reset_ms']['p95']:.1f} |"
+        )
         if "cost of seeing holes" in level_ratios:
-            holes.append(f"- {label} rays seeing holes: {_rate(rates['joints+rays'])} steps/s; the same rays without "
-                         f"the hole casting: {_rate(rates[NO_HOLE_CASTING])} steps/s "
-                         f"({_ratio(level_ratios['cost of seeing holes'], True)} for seeing holes)")
+            holes.append(
+                f"- {label} rays seeing holes: {_rate(rates['joints+rays'])} steps/s; the same rays without "
+                f"the hole casting: {_rate(rates[NO_HOLE_CASTING])} steps/s "
+                f"({_ratio(level_ratios['cost of seeing holes'], True)} for seeing holes)"
+            )
     lines += [""] + holes + ([""] if holes else [])
-    wide = [f"{label} {_ratio(level['ratios']['wide rays overhead'], True)}" for label, level in results["levels"].items()
-            if "wide rays overhead" in level["ratios"]]
+    wide = [
+        f"{label} {_ratio(level['ratios']['wide rays overhead'], True)}"
+        for label, level in results["levels"].items()
+        if "wide rays overhead" in level["ratios"]
+    ]
     if wide:
-        lines += ["- Rays 1.0 wide (sensors.ray_width 1.0, three casts a ray), overhead over joints-only: "
-                  + ", ".join(wide), ""]
+        lines += [
+            "- Rays 1.0 wide (sensors.ray_width 1.0, three casts a ray), overhead over joints-only: " + ", ".join(wide),
+            "",
+        ]
     workers = results["workers"]
     w_rates, w_ratios = workers["rates"], workers["ratios"]
-    lines += [f"- Workers (L0 joints, AsyncVectorEnv): 1: {_rate(w_rates['1'])}, 2: {_rate(w_rates['2'])}, "
-              f"4: {_rate(w_rates['4'])} steps/s; 2 in-process (SyncVectorEnv): {_rate(w_rates['2 in-process'])}; "
-              f"2 / 1 = {_ratio(w_ratios['2 workers / 1'])}, 4 / 1 = {_ratio(w_ratios['4 workers / 1'])}, "
-              f"2 in-process / 2 workers = {_ratio(w_ratios['2 in-process / 2 workers'])}"]
+    lines += [
+        f"- Workers (L0 joints, AsyncVectorEnv): 1: {_rate(w_rates['1'])}, 2: {_rate(w_rates['2'])}, "
+        f"4: {_rate(w_rates['4'])} steps/s; 2 in-process (SyncVectorEnv): {_rate(w_rates['2 in-process'])}; "
+        f"2 / 1 = {_ratio(w_ratios['2 workers / 1'])}, 4 / 1 = {_ratio(w_ratios['4 workers / 1'])}, "
+        f"2 in-process / 2 workers = {_ratio(w_ratios['2 in-process / 2 workers'])}"
+    ]
     training = results.get("training")
     if training:
         c, t_rates, t_ratios = training["config"], training["rates"], training["ratios"]
-        lines += ["", f"Training ({c['num_envs']} workers, train.vector {c['vector']}: "
-                      f"{c['runs']}; levels {c['levels']}, difficulties {c['difficulties']}; sensors "
-                      f"{', '.join(c['sensors'])}; load {training['load']['before']} -> {training['load']['after']}):", "",
-                  "| | steps/s (median, min..max) | / env alone, same vector env | / env alone, the faster |",
-                  "|---|---:|---:|---:|"]
+        lines += [
+            "",
+            f"Training ({c['num_envs']} workers, train.vector {c['vector']}: "
+            f"{c['runs']}; levels {c['levels']}, difficulties {c['difficulties']}; sensors "
+            f"{', '.join(c['sensors'])}; load {training['load']['before']} -> {training['load']['after']}):",
+            "",
+            "| | steps/s (median, min..max) | / env alone, same vector env | / env alone, the faster |",
+            "|---|---:|---:|---:|",
+        ]
         for name, figure in t_rates.items():
             same = t_ratios.get(f"{name} / env alone")
             best = t_ratios.get(f"{name} / env alone (best)")
-            lines.append(f"| {name} | {figure['median']:.0f} ({figure['min']:.0f}..{figure['max']:.0f}) | "
-                         f"{_ratio(same) if same else ''} | {_ratio(best) if best else ''} |")
+            lines.append(
+                f"| {name} | {figure['median']:.0f} ({figure['min']:.0f}..{figure['max']:.0f}) | "
+                f"{_ratio(same) if same else ''} | {_ratio(best) if best else ''} |"
+            )
     ant = results["ant_v5"]
     memory = results["memory"]
-    lines += ["", "- Ant-v5 (MuJoCo, random actions): " + (
-        f"{_rate(ant['rates']['Ant-v5'])} steps/s; L0 joints / Ant-v5 = {_ratio(ant['ratios']['L0 joints / Ant-v5'])}"
-        if ant else "not measured (install the bench extra)"),
+    lines += [
+        "",
+        "- Ant-v5 (MuJoCo, random actions): "
+        + (
+            f"{_rate(ant['rates']['Ant-v5'])} steps/s; "
+            f"L0 joints / Ant-v5 = {_ratio(ant['ratios']['L0 joints / Ant-v5'])}"
+            if ant
+            else "not measured (install the bench extra)"
+        ),
         f"- Memory: peak {memory['peak_mb']:.0f} MB; RSS {memory['rss_before_mb']:.1f} -> "
         f"{memory['rss_after_mb']:.1f} MB over {settings['memory_steps']} steps with a reset "
-        f"every 200 ({100 * memory['growth']:+.1f}%)"]
+        f"every 200 ({100 * memory['growth']:+.1f}%)",
+    ]
     return "\n".join(lines) + "\n"
 
 

@@ -15,6 +15,7 @@ without the scoring. The folder (default experiments/competence/) gets:
 Re-running continues: a finished run is kept, an unfinished one resumes, scored checkpoints are
 skipped. Wall-clock figures depend on the machine and its load; the file says which.
 """
+
 from __future__ import annotations
 
 import csv
@@ -46,9 +47,15 @@ class CompetenceSettings:
 
 
 def run_config(settings: CompetenceSettings, mode: str) -> dict:
-    return load_config(None, action_mode=mode, levels=settings.levels, difficulties=settings.difficulties,
-                       total_steps=settings.budgets[mode], checkpoint_every=settings.checkpoint_every[mode],
-                       seed=settings.seed)
+    return load_config(
+        None,
+        action_mode=mode,
+        levels=settings.levels,
+        difficulties=settings.difficulties,
+        total_steps=settings.budgets[mode],
+        checkpoint_every=settings.checkpoint_every[mode],
+        seed=settings.seed,
+    )
 
 
 def train_mode(folder: Path, settings: CompetenceSettings, mode: str, echo: Callable[[str], None]) -> RunFolder:
@@ -76,25 +83,40 @@ def checkpoints(run: RunFolder) -> list[tuple[int, Path]]:
 
 def score_mode(run: RunFolder, settings: CompetenceSettings, mode: str, echo: Callable[[str], None]) -> list[dict]:
     config = load_config(run.read_config())
-    cells = cells_for(config["curriculum"]["levels"], config["curriculum"]["difficulties"], "reserved",
-                      settings.seeds_per_cell)
+    cells = cells_for(
+        config["curriculum"]["levels"], config["curriculum"]["difficulties"], "reserved", settings.seeds_per_cell
+    )
     started = os.stat(run.config_path).st_mtime
-    hold = round(config["agent"]["decision_interval"] / (config["physics"]["timestep"] * config["physics"]["action_repeat"])) \
-        if mode == "gait" else 1
+    hold = (
+        round(
+            config["agent"]["decision_interval"] / (config["physics"]["timestep"] * config["physics"]["action_repeat"])
+        )
+        if mode == "gait"
+        else 1
+    )
     rows = []
     for step, point in checkpoints(run):
         board = run.path / f"scoreboard_{step:09d}.csv"
         scored = evaluate(str(point / "model.zip"), cells, board, config)
         passed = sum(row["outcome"] != "failed" for row in scored)
-        rows.append({"mode": mode, "decisions": step, "control_steps": step * hold,
-                     "seconds": round(os.stat(point / "state.json").st_mtime - started, 1),
-                     "passed": passed, "episodes": len(scored), "pass_rate": round(passed / len(scored), 4)})
+        rows.append(
+            {
+                "mode": mode,
+                "decisions": step,
+                "control_steps": step * hold,
+                "seconds": round(os.stat(point / "state.json").st_mtime - started, 1),
+                "passed": passed,
+                "episodes": len(scored),
+                "pass_rate": round(passed / len(scored), 4),
+            }
+        )
         echo(f"  {mode} at {step} decisions: {passed}/{len(scored)} passed")
     return rows
 
 
-def run_experiment(folder: str | Path, settings: CompetenceSettings | None = None,
-                   echo: Callable[[str], None] = print) -> Path:
+def run_experiment(
+    folder: str | Path, settings: CompetenceSettings | None = None, echo: Callable[[str], None] = print
+) -> Path:
     settings = settings or CompetenceSettings()
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -112,14 +134,26 @@ def run_experiment(folder: str | Path, settings: CompetenceSettings | None = Non
 
 
 def table_markdown(rows: list[dict], settings: CompetenceSettings) -> str:
-    lines = [f"| action mode | budget (agent decisions) | first checkpoint passing {100 * settings.target:.0f} % "
-             "| control steps | training wall time | best pass rate |", "|---|---:|---|---:|---:|---:|"]
+    lines = [
+        f"| action mode | budget (agent decisions) | first checkpoint passing {100 * settings.target:.0f} % "
+        "| control steps | training wall time | best pass rate |",
+        "|---|---:|---|---:|---:|---:|",
+    ]
     for mode in settings.budgets:
         mine = [r for r in rows if r["mode"] == mode]
         first = next((r for r in mine if r["pass_rate"] >= settings.target), None)
         best = max(mine, key=lambda r: r["pass_rate"]) if mine else None
-        reached = (f"{first['decisions']:,} decisions ({first['passed']}/{first['episodes']})", f"{first['control_steps']:,}",
-                   f"{first['seconds']:.0f} s") if first else ("not reached", "-", "-")
+        reached = (
+            (
+                f"{first['decisions']:,} decisions ({first['passed']}/{first['episodes']})",
+                f"{first['control_steps']:,}",
+                f"{first['seconds']:.0f} s",
+            )
+            if first
+            else ("not reached", "-", "-")
+        )
         best_text = f"{100 * best['pass_rate']:.0f} % at {best['decisions']:,}" if best else "-"
-        lines.append(f"| {mode} | {settings.budgets[mode]:,} | {reached[0]} | {reached[1]} | {reached[2]} | {best_text} |")
+        lines.append(
+            f"| {mode} | {settings.budgets[mode]:,} | {reached[0]} | {reached[1]} | {reached[2]} | {best_text} |"
+        )
     return "\n".join(lines) + "\n"

@@ -3,6 +3,7 @@
 Every value is checked against RULES; a bad key or value raises ConfigError with one
 message that names the key, the value and what is allowed.
 """
+
 from __future__ import annotations
 
 import copy
@@ -68,8 +69,10 @@ class Rule:
             known = _level_ids()
             missing = [v for v in (checked if isinstance(checked, list) else [checked]) if v not in known]
             if missing:
-                raise ConfigError(f"config key '{key}': got {value!r}, and level {missing[0]} does not exist; "
-                                  f"allowed: registered level ids {describe_ids(known)}")
+                raise ConfigError(
+                    f"config key '{key}': got {value!r}, and level {missing[0]} does not exist; "
+                    f"allowed: registered level ids {describe_ids(known)}"
+                )
         return checked
 
     def _check(self, key: str, value: Any) -> Any:
@@ -256,7 +259,9 @@ def read_yaml(path: str | Path) -> dict:
     try:
         text = path.read_bytes().decode("utf-8")
     except UnicodeDecodeError as error:
-        raise ConfigError(f"config file {str(path)!r} is not UTF-8 text ({error.reason} at byte {error.start})") from None
+        raise ConfigError(
+            f"config file {str(path)!r} is not UTF-8 text ({error.reason} at byte {error.start})"
+        ) from None
     try:
         data = yaml.load(text, Loader=_PlainLoader)
     except yaml.YAMLError as error:

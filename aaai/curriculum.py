@@ -25,6 +25,7 @@ is drawn uniformly among the cells drawn least (episodes under way count as draw
 every cell has ``warmup`` results. With ``warmup=0``, ``paper`` is the paper's sampler bit for
 bit. Probabilities are recomputed before every episode.
 """
+
 from __future__ import annotations
 
 from collections import deque
@@ -67,10 +68,20 @@ def rank_weights(scores: np.ndarray, temperature: float) -> np.ndarray:
 
 
 class Curriculum:
-    def __init__(self, levels: list[int], difficulties: list[int], mode: str = "curriculum",
-                 window: int = 10, c: float = 0.05, spread: str = "std", seed: int = 0,
-                 sampler: str = "paper", warmup: int = 0, plr_temperature: float = 0.3,
-                 plr_staleness: float = 0.3):
+    def __init__(
+        self,
+        levels: list[int],
+        difficulties: list[int],
+        mode: str = "curriculum",
+        window: int = 10,
+        c: float = 0.05,
+        spread: str = "std",
+        seed: int = 0,
+        sampler: str = "paper",
+        warmup: int = 0,
+        plr_temperature: float = 0.3,
+        plr_staleness: float = 0.3,
+    ):
         if mode not in ("curriculum", "random"):
             raise ValueError(f"curriculum mode: got {mode!r}; allowed: curriculum, random")
         if spread not in ("std", "variance"):
@@ -95,9 +106,19 @@ class Curriculum:
     @classmethod
     def from_config(cls, config: dict) -> "Curriculum":
         cur = config["curriculum"]
-        return cls(cur["levels"], cur["difficulties"], cur["mode"], cur["window"], cur["c"], cur["spread"],
-                   seed=config["train"]["seed"], sampler=cur["sampler"], warmup=cur["warmup"],
-                   plr_temperature=cur["plr_temperature"], plr_staleness=cur["plr_staleness"])
+        return cls(
+            cur["levels"],
+            cur["difficulties"],
+            cur["mode"],
+            cur["window"],
+            cur["c"],
+            cur["spread"],
+            seed=config["train"]["seed"],
+            sampler=cur["sampler"],
+            warmup=cur["warmup"],
+            plr_temperature=cur["plr_temperature"],
+            plr_staleness=cur["plr_staleness"],
+        )
 
     # --- statistics -----------------------------------------------------------------
     def z_scores(self) -> np.ndarray:
@@ -183,12 +204,19 @@ class Curriculum:
     def state_dict(self) -> dict:
         return {
             "cells": [list(cell) for cell in self.cells],
-            "mode": self.mode, "sampler": self.sampler, "window": self.window, "c": self.c, "spread": self.spread,
-            "warmup": self.warmup, "plr_temperature": self.plr_temperature, "plr_staleness": self.plr_staleness,
+            "mode": self.mode,
+            "sampler": self.sampler,
+            "window": self.window,
+            "c": self.c,
+            "spread": self.spread,
+            "warmup": self.warmup,
+            "plr_temperature": self.plr_temperature,
+            "plr_staleness": self.plr_staleness,
             "returns": [list(self.returns[cell]) for cell in self.cells],
             "passes": [list(self.passes[cell]) for cell in self.cells],
             "episodes": [self.episodes[cell] for cell in self.cells],
-            "drawn": self.drawn.tolist(), "last_drawn": self.last_drawn.tolist(),
+            "drawn": self.drawn.tolist(),
+            "last_drawn": self.last_drawn.tolist(),
             "rng": self.rng.bit_generator.state,
         }
 
@@ -227,8 +255,13 @@ class Curriculum:
 CELL_PX, MARGIN_PX = 44, 40
 
 
-def heatmap_panel(title: str, values: np.ndarray, cells: list[Cell], limits: tuple[float, float] | None = None,
-                  text: list[str] | None = None) -> np.ndarray:
+def heatmap_panel(
+    title: str,
+    values: np.ndarray,
+    cells: list[Cell],
+    limits: tuple[float, float] | None = None,
+    text: list[str] | None = None,
+) -> np.ndarray:
     """One picture of a value per (level, difficulty) cell: rows levels, columns difficulties,
     coloured from ``limits`` (default: the values' own range), each cell labelled with its
     value (or with ``text``)."""
@@ -251,12 +284,29 @@ def heatmap_panel(title: str, values: np.ndarray, cells: list[Cell], limits: tup
         else:
             colour, label = [220, 220, 220], "-"
         cv2.rectangle(image, (x, y), (x + CELL_PX - 2, y + CELL_PX - 2), colour, -1)
-        cv2.putText(image, label, (x + 2, y + CELL_PX // 2 + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.33, (255, 255, 255), 1,
-                    cv2.LINE_AA)
+        cv2.putText(
+            image, label, (x + 2, y + CELL_PX // 2 + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.33, (255, 255, 255), 1, cv2.LINE_AA
+        )
     for row, level in enumerate(levels):
-        cv2.putText(image, get_level(level).label, (4, MARGIN_PX + row * CELL_PX + CELL_PX // 2 + 4),
-                    cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(
+            image,
+            get_level(level).label,
+            (4, MARGIN_PX + row * CELL_PX + CELL_PX // 2 + 4),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.4,
+            (0, 0, 0),
+            1,
+            cv2.LINE_AA,
+        )
     for col, d in enumerate(difficulties):
-        cv2.putText(image, f"d{d}", (MARGIN_PX + col * CELL_PX + 8, MARGIN_PX - 6),
-                    cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(
+            image,
+            f"d{d}",
+            (MARGIN_PX + col * CELL_PX + 8, MARGIN_PX - 6),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.4,
+            (0, 0, 0),
+            1,
+            cv2.LINE_AA,
+        )
     return image

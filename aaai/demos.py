@@ -11,6 +11,7 @@ episodes in batches, so an interrupted recording resumes where it stopped.
     aaai demos --policy reference --levels 0-12 --difficulty 0-10 -k 2 --action-mode gait --out demos
     MINARI_DATASETS_PATH=demos python -c "import minari; print(minari.load_dataset('aaai/reference-v0'))"
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -73,13 +74,26 @@ def record_episode(env, policy: Callable, level: int, difficulty: int, seed: int
     terminations = [False] * (len(actions) - 1) + [result.terminated]
     truncations = [False] * (len(actions) - 1) + [result.truncated]
     stacked = {key: np.stack([o[key] for o in observations]) for key in observations[0]}
-    return EpisodeBuffer(id=episode_id, seed=seed, options=options, observations=stacked,
-                         actions=np.stack(actions), rewards=rewards, terminations=terminations,
-                         truncations=truncations)
+    return EpisodeBuffer(
+        id=episode_id,
+        seed=seed,
+        options=options,
+        observations=stacked,
+        actions=np.stack(actions),
+        rewards=rewards,
+        terminations=terminations,
+        truncations=truncations,
+    )
 
 
-def record(policy_name: str, episodes: list[tuple[int, int, int]], out: Path, config: dict,
-           dataset_id: str | None = None, on_episode: Callable[[int], None] | None = None) -> str:
+def record(
+    policy_name: str,
+    episodes: list[tuple[int, int, int]],
+    out: Path,
+    config: dict,
+    dataset_id: str | None = None,
+    on_episode: Callable[[int], None] | None = None,
+) -> str:
     """Records ``episodes`` ((level, difficulty, seed) each) of the policy into the Minari dataset
     ``dataset_id`` under ``out``; resumes a dataset of the same id there (its first episodes must
     be the plan's). Returns the dataset id."""
@@ -110,10 +124,15 @@ def record(policy_name: str, episodes: list[tuple[int, int, int]], out: Path, co
                         with warnings.catch_warnings():  # Minari asks for an e-mail and a code link: not ours to give
                             warnings.simplefilter("ignore", UserWarning)
                             dataset = minari.create_dataset_from_buffers(
-                                dataset_id, buffer, env=env, algorithm_name=policy_name, data_format="arrow",
+                                dataset_id,
+                                buffer,
+                                env=env,
+                                algorithm_name=policy_name,
+                                data_format="arrow",
                                 description=f"aaai: episodes of the policy {policy_name!r}; each episode's metadata "
-                                            "holds its seed and options (level, difficulty)",
-                                author="aaai demos")
+                                "holds its seed and options (level, difficulty)",
+                                author="aaai demos",
+                            )
                     else:
                         dataset.update_dataset_from_buffer(buffer)
                     buffer = []
@@ -129,8 +148,10 @@ def _check_prefix(dataset, episodes: list[tuple[int, int, int]], dataset_id: str
         options = meta.get("options") or {}
         found = (options.get("level"), options.get("difficulty"), meta.get("seed"))
         if index >= len(episodes) or found != episodes[index]:
-            raise ConfigError(f"--out: dataset {dataset_id!r} already holds episode {index} = (level, difficulty, seed) "
-                              f"{found}, which this recording would not make; choose another --out or --dataset-id")
+            raise ConfigError(
+                f"--out: dataset {dataset_id!r} already holds episode {index} = (level, difficulty, seed) "
+                f"{found}, which this recording would not make; choose another --out or --dataset-id"
+            )
     return len(metadata)
 
 

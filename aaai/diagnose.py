@@ -15,6 +15,7 @@ what the rays showed and where the body was, to sort the failure into one first 
 ``aaai diagnose --policy RUN --scoreboard CSV [--levels …]`` prints the table per level; the docs'
 Learned agents page quotes it.
 """
+
 from __future__ import annotations
 
 import csv
@@ -56,12 +57,17 @@ def food_in_view(observation: dict) -> bool:
 def replay_failure(env: AnimalAIEnv, policy, row: dict) -> Failure:
     level, difficulty, seed = int(row["level"]), int(row["difficulty"]), int(row["seed"])
     seen: list[bool] = []
-    result = play(env, policy, seed, options={"level": level, "difficulty": difficulty},
-                  on_reset=lambda observation, info: seen.append(food_in_view(observation)),
-                  on_step=lambda step, observation, reward, info: seen.append(food_in_view(observation)))
+    result = play(
+        env,
+        policy,
+        seed,
+        options={"level": level, "difficulty": difficulty},
+        on_reset=lambda observation, info: seen.append(food_in_view(observation)),
+        on_step=lambda step, observation, reward, info: seen.append(food_in_view(observation)),
+    )
     info = result.info
     seen_array = np.array(seen)
-    late = seen_array[len(seen_array) * 2 // 3:]
+    late = seen_array[len(seen_array) * 2 // 3 :]
     if info["fell"]:
         cause = "fell"
     elif info["food_eaten"] > 0:
@@ -72,18 +78,23 @@ def replay_failure(env: AnimalAIEnv, policy, row: dict) -> Failure:
         cause = "lost sight"
     else:
         cause = "saw, did not reach"
-    return Failure(level, difficulty, seed, cause, float(seen_array.mean()), int(info["food_eaten"]),
-                   int(info["wall_hits"]))
+    return Failure(
+        level, difficulty, seed, cause, float(seen_array.mean()), int(info["food_eaten"]), int(info["wall_hits"])
+    )
 
 
-def diagnose(policy_name: str, scoreboard: Path, config: dict, levels: list[int] | None = None,
-             limit: int | None = None) -> list[Failure]:
+def diagnose(
+    policy_name: str, scoreboard: Path, config: dict, levels: list[int] | None = None, limit: int | None = None
+) -> list[Failure]:
     """Replays the failed rows of ``scoreboard`` (of ``levels``; at most ``limit`` per level)."""
     from aaai.evaluation import load_policy
 
     with open(scoreboard, newline="") as handle:
-        rows = [r for r in csv.DictReader(handle) if r["outcome"] == "failed" and not r.get("arena")
-                and (levels is None or int(r["level"]) in levels)]
+        rows = [
+            r
+            for r in csv.DictReader(handle)
+            if r["outcome"] == "failed" and not r.get("arena") and (levels is None or int(r["level"]) in levels)
+        ]
     if limit is not None:
         kept, count = [], Counter()
         for row in rows:
@@ -102,12 +113,16 @@ def diagnose(policy_name: str, scoreboard: Path, config: dict, levels: list[int]
 def table_markdown(failures: list[Failure]) -> str:
     from aaai.levels import get_level
 
-    lines = ["| level | failed episodes replayed | " + " | ".join(CAUSES) + " | food in view (share of decisions) |",
-             "|---|---:|" + "---:|" * len(CAUSES) + "---:|"]
+    lines = [
+        "| level | failed episodes replayed | " + " | ".join(CAUSES) + " | food in view (share of decisions) |",
+        "|---|---:|" + "---:|" * len(CAUSES) + "---:|",
+    ]
     for level in sorted({f.level for f in failures}):
         mine = [f for f in failures if f.level == level]
         counts = Counter(f.cause for f in mine)
-        lines.append(f"| {get_level(level).label} {get_level(level).name} | {len(mine)} | "
-                     + " | ".join(str(counts[c]) for c in CAUSES)
-                     + f" | {100 * np.mean([f.seen_share for f in mine]):.0f}% |")
+        lines.append(
+            f"| {get_level(level).label} {get_level(level).name} | {len(mine)} | "
+            + " | ".join(str(counts[c]) for c in CAUSES)
+            + f" | {100 * np.mean([f.seen_share for f in mine]):.0f}% |"
+        )
     return "\n".join(lines) + "\n"

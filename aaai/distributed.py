@@ -21,6 +21,7 @@ Ray's token authentication is opted out of (``RAY_AUTH_MODE=disabled``, unless t
 already): otherwise ``ray.init`` writes a token to ``~/.ray/auth_token``. To join a cluster that
 uses tokens, set ``RAY_AUTH_MODE=token`` yourself.
 """
+
 from __future__ import annotations
 
 import csv
@@ -35,8 +36,21 @@ from pathlib import Path
 from typing import Any, Callable
 
 from aaai.config import ConfigError, env_part
-from aaai.evaluation import (COLUMNS, Cell, Scoreboard, check_record, columns_of, episode_plan, load_policy, policy_factory,
-                             policy_record, run_episode, scored_episodes, scoring_record, write_error)
+from aaai.evaluation import (
+    COLUMNS,
+    Cell,
+    Scoreboard,
+    check_record,
+    columns_of,
+    episode_plan,
+    load_policy,
+    policy_factory,
+    policy_record,
+    run_episode,
+    scored_episodes,
+    scoring_record,
+    write_error,
+)
 from aaai.files import write_atomic
 from aaai.ray_session import RaySession
 from aaai.rllib_learner import run_backend
@@ -51,6 +65,7 @@ Key = tuple[int, int, int]  # (level, difficulty, seed)
 @dataclass(frozen=True)
 class PolicySpec:
     """What a task needs to rebuild the policy: a name load_policy takes, or a model's bytes (by reference)."""
+
     name: str  # 'random', 'reference', 'gait', 'module:callable'; or 'model' with ``model`` set
     model_sha256: str | None = None
     model: Any = None  # [ObjectRef] of the model file's bytes (in a list: Ray resolves bare refs)
@@ -69,8 +84,10 @@ def policy_spec(policy: str, put: Callable[[bytes], Any] | None = None, trust: b
     if policy in BUILTIN_POLICIES:
         return PolicySpec(policy)
     if Path(policy).is_dir() and run_backend(policy) == "rllib":
-        raise ConfigError(f"--policy: {policy!r} is an RLlib run; --backend ray scores stable-baselines3 models, "
-                          "the built-in policies and module:callable; score an RLlib run with --backend local")
+        raise ConfigError(
+            f"--policy: {policy!r} is an RLlib run; --backend ray scores stable-baselines3 models, "
+            "the built-in policies and module:callable; score an RLlib run with --backend local"
+        )
     model = policy_record(policy, "list").get("model")  # the model file; a missing or damaged one is refused
     if model is not None:
         data = Path(model).read_bytes()
@@ -148,10 +165,20 @@ def _format_rows(rows: list[dict], header: bool, columns: list[str] = COLUMNS) -
     return text.getvalue()
 
 
-def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: dict, address: str | None = None,
-                    workers: int = 2, on_episode: Callable[[dict], None] | None = None, record: dict | None = None,
-                    max_retries: int = DEFAULT_RETRIES, episodes_per_task: int = 1,
-                    on_task: Callable[[list[dict], dict], None] | None = None, trust: bool = False) -> list[dict]:
+def evaluate_on_ray(
+    policy_name: str,
+    cells: list[Cell],
+    output: Path,
+    config: dict,
+    address: str | None = None,
+    workers: int = 2,
+    on_episode: Callable[[dict], None] | None = None,
+    record: dict | None = None,
+    max_retries: int = DEFAULT_RETRIES,
+    episodes_per_task: int = 1,
+    on_task: Callable[[list[dict], dict], None] | None = None,
+    trust: bool = False,
+) -> list[dict]:
     """:func:`aaai.evaluation.evaluate` with its episodes played as Ray tasks; same arguments, same result.
 
     ``address``: None starts a local Ray of ``workers`` CPUs for this call (and stops it after);
@@ -163,8 +190,11 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
     Returns every row of the scoreboard (those there before, then this run's in cell and seed order),
     as strings, as ``evaluate`` does.
     """
-    for name, value, least in (("workers", workers, 1), ("episodes_per_task", episodes_per_task, 1),
-                               ("max_retries", max_retries, 0)):
+    for name, value, least in (
+        ("workers", workers, 1),
+        ("episodes_per_task", episodes_per_task, 1),
+        ("max_retries", max_retries, 0),
+    ):
         if not isinstance(value, int) or value < least:
             raise ConfigError(f"{name}: got {value!r}; allowed: a whole number, {least} or more")
     output = Path(output)
@@ -189,9 +219,10 @@ def evaluate_on_ray(policy_name: str, cells: list[Cell], output: Path, config: d
 
         spec = policy_spec(policy_name, put=ray.put, trust=trust)
         config_ref = ray.put(config)
-        task = ray.remote(play_episodes).options(num_cpus=1, max_retries=max_retries, retry_exceptions=False,
-                                                 scheduling_strategy="SPREAD")
-        chunks = deque(plan[i:i + episodes_per_task] for i in range(0, len(plan), episodes_per_task))
+        task = ray.remote(play_episodes).options(
+            num_cpus=1, max_retries=max_retries, retry_exceptions=False, scheduling_strategy="SPREAD"
+        )
+        chunks = deque(plan[i : i + episodes_per_task] for i in range(0, len(plan), episodes_per_task))
         window = 2 * max(1, int(ray.cluster_resources().get("CPU", workers)))
         pending: dict = {}
         write_atomic(_unordered_path(output), json.dumps({"settled_rows": settled}) + "\n")
@@ -245,6 +276,7 @@ def _put_in_order(output: Path, rows: list[dict], settled: int, order: dict[Key,
     """Rewrites the scoreboard atomically as the local backend would have it: the ``settled`` rows
     as they are, then the rest in this eval's cell and seed order (those of the rows streamed by an
     eval that was killed, then run again, included), and removes the unordered marker."""
+
     def place(row: dict) -> int:
         return order.get((int(row["level"]), int(row["difficulty"]), int(row["seed"])), -1)
 

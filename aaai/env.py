@@ -4,6 +4,7 @@ The class wires small parts together, one job each: a PyBullet client (aaai.simu
 body (aaai.agent.body), the level's bodies (aaai.world), the senses (aaai.sensors) and the task,
 which turns contacts into rewards and ends episodes (aaai.rewards).
 """
+
 from __future__ import annotations
 
 import math
@@ -42,9 +43,11 @@ def hold_steps(decision_interval: float, control_dt: float) -> int:
     """Control steps per gait-mode action: ``decision_interval`` as a whole number of control steps."""
     steps = decision_interval / control_dt
     if not math.isfinite(steps) or steps < 1 - 1e-9 or abs(steps - round(steps)) > 1e-6:
-        raise ConfigError(f"config key 'agent.decision_interval': got {decision_interval!r} s; allowed: a whole number "
-                          f"of control steps of {control_dt:g} s (physics.timestep x physics.action_repeat), "
-                          f"e.g. {control_dt:g}, {2 * control_dt:g} or {5 * control_dt:g}")
+        raise ConfigError(
+            f"config key 'agent.decision_interval': got {decision_interval!r} s; allowed: a whole number "
+            f"of control steps of {control_dt:g} s (physics.timestep x physics.action_repeat), "
+            f"e.g. {control_dt:g}, {2 * control_dt:g} or {5 * control_dt:g}"
+        )
     return int(round(steps))
 
 
@@ -83,12 +86,21 @@ class AnimalAIEnv(gym.Env):
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50}
 
-    def __init__(self, level: int | str | None = None, difficulty: int | None = None,
-                 config: Any = None, render_mode: str | None = None, arena: str | None = None, **overrides: Any):
+    def __init__(
+        self,
+        level: int | str | None = None,
+        difficulty: int | None = None,
+        config: Any = None,
+        render_mode: str | None = None,
+        arena: str | None = None,
+        **overrides: Any,
+    ):
         unexpected = sorted(set(overrides) - env_keywords())
         if unexpected:  # worded as Python's own error, which libraries that probe keywords expect
-            raise TypeError(f"AnimalAIEnv.__init__() got an unexpected keyword argument '{unexpected[0]}'; allowed: "
-                            f"level, difficulty, config, render_mode, arena, {', '.join(sorted(env_keywords()))}")
+            raise TypeError(
+                f"AnimalAIEnv.__init__() got an unexpected keyword argument '{unexpected[0]}'; allowed: "
+                f"level, difficulty, config, render_mode, arena, {', '.join(sorted(env_keywords()))}"
+            )
         if level is not None:
             overrides["level"] = get_level(level).id
         if difficulty is not None:
@@ -114,9 +126,17 @@ class AnimalAIEnv(gym.Env):
         # visual shapes only if anything draws ("": none), and the camera's look (aaai.world.World)
         self.visuals = cfg["sensors"]["camera_look"] if cfg["sensors"]["camera"] or render_mode is not None else ""
         drive = "rotation" if self.action_mode == "gait" else self.action_mode  # the gait sends joint angles
-        self.body = Quadruped(self.client, agent["body"], drive, agent["max_force"],
-                              agent["max_joint_velocity"], agent["friction"], self.visuals,
-                              agent["position_gain"], agent["velocity_gain"])
+        self.body = Quadruped(
+            self.client,
+            agent["body"],
+            drive,
+            agent["max_force"],
+            agent["max_joint_velocity"],
+            agent["friction"],
+            self.visuals,
+            agent["position_gain"],
+            agent["velocity_gain"],
+        )
         self.senses = Senses(self.client, cfg["sensors"], self.body)
         self.rays, self.camera = self.senses.rays, self.senses.camera
         self.task = FoodTask(cfg["episode"], agent["limb_food_reward"], self.control_dt)
@@ -153,8 +173,11 @@ class AnimalAIEnv(gym.Env):
             spec = options["spec"]
             problems = validate.check(spec, require_food=False) if options.get("check", True) else []
             if problems:
-                raise ConfigError("reset option 'spec': the level is not valid: " + "; ".join(problems)
-                                  + " (options={'check': False} runs it all the same)")
+                raise ConfigError(
+                    "reset option 'spec': the level is not valid: "
+                    + "; ".join(problems)
+                    + " (options={'check': False} runs it all the same)"
+                )
         elif self.arena is not None:
             spec = load_arena(self.arena, episode_seed)
         else:
@@ -176,9 +199,11 @@ class AnimalAIEnv(gym.Env):
         self._head = position
         self.task.initialize_episode(spec, position, self.world.food_positions)
         if self.hold > self.max_steps:
-            raise ConfigError(f"config key 'agent.decision_interval': got {self.hold * self.control_dt:g} s "
-                              f"({self.hold} control steps), longer than this episode's {self.max_steps} steps; allowed: "
-                              f"at most the episode's length ({self.max_steps * self.control_dt:g} s)")
+            raise ConfigError(
+                f"config key 'agent.decision_interval': got {self.hold * self.control_dt:g} s "
+                f"({self.hold} control steps), longer than this episode's {self.max_steps} steps; allowed: "
+                f"at most the episode's length ({self.max_steps * self.control_dt:g} s)"
+            )
         info = self._info({term: 0.0 for term in TERMS}, fell=False, blew_up=False)
         return self._observe(angles, speeds, position, orientation), info
 
@@ -190,8 +215,10 @@ class AnimalAIEnv(gym.Env):
         if action.shape != self.action_space.shape:
             raise ValueError(f"action: got shape {action.shape}; allowed: shape {self.action_space.shape}")
         if not np.isfinite(action).all():
-            raise ValueError(f"action: got non-finite values {action}; allowed: numbers in "
-                             f"[{', '.join(f'{v:g}' for v in self._low)}] .. [{', '.join(f'{v:g}' for v in self._high)}]")
+            raise ValueError(
+                f"action: got non-finite values {action}; allowed: numbers in "
+                f"[{', '.join(f'{v:g}' for v in self._low)}] .. [{', '.join(f'{v:g}' for v in self._high)}]"
+            )
         action = np.minimum(np.maximum(action, self._low), self._high)
         if self.gait is None:
             return self._control_step(action, observe=True)
@@ -304,12 +331,22 @@ class AnimalAIEnv(gym.Env):
     def __getstate__(self) -> dict:
         """A pickled environment is its configuration (at its current level and difficulty): the
         PyBullet client cannot travel. The copy is a new environment; reset it before stepping."""
-        return {"config": self.config, "level": self.level, "difficulty": self.difficulty,
-                "render_mode": self.render_mode, "arena": self.arena}
+        return {
+            "config": self.config,
+            "level": self.level,
+            "difficulty": self.difficulty,
+            "render_mode": self.render_mode,
+            "arena": self.arena,
+        }
 
     def __setstate__(self, state: dict) -> None:
-        self.__init__(level=state["level"], difficulty=state["difficulty"], config=state["config"],
-                      render_mode=state["render_mode"], arena=state.get("arena"))
+        self.__init__(
+            level=state["level"],
+            difficulty=state["difficulty"],
+            config=state["config"],
+            render_mode=state["render_mode"],
+            arena=state.get("arena"),
+        )
 
     def close(self):
         if getattr(self, "sim", None) is not None:

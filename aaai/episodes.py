@@ -4,6 +4,7 @@ A policy is a callable from an observation to an action; one with a ``reset(seed
 reset to the episode's seed after the environment, and one with an ``end_episode(result)`` method
 is handed the EpisodeResult when the loop ends (aaai.replays records episodes so).
 """
+
 from __future__ import annotations
 
 import time
@@ -35,10 +36,15 @@ class EpisodeResult:
         return "ate green" if self.terminated else "time"
 
 
-def play(env, policy: Callable, seed: int, options: dict | None = None,
-         on_reset: Callable[[Any, dict], None] | None = None,
-         on_step: Callable[[int, Any, float, dict], None] | None = None,
-         max_steps: int | None = None) -> EpisodeResult:
+def play(
+    env,
+    policy: Callable,
+    seed: int,
+    options: dict | None = None,
+    on_reset: Callable[[Any, dict], None] | None = None,
+    on_step: Callable[[int, Any, float, dict], None] | None = None,
+    max_steps: int | None = None,
+) -> EpisodeResult:
     """Resets ``env`` to ``seed`` (with reset ``options``), then ``policy``, and steps until the
     episode ends or ``max_steps`` steps are made. ``on_reset(observation, info)`` is called after
     the env's reset, before the policy's; ``on_step(step, observation, reward, info)`` after each

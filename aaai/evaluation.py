@@ -4,6 +4,7 @@ An episode's ratio is return / max_reward, where max_reward is the best food rew
 instance can give minus 0.5 (allowing for step costs). Outcome: failed (ratio < 0.8), passed
 (0.8 <= ratio < 1) or succeeded (ratio >= 1), as in the original build.
 """
+
 from __future__ import annotations
 
 import csv
@@ -18,22 +19,36 @@ from typing import Any, Callable
 
 import numpy as np
 
+from aaai.arena import load_arena
 from aaai.config import ConfigError, env_part, load_config
-from aaai.gait import gait_policy
 from aaai.env import AnimalAIEnv
 from aaai.episodes import play
 from aaai.files import write_atomic
-from aaai.arena import load_arena
+from aaai.gait import gait_policy
 from aaai.levels import all_levels, get_level
 from aaai.rllib_learner import rllib_checkpoint, run_backend
-from aaai.runs import RunFolder, model_problem, check_writable
+from aaai.runs import RunFolder, check_writable, model_problem
 from aaai.seeds import TRAIN_SEEDS, key_record, reserved_seeds
 
 # "arena": the arena file's name (aaai.arena), empty for a generated level. A scoreboard written
 # before that column existed (LEGACY_COLUMNS) is still read (its rows get arena "") and added to
 # in its own columns.
-LEGACY_COLUMNS = ["level", "level_name", "difficulty", "seed", "return", "max_reward", "ratio", "outcome", "steps",
-                  "max_steps", "food_eaten", "wall_hits", "fell", "wall_seconds"]
+LEGACY_COLUMNS = [
+    "level",
+    "level_name",
+    "difficulty",
+    "seed",
+    "return",
+    "max_reward",
+    "ratio",
+    "outcome",
+    "steps",
+    "max_steps",
+    "food_eaten",
+    "wall_hits",
+    "fell",
+    "wall_seconds",
+]
 COLUMNS = LEGACY_COLUMNS[:-1] + ["arena", "wall_seconds"]  # the timing stays last
 PASS_RATIO, SUCCESS_RATIO = 0.8, 1.0
 TRAIN_EVAL_KEY = 7  # seeds `--seeds train` picks: fixed draws from the training range
@@ -100,8 +115,10 @@ class ModelPolicy:
         if trust:
             self.model = _trusted_load(path)
             if env is not None:
-                problems = [f"{name}: model {model}, environment {live}" for name, model, live in
-                            _space_pairs(self.model.observation_space, self.model.action_space, env)]
+                problems = [
+                    f"{name}: model {model}, environment {live}"
+                    for name, model, live in _space_pairs(self.model.observation_space, self.model.action_space, env)
+                ]
                 if problems:
                     raise ConfigError(_misfit(path, problems, env))
             self.recurrent = hasattr(self.model, "_last_lstm_states")
@@ -112,8 +129,9 @@ class ModelPolicy:
         problems = model_io.space_problems(archive, env.observation_space, env.action_space)
         if problems:
             raise ConfigError(_misfit(path, problems, env))
-        self.model = model_io.load_policy_network(path, env.observation_space, env.action_space,
-                                                  fallback_kwargs=_run_policy_kwargs(path), archive=archive)
+        self.model = model_io.load_policy_network(
+            path, env.observation_space, env.action_space, fallback_kwargs=_run_policy_kwargs(path), archive=archive
+        )
         self.recurrent = self.model.recurrent
 
     def reset(self, seed: int) -> None:
@@ -123,8 +141,9 @@ class ModelPolicy:
         if self.extra_keys:
             observation = {k: v for k, v in observation.items() if k not in self.extra_keys}
         if self.recurrent:
-            action, self.state = self.model.predict(observation, state=self.state,
-                                                    episode_start=np.array([self.start]), deterministic=True)
+            action, self.state = self.model.predict(
+                observation, state=self.state, episode_start=np.array([self.start]), deterministic=True
+            )
             self.start = False
             return action
         action, _ = self.model.predict(observation, deterministic=True)
@@ -146,8 +165,9 @@ def _trusted_load(path: Path):
     try:
         return algorithm.load(path, device="cpu")
     except Exception as error:  # noqa: BLE001 - any failure inside the archive is the file's fault
-        raise ConfigError(f"--policy: model file {str(path)!r} cannot be loaded by stable-baselines3: "
-                          f"{type(error).__name__}: {error}") from None
+        raise ConfigError(
+            f"--policy: model file {str(path)!r} cannot be loaded by stable-baselines3: {type(error).__name__}: {error}"
+        ) from None
 
 
 class _Seen:
@@ -160,15 +180,18 @@ class _Seen:
         self.config, self.action_space = env.config, env.action_space
         self.observation_space = env.observation_space
         if extra_keys and isinstance(env.observation_space, spaces.Dict):
-            self.observation_space = spaces.Dict({k: v for k, v in env.observation_space.spaces.items()
-                                                  if k not in extra_keys})
+            self.observation_space = spaces.Dict(
+                {k: v for k, v in env.observation_space.spaces.items() if k not in extra_keys}
+            )
 
 
 def _space_pairs(observation_space, action_space, env: AnimalAIEnv):
     from aaai.model_io import describe_space
 
-    for name, model_space, live_space in (("observation", observation_space, env.observation_space),
-                                          ("action", action_space, env.action_space)):
+    for name, model_space, live_space in (
+        ("observation", observation_space, env.observation_space),
+        ("action", action_space, env.action_space),
+    ):
         model, live = describe_space(model_space), describe_space(live_space)
         for key in sorted(set(model) | set(live)):
             if model.get(key) != live.get(key):
@@ -177,8 +200,7 @@ def _space_pairs(observation_space, action_space, env: AnimalAIEnv):
 
 # The config keys a model depends on beyond its spaces: compared with its run's config when the
 # model file lies in a run folder (final/model.zip, checkpoints/step_N/model.zip).
-MODEL_KEYS = ("agent.body", "agent.action_mode", "agent.decision_interval", "physics.action_repeat",
-              "physics.timestep")
+MODEL_KEYS = ("agent.body", "agent.action_mode", "agent.decision_interval", "physics.action_repeat", "physics.timestep")
 
 
 def model_run_config(path: Path) -> dict | None:
@@ -210,24 +232,40 @@ def check_model(path: Path, env: AnimalAIEnv, extra_keys: tuple = ()) -> None:
     if trained is None:
         return
     sensors = sorted(set(trained.get("sensors", {})) | set(env.config.get("sensors", {})))
-    off = {name for name in ("camera", "rays") if name in extra_keys or not (
-        _dotted(trained, f"sensors.{name}") is True or _dotted(env.config, f"sensors.{name}") is True)}
-    keys = list(MODEL_KEYS) + [f"sensors.{key}" for key in sensors
-                               if ("camera" if key.startswith("camera") else "rays" if key.startswith("ray") else key) not in off]
-    differing = [f"{key}: model {_dotted(trained, key)!r}, environment {_dotted(env.config, key)!r}"
-                 for key in keys if _dotted(trained, key) != _dotted(env.config, key)]
+    off = {
+        name
+        for name in ("camera", "rays")
+        if name in extra_keys
+        or not (_dotted(trained, f"sensors.{name}") is True or _dotted(env.config, f"sensors.{name}") is True)
+    }
+    keys = list(MODEL_KEYS) + [
+        f"sensors.{key}"
+        for key in sensors
+        if ("camera" if key.startswith("camera") else "rays" if key.startswith("ray") else key) not in off
+    ]
+    differing = [
+        f"{key}: model {_dotted(trained, key)!r}, environment {_dotted(env.config, key)!r}"
+        for key in keys
+        if _dotted(trained, key) != _dotted(env.config, key)
+    ]
     if differing:
         run = Path(path).absolute().parent.parent
         run = run.parent if run.name == "checkpoints" else run
-        raise ConfigError(f"--policy: model file {str(path)!r} was trained with another environment than this one: "
-                          + "; ".join(differing) + f". Score it with its run's config (--config {run / 'config.yaml'}, "
-                          "or --policy with the run folder)")
+        raise ConfigError(
+            f"--policy: model file {str(path)!r} was trained with another environment than this one: "
+            + "; ".join(differing)
+            + f". Score it with its run's config (--config {run / 'config.yaml'}, "
+            "or --policy with the run folder)"
+        )
 
 
 def _misfit(path: Path, problems: list[str], env: AnimalAIEnv) -> str:
     mode = env.config.get("agent", {}).get("action_mode")
-    return (f"--policy: model file {str(path)!r} does not fit this environment (action mode {mode!r}): "
-            + "; ".join(problems) + ". Score it with the config it was trained with (--config)")
+    return (
+        f"--policy: model file {str(path)!r} does not fit this environment (action mode {mode!r}): "
+        + "; ".join(problems)
+        + ". Score it with the config it was trained with (--config)"
+    )
 
 
 def _run_policy_kwargs(path: Path) -> dict | None:
@@ -261,12 +299,17 @@ def model_path(policy: str) -> Path | None:
         if problem:
             older = next((f for f in run.saved()[1:] if model_problem(f / "model.zip") is None), None)
             hint = f"; to score an older one, pass --policy {older / 'model.zip'}" if older else ""
-            raise ConfigError(f"--policy: the newest model of run {policy!r} ({newest.relative_to(path)}) cannot be "
-                              f"loaded: {problem}{hint}")
+            raise ConfigError(
+                f"--policy: the newest model of run {policy!r} ({newest.relative_to(path)}) cannot be "
+                f"loaded: {problem}{hint}"
+            )
         return newest / "model.zip"
     return None
+
+
 def load_policy(policy: str, env: AnimalAIEnv, trust: bool = False, extra_keys: tuple = ()) -> Callable:
-    """'random', 'reference', 'gait', a model .zip, a run folder, or 'module:callable' called with the env to make the policy.
+    """'random', 'reference', 'gait', a model .zip, a run folder, or 'module:callable' called with the
+    env to make the policy.
 
     A model is loaded without running code from it unless ``trust`` (--trust-model), and checked
     against ``env`` first. ``extra_keys``: observation keys the caller added for itself (not the model's)."""
@@ -291,15 +334,19 @@ def load_policy(policy: str, env: AnimalAIEnv, trust: bool = False, extra_keys: 
     try:
         return factory(env)
     except TypeError as error:  # a callable that does not take the env (os:system, a class of other arguments)
-        raise ConfigError(f"--policy: {policy!r} could not be called with the environment ({error}); allowed: a "
-                          "module:callable that takes the env and returns the policy") from None
+        raise ConfigError(
+            f"--policy: {policy!r} could not be called with the environment ({error}); allowed: a "
+            "module:callable that takes the env and returns the policy"
+        ) from None
 
 
 def policy_factory(policy: str) -> Callable:
     """The callable a 'module:callable' policy names (called with the env to make the policy)."""
     module_name, _, attribute = policy.partition(":")
     if not attribute:
-        raise ConfigError(f"--policy: got {policy!r}; allowed: random, reference, gait, a model .zip, a run folder, module:callable")
+        raise ConfigError(
+            f"--policy: got {policy!r}; allowed: random, reference, gait, a model .zip, a run folder, module:callable"
+        )
     try:
         target: Any = importlib.import_module(module_name)
         for part in attribute.split("."):
@@ -317,8 +364,9 @@ class Cell:
     seeds: list[int]
 
 
-def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int, seed: int,
-                arena: Path | None = None) -> dict:
+def run_episode(
+    env: AnimalAIEnv, policy: Callable, level: int, difficulty: int, seed: int, arena: Path | None = None
+) -> dict:
     """Plays one episode of the cell (or of the arena file, with the seed) to its end; its scoreboard row."""
     pass_mark = None
     if arena is None:
@@ -331,12 +379,21 @@ def run_episode(env: AnimalAIEnv, policy: Callable, level: int, difficulty: int,
     total, info = result.episode_return, result.info
     ratio = total / info["max_reward"] if info["max_reward"] > 0 else math.nan
     return {
-        "level": level, "level_name": info["level_name"], "difficulty": difficulty, "seed": seed,
-        "return": round(total, 6), "max_reward": round(info["max_reward"], 6), "ratio": round(ratio, 6),
-        "outcome": outcome(ratio, total, pass_mark), "steps": info["steps"], "max_steps": info["max_steps"],
+        "level": level,
+        "level_name": info["level_name"],
+        "difficulty": difficulty,
+        "seed": seed,
+        "return": round(total, 6),
+        "max_reward": round(info["max_reward"], 6),
+        "ratio": round(ratio, 6),
+        "outcome": outcome(ratio, total, pass_mark),
+        "steps": info["steps"],
+        "max_steps": info["max_steps"],
         "food_eaten": info["food_eaten"],
-        "wall_hits": info["wall_hits"], "fell": info["fell"],
-        "arena": arena.name if arena is not None else "", "wall_seconds": round(result.wall_seconds, 3),
+        "wall_hits": info["wall_hits"],
+        "fell": info["fell"],
+        "arena": arena.name if arena is not None else "",
+        "wall_seconds": round(result.wall_seconds, 3),
     }
 
 
@@ -350,9 +407,21 @@ class Scoreboard:
     same command run again resumes after them.
     """
 
-    def __init__(self, output: Path, record: dict, columns: list[str], rows: list[dict],
-                 on_episode: Callable[[dict], None] | None = None):
-        self.output, self.record, self.columns, self.rows, self.on_episode = Path(output), record, columns, rows, on_episode
+    def __init__(
+        self,
+        output: Path,
+        record: dict,
+        columns: list[str],
+        rows: list[dict],
+        on_episode: Callable[[dict], None] | None = None,
+    ):
+        self.output, self.record, self.columns, self.rows, self.on_episode = (
+            Path(output),
+            record,
+            columns,
+            rows,
+            on_episode,
+        )
         self.handle = self.writer = None
 
     def _open(self) -> None:
@@ -419,8 +488,10 @@ def write_error(path: Path, error: OSError, kept: int) -> str:
     """The message for an OS error on a file an eval writes: the file, the cause, what stays."""
     where = getattr(error, "filename2", None) or getattr(error, "filename", None) or path  # a rename: its target
     cause = error.strerror or str(error) or type(error).__name__
-    return (f"--out: cannot write {str(where)!r}: {cause}. The {kept} row(s) of {str(path)!r} written before "
-            "stay; free the space or fix the permission, then run the same command again to resume")
+    return (
+        f"--out: cannot write {str(where)!r}: {cause}. The {kept} row(s) of {str(path)!r} written before "
+        "stay; free the space or fix the permission, then run the same command again to resume"
+    )
 
 
 def scored_episodes(path: Path) -> list[dict]:
@@ -470,9 +541,16 @@ def episode_plan(cells: list[Cell], rows: list[dict]) -> list[tuple[int, int, in
     return plan
 
 
-def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
-             on_episode: Callable[[dict], None] | None = None, record: dict | None = None,
-             make_policy: Callable[[AnimalAIEnv], Callable] | None = None, trust: bool = False) -> list[dict]:
+def evaluate(
+    policy_name: str,
+    cells: list[Cell],
+    output: Path,
+    config: dict,
+    on_episode: Callable[[dict], None] | None = None,
+    record: dict | None = None,
+    make_policy: Callable[[AnimalAIEnv], Callable] | None = None,
+    trust: bool = False,
+) -> list[dict]:
     """Plays every (cell, seed) not yet in ``output`` and appends its row, flushed per episode.
     ``record`` (default: the policy on listed seeds) is what the scoreboard is scored with; with
     the environment's config, action mode and the package version added (:func:`scoring_record`)
@@ -496,9 +574,17 @@ def evaluate(policy_name: str, cells: list[Cell], output: Path, config: dict,
     return rows
 
 
-def evaluate_arenas(policy_name: str, arenas: list[Path], seeds: list[int], output: Path, config: dict,
-                    on_episode: Callable[[dict], None] | None = None, record: dict | None = None,
-                    make_policy: Callable[[AnimalAIEnv], Callable] | None = None, trust: bool = False) -> list[dict]:
+def evaluate_arenas(
+    policy_name: str,
+    arenas: list[Path],
+    seeds: list[int],
+    output: Path,
+    config: dict,
+    on_episode: Callable[[dict], None] | None = None,
+    record: dict | None = None,
+    make_policy: Callable[[AnimalAIEnv], Callable] | None = None,
+    trust: bool = False,
+) -> list[dict]:
     """:func:`evaluate` for a battery of arena files: every (arena, seed) not yet in ``output``,
     one row each, its ``arena`` column the file's name. Every file is loaded (and so checked) for
     every seed before any episode runs: nothing is run from an invalid file."""
@@ -507,15 +593,19 @@ def evaluate_arenas(policy_name: str, arenas: list[Path], seeds: list[int], outp
             load_arena(arena, seed)
     names = [arena.name for arena in arenas]
     if len(set(names)) != len(names):
-        raise ConfigError(f"--arenas: two arena files share a name ({sorted(n for n in names if names.count(n) > 1)[0]}); "
-                          "allowed: distinct file names, which the scoreboard's arena column tells apart")
+        raise ConfigError(
+            f"--arenas: two arena files share a name ({sorted(n for n in names if names.count(n) > 1)[0]}); "
+            "allowed: distinct file names, which the scoreboard's arena column tells apart"
+        )
     check_writable(output, "--out")
     output.parent.mkdir(parents=True, exist_ok=True)
     record = scoring_record(policy_name, record, config)
     check_record(output, record)
     rows = scored_episodes(output)
     if rows and columns_of(output) != COLUMNS:
-        raise ConfigError(f"--out: {str(output)!r} is an older scoreboard without an arena column; choose another --out")
+        raise ConfigError(
+            f"--out: {str(output)!r} is an older scoreboard without an arena column; choose another --out"
+        )
     done = {(r["arena"], int(r["seed"])) for r in rows}
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))
     try:
@@ -543,7 +633,8 @@ def summarise_arenas(rows: list[dict], categories: dict[str, str | None]) -> lis
     order = {level.name: level.id for level in all_levels().values()}
     groups = sorted(by_arena.items()) + [
         (f"category {get_level(name).label} {name}" if name in order else f"category {name}", group)
-        for name, group in sorted(by_category.items(), key=lambda item: order.get(item[0], 10**6))]
+        for name, group in sorted(by_category.items(), key=lambda item: order.get(item[0], 10**6))
+    ]
     return [_summary_row(name, group) for name, group in groups + [("overall", rows)] if group]
 
 
@@ -551,7 +642,8 @@ def _summary_row(name: str, group: list[dict]) -> dict:
     ratios = np.array([float(r["ratio"]) for r in group])
     outcomes = [r["outcome"] for r in group]
     return {
-        "level": name, "episodes": len(group),
+        "level": name,
+        "episodes": len(group),
         "mean_return": float(np.mean([float(r["return"]) for r in group])),
         "mean_ratio": float(np.nanmean(ratios)) if np.isfinite(ratios).any() else math.nan,
         "passed_pct": 100.0 * sum(o != "failed" for o in outcomes) / len(group),
@@ -575,11 +667,15 @@ def summarise(rows: list[dict]) -> list[dict]:
 
 
 def summary_markdown(summary: list[dict]) -> str:
-    lines = ["| level | episodes | mean return | mean ratio | passed or better | succeeded |",
-             "|---|---:|---:|---:|---:|---:|"]
+    lines = [
+        "| level | episodes | mean return | mean ratio | passed or better | succeeded |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
     for s in summary:
-        lines.append(f"| {s['level']} | {s['episodes']} | {s['mean_return']:.3f} | {s['mean_ratio']:.3f} | "
-                     f"{s['passed_pct']:.0f}% | {s['succeeded_pct']:.0f}% |")
+        lines.append(
+            f"| {s['level']} | {s['episodes']} | {s['mean_return']:.3f} | {s['mean_ratio']:.3f} | "
+            f"{s['passed_pct']:.0f}% | {s['succeeded_pct']:.0f}% |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -648,8 +744,12 @@ def env_record(config: dict) -> dict:
     part = {k: v for k, v in env_part(config, shaping=0.0).items() if k not in ("level", "difficulty")}
     part = json.loads(json.dumps(part, sort_keys=True, default=str))  # as it reads back from the file
     digest = hashlib.sha256(json.dumps(part, sort_keys=True).encode()).hexdigest()
-    return {"env_config": part, "env_config_sha256": digest,
-            "action_mode": part.get("agent", {}).get("action_mode"), "aaai_version": __version__}
+    return {
+        "env_config": part,
+        "env_config_sha256": digest,
+        "action_mode": part.get("agent", {}).get("action_mode"),
+        "aaai_version": __version__,
+    }
 
 
 def scoring_record(policy_name: str, record: dict | None, config: dict) -> dict:
@@ -670,8 +770,11 @@ def record_differences(earlier: Any, record: dict) -> list[str]:
     """The keys in which two records differ, each with both values (dotted for nested keys)."""
     old, new = _flat(earlier if isinstance(earlier, dict) else {}), _flat(record)
     missing = object()
-    return [f"{key}: {old.get(key, 'absent')!r} there, {new.get(key, 'absent')!r} now"
-            for key in sorted(set(old) | set(new), key=str) if old.get(key, missing) != new.get(key, missing)]
+    return [
+        f"{key}: {old.get(key, 'absent')!r} there, {new.get(key, 'absent')!r} now"
+        for key in sorted(set(old) | set(new), key=str)
+        if old.get(key, missing) != new.get(key, missing)
+    ]
 
 
 def _has_rows(output: Path) -> bool:
@@ -692,14 +795,19 @@ def check_record(output: Path, record: dict) -> None:
     if not _has_rows(output):
         return
     if not path.exists():
-        raise ConfigError(f"--out: {str(output)!r} holds episodes of an unknown policy (no {path.name}); "
-                          "choose another --out, or delete it to start again")
+        raise ConfigError(
+            f"--out: {str(output)!r} holds episodes of an unknown policy (no {path.name}); "
+            "choose another --out, or delete it to start again"
+        )
     try:
         earlier = json.loads(path.read_text())
     except (OSError, ValueError):
         earlier = None
     if earlier != record:
         differences = record_differences(earlier, record) or ["its record cannot be read"]
-        raise ConfigError(f"--out: {str(output)!r} holds episodes scored otherwise; refusing to add episodes that "
-                          f"differ in {len(differences)} key(s): " + "; ".join(differences)
-                          + f". Choose another --out, or delete {output.name} and {path.name} to start again")
+        raise ConfigError(
+            f"--out: {str(output)!r} holds episodes scored otherwise; refusing to add episodes that "
+            f"differ in {len(differences)} key(s): "
+            + "; ".join(differences)
+            + f". Choose another --out, or delete {output.name} and {path.name} to start again"
+        )

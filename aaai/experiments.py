@@ -20,6 +20,7 @@ each cell's pass rate over its last ``window`` training episodes (a cell not yet
 Averaging over cells (not over episodes) keeps it comparable between samplers that play
 different cells.
 """
+
 from __future__ import annotations
 
 import concurrent.futures
@@ -60,8 +61,12 @@ class Experiment:
         return self.folder / f"{sampler}-seed{seed}"
 
     def record(self) -> dict:
-        return {"samplers": self.samplers, "seeds": self.seeds, "seeds_per_cell": self.seeds_per_cell,
-                "config": self.config}
+        return {
+            "samplers": self.samplers,
+            "seeds": self.seeds,
+            "seeds_per_cell": self.seeds_per_cell,
+            "config": self.config,
+        }
 
 
 def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: dict, seeds_per_cell: int) -> Experiment:
@@ -76,10 +81,14 @@ def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: dict
     if path.exists():
         earlier = yaml.safe_load(path.read_text())
         # resolved again: keys added to the config since then take their defaults, as in `config`
-        if load_config(earlier.get("config") or {}) != load_config(config) or \
-                earlier.get("seeds_per_cell") != seeds_per_cell:
-            raise ConfigError(f"--out: {str(experiment.folder)!r} holds an experiment with another config or K; "
-                              "re-run it with the same options to continue it, or choose another --out")
+        if (
+            load_config(earlier.get("config") or {}) != load_config(config)
+            or earlier.get("seeds_per_cell") != seeds_per_cell
+        ):
+            raise ConfigError(
+                f"--out: {str(experiment.folder)!r} holds an experiment with another config or K; "
+                "re-run it with the same options to continue it, or choose another --out"
+            )
         # more samplers or seeds than before: the runs already done are kept
         experiment.samplers = list(dict.fromkeys(earlier["samplers"] + experiment.samplers))
         experiment.seeds = sorted(set(earlier["seeds"]) | set(experiment.seeds))
@@ -98,8 +107,7 @@ def finished(run: RunFolder, total_steps: int) -> bool:
         return False
 
 
-def train_run(experiment: Experiment, sampler: str, seed: int, echo: Callable[[str], None],
-              report=None) -> RunFolder:
+def train_run(experiment: Experiment, sampler: str, seed: int, echo: Callable[[str], None], report=None) -> RunFolder:
     """Trains one run to the budget: skipped when finished, resumed when started, else started.
     ``report`` (an aaai.training.Progress) is told of its steps and episodes."""
     from aaai.training import train
@@ -143,8 +151,10 @@ def score_run(experiment: Experiment, run: RunFolder, echo: Callable[[str], None
     reserved = cells_for(cur["levels"], cur["difficulties"], "reserved", k)
     own = trained_seeds(run, [(c.level, c.difficulty) for c in reserved], k)
     trained = [Cell(level, d, seeds) for (level, d), seeds in own.items() if seeds]
-    boards = {"reserved": (reserved, run.path / "scoreboard_reserved.csv", "reserved"),
-              "trained": (trained, run.path / "scoreboard_trained.csv", "list")}
+    boards = {
+        "reserved": (reserved, run.path / "scoreboard_reserved.csv", "reserved"),
+        "trained": (trained, run.path / "scoreboard_trained.csv", "list"),
+    }
     for name, (cells, output, seeds_mode) in boards.items():
         wanted = sum(len(c.seeds) for c in cells)
         if output.exists() and len(scored_episodes(output)) >= wanted:
@@ -155,16 +165,25 @@ def score_run(experiment: Experiment, run: RunFolder, echo: Callable[[str], None
     return {name: output for name, (_, output, _) in boards.items()}
 
 
-def run_one(experiment: Experiment, sampler: str, seed: int, echo: Callable[[str], None] = print,
-            progress_every: float | None = None) -> None:
+def run_one(
+    experiment: Experiment,
+    sampler: str,
+    seed: int,
+    echo: Callable[[str], None] = print,
+    progress_every: float | None = None,
+) -> None:
     """Trains and scores one (sampler, seed), as far as not done."""
     from aaai.training import Progress, print_lines
 
     name = f"{sampler}-seed{seed}"
     report = None
     if progress_every is not None:
-        report = Progress(experiment.config["train"]["total_steps"], label=f"training {name}", every=progress_every,
-                          write=print_lines(sys.stdout))
+        report = Progress(
+            experiment.config["train"]["total_steps"],
+            label=f"training {name}",
+            every=progress_every,
+            write=print_lines(sys.stdout),
+        )
     run = train_run(experiment, sampler, seed, echo, report)
     score_run(experiment, run, echo)
 
@@ -187,8 +206,9 @@ def one_torch_thread() -> None:
     torch.set_num_threads(1)
 
 
-def run_experiment(experiment: Experiment, echo: Callable[[str], None] = print, progress_every: float | None = None,
-                   jobs: int = 1) -> list[dict]:
+def run_experiment(
+    experiment: Experiment, echo: Callable[[str], None] = print, progress_every: float | None = None, jobs: int = 1
+) -> list[dict]:
     """Trains and scores every (sampler, seed) not yet done, ``jobs`` runs at a time (each in its
     own process), then writes the table and the plot. Runs go seed by seed: an experiment stopped
     early has every sampler on its first seeds."""
@@ -227,9 +247,20 @@ def pass_pct(rows: list[dict]) -> float:
     return 100.0 * sum(r["outcome"] != "failed" for r in rows) / len(rows) if rows else math.nan
 
 
-RUN_COLUMNS = ["sampler", "seed", "steps", "episodes", "cells_played", "fewest_episodes_per_cell",
-               "reserved_episodes", "reserved_pass_pct", "reserved_mean_return",
-               "trained_episodes", "trained_pass_pct", "gap_pct"]
+RUN_COLUMNS = [
+    "sampler",
+    "seed",
+    "steps",
+    "episodes",
+    "cells_played",
+    "fewest_episodes_per_cell",
+    "reserved_episodes",
+    "reserved_pass_pct",
+    "reserved_mean_return",
+    "trained_episodes",
+    "trained_pass_pct",
+    "gap_pct",
+]
 
 
 def run_row(experiment: Experiment, sampler: str, seed: int) -> dict:
@@ -241,18 +272,35 @@ def run_row(experiment: Experiment, sampler: str, seed: int) -> dict:
     reserved = read_board(run.path / "scoreboard_reserved.csv")
     trained = read_board(run.path / "scoreboard_trained.csv")
     state = RunFolder.read_state(run.final) if (run.final / "state.json").is_file() else {"step": 0}
-    row = {"sampler": sampler, "seed": seed, "steps": state["step"], "episodes": len(episodes),
-           "cells_played": sum(c > 0 for c in counts), "fewest_episodes_per_cell": min(counts),
-           "reserved_episodes": len(reserved), "reserved_pass_pct": pass_pct(reserved),
-           "reserved_mean_return": float(np.mean([float(r["return"]) for r in reserved])) if reserved else math.nan,
-           "trained_episodes": len(trained), "trained_pass_pct": pass_pct(trained)}
+    row = {
+        "sampler": sampler,
+        "seed": seed,
+        "steps": state["step"],
+        "episodes": len(episodes),
+        "cells_played": sum(c > 0 for c in counts),
+        "fewest_episodes_per_cell": min(counts),
+        "reserved_episodes": len(reserved),
+        "reserved_pass_pct": pass_pct(reserved),
+        "reserved_mean_return": float(np.mean([float(r["return"]) for r in reserved])) if reserved else math.nan,
+        "trained_episodes": len(trained),
+        "trained_pass_pct": pass_pct(trained),
+    }
     row["gap_pct"] = row["trained_pass_pct"] - row["reserved_pass_pct"]
     return row
 
 
-TABLE_COLUMNS = ["sampler", "runs", "reserved_pass_pct_mean", "reserved_pass_pct_std", "reserved_mean_return",
-                 "trained_pass_pct_mean", "trained_pass_pct_std", "gap_pct_mean", "cells_played_mean",
-                 "fewest_episodes_per_cell_mean"]
+TABLE_COLUMNS = [
+    "sampler",
+    "runs",
+    "reserved_pass_pct_mean",
+    "reserved_pass_pct_std",
+    "reserved_mean_return",
+    "trained_pass_pct_mean",
+    "trained_pass_pct_std",
+    "gap_pct_mean",
+    "cells_played_mean",
+    "fewest_episodes_per_cell_mean",
+]
 
 
 def table(rows: list[dict]) -> list[dict]:
@@ -269,12 +317,20 @@ def table(rows: list[dict]) -> list[dict]:
             values = [r[key] for r in group if not math.isnan(r[key])]
             return float(np.std(values, ddof=1)) if len(values) > 1 else math.nan
 
-        out.append({"sampler": sampler, "runs": len(group),
-                    "reserved_pass_pct_mean": mean("reserved_pass_pct"), "reserved_pass_pct_std": std("reserved_pass_pct"),
-                    "reserved_mean_return": mean("reserved_mean_return"),
-                    "trained_pass_pct_mean": mean("trained_pass_pct"), "trained_pass_pct_std": std("trained_pass_pct"),
-                    "gap_pct_mean": mean("gap_pct"), "cells_played_mean": mean("cells_played"),
-                    "fewest_episodes_per_cell_mean": mean("fewest_episodes_per_cell")})
+        out.append(
+            {
+                "sampler": sampler,
+                "runs": len(group),
+                "reserved_pass_pct_mean": mean("reserved_pass_pct"),
+                "reserved_pass_pct_std": std("reserved_pass_pct"),
+                "reserved_mean_return": mean("reserved_mean_return"),
+                "trained_pass_pct_mean": mean("trained_pass_pct"),
+                "trained_pass_pct_std": std("trained_pass_pct"),
+                "gap_pct_mean": mean("gap_pct"),
+                "cells_played_mean": mean("cells_played"),
+                "fewest_episodes_per_cell_mean": mean("fewest_episodes_per_cell"),
+            }
+        )
     return out
 
 
@@ -284,17 +340,22 @@ def table_markdown(summary: list[dict], experiment: Experiment) -> str:
     def pm(mean, std):
         return "-" if math.isnan(mean) else f"{mean:.1f}" + ("" if math.isnan(std) else f" ± {std:.1f}")
 
-    lines = [f"Levels {cur['levels']} x difficulties {cur['difficulties']}, "
-             f"{train['total_steps']} steps per run, action mode {experiment.config['agent']['action_mode']}, "
-             f"warm-up {cur['warmup']}, seeds {experiment.seeds}, K = {experiment.seeds_per_cell} seeds per cell. "
-             "Pass rates in %, mean ± standard deviation over the training seeds.", "",
-             "| sampler | runs | reserved seeds: pass % | mean return | trained seeds: pass % | gap (trained - reserved) "
-             "| cells played | fewest episodes in a cell |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        f"Levels {cur['levels']} x difficulties {cur['difficulties']}, "
+        f"{train['total_steps']} steps per run, action mode {experiment.config['agent']['action_mode']}, "
+        f"warm-up {cur['warmup']}, seeds {experiment.seeds}, K = {experiment.seeds_per_cell} seeds per cell. "
+        "Pass rates in %, mean ± standard deviation over the training seeds.",
+        "",
+        "| sampler | runs | reserved seeds: pass % | mean return | trained seeds: pass % | gap (trained - reserved) "
+        "| cells played | fewest episodes in a cell |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
     for s in summary:
-        lines.append(f"| {s['sampler']} | {s['runs']} | {pm(s['reserved_pass_pct_mean'], s['reserved_pass_pct_std'])} "
-                     f"| {s['reserved_mean_return']:.3f} | {pm(s['trained_pass_pct_mean'], s['trained_pass_pct_std'])} "
-                     f"| {s['gap_pct_mean']:+.1f} | {s['cells_played_mean']:.1f} | {s['fewest_episodes_per_cell_mean']:.1f} |")
+        lines.append(
+            f"| {s['sampler']} | {s['runs']} | {pm(s['reserved_pass_pct_mean'], s['reserved_pass_pct_std'])} "
+            f"| {s['reserved_mean_return']:.3f} | {pm(s['trained_pass_pct_mean'], s['trained_pass_pct_std'])} "
+            f"| {s['gap_pct_mean']:+.1f} | {s['cells_played_mean']:.1f} | {s['fewest_episodes_per_cell_mean']:.1f} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -322,15 +383,18 @@ def cell_pass_curve(episodes: list[dict], cells: list[tuple[int, int]], steps: n
         for i, step in enumerate(steps):
             n = int(np.searchsorted(at, step, side="right"))
             if n:
-                curve[i] += passed[max(0, n - window):n].mean()
+                curve[i] += passed[max(0, n - window) : n].mean()
     return curve / len(cells)
 
 
 def curves(experiment: Experiment) -> tuple[np.ndarray, list[dict]]:
     cur = experiment.config["curriculum"]
     cells = [(level, d) for level in cur["levels"] for d in cur["difficulties"]]
-    runs = {(sampler, seed): read_episodes(experiment.run_dir(sampler, seed))
-            for sampler in experiment.samplers for seed in experiment.seeds}
+    runs = {
+        (sampler, seed): read_episodes(experiment.run_dir(sampler, seed))
+        for sampler in experiment.samplers
+        for seed in experiment.seeds
+    }
     last = max((int(e["step"]) for episodes in runs.values() for e in episodes), default=0)
     total = max(experiment.config["train"]["total_steps"], last)  # PPO ends on a whole rollout
     steps = np.linspace(0, total, CURVE_POINTS + 1)[1:].round().astype(np.int64)
@@ -339,8 +403,10 @@ def curves(experiment: Experiment) -> tuple[np.ndarray, list[dict]]:
         for seed in experiment.seeds:
             episodes = runs[(sampler, seed)]
             curve = cell_pass_curve(episodes, cells, steps, cur["window"])
-            rows += [{"sampler": sampler, "seed": seed, "step": int(s), "cell_pass_rate": float(v)}
-                     for s, v in zip(steps, curve)]
+            rows += [
+                {"sampler": sampler, "seed": seed, "step": int(s), "cell_pass_rate": float(v)}
+                for s, v in zip(steps, curve)
+            ]
     return steps, rows
 
 
@@ -354,12 +420,20 @@ def write_results(experiment: Experiment, rows: list[dict]) -> None:
     write_atomic(folder / "curves.csv", csv_text(curve_rows, ["sampler", "seed", "step", "cell_pass_rate"]))
     series = {}
     for sampler in experiment.samplers:
-        values = np.array([[r["cell_pass_rate"] for r in curve_rows if r["sampler"] == sampler and r["seed"] == seed]
-                           for seed in experiment.seeds])
+        values = np.array(
+            [
+                [r["cell_pass_rate"] for r in curve_rows if r["sampler"] == sampler and r["seed"] == seed]
+                for seed in experiment.seeds
+            ]
+        )
         series[sampler] = values
-    plot_spread(steps, series, folder / "curves.png",
-                title=f"{len(experiment.seeds)} seed(s) per sampler: mean, band = min to max over seeds",
-                ylabel="training pass rate (mean over cells)")
+    plot_spread(
+        steps,
+        series,
+        folder / "curves.png",
+        title=f"{len(experiment.seeds)} seed(s) per sampler: mean, band = min to max over seeds",
+        ylabel="training pass rate (mean over cells)",
+    )
 
 
 # --- pictures -----------------------------------------------------------------------------
@@ -381,7 +455,7 @@ def plot_spread(steps: np.ndarray, series: dict[str, np.ndarray], path: Path, ti
     for name, values in series.items():
         if values.size == 0:
             continue
-        line, = axes.plot(steps, values.mean(axis=0), label=name)
+        (line,) = axes.plot(steps, values.mean(axis=0), label=name)
         if len(values) > 1:
             axes.fill_between(steps, values.min(axis=0), values.max(axis=0), color=line.get_color(), alpha=0.2)
     axes.set_xlabel("training steps")

@@ -4,6 +4,7 @@ Every file the package writes whole (configs, states, scoreboard summaries, pict
 through ``atomic_path``: it is written to a temporary file beside its place and renamed onto it
 when complete. Folders that must appear whole (a checkpoint) are staged by aaai.runs.
 """
+
 from __future__ import annotations
 
 import os

@@ -14,6 +14,7 @@ The parameters (configs/gait.yaml) come from ``python -m aaai.gait_tuning`` (CMA
 the joint drive, scored by how fast the body eats its way along random courses of food); the
 docs (The environment, The body) give the speeds they reach.
 """
+
 from __future__ import annotations
 
 import functools
@@ -82,8 +83,14 @@ class SineGait:
     """Callable policy: ``action = gait(observation)``; ``command(forward, turn)`` steers it and
     ``reset()`` restarts the cycle at each episode start."""
 
-    def __init__(self, joint_names: list[str], direction: str = "forward", control_dt: float = 0.02,
-                 parameters: GaitParameters | None = None, **overrides: float):
+    def __init__(
+        self,
+        joint_names: list[str],
+        direction: str = "forward",
+        control_dt: float = 0.02,
+        parameters: GaitParameters | None = None,
+        **overrides: float,
+    ):
         if direction not in DIRECTIONS:
             raise ValueError(f"direction: got {direction!r}; allowed: one of {', '.join(DIRECTIONS)}")
         self.joint_names = list(joint_names)
@@ -115,7 +122,11 @@ class SineGait:
     def command(self, forward: float, turn: float, crouch: float = 0.0) -> None:
         """Steers: forward in [-1, 1] (+ forward), turn in [-1, 1] (+ left, anticlockwise),
         crouch in [0, 1] (1: the head low)."""
-        self.target = (_clamp(float(forward), -1.0, 1.0), _clamp(float(turn), -1.0, 1.0), _clamp(float(crouch), 0.0, 1.0))
+        self.target = (
+            _clamp(float(forward), -1.0, 1.0),
+            _clamp(float(turn), -1.0, 1.0),
+            _clamp(float(crouch), 0.0, 1.0),
+        )
 
     def stand(self) -> np.ndarray:
         """The action that stands still: every hip pressing down as in the stance, knees at rest."""
@@ -146,8 +157,9 @@ def _clamp(value: float, low: float, high: float) -> float:
     return min(max(value, low), high)
 
 
-def steer(heading_error: float, distance: float, arrive: float = 0.0, reverse: bool | None = None
-          ) -> tuple[float, float]:
+def steer(
+    heading_error: float, distance: float, arrive: float = 0.0, reverse: bool | None = None
+) -> tuple[float, float]:
     """(forward, turn) commands toward a point ``heading_error`` rad to the left and ``distance``
     away: turn in proportion to the error (full at 45 degrees), walk forward only while facing
     within 90 degrees of it, slowing within ``arrive`` of it. A point close behind (within
@@ -155,7 +167,7 @@ def steer(heading_error: float, distance: float, arrive: float = 0.0, reverse: b
     choice (e.g. False when the point is only the next step of a long way)."""
     if (distance < BACK_UP if reverse is None else reverse) and abs(heading_error) > 2 * math.pi / 3:
         behind = (heading_error % (2 * math.pi)) - math.pi  # the error as seen from the tail
-        return -math.cos(behind) ** 2, _clamp(behind / (math.pi / 4), -1.0, 1.0)
+        return -(math.cos(behind) ** 2), _clamp(behind / (math.pi / 4), -1.0, 1.0)
     turn = _clamp(heading_error / (math.pi / 4), -1.0, 1.0)
     forward = max(0.0, math.cos(heading_error)) ** STEER_SHARPNESS
     if arrive > 0:
@@ -163,8 +175,9 @@ def steer(heading_error: float, distance: float, arrive: float = 0.0, reverse: b
     return forward, turn
 
 
-def approach(parameters: GaitParameters, heading_error: float, distance: float, food_radius: float
-             ) -> tuple[float, float, float]:
+def approach(
+    parameters: GaitParameters, heading_error: float, distance: float, food_radius: float
+) -> tuple[float, float, float]:
     """(forward, turn, crouch) commands toward a piece of food ``heading_error`` rad to the left
     whose centre is ``distance`` from the head's: steered as ``steer``, crouching and slowing
     near it so that the head gets down to the piece past the legs."""

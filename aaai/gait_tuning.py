@@ -10,6 +10,7 @@ every step the head touches the floor and for tipping over. ``--drive`` tunes th
 (``agent.max_force``, ``position_gain``, ``velocity_gain``) too. CMA-ES comes from the ``cma``
 package (the ``tune`` extra).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -31,9 +32,17 @@ TUNING_COURSES = 4  # courses the score averages over (drawn with seed 0) ...
 MEASURED_COURSES = 10  # ... and the held-out ones --measure reports (seed 1)
 REACHED = 2.0  # a waypoint without food counts as reached with the head this close
 # Searched ranges: gait parameters, then (with --drive) log10 max_force, log10 position_gain, velocity_gain.
-GAIT_RANGES = {"frequency": (0.5, 4.0), "stance_down": (-0.5, 1.0), "lift": (0.0, 1.5), "sweep": (0.1, 1.5),
-               "turn_sweep": (0.1, 1.5), "sweep_lead": (-math.pi, math.pi), "crouch_stance": (-0.5, 1.0),
-               "crouch_distance": (1.0, 8.0), "approach_speed": (0.1, 1.0)}
+GAIT_RANGES = {
+    "frequency": (0.5, 4.0),
+    "stance_down": (-0.5, 1.0),
+    "lift": (0.0, 1.5),
+    "sweep": (0.1, 1.5),
+    "turn_sweep": (0.1, 1.5),
+    "sweep_lead": (-math.pi, math.pi),
+    "crouch_stance": (-0.5, 1.0),
+    "crouch_distance": (1.0, 8.0),
+    "approach_speed": (0.1, 1.0),
+}
 DRIVE_RANGES = {"max_force": (1.0, 3.5), "position_gain": (-2.0, 0.0), "velocity_gain": (0.05, 2.0)}
 
 
@@ -56,16 +65,26 @@ def course_speed(env, gait: SineGait, seed: int, count: int) -> tuple[float, flo
     """Mean speed (units/s along the courses, eating every piece on the way), mean head-on-floor
     fraction and lowest uprightness over ``count`` courses."""
     results = [follow(env, gait, flat_arena(food=course), None, COURSE_SECONDS) for course in courses(count, seed)]
-    return (float(np.mean([r["progress"] for r in results])) / COURSE_SECONDS,
-            float(np.mean([r["ground"] for r in results])), min(r["upright"] for r in results))
+    return (
+        float(np.mean([r["progress"] for r in results])) / COURSE_SECONDS,
+        float(np.mean([r["ground"] for r in results])),
+        min(r["upright"] for r in results),
+    )
 
 
 def flat_arena(size: float = 200.0, food=()) -> LevelSpec:
     """A flat arena, the agent at the centre facing +x, with yellow pieces (x, y, size)."""
     pieces = tuple(sphere("food_yellow", x, y, s) for x, y, s in food)
-    return LevelSpec(level=0, name="flat", difficulty=0, seed=0, agent=AgentPose(0.0, 0.0, 0.0),
-                     objects=tuple(arena_walls((size, size), 4.0)) + pieces, arena_size=(size, size),
-                     max_food_reward=sum(piece.food_value for piece in pieces))
+    return LevelSpec(
+        level=0,
+        name="flat",
+        difficulty=0,
+        seed=0,
+        agent=AgentPose(0.0, 0.0, 0.0),
+        objects=tuple(arena_walls((size, size), 4.0)) + pieces,
+        arena_size=(size, size),
+        max_food_reward=sum(piece.food_value for piece in pieces),
+    )
 
 
 def _pose(env) -> tuple[np.ndarray, float, float]:
@@ -132,8 +151,11 @@ def open_loop(env, gait: SineGait, spec: LevelSpec, forward: float, turn: float,
         if terminated or truncated:
             break
     facing = np.array([math.cos(yaw0), math.sin(yaw0)])
-    return {"speed": float((position - start)[:2] @ facing) / seconds,
-            "turn_rate": math.degrees(np.unwrap(yaws)[-1] - yaw0) / seconds, "ground": ground / steps}
+    return {
+        "speed": float((position - start)[:2] @ facing) / seconds,
+        "turn_rate": math.degrees(np.unwrap(yaws)[-1] - yaw0) / seconds,
+        "ground": ground / steps,
+    }
 
 
 def terrain_speed(env, gait: SineGait, difficulty: int = 10, seeds=range(5), seconds: float = 10.0) -> float:
@@ -183,13 +205,16 @@ def tune(evaluations: int, drive: bool, seed: int, start: GaitParameters) -> tup
     def decode(z):
         values = dict(zip(ranges, low + (high - low) * np.clip(z, 0, 1)))
         gait = {k: float(v) for k, v in values.items() if k in GAIT_RANGES}
-        drive_values = {k: float(10 ** values[k] if k != "velocity_gain" else values[k])
-                        for k in DRIVE_RANGES if k in values}
+        drive_values = {
+            k: float(10 ** values[k] if k != "velocity_gain" else values[k]) for k in DRIVE_RANGES if k in values
+        }
         return GaitParameters(**{**start.to_dict(), **gait}), drive_values
 
     agent = load_config(None)["agent"]
-    start_values = {**start.to_dict(), **{k: math.log10(agent[k]) if k != "velocity_gain" else agent[k]
-                                           for k in DRIVE_RANGES}}
+    start_values = {
+        **start.to_dict(),
+        **{k: math.log10(agent[k]) if k != "velocity_gain" else agent[k] for k in DRIVE_RANGES},
+    }
     start_z = [(start_values[k] - lo) / (hi - lo) for k, (lo, hi) in ranges.items()]
     envs: dict = {}
 
@@ -204,8 +229,9 @@ def tune(evaluations: int, drive: bool, seed: int, start: GaitParameters) -> tup
         env = envs[key]
         return score(env, SineGait.for_env(env, parameters=parameters))
 
-    es = cma.CMAEvolutionStrategy(np.clip(start_z, 0.05, 0.95), 0.1,
-                                  {"seed": seed + 1, "popsize": 12, "maxfevals": evaluations, "verbose": -9})
+    es = cma.CMAEvolutionStrategy(
+        np.clip(start_z, 0.05, 0.95), 0.1, {"seed": seed + 1, "popsize": 12, "maxfevals": evaluations, "verbose": -9}
+    )
     while not es.stop():
         candidates = es.ask()
         es.tell(candidates, [objective(z) for z in candidates])
@@ -222,8 +248,13 @@ def main(argv=None) -> int:
     parser.add_argument("--evaluations", type=int, default=1500, help="CMA-ES evaluations (default 1500)")
     parser.add_argument("--drive", action="store_true", help="tune the joint drive as well")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--write", nargs="?", const=str(config_dir() / "gait.yaml"), metavar="PATH",
-                        help="write the result to PATH (default configs/gait.yaml)")
+    parser.add_argument(
+        "--write",
+        nargs="?",
+        const=str(config_dir() / "gait.yaml"),
+        metavar="PATH",
+        help="write the result to PATH (default configs/gait.yaml)",
+    )
     args = parser.parse_args(argv)
     from aaai.env import AnimalAIEnv
 
@@ -233,9 +264,15 @@ def main(argv=None) -> int:
     env = AnimalAIEnv(rays=False, max_steps=10000, **drive_values)
     try:
         agent = load_config(None, **drive_values)["agent"]
-        print(yaml.safe_dump({"gait": {k: round(v, 4) for k, v in parameters.to_dict().items()},
-                              "drive": {k: agent[k] for k in ("max_force", "position_gain", "velocity_gain")}},
-                             sort_keys=False))
+        print(
+            yaml.safe_dump(
+                {
+                    "gait": {k: round(v, 4) for k, v in parameters.to_dict().items()},
+                    "drive": {k: agent[k] for k in ("max_force", "position_gain", "velocity_gain")},
+                },
+                sort_keys=False,
+            )
+        )
         for name, value in measure(env, SineGait.for_env(env, parameters=parameters)).items():
             print(f"{name}: {value:.3f}")
     finally:
@@ -250,4 +287,3 @@ def main(argv=None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
-

@@ -1,5 +1,6 @@
 """Plane geometry of a level spec without physics: floor tiles merged into rectangles, the
 missing floor, object footprints."""
+
 from __future__ import annotations
 
 import math
@@ -45,8 +46,10 @@ def missing_floor(spec: LevelSpec) -> list[tuple[float, float, float, float]]:
     tile_x, tile_y = spec.arena_size[0] / nx, spec.arena_size[1] / ny
     present = {(i, j) for i in range(nx) for j in range(ny)} - set(map(tuple, spec.holes))
     left, bottom = -spec.arena_size[0] / 2, -spec.arena_size[1] / 2
-    return [(left + i0 * tile_x, bottom + j0 * tile_y, left + i1 * tile_x, bottom + j1 * tile_y)
-            for i0, j0, i1, j1 in merge_tiles(nx, ny, present)]
+    return [
+        (left + i0 * tile_x, bottom + j0 * tile_y, left + i1 * tile_x, bottom + j1 * tile_y)
+        for i0, j0, i1, j1 in merge_tiles(nx, ny, present)
+    ]
 
 
 def footprint(obj: ObjectSpec) -> tuple[float, float, float, float]:
@@ -75,8 +78,9 @@ def footprints_overlap(a: Quad, b: Quad, gap: float = 0.0) -> bool:
     a = [(float(x), float(y)) for x, y in a]
     b = [(float(x), float(y)) for x, y in b]
     for axis in (0, 1):  # the bounding boxes first: most pairs are far apart
-        if (max(p[axis] for p in a) + margin <= min(p[axis] for p in b)
-                or max(p[axis] for p in b) + margin <= min(p[axis] for p in a)):
+        if max(p[axis] for p in a) + margin <= min(p[axis] for p in b) or max(p[axis] for p in b) + margin <= min(
+            p[axis] for p in a
+        ):
             return False
     for quad in (a, b):
         for i in range(4):

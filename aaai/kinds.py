@@ -8,6 +8,7 @@ for a reward, a fall, a cost per step), how ``aaai.validate`` treats it, how the
 how the head camera draws it. Its fields are the object's own (shape, size, mass): each class
 checks them in ``problems``.
 """
+
 from __future__ import annotations
 
 import math
@@ -65,7 +66,6 @@ def _refresh() -> None:
     SOLID_KINDS = SOLID_CLASSIC + tuple(k for k, c in REGISTRY.items() if c.solid)
     ENDING_KINDS = ("food_green",) + tuple(k for k, c in REGISTRY.items() if c.edible and c.ends)
     CAMERA_HIDDEN = frozenset({"transparent_wall", *(k for k, c in REGISTRY.items() if c.camera_hidden)})
-
 
 
 def register(cls: type["Kind"]) -> type["Kind"]:
@@ -209,15 +209,27 @@ class TimedFood(Kind):
     def problems(cls, obj) -> list[str]:
         problems = super().problems(obj)
         timing = obj.timing
-        allowed = (f"a mapping with {', '.join(TIMING_KEYS)}: numbers, start and end in 0..{MAX_TIMED_VALUE:g} with "
-                   f"end {'above' if cls.rising else 'below'} start, delay 0 or more, duration above 0 (seconds)")
-        if not isinstance(timing, dict) or set(timing) != set(TIMING_KEYS) or not all(
+        allowed = (
+            f"a mapping with {', '.join(TIMING_KEYS)}: numbers, start and end in 0..{MAX_TIMED_VALUE:g} with "
+            f"end {'above' if cls.rising else 'below'} start, delay 0 or more, duration above 0 (seconds)"
+        )
+        if (
+            not isinstance(timing, dict)
+            or set(timing) != set(TIMING_KEYS)
+            or not all(
                 isinstance(timing[k], (int, float)) and not isinstance(timing[k], bool) and math.isfinite(timing[k])
-                for k in TIMING_KEYS):
+                for k in TIMING_KEYS
+            )
+        ):
             return problems + [f"a {cls.name}'s timing is {timing!r}; allowed: {allowed}"]
         start, end, delay, duration = (timing[k] for k in TIMING_KEYS)
-        if not (0 <= start <= MAX_TIMED_VALUE and 0 <= end <= MAX_TIMED_VALUE) or delay < 0 or duration <= 0 \
-                or (end > start) != cls.rising or end == start:
+        if (
+            not (0 <= start <= MAX_TIMED_VALUE and 0 <= end <= MAX_TIMED_VALUE)
+            or delay < 0
+            or duration <= 0
+            or (end > start) != cls.rising
+            or end == start
+        ):
             problems.append(f"a {cls.name}'s timing is {timing!r}; allowed: {allowed}")
         return problems
 
@@ -275,8 +287,10 @@ class Zone(Kind):
     def problems(cls, obj) -> list[str]:
         problems = super().problems(obj)
         if abs(obj.position[2] - obj.size[2] / 2) > 1e-3 or obj.size[2] > 0.1:
-            problems.append(f"a {cls.name} is a slab on the floor: height at most 0.1 (e.g. {ZONE_THICKNESS}) "
-                            f"and z = height / 2, got z {obj.position[2]:g}, height {obj.size[2]:g}")
+            problems.append(
+                f"a {cls.name} is a slab on the floor: height at most 0.1 (e.g. {ZONE_THICKNESS}) "
+                f"and z = height / 2, got z {obj.position[2]:g}, height {obj.size[2]:g}"
+            )
         return problems
 
 
@@ -315,10 +329,32 @@ class Ramp(Kind):
     def mesh(cls, obj):
         hx, hy, hz = (s / 2 for s in obj.size)
         vertices = [(-hx, -hy, -hz), (hx, -hy, -hz), (hx, hy, -hz), (-hx, hy, -hz), (hx, -hy, hz), (hx, hy, hz)]
-        indices = [0, 2, 1, 0, 3, 2,  # bottom
-                   1, 2, 5, 1, 5, 4,  # the high end
-                   0, 1, 4, 3, 5, 2,  # the sides
-                   0, 4, 5, 0, 5, 3]  # the slope
+        indices = [
+            0,
+            2,
+            1,
+            0,
+            3,
+            2,  # bottom
+            1,
+            2,
+            5,
+            1,
+            5,
+            4,  # the high end
+            0,
+            1,
+            4,
+            3,
+            5,
+            2,  # the sides
+            0,
+            4,
+            5,
+            0,
+            5,
+            3,
+        ]  # the slope
         return vertices, indices
 
 
@@ -351,18 +387,30 @@ class Tunnel(Kind):
         length, width, height = obj.size
         a, b = width / 2 - TUNNEL_WALL / 2, height - TUNNEL_WALL / 2  # the wall's mid-line, an ellipse
         bottom = -height / 2
-        points = [(a * math.cos(math.pi * k / TUNNEL_SEGMENTS), b * math.sin(math.pi * k / TUNNEL_SEGMENTS))
-                  for k in range(TUNNEL_SEGMENTS + 1)]
+        points = [
+            (a * math.cos(math.pi * k / TUNNEL_SEGMENTS), b * math.sin(math.pi * k / TUNNEL_SEGMENTS))
+            for k in range(TUNNEL_SEGMENTS + 1)
+        ]
         parts = []
         for (y0, z0), (y1, z1) in zip(points, points[1:]):
             chord = math.hypot(y1 - y0, z1 - z0)
             roll = math.atan2(z1 - z0, y1 - y0)
-            parts.append(((0.0, (y0 + y1) / 2, bottom + (z0 + z1) / 2 + TUNNEL_WALL / 4),
-                          (length, chord + TUNNEL_WALL * 0.3, TUNNEL_WALL), roll))
+            parts.append(
+                (
+                    (0.0, (y0 + y1) / 2, bottom + (z0 + z1) / 2 + TUNNEL_WALL / 4),
+                    (length, chord + TUNNEL_WALL * 0.3, TUNNEL_WALL),
+                    roll,
+                )
+            )
         # feet: the ends of the arch stand on the floor
         for side in (-1, 1):
-            parts.append(((0.0, side * (width / 2 - TUNNEL_WALL / 2), bottom + TUNNEL_WALL / 2),
-                          (length, TUNNEL_WALL, TUNNEL_WALL), 0.0))
+            parts.append(
+                (
+                    (0.0, side * (width / 2 - TUNNEL_WALL / 2), bottom + TUNNEL_WALL / 2),
+                    (length, TUNNEL_WALL, TUNNEL_WALL),
+                    0.0,
+                )
+            )
         return parts
 
 
@@ -422,8 +470,11 @@ class JBlock(Block):
     @classmethod
     def plan(cls, sx, sy, t):
         lip = max(t, sy / 4)
-        return [(sx / 2 - t / 2, t / 2, t, sy - t), (0.0, -sy / 2 + t / 2, sx, t),
-                (-sx / 2 + t / 2, -sy / 2 + t + (lip - t) / 2, t, lip - t)]
+        return [
+            (sx / 2 - t / 2, t / 2, t, sy - t),
+            (0.0, -sy / 2 + t / 2, sx, t),
+            (-sx / 2 + t / 2, -sy / 2 + t + (lip - t) / 2, t, lip - t),
+        ]
 
 
 @register
@@ -447,8 +498,12 @@ class HollowBox(Block):
 
     @classmethod
     def plan(cls, sx, sy, t):
-        return [(-sx / 2 + t / 2, 0.0, t, sy - 2 * t), (sx / 2 - t / 2, 0.0, t, sy - 2 * t),
-                (0.0, -sy / 2 + t / 2, sx, t), (0.0, sy / 2 - t / 2, sx, t)]
+        return [
+            (-sx / 2 + t / 2, 0.0, t, sy - 2 * t),
+            (sx / 2 - t / 2, 0.0, t, sy - 2 * t),
+            (0.0, -sy / 2 + t / 2, sx, t),
+            (0.0, sy / 2 - t / 2, sx, t),
+        ]
 
 
 ALL_KINDS: tuple[str, ...] = ()
@@ -524,8 +579,7 @@ class Sign(Kind):
         for row, line in enumerate(SYMBOLS[cls.symbol]):
             for column, cell in enumerate(line):
                 if cell == "#":  # seen from -x, the board's +y is on the left
-                    parts.append(((0.0, (2 - column) * pixel, (2 - row) * pixel),
-                                  (thickness + 0.1, pixel, pixel), 0.0))
+                    parts.append(((0.0, (2 - column) * pixel, (2 - row) * pixel), (thickness + 0.1, pixel, pixel), 0.0))
         return parts
 
     @classmethod
@@ -534,8 +588,16 @@ class Sign(Kind):
 
 
 for _symbol in SYMBOLS:
-    register(type(f"Sign_{_symbol}", (Sign,), {
-        "name": f"sign_{_symbol}", "symbol": _symbol, "camera": f"a pale board with a dark {_symbol.replace('_', ' ')}",
-        "rule": f"a sign board showing {_symbol.replace('_', ' ')} (SignBoard); a solid",
-        "__doc__": f"A sign board showing {_symbol.replace('_', ' ')}."}))
-
+    register(
+        type(
+            f"Sign_{_symbol}",
+            (Sign,),
+            {
+                "name": f"sign_{_symbol}",
+                "symbol": _symbol,
+                "camera": f"a pale board with a dark {_symbol.replace('_', ' ')}",
+                "rule": f"a sign board showing {_symbol.replace('_', ' ')} (SignBoard); a solid",
+                "__doc__": f"A sign board showing {_symbol.replace('_', ' ')}.",
+            },
+        )
+    )

@@ -1,4 +1,5 @@
 """PPO from stable-baselines3 on the curriculum's parallel workers (needs the `train` extra)."""
+
 from __future__ import annotations
 
 from collections import deque
@@ -78,8 +79,9 @@ class TrackerCallback(BaseCallback):
             self.recent.extend(finished)
             self.logger.record("rollout/task_return_mean", float(np.mean([e.task_return for e in self.recent])))
             self.logger.record("rollout/food_eaten_mean", float(np.mean([e.food_eaten for e in self.recent])))
-            self.logger.record("rollout/pass_rate", float(np.mean(
-                [episode_passed(e.task_return, e.max_reward) for e in self.recent])))
+            self.logger.record(
+                "rollout/pass_rate", float(np.mean([episode_passed(e.task_return, e.max_reward) for e in self.recent]))
+            )
             curriculum = self.tracker.curriculum
             for (level, difficulty), p, q in zip(curriculum.cells, curriculum.probabilities(), curriculum.pass_rates()):
                 self.logger.record(f"curriculum/p_L{level}_d{difficulty}", float(p))
@@ -92,11 +94,20 @@ def ppo_from_config(env, config: dict, run: RunFolder) -> PPO:
     train = config["train"]
     width = train["net_width"]
     return PPO(
-        "MultiInputPolicy", env,
-        learning_rate=train["learning_rate"], n_steps=train["n_steps"], batch_size=train["batch_size"],
-        n_epochs=train["n_epochs"], gamma=train["gamma"], gae_lambda=train["gae_lambda"],
-        ent_coef=train["ent_coef"], policy_kwargs={"net_arch": [width, width], "log_std_init": train["log_std_init"]},
-        tensorboard_log=str(run.path / "tb"), seed=train["seed"], device="cpu", verbose=0,
+        "MultiInputPolicy",
+        env,
+        learning_rate=train["learning_rate"],
+        n_steps=train["n_steps"],
+        batch_size=train["batch_size"],
+        n_epochs=train["n_epochs"],
+        gamma=train["gamma"],
+        gae_lambda=train["gae_lambda"],
+        ent_coef=train["ent_coef"],
+        policy_kwargs={"net_arch": [width, width], "log_std_init": train["log_std_init"]},
+        tensorboard_log=str(run.path / "tb"),
+        seed=train["seed"],
+        device="cpu",
+        verbose=0,
     )
 
 
@@ -109,8 +120,14 @@ def lean_torch() -> None:
     torch.distributions.Distribution.set_default_validate_args(False)
 
 
-def train_ppo(vec: CurriculumVecEnv, tracker, config: dict, run: RunFolder, checkpoint: Path | None,
-              progress: Callable[[int], None]) -> int:
+def train_ppo(
+    vec: CurriculumVecEnv,
+    tracker,
+    config: dict,
+    run: RunFolder,
+    checkpoint: Path | None,
+    progress: Callable[[int], None],
+) -> int:
     lean_torch()
     env = CurriculumSB3Env(vec)
     monitored = VecMonitor(env)
@@ -118,17 +135,24 @@ def train_ppo(vec: CurriculumVecEnv, tracker, config: dict, run: RunFolder, chec
         from aaai.model_io import load_for_training  # without unpickling, unless train --trust-model
 
         width = config["train"]["net_width"]
-        model = load_for_training(checkpoint / "model.zip", monitored, tensorboard_log=str(run.path / "tb"),
-                                  fallback_kwargs={"net_arch": [width, width],
-                                                   "log_std_init": config["train"]["log_std_init"]})
+        model = load_for_training(
+            checkpoint / "model.zip",
+            monitored,
+            tensorboard_log=str(run.path / "tb"),
+            fallback_kwargs={"net_arch": [width, width], "log_std_init": config["train"]["log_std_init"]},
+        )
     else:
         model = ppo_from_config(monitored, config, run)
         if config["train"].get("init_from"):
             start_from(model, config["train"]["init_from"])
     remaining = config["train"]["total_steps"] - model.num_timesteps
     if remaining > 0:
-        model.learn(remaining, callback=TrackerCallback(env, tracker, progress),
-                    reset_num_timesteps=checkpoint is None, tb_log_name="ppo")
+        model.learn(
+            remaining,
+            callback=TrackerCallback(env, tracker, progress),
+            reset_num_timesteps=checkpoint is None,
+            tb_log_name="ppo",
+        )
     tracker.save(model.num_timesteps, dict, save_model=model.save, final=True)
     return model.num_timesteps
 
@@ -147,7 +171,9 @@ def start_from(model: PPO, source: str | Path) -> None:
     if path.is_dir():
         newest = RunFolder(path).latest_checkpoint()
         if newest is None:
-            raise ConfigError(f"--init-from: run folder {str(source)!r} holds no model (final/ or checkpoints/*/model.zip)")
+            raise ConfigError(
+                f"--init-from: run folder {str(source)!r} holds no model (final/ or checkpoints/*/model.zip)"
+            )
         path = newest / "model.zip"
     try:
         with zipfile.ZipFile(path) as archive:
@@ -155,12 +181,14 @@ def start_from(model: PPO, source: str | Path) -> None:
     except (OSError, KeyError, zipfile.BadZipFile, RuntimeError) as error:
         raise ConfigError(f"--init-from: {str(path)!r} is not a stable-baselines3 model: {error}") from None
     own = model.policy.state_dict()
-    differ = sorted(k for k in set(own) | set(weights)
-                    if k not in own or k not in weights or own[k].shape != weights[k].shape)
+    differ = sorted(
+        k for k in set(own) | set(weights) if k not in own or k not in weights or own[k].shape != weights[k].shape
+    )
     if differ:
-        raise ConfigError(f"--init-from: the network of {str(path)!r} does not fit this run's (first difference: "
-                          f"{differ[0]}: {tuple(weights[differ[0]].shape) if differ[0] in weights else 'missing'} there, "
-                          f"{tuple(own[differ[0]].shape) if differ[0] in own else 'missing'} here); allowed: a model "
-                          "trained with the same action mode, senses and train.net_width")
+        raise ConfigError(
+            f"--init-from: the network of {str(path)!r} does not fit this run's (first difference: "
+            f"{differ[0]}: {tuple(weights[differ[0]].shape) if differ[0] in weights else 'missing'} there, "
+            f"{tuple(own[differ[0]].shape) if differ[0] in own else 'missing'} here); allowed: a model "
+            "trained with the same action mode, senses and train.net_width"
+        )
     model.policy.load_state_dict(weights)
-

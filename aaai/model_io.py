@@ -23,6 +23,7 @@ this machine's ``aaai train --backend rllib`` saved them (:func:`sign_checkpoint
 over the checkpoint's files with a key kept in ``~/.config/aaai/checkpoint.key`` (or the file named
 by ``AAAI_CHECKPOINT_KEY``), created on first use, readable by its owner only.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -57,23 +58,67 @@ POLICIES = {
 POLICY_MODULES = ("stable_baselines3.common.policies", "sb3_contrib.common.recurrent.policies")
 
 # Classes a policy_kwargs value may name (as text "<class 'module.Name'>"), by that dotted name.
-CLASSES = {f"torch.nn.modules.activation.{name}": ("torch.nn", name)
-           for name in ("ReLU", "Tanh", "ELU", "LeakyReLU", "SiLU", "GELU", "Sigmoid", "Softplus")}
-CLASSES.update({f"torch.optim.{module}.{name}": ("torch.optim", name)
-                for module, name in (("adam", "Adam"), ("adamw", "AdamW"), ("rmsprop", "RMSprop"), ("sgd", "SGD"))})
-CLASSES.update({f"stable_baselines3.common.torch_layers.{name}": ("stable_baselines3.common.torch_layers", name)
-                for name in ("CombinedExtractor", "FlattenExtractor", "NatureCNN")})
+CLASSES = {
+    f"torch.nn.modules.activation.{name}": ("torch.nn", name)
+    for name in ("ReLU", "Tanh", "ELU", "LeakyReLU", "SiLU", "GELU", "Sigmoid", "Softplus")
+}
+CLASSES.update(
+    {
+        f"torch.optim.{module}.{name}": ("torch.optim", name)
+        for module, name in (("adam", "Adam"), ("adamw", "AdamW"), ("rmsprop", "RMSprop"), ("sgd", "SGD"))
+    }
+)
+CLASSES.update(
+    {
+        f"stable_baselines3.common.torch_layers.{name}": ("stable_baselines3.common.torch_layers", name)
+        for name in ("CombinedExtractor", "FlattenExtractor", "NatureCNN")
+    }
+)
 CLASS_KEYS = {"activation_fn", "optimizer_class", "features_extractor_class"}
 # policy_kwargs keys taken as plain JSON (numbers, booleans, lists and dicts of them).
-PLAIN_KEYS = {"net_arch", "log_std_init", "ortho_init", "full_std", "use_expln", "squash_output",
-              "share_features_extractor", "normalize_images", "optimizer_kwargs", "features_extractor_kwargs",
-              "lstm_hidden_size", "n_lstm_layers", "shared_lstm", "enable_critic_lstm", "lstm_kwargs"}
+PLAIN_KEYS = {
+    "net_arch",
+    "log_std_init",
+    "ortho_init",
+    "full_std",
+    "use_expln",
+    "squash_output",
+    "share_features_extractor",
+    "normalize_images",
+    "optimizer_kwargs",
+    "features_extractor_kwargs",
+    "lstm_hidden_size",
+    "n_lstm_layers",
+    "shared_lstm",
+    "enable_critic_lstm",
+    "lstm_kwargs",
+}
 
 # Fields of the data part that a rebuilt PPO takes as they are (plain JSON numbers and flags).
-HYPERPARAMETERS = ("n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "ent_coef", "vf_coef",
-                   "max_grad_norm", "normalize_advantage", "target_kl", "use_sde", "sde_sample_freq", "seed", "verbose")
-COUNTERS = ("num_timesteps", "_total_timesteps", "_num_timesteps_at_start", "_episode_num", "_n_updates",
-            "_current_progress_remaining")
+HYPERPARAMETERS = (
+    "n_steps",
+    "batch_size",
+    "n_epochs",
+    "gamma",
+    "gae_lambda",
+    "ent_coef",
+    "vf_coef",
+    "max_grad_norm",
+    "normalize_advantage",
+    "target_kl",
+    "use_sde",
+    "sde_sample_freq",
+    "seed",
+    "verbose",
+)
+COUNTERS = (
+    "num_timesteps",
+    "_total_timesteps",
+    "_num_timesteps_at_start",
+    "_episode_num",
+    "_n_updates",
+    "_current_progress_remaining",
+)
 
 _TRUST = contextvars.ContextVar("aaai_trust_model", default=False)
 
@@ -101,7 +146,8 @@ def _refuse(path: Path, field: str, why: str) -> UntrustedModel:
     return UntrustedModel(
         f"model file {str(path)!r}: field {field!r} {why}, so it cannot be loaded without running code from the "
         f"file; refused. If you trust this file (it executes as you), pass {TRUST_FLAG} to load it with "
-        "stable-baselines3's own loader")
+        "stable-baselines3's own loader"
+    )
 
 
 # --- the archive ------------------------------------------------------------------------------
@@ -122,6 +168,7 @@ def _pickled(value: Any) -> bool:
 class Archive:
     """A stable-baselines3 model file, read without unpickling: its data part (pickled fields
     reduced to the readable text beside them) and its weight files' names."""
+
     path: Path
     data: dict
     names: list[str]
@@ -137,8 +184,11 @@ class Archive:
         except KeyError:
             raise ConfigError(f"model file {str(self.path)!r} lacks {name}") from None
         except Exception as error:  # noqa: BLE001 - weights_only refuses anything but tensors: the file's fault
-            raise _refuse(self.path, name, f"is not plain tensors ({type(error).__name__}: "
-                                           f"{str(error).splitlines()[0] if str(error) else ''})") from None
+            raise _refuse(
+                self.path,
+                name,
+                f"is not plain tensors ({type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''})",
+            ) from None
 
 
 def read_archive(path: str | Path) -> Archive:
@@ -155,8 +205,9 @@ def read_archive(path: str | Path) -> Archive:
     try:
         data = json.loads(text)
     except ValueError as error:
-        raise ConfigError(f"model file {str(path)!r} cannot be loaded by stable-baselines3: its data part is not "
-                          f"JSON ({error})") from None
+        raise ConfigError(
+            f"model file {str(path)!r} cannot be loaded by stable-baselines3: its data part is not JSON ({error})"
+        ) from None
     if not isinstance(data, dict):
         raise ConfigError(f"model file {str(path)!r}: its data part is not a JSON object")
     return Archive(path, _strip_pickles(data), names)
@@ -179,8 +230,12 @@ def policy_class_name(archive: Archive) -> str:
     match = re.fullmatch(r"<function (\w+)\.__init__ at 0x[0-9a-fA-F]+>", str(entry.get("__init__", "")))
     if match is None or match.group(1) not in POLICIES or entry.get("__module__") not in POLICY_MODULES:
         shown = match.group(1) if match else entry.get(":type:", "?")
-        raise _refuse(archive.path, "policy_class", f"names {shown!r} (module {entry.get('__module__')!r}), which is "
-                      f"not one of ours ({', '.join(sorted(POLICIES))})")
+        raise _refuse(
+            archive.path,
+            "policy_class",
+            f"names {shown!r} (module {entry.get('__module__')!r}), which is "
+            f"not one of ours ({', '.join(sorted(POLICIES))})",
+        )
     return match.group(1)
 
 
@@ -189,16 +244,19 @@ def _algorithm(archive: Archive):
     try:
         library = importlib.import_module(module)
     except ImportError:
-        raise ConfigError(f"model file {str(archive.path)!r} is a {algorithm} model, which needs {module} "
-                          f"(pip install {module.replace('_', '-')})") from None
+        raise ConfigError(
+            f"model file {str(archive.path)!r} is a {algorithm} model, which needs {module} "
+            f"(pip install {module.replace('_', '-')})"
+        ) from None
     return getattr(library, algorithm), alias
 
 
 def _named_class(path: Path, field: str, text: Any):
     match = re.fullmatch(r"<class '([\w.]+)'>", str(text))
     if match is None or match.group(1) not in CLASSES:
-        raise _refuse(path, field, f"names {text!r}, which is not among the classes allowed there "
-                      f"({', '.join(sorted(CLASSES))})")
+        raise _refuse(
+            path, field, f"names {text!r}, which is not among the classes allowed there ({', '.join(sorted(CLASSES))})"
+        )
     module, name = CLASSES[match.group(1)]
     return getattr(importlib.import_module(module), name)
 
@@ -259,7 +317,7 @@ def _space_parts(text: str) -> dict[str, str]:
     parts = {}
     for i, match in enumerate(found):
         end = found[i + 1].start() if i + 1 < len(found) else len(text)
-        parts[match.group(1)] = text[match.end():end].rstrip(" ,}")
+        parts[match.group(1)] = text[match.end() : end].rstrip(" ,}")
     return parts
 
 
@@ -273,8 +331,10 @@ def stored_space(archive: Archive, field: str) -> dict[str, str] | None:
     if kind.endswith(".Dict'>") and isinstance(entry.get("spaces"), str):
         return _space_parts(entry["spaces"])
     if kind.endswith(".Box'>") and isinstance(entry.get("_shape"), list):
-        return {"": f"Box({entry.get('low_repr')}, {entry.get('high_repr')}, {tuple(entry['_shape'])}, "
-                    f"{entry.get('dtype')})"}
+        return {
+            "": f"Box({entry.get('low_repr')}, {entry.get('high_repr')}, {tuple(entry['_shape'])}, "
+            f"{entry.get('dtype')})"
+        }
     if kind.endswith(".Discrete'>"):
         return {"": f"Discrete({entry.get('n')})"}
     return None
@@ -294,8 +354,10 @@ def describe_space(space) -> dict[str, str]:
 def space_problems(archive: Archive, observation_space, action_space) -> list[str]:
     """How the file's spaces differ from the environment's, one line each (empty: they agree)."""
     problems = []
-    for field, space, name in (("observation_space", observation_space, "observation"),
-                               ("action_space", action_space, "action")):
+    for field, space, name in (
+        ("observation_space", observation_space, "observation"),
+        ("action_space", action_space, "action"),
+    ):
         stored = stored_space(archive, field)
         if stored is None:
             raise _refuse(archive.path, field, "keeps no readable description of the space")
@@ -324,13 +386,20 @@ class SafePolicy:
         return self.policy.predict(observation, state, episode_start, deterministic=deterministic)
 
 
-def load_policy_network(path: str | Path, observation_space, action_space, fallback_kwargs: dict | None = None,
-                        archive: Archive | None = None) -> SafePolicy:
+def load_policy_network(
+    path: str | Path,
+    observation_space,
+    action_space,
+    fallback_kwargs: dict | None = None,
+    archive: Archive | None = None,
+) -> SafePolicy:
     """The policy of a model file, for the given spaces, its weights loaded with weights_only."""
     archive = archive or read_archive(path)
     name = policy_class_name(archive)
     _algorithm(archive)  # the library is there
-    module = "sb3_contrib.common.recurrent.policies" if name.startswith("Recurrent") else "stable_baselines3.common.policies"
+    module = (
+        "sb3_contrib.common.recurrent.policies" if name.startswith("Recurrent") else "stable_baselines3.common.policies"
+    )
     cls = getattr(importlib.import_module(module), name)
     kwargs = policy_kwargs(archive, fallback_kwargs)
     use_sde = archive.data.get("use_sde", False)
@@ -340,22 +409,27 @@ def load_policy_network(path: str | Path, observation_space, action_space, fallb
     try:
         policy = cls(observation_space, action_space, _constant(learning_rate), use_sde=use_sde, **kwargs)
     except (TypeError, ValueError, KeyError, AssertionError) as error:
-        raise ConfigError(f"model file {str(archive.path)!r}: its policy cannot be built for this environment "
-                          f"({type(error).__name__}: {error})") from None
+        raise ConfigError(
+            f"model file {str(archive.path)!r}: its policy cannot be built for this environment "
+            f"({type(error).__name__}: {error})"
+        ) from None
     state = archive.tensors("policy.pth")
     if not isinstance(state, dict):
         raise _refuse(archive.path, "policy.pth", "is not a state dict")
     try:
         policy.load_state_dict(state, strict=True)
     except RuntimeError as error:
-        raise ConfigError(f"model file {str(archive.path)!r}: its weights do not fit the policy for this "
-                          f"environment: {str(error).splitlines()[0]}") from None
+        raise ConfigError(
+            f"model file {str(archive.path)!r}: its weights do not fit the policy for this "
+            f"environment: {str(error).splitlines()[0]}"
+        ) from None
     policy.set_training_mode(False)
     return SafePolicy(policy, recurrent=name.startswith("Recurrent"))
 
 
-def load_for_training(path: str | Path, env, fallback_kwargs: dict | None = None, trust: bool | None = None,
-                      **overrides):
+def load_for_training(
+    path: str | Path, env, fallback_kwargs: dict | None = None, trust: bool | None = None, **overrides
+):
     """A whole model (weights, optimiser state, step counters) to go on training in ``env``; the
     same as ``PPO.load(path, env=env, **overrides)`` but without unpickling (unless trusted)."""
     path = Path(path)
@@ -375,15 +449,27 @@ def load_for_training(path: str | Path, env, fallback_kwargs: dict | None = None
             raise _refuse(path, key, "is not a plain value")
         if key in archive.data:
             hyper[key] = value
-    hyper["learning_rate"] = (schedule_constant(archive, "learning_rate") if "learning_rate" in archive.data
-                              else schedule_constant(archive, "lr_schedule"))
+    hyper["learning_rate"] = (
+        schedule_constant(archive, "learning_rate")
+        if "learning_rate" in archive.data
+        else schedule_constant(archive, "lr_schedule")
+    )
     hyper["clip_range"] = schedule_constant(archive, "clip_range", 0.2)
     hyper["clip_range_vf"] = schedule_constant(archive, "clip_range_vf", None)
     hyper["stats_window_size"] = archive.data.get("_stats_window_size", 100)
-    model = algorithm(alias, env, policy_kwargs=policy_kwargs(archive, fallback_kwargs), device="cpu",
-                      **{k: v for k, v in hyper.items() if v is not None or k == "clip_range_vf"}, **overrides)
-    params = {Path(name).stem: archive.tensors(name) for name in archive.names
-              if name.endswith(".pth") and name != "pytorch_variables.pth"}
+    model = algorithm(
+        alias,
+        env,
+        policy_kwargs=policy_kwargs(archive, fallback_kwargs),
+        device="cpu",
+        **{k: v for k, v in hyper.items() if v is not None or k == "clip_range_vf"},
+        **overrides,
+    )
+    params = {
+        Path(name).stem: archive.tensors(name)
+        for name in archive.names
+        if name.endswith(".pth") and name != "pytorch_variables.pth"
+    }
     try:
         model.set_parameters(params, exact_match=True, device="cpu")
     except (RuntimeError, ValueError) as error:
@@ -455,4 +541,5 @@ def check_rllib_checkpoint(folder: str | Path, trust: bool | None = None) -> Non
     raise UntrustedModel(
         f"RLlib checkpoint {str(folder)!r} is made of pickles, which run code as they load, and it does not carry "
         f"this machine's signature ({SIGNATURE}, written when aaai train --backend rllib saved it here); refused. "
-        f"If you trust it, pass {TRUST_FLAG}")
+        f"If you trust it, pass {TRUST_FLAG}"
+    )

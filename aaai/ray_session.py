@@ -1,4 +1,5 @@
 """Starting or joining Ray for one job: a local instance of its own, or an existing cluster."""
+
 from __future__ import annotations
 
 import os
@@ -21,8 +22,10 @@ def check_reachable(address: str, seconds: float = 5.0) -> None:
     try:
         socket.create_connection((host, int(port)), timeout=seconds).close()
     except OSError as error:
-        raise ConfigError(f"--address: got {address!r}; no Ray cluster answers there ({error}); allowed: the "
-                          "address of a running cluster's head, as `ray start --head` prints it") from None
+        raise ConfigError(
+            f"--address: got {address!r}; no Ray cluster answers there ({error}); allowed: the "
+            "address of a running cluster's head, as `ray start --head` prints it"
+        ) from None
 
 
 class RaySession:

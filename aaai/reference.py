@@ -23,6 +23,7 @@ own). Its tactic is the same in every level, driven by what the level holds:
 Use it as any policy: ``aaai eval --policy reference``, ``aaai run --policy reference``,
 ``aaai show --video out.mp4 --policy reference``, or ``ReferenceController(env)`` in Python.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,8 +34,8 @@ import pybullet as p
 
 from aaai import validate
 from aaai.agent.urdf_writer import HEAD_RADIUS
-from aaai.gait import BACK_UP, SineGait, approach, steer
 from aaai.behaviours import Sink, behaviour_class
+from aaai.gait import BACK_UP, SineGait, approach, steer
 from aaai.geometry import corners
 from aaai.kinds import ENDING_KINDS, FOOD_KINDS, kind_class
 from aaai.spec import ObjectSpec
@@ -110,14 +111,19 @@ class ReferenceController:
         self.clearance = validate.clearance_map(self.spec, self.grid)
         walk = validate.walk_region(self.spec, self.clearance, start)
         self.walk = walk if walk is not None else self.clearance > HEAD_RADIUS
-        self.crowding = (1.0 + CROWDING_COST * np.clip(1.0 - self.clearance / COMFORT, 0.0, 1.0)
-                         + CLOSE_COST * np.clip((CLOSE - self.clearance) / (CLOSE - FOOTPRINT_RADIUS), 0.0, 1.0))
+        self.crowding = (
+            1.0
+            + CROWDING_COST * np.clip(1.0 - self.clearance / COMFORT, 0.0, 1.0)
+            + CLOSE_COST * np.clip((CLOSE - self.clearance) / (CLOSE - FOOTPRINT_RADIUS), 0.0, 1.0)
+        )
         hot = [obj for obj in self.spec.objects if getattr(kind_class(obj.kind), "hot", False)]
         if hot:  # where a foot may touch a hot zone
             zones = np.zeros(self.clearance.shape, np.uint8)
             for obj in hot:
                 validate.fill(zones, self.spec, corners(obj))
-            away = cv2.distanceTransform((zones == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * validate.GRID
+            away = (
+                cv2.distanceTransform((zones == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * validate.GRID
+            )
             self.crowding = self.crowding + HOT_COST * (away < FOOTPRINT_RADIUS)
         self.plan_key = None
 
@@ -127,7 +133,7 @@ class ReferenceController:
         closed = self.env.world.closed
         if len(closed) == self.doors_closed:
             return
-        for door in closed[self.doors_closed:]:
+        for door in closed[self.doors_closed :]:
             validate.fill(self.grid, self.spec, corners(door.obj))
         self.doors_closed = len(closed)
         self._map((float(head[0]), float(head[1])))
@@ -147,8 +153,9 @@ class ReferenceController:
                 cost[np.hypot(self.cell_x[None, :] - x, self.cell_y[:, None] - y) < radius] += 50.0
         return validate.path_costs(self.walk, goals, cost)
 
-    def _waypoint(self, head: np.ndarray, goal: tuple[float, float], reach: float, key,
-                  avoid: list[tuple[float, float, float]]) -> tuple[float, float]:
+    def _waypoint(
+        self, head: np.ndarray, goal: tuple[float, float], reach: float, key, avoid: list[tuple[float, float, float]]
+    ) -> tuple[float, float]:
         """Where to steer now: straight at a near goal, else the cheapest cell within LOOKAHEAD."""
         if math.dist(head[:2], goal) < DIRECT + reach - HEAD_RADIUS and self._clear_line(head, goal):
             return goal
@@ -165,8 +172,9 @@ class ReferenceController:
             r, c = np.unravel_index(np.argmin(here), here.shape)
             return float(self.cell_x[c0 + c]), float(self.cell_y[r0 + r])
         # off the plan: head for the nearest planned cell
-        distance = np.where(np.isfinite(self.plan), np.hypot(self.cell_x[None, :] - head[0],
-                                                               self.cell_y[:, None] - head[1]), np.inf)
+        distance = np.where(
+            np.isfinite(self.plan), np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]), np.inf
+        )
         r, c = np.unravel_index(np.argmin(distance), distance.shape)
         return float(self.cell_x[c]), float(self.cell_y[r])
 
@@ -296,15 +304,17 @@ class ReferenceController:
         if close and point == goal:  # the final approach to a piece: crouch to reach it
             self.gait.command(*approach(self.gait.parameters, error, math.dist(head[:2], goal), reach - HEAD_RADIUS))
         else:
-            forward, turn = steer(error, math.dist(head[:2], point), arrive=2.0 if self.detour else 0.0,
-                                  reverse=remaining < BACK_UP)
+            forward, turn = steer(
+                error, math.dist(head[:2], point), arrive=2.0 if self.detour else 0.0, reverse=remaining < BACK_UP
+            )
             row, col = validate.cell(self.spec, head[0], head[1], self.clearance.shape)
             room = (self.clearance[row, col] - FOOTPRINT_RADIUS) / (CLOSE - FOOTPRINT_RADIUS)
             self.gait.command(forward * min(1.0, max(SLOW, room)) if forward > 0 else forward, turn)
         return self.gait()
 
-    def _approach_point(self, head: np.ndarray, food: tuple[float, float], reach: float,
-                        turn: float) -> tuple[float, float] | None:
+    def _approach_point(
+        self, head: np.ndarray, food: tuple[float, float], reach: float, turn: float
+    ) -> tuple[float, float] | None:
         """Where to stand before the last few steps to a piece: the side with the most room for
         the head as it eats (so that it can back out straight) and on the way in, preferring the
         side the head comes from (turned by ``turn`` rad); None when the head can go straight on."""
@@ -336,8 +346,12 @@ class ReferenceController:
         here = self.clearance[row, col]
         straight = []  # straight out, ahead or behind, turns no leg toward the wall
         for sign in (1.0, -1.0):
-            cell = validate.cell(self.spec, head[0] + sign * 2.0 * math.cos(yaw), head[1] + sign * 2.0 * math.sin(yaw),
-                                  self.clearance.shape)
+            cell = validate.cell(
+                self.spec,
+                head[0] + sign * 2.0 * math.cos(yaw),
+                head[1] + sign * 2.0 * math.sin(yaw),
+                self.clearance.shape,
+            )
             straight.append((self.clearance[cell], sign))
         room, sign = max(straight)
         if room > here + 0.3:
@@ -346,8 +360,11 @@ class ReferenceController:
         best, roomiest = yaw, -1.0
         for k in range(16):  # the way out: the direction in which there is most room 2 units on
             angle = yaw + k * math.pi / 8
-            room = self.clearance[validate.cell(self.spec, head[0] + 2.0 * math.cos(angle),
-                                                 head[1] + 2.0 * math.sin(angle), self.clearance.shape)]
+            room = self.clearance[
+                validate.cell(
+                    self.spec, head[0] + 2.0 * math.cos(angle), head[1] + 2.0 * math.sin(angle), self.clearance.shape
+                )
+            ]
             if room > roomiest:
                 best, roomiest = angle, room
         forward, turn = steer(_angle(best - yaw), 2.0, reverse=True)

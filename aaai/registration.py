@@ -1,4 +1,5 @@
 """Gymnasium ids: aaai/AnimalAI-v0 (any level, chosen by keyword) and one id per level."""
+
 from __future__ import annotations
 
 import gymnasium as gym

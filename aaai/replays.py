@@ -10,6 +10,7 @@ exactly. A replay is data, never code: nothing in it is imported or evaluated.
 ``Recorder`` wraps any policy to record its episodes; ``ReplaySaver`` gives ``evaluate`` a
 recorder and writes each scored episode's replay (``aaai eval --save-replays``, ``aaai play``).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -29,8 +30,24 @@ from aaai.levels import get_level
 FORMAT = "aaai-replay"
 VERSION = 1
 MAX_REPLAY_BYTES = 256 << 20  # a 10 000-step episode of 16 joint actions is a few MB
-KEYS = ("format", "version", "policy", "level", "level_name", "difficulty", "seed", "arena", "spec_digest",
-        "config", "config_digest", "steps", "return", "final_pose", "end", "actions")
+KEYS = (
+    "format",
+    "version",
+    "policy",
+    "level",
+    "level_name",
+    "difficulty",
+    "seed",
+    "arena",
+    "spec_digest",
+    "config",
+    "config_digest",
+    "steps",
+    "return",
+    "final_pose",
+    "end",
+    "actions",
+)
 
 
 def config_digest(config: dict) -> str:
@@ -87,11 +104,21 @@ class Recorder:
         spec, head = env.level_spec, env.snapshot().head
         config = env_config(env)
         return {
-            "format": FORMAT, "version": VERSION, "policy": self.name,
-            "level": spec.level, "level_name": spec.name, "difficulty": spec.difficulty, "seed": spec.seed,
-            "arena": None, "spec_digest": spec.digest(), "config": config, "config_digest": config_digest(config),
-            "steps": steps, "return": episode_return,
-            "final_pose": {"x": head.x, "y": head.y, "z": head.z, "yaw": head.yaw}, "end": end,
+            "format": FORMAT,
+            "version": VERSION,
+            "policy": self.name,
+            "level": spec.level,
+            "level_name": spec.name,
+            "difficulty": spec.difficulty,
+            "seed": spec.seed,
+            "arena": None,
+            "spec_digest": spec.digest(),
+            "config": config,
+            "config_digest": config_digest(config),
+            "steps": steps,
+            "return": episode_return,
+            "final_pose": {"x": head.x, "y": head.y, "z": head.z, "yaw": head.yaw},
+            "end": end,
             "actions": encode_actions(self.actions),
         }
 
@@ -105,8 +132,10 @@ def with_arena(replay: dict, arena: str | Path | None) -> dict:
     """The replay naming the arena file it was played on (its path and content hash)."""
     if arena is None:
         return replay
-    return {**replay, "arena": {"name": Path(arena).name, "path": str(Path(arena).resolve()),
-                                "sha256": file_digest(arena)}}
+    return {
+        **replay,
+        "arena": {"name": Path(arena).name, "path": str(Path(arena).resolve()), "sha256": file_digest(arena)},
+    }
 
 
 def replay_name(replay: dict, prefix: str = "") -> str:
@@ -129,8 +158,15 @@ class ReplaySaver:
     """``make_policy`` and ``on_episode`` for ``aaai.evaluation.evaluate``: the policy ``load(env)``
     gives, recorded, and each scored episode's replay written into ``folder`` as it ends."""
 
-    def __init__(self, folder: str | Path, name: str, load: Callable, prefix: str = "",
-                 arenas: dict[str, Path] | None = None, on_episode: Callable[[dict], None] | None = None):
+    def __init__(
+        self,
+        folder: str | Path,
+        name: str,
+        load: Callable,
+        prefix: str = "",
+        arenas: dict[str, Path] | None = None,
+        on_episode: Callable[[dict], None] | None = None,
+    ):
         self.folder, self.name, self.load, self.prefix = Path(folder), name, load, prefix
         self.arenas, self.then = arenas or {}, on_episode
         self.recorder: Recorder | None = None
@@ -171,7 +207,7 @@ def load_replay(path: str | Path) -> dict:
     except (ValueError, UnicodeDecodeError) as error:
         raise ConfigError(f"replay {str(path)!r} is not valid JSON: {error}") from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise ConfigError(f"replay {str(path)!r} is not an aaai replay (no \"format\": \"{FORMAT}\")")
+        raise ConfigError(f'replay {str(path)!r} is not an aaai replay (no "format": "{FORMAT}")')
     if data.get("version") != VERSION:
         raise _fail(path, "version", data.get("version"), f"{VERSION}")
     missing = [key for key in KEYS if key not in data]
@@ -186,15 +222,25 @@ def load_replay(path: str | Path) -> dict:
     if not isinstance(pose, dict) or sorted(pose) != ["x", "y", "yaw", "z"] or not all(map(_number, pose.values())):
         raise _fail(path, "final_pose", pose, "{x, y, z, yaw}: finite numbers")
     if not isinstance(data["config"], dict) or config_digest(data["config"]) != data["config_digest"]:
-        raise _fail(path, "config_digest", data["config_digest"], "the SHA-256 of the replay's config (the file was edited)")
+        raise _fail(
+            path, "config_digest", data["config_digest"], "the SHA-256 of the replay's config (the file was edited)"
+        )
     arena = data["arena"]
-    if arena is not None and not (isinstance(arena, dict) and all(isinstance(arena.get(k), str)
-                                                                  for k in ("name", "path", "sha256"))):
+    if arena is not None and not (
+        isinstance(arena, dict) and all(isinstance(arena.get(k), str) for k in ("name", "path", "sha256"))
+    ):
         raise _fail(path, "arena", arena, "null or {name, path, sha256}")
     runs = data["actions"]
     ok = isinstance(runs, list) and all(
-        isinstance(run, list) and len(run) == 2 and isinstance(run[0], int) and not isinstance(run[0], bool)
-        and run[0] > 0 and isinstance(run[1], list) and all(map(_number, run[1])) for run in runs)
+        isinstance(run, list)
+        and len(run) == 2
+        and isinstance(run[0], int)
+        and not isinstance(run[0], bool)
+        and run[0] > 0
+        and isinstance(run[1], list)
+        and all(map(_number, run[1]))
+        for run in runs
+    )
     if not ok:
         raise _fail(path, "actions", runs, "a list of [count, [numbers]] runs")
     if sum(run[0] for run in runs) != data["steps"]:
@@ -229,8 +275,10 @@ def replay_options(replay: dict, arena: str | Path | None = None) -> dict:
     if not path.is_file():
         raise ConfigError(f"replay: arena file {str(path)!r} does not exist; pass its path (--arena)")
     if file_digest(path) != replay["arena"]["sha256"]:
-        raise ConfigError(f"replay: arena file {str(path)!r} has changed since the episode was recorded "
-                          f"(SHA-256 {file_digest(path)[:12]}..., recorded {replay['arena']['sha256'][:12]}...)")
+        raise ConfigError(
+            f"replay: arena file {str(path)!r} has changed since the episode was recorded "
+            f"(SHA-256 {file_digest(path)[:12]}..., recorded {replay['arena']['sha256'][:12]}...)"
+        )
     return {"spec": load_arena(path, replay["seed"]), "check": False}
 
 
@@ -259,8 +307,9 @@ def run_replay(replay: dict, env=None, arena: str | Path | None = None, on_reset
     try:
         options = replay_options(replay, arena)
         policy = ReplayPolicy(replay)
-        result = play(env, policy, replay["seed"], options=options, on_reset=on_reset, on_step=on_step,
-                      max_steps=replay["steps"])
+        result = play(
+            env, policy, replay["seed"], options=options, on_reset=on_reset, on_step=on_step, max_steps=replay["steps"]
+        )
         spec = env.unwrapped.level_spec
         head = env.unwrapped.snapshot().head
     finally:
@@ -269,8 +318,10 @@ def run_replay(replay: dict, env=None, arena: str | Path | None = None, on_reset
     pose = {"x": head.x, "y": head.y, "z": head.z, "yaw": head.yaw}
     differences = []
     if spec.digest() != replay["spec_digest"]:
-        differences.append(f"the level differs from the recorded one (spec hash {spec.digest()[:12]}..., recorded "
-                           f"{replay['spec_digest'][:12]}...): the level's code or parameters have changed")
+        differences.append(
+            f"the level differs from the recorded one (spec hash {spec.digest()[:12]}..., recorded "
+            f"{replay['spec_digest'][:12]}...): the level's code or parameters have changed"
+        )
     if result.end != replay["end"]:
         differences.append(f"the episode ended {result.end!r} at step {result.steps}, recorded {replay['end']!r}")
     if result.episode_return != replay["return"]:

@@ -10,6 +10,7 @@ ripens, decays, grows or shrinks pays its value at the time it is eaten (aaai.ki
 Optional potential-based shaping (episode.shaping = k > 0) adds k x (how much nearer the head
 came to the nearest food this step); evaluation always runs with k = 0.
 """
+
 from __future__ import annotations
 
 import math
@@ -62,9 +63,11 @@ def step_reward(events: StepEvents, max_steps: int, ground_penalty: bool, limb_f
     return {
         "step": -unit * HOT_ZONE_FACTOR if events.hot else -unit,
         "ground": -unit if (events.head_on_floor or not ground_penalty) else 0.0,
-        "food": sum(food_reward(food, by_head, limb_food_reward, events.seconds)
-                    for food, by_head in events.eaten.values())
-        if events.eaten else 0,
+        "food": sum(
+            food_reward(food, by_head, limb_food_reward, events.seconds) for food, by_head in events.eaten.values()
+        )
+        if events.eaten
+        else 0,
         "wall": -1.0 * events.new_wall_hits,
         "fall": -1.0 if events.fell else 0.0,
         "shaping": 0.0,  # set by FoodTask when episode.shaping > 0 (training only)

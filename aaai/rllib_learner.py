@@ -14,6 +14,7 @@ checkpoint). Episodes and checkpoints are handled at the end of each training it
 iteration = ``train.n_steps`` x ``train.num_envs`` environment steps), so steps in episodes.csv and
 checkpoints fall on iteration boundaries. A resume continues from the newest readable saved point.
 """
+
 from __future__ import annotations
 
 import json
@@ -32,7 +33,7 @@ import numpy as np
 from aaai.config import ConfigError, env_part, load_config
 from aaai.curriculum import Curriculum
 from aaai.runs import RunFolder, check_writable
-from aaai.training import TrainResult, Tracker, check_trainable, move_end, with_proprioception
+from aaai.training import Tracker, TrainResult, check_trainable, move_end, with_proprioception
 from aaai.vector import EPISODE_INFO_KEYS, Episode, worker_processes
 
 ENV_NAME = "aaai-curriculum"
@@ -56,8 +57,9 @@ class CurriculumService:
         return self.curriculum.sample()
 
     def record(self, episode: dict) -> None:
-        self.curriculum.record(episode["level"], episode["difficulty"], episode["task_return"],
-                               episode.get("max_reward"))  # with it, whether the episode passed
+        self.curriculum.record(
+            episode["level"], episode["difficulty"], episode["task_return"], episode.get("max_reward")
+        )  # with it, whether the episode passed
         self.finished.append(episode)
 
     def collect(self) -> list[dict]:
@@ -136,9 +138,16 @@ class CurriculumEnv(gym.Env):
         self.length += 1
         if terminated or truncated:
             level, difficulty, seed = self.assigned
-            episode = Episode(self.worker, level, difficulty, seed, self.episode_return,
-                              self.episode_return - self.shaping, self.length,
-                              **{key: _plain(info[key]) for key in EPISODE_INFO_KEYS})
+            episode = Episode(
+                self.worker,
+                level,
+                difficulty,
+                seed,
+                self.episode_return,
+                self.episode_return - self.shaping,
+                self.length,
+                **{key: _plain(info[key]) for key in EPISODE_INFO_KEYS},
+            )
             ray.get(self.sampler.record.remote(asdict(episode)))  # recorded before the next reset samples
         return observation, reward, terminated, truncated, info
 
@@ -230,13 +239,27 @@ def ppo_config(config: dict, sampler: str, env_runners: int):
     return (
         PPOConfig()
         .environment(ENV_NAME, env_config={"aaai_config": config, "sampler": sampler})
-        .env_runners(num_env_runners=env_runners, num_envs_per_env_runner=per_runner,
-                     rollout_fragment_length="auto", env_to_module_connector=flatten_observations)
+        .env_runners(
+            num_env_runners=env_runners,
+            num_envs_per_env_runner=per_runner,
+            rollout_fragment_length="auto",
+            env_to_module_connector=flatten_observations,
+        )
         .learners(num_learners=0)
-        .training(train_batch_size_per_learner=train["n_steps"] * num_envs, minibatch_size=train["batch_size"],
-                  num_epochs=train["n_epochs"], lr=train["learning_rate"], gamma=train["gamma"],
-                  lambda_=train["gae_lambda"], entropy_coeff=train["ent_coef"], use_kl_loss=False,
-                  clip_param=0.2, vf_loss_coeff=0.5, vf_clip_param=math.inf, grad_clip=0.5)
+        .training(
+            train_batch_size_per_learner=train["n_steps"] * num_envs,
+            minibatch_size=train["batch_size"],
+            num_epochs=train["n_epochs"],
+            lr=train["learning_rate"],
+            gamma=train["gamma"],
+            lambda_=train["gae_lambda"],
+            entropy_coeff=train["ent_coef"],
+            use_kl_loss=False,
+            clip_param=0.2,
+            vf_loss_coeff=0.5,
+            vf_clip_param=math.inf,
+            grad_clip=0.5,
+        )
         .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=[width, width], vf_share_layers=False))
         # An EnvRunner that dies (its node lost, its process killed) is replaced and training goes on.
         .fault_tolerance(restart_failed_env_runners=True, max_num_env_runner_restarts=MAX_RUNNER_RESTARTS)
@@ -281,8 +304,15 @@ def _sampled(result: dict) -> int:
     return int(result.get(ENV_RUNNER_RESULTS, {}).get(NUM_ENV_STEPS_SAMPLED, 0))
 
 
-def _train_loop(algo, actor, tracker: Tracker, config: dict, checkpoint: Path | None, start_step: int,
-                progress: Callable[[int], None]) -> int:
+def _train_loop(
+    algo,
+    actor,
+    tracker: Tracker,
+    config: dict,
+    checkpoint: Path | None,
+    start_step: int,
+    progress: Callable[[int], None],
+) -> int:
     import ray
 
     from aaai.model_io import sign_checkpoint
@@ -309,9 +339,16 @@ def _train_loop(algo, actor, tracker: Tracker, config: dict, checkpoint: Path | 
     return step
 
 
-def train_rllib(run_dir: str | Path, config: dict | None = None, resume: bool = False,
-                total_steps: int | None = None, address: str | None = None, env_runners: int | None = None,
-                progress: Callable[[int], None] | None = None, say: Callable[[str], None] = print) -> TrainResult:
+def train_rllib(
+    run_dir: str | Path,
+    config: dict | None = None,
+    resume: bool = False,
+    total_steps: int | None = None,
+    address: str | None = None,
+    env_runners: int | None = None,
+    progress: Callable[[int], None] | None = None,
+    say: Callable[[str], None] = print,
+) -> TrainResult:
     """:func:`aaai.training.train` with RLlib PPO: starts a run in ``run_dir`` with ``config`` (a
     resolved config) or resumes the run there (``total_steps`` moves its end, as in ``train``).
 
@@ -332,8 +369,10 @@ def train_rllib(run_dir: str | Path, config: dict | None = None, resume: bool = 
         if point is not None:
             checkpoint, state = point
             if state.get("agent", {}).get("backend") != "rllib" or not (checkpoint / CHECKPOINT_FOLDER).is_dir():
-                raise ConfigError(f"--resume: {str(checkpoint)!r} is not a checkpoint of an RLlib run "
-                                  f"(no {CHECKPOINT_FOLDER}/ beside state.json)")
+                raise ConfigError(
+                    f"--resume: {str(checkpoint)!r} is not a checkpoint of an RLlib run "
+                    f"(no {CHECKPOINT_FOLDER}/ beside state.json)"
+                )
             from aaai.model_io import check_rllib_checkpoint
 
             check_rllib_checkpoint(checkpoint / CHECKPOINT_FOLDER)  # pickles: signed here, or train --trust-model
@@ -341,13 +380,16 @@ def train_rllib(run_dir: str | Path, config: dict | None = None, resume: bool = 
             config = move_end(run, config, checkpoint, state, total_steps)
     else:
         if config["train"]["agent"] != "ppo":
-            raise ConfigError(f"config key 'train.agent': got {config['train']['agent']!r}; allowed with the "
-                              "rllib backend: ppo")
+            raise ConfigError(
+                f"config key 'train.agent': got {config['train']['agent']!r}; allowed with the rllib backend: ppo"
+            )
         config = with_proprioception(config)
         check_trainable(config)
         if config["sensors"]["camera"]:
-            raise ConfigError("config key 'sensors.camera': got true; allowed with the rllib backend: false "
-                              "(FlattenObservations feeds an MLP; no CNN encoder is set up)")
+            raise ConfigError(
+                "config key 'sensors.camera': got true; allowed with the rllib backend: false "
+                "(FlattenObservations feeds an MLP; no CNN encoder is set up)"
+            )
         run.create(config)
     env_runners = worker_processes(config["train"]) if env_runners is None else env_runners
     start_step = state["step"] if state else 0

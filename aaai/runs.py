@@ -10,6 +10,7 @@ runs/NAME/
   resume.log          what a resume skipped (unreadable checkpoints), one line each
   tb/                 TensorBoard logs (PPO)
 """
+
 from __future__ import annotations
 
 import csv
@@ -39,12 +40,14 @@ def check_writable(path: Path, option: str, folder: bool = False) -> None:
     folder that is a file), or a place without write permission."""
     path = Path(path)
     if path.exists() and path.is_dir() != folder:
-        raise ConfigError(f"{option}: got {str(path)!r}, which is a {'file' if folder else 'folder'}; "
-                          f"allowed: {'a folder' if folder else 'a file'} path")
+        raise ConfigError(
+            f"{option}: got {str(path)!r}, which is a {'file' if folder else 'folder'}; "
+            f"allowed: {'a folder' if folder else 'a file'} path"
+        )
     existing = path if path.exists() else next((p for p in path.absolute().parents if p.exists()), Path("/"))
     if not os.access(existing, os.W_OK) or (existing.is_dir() and not os.access(existing, os.X_OK)):
         raise ConfigError(f"{option}: got {str(path)!r}; {str(existing)!r} cannot be written to")
-    for inside in ((path / "checkpoints", path / "episodes.csv") if folder and path.exists() else ()):
+    for inside in (path / "checkpoints", path / "episodes.csv") if folder and path.exists() else ():
         if inside.exists() and not os.access(inside, os.W_OK):
             raise ConfigError(f"{option}: got {str(path)!r}; {str(inside)!r} cannot be written to")
 
@@ -162,8 +165,10 @@ class RunFolder:
             with open(self.path / "resume.log", "a") as log:
                 log.write(message + "\n")
         if saved:
-            raise ConfigError(f"--resume: no checkpoint of {str(self.path)!r} can be read "
-                              f"(tried {', '.join(str(f.relative_to(self.path)) for f in saved)})")
+            raise ConfigError(
+                f"--resume: no checkpoint of {str(self.path)!r} can be read "
+                f"(tried {', '.join(str(f.relative_to(self.path)) for f in saved)})"
+            )
         return None
 
     @staticmethod

@@ -9,6 +9,7 @@ list is drawn from a generator seeded with a hash of the key instead, so whoever
 hold back a set of reserved episodes for later evaluations or competitions. A scoreboard records
 another hash of the key (``key_record``), from which the seeds cannot be recovered.
 """
+
 from __future__ import annotations
 
 import hashlib

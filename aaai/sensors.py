@@ -1,5 +1,6 @@
 """What the agent senses: rays (one rayTestBatch per step) and a camera in its head, its joints,
 feet and tilt; gathered each step into one Dict observation."""
+
 from __future__ import annotations
 
 import cv2
@@ -42,8 +43,17 @@ class Rays:
     track as holes are.
     """
 
-    def __init__(self, client: int, rays_per_side: int, max_angle: float, length: float, flat: bool = False,
-                 ray_kinds: str = "classic", down_fan: float = 0.0, width: float = 0.0):
+    def __init__(
+        self,
+        client: int,
+        rays_per_side: int,
+        max_angle: float,
+        length: float,
+        flat: bool = False,
+        ray_kinds: str = "classic",
+        down_fan: float = 0.0,
+        width: float = 0.0,
+    ):
         self.client = client
         self.flat = flat
         self.length = length
@@ -51,8 +61,10 @@ class Rays:
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
         if down_fan > 0:  # the same fan again, pitched down_fan degrees below the head's plane
             pitch = np.radians(down_fan)
-            lower = np.stack([np.cos(angles) * np.cos(pitch), np.sin(angles) * np.cos(pitch),
-                              np.full_like(angles, -np.sin(pitch))], axis=1)
+            lower = np.stack(
+                [np.cos(angles) * np.cos(pitch), np.sin(angles) * np.cos(pitch), np.full_like(angles, -np.sin(pitch))],
+                axis=1,
+            )
             self.local_dirs = np.concatenate([self.local_dirs, lower])
         self.n_rays = len(self.local_dirs)
         # ray_width > 0: two more rays beside each, width / 2 to its left and right (level, across
@@ -94,8 +106,13 @@ class Rays:
             batch_ends = np.concatenate([ends, ends + sides, ends - sides])
         else:
             batch_starts, batch_ends = starts, ends
-        hits = p.rayTestBatch(batch_starts.tolist(), batch_ends.tolist(), numThreads=self.threads,
-                              collisionFilterMask=RAY_MASK, physicsClientId=self.client)
+        hits = p.rayTestBatch(
+            batch_starts.tolist(),
+            batch_ends.tolist(),
+            numThreads=self.threads,
+            collisionFilterMask=RAY_MASK,
+            physicsClientId=self.client,
+        )
         if self.width:
             hits = self._nearest(hits, kind_index)
         # A plain loop: for a few dozen rays it is several times faster than numpy's fancy indexing.
@@ -124,8 +141,11 @@ class Rays:
         for row in range(n):
             best = hits[row]
             for hit in (hits[row + n], hits[row + 2 * n]):
-                if 0 <= hit[0] < known and kind_index[hit[0]] >= 0 and (
-                        not (0 <= best[0] < known and kind_index[best[0]] >= 0) or hit[2] < best[2]):
+                if (
+                    0 <= hit[0] < known
+                    and kind_index[hit[0]] >= 0
+                    and (not (0 <= best[0] < known and kind_index[best[0]] >= 0) or hit[2] < best[2])
+                ):
                     best = hit
             nearest.append(best)
         return nearest
@@ -247,11 +267,23 @@ class Senses:
     """The body's senses as the config's ``sensors`` section sets them, and their Dict space."""
 
     def __init__(self, client: int, sensors: dict, body: Quadruped):
-        self.rays = Rays(client, sensors["rays_per_side"], sensors["ray_max_angle"],
-                         sensors["ray_length"], sensors["rays_flat"], sensors.get("ray_kinds", "classic"),
-                         sensors.get("ray_down_fan", 0.0), sensors.get("ray_width", 0.0)) if sensors["rays"] else None
-        self.camera = Camera(client, sensors["camera_resolution"],
-                             sensors["camera_grayscale"]) if sensors["camera"] else None
+        self.rays = (
+            Rays(
+                client,
+                sensors["rays_per_side"],
+                sensors["ray_max_angle"],
+                sensors["ray_length"],
+                sensors["rays_flat"],
+                sensors.get("ray_kinds", "classic"),
+                sensors.get("ray_down_fan", 0.0),
+                sensors.get("ray_width", 0.0),
+            )
+            if sensors["rays"]
+            else None
+        )
+        self.camera = (
+            Camera(client, sensors["camera_resolution"], sensors["camera_grayscale"]) if sensors["camera"] else None
+        )
         self.blackout = Blackout()
         self.foot_slot = body.foot_slot
         self.feet = np.zeros(len(body.foot_links), np.float32)
@@ -280,8 +312,13 @@ class Senses:
         """Readies the senses for a new level: the rays learn its missing floor, the camera its blackout."""
         if self.rays:
             self.rays.set_holes(missing_floor(spec))
-            self.rays.set_zones([(*obj.position[:2], obj.yaw, obj.size[0] / 2, obj.size[1] / 2, KIND_INDEX[obj.kind])
-                                 for obj in spec.objects if getattr(kind_class(obj.kind), "zone", False)])
+            self.rays.set_zones(
+                [
+                    (*obj.position[:2], obj.yaw, obj.size[0] / 2, obj.size[1] / 2, KIND_INDEX[obj.kind])
+                    for obj in spec.objects
+                    if getattr(kind_class(obj.kind), "zone", False)
+                ]
+            )
         self.blackout = Blackout(spec.blackout, control_dt)
         self.feet[:] = 0.0
         if self.memory:
@@ -298,8 +335,9 @@ class Senses:
             if contact[3] in slot:
                 self.feet[slot[contact[3]]] = 1.0
 
-    def observe(self, angles: np.ndarray, speeds: np.ndarray, position, orientation, kind_index: np.ndarray,
-                dark: bool) -> dict[str, np.ndarray]:
+    def observe(
+        self, angles: np.ndarray, speeds: np.ndarray, position, orientation, kind_index: np.ndarray, dark: bool
+    ) -> dict[str, np.ndarray]:
         observation = {"joints": angles.astype(np.float32)}
         if self.rays or self.camera or self.head_orientation:
             head_pos = np.array(position)
@@ -321,8 +359,15 @@ class Senses:
 
 def render_rgb(client: int, width: int, height: int, view, projection, grayscale: bool = False) -> np.ndarray:
     """An image from TinyRenderer as uint8 H x W x 3 (or H x W x 1 in grey)."""
-    _, _, rgba, _, _ = p.getCameraImage(width, height, view, projection, renderer=p.ER_TINY_RENDERER,
-                                        flags=p.ER_NO_SEGMENTATION_MASK, physicsClientId=client)
+    _, _, rgba, _, _ = p.getCameraImage(
+        width,
+        height,
+        view,
+        projection,
+        renderer=p.ER_TINY_RENDERER,
+        flags=p.ER_NO_SEGMENTATION_MASK,
+        physicsClientId=client,
+    )
     rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
     if grayscale:
         return cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)[:, :, None]

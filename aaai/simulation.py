@@ -1,4 +1,5 @@
 """A PyBullet client for one environment: connect (headless or windowed), reset its physics, close."""
+
 from __future__ import annotations
 
 import os

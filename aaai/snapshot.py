@@ -3,6 +3,7 @@
 ``AnimalAIEnv.snapshot()`` makes one; the viewer draws a level's spec and a snapshot without
 PyBullet. Objects are named by their index in the spec's ``objects``.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

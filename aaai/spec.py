@@ -4,6 +4,7 @@ A spec holds no simulator state, so it can be validated, drawn and hashed withou
 Coordinates: metres, z up, the arena centred on the origin with its floor's top at z = 0;
 yaw in radians, 0 facing +x (east), pi/2 facing +y (north).
 """
+
 from __future__ import annotations
 
 import hashlib

@@ -23,22 +23,20 @@ off", and its students got worse with every round after the third (README, Learn
 The student is an ordinary stable-baselines3 PPO model in an ordinary run folder, so ``aaai eval
 --policy RUN`` scores it and ``aaai train --init-from RUN`` fine-tunes it with PPO. Every
 iteration is a checkpoint (its model, and its data in ``dagger/``), so ``--resume`` continues a run
-after the last finished iteration. Episodes run in worker processes (``train.processes``, by default ``train.num_envs`` up to the
-usable cores); with the
-same config a run repeats exactly.
+after the last finished iteration. Episodes run in worker processes (``train.processes``, by default
+``train.num_envs`` up to the usable cores); with the same config a run repeats exactly.
 
 The student's inputs are only the observation. Its network has no state; what it remembers is
 what the senses keep (``sensors.ray_memory``: the rays' sightings of food 1, 2, 4 ... 64 decisions
 back in configs/student.yaml). What a level needs beyond that is measured by ``aaai diagnose``
 (docs, Learned agents).
 """
+
 from __future__ import annotations
 
-import json
-import math
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Callable
@@ -73,9 +71,17 @@ class DaggerSettings:
     @classmethod
     def from_config(cls, config: dict) -> "DaggerSettings":
         train = config["train"]
-        return cls(train["dagger_iterations"], train["dagger_episodes"], train["dagger_beta"],
-                   train["dagger_epochs"], train["dagger_episode_cap"], train["net_width"], train["log_std_init"],
-                   worker_processes(train), train["seed"])
+        return cls(
+            train["dagger_iterations"],
+            train["dagger_episodes"],
+            train["dagger_beta"],
+            train["dagger_epochs"],
+            train["dagger_episode_cap"],
+            train["net_width"],
+            train["log_std_init"],
+            worker_processes(train),
+            train["seed"],
+        )
 
 
 # --- the student's network --------------------------------------------------------------
@@ -83,8 +89,13 @@ def build_policy(observation_space, action_space, net_width: int, log_std_init: 
     """The student: stable-baselines3's MultiInputPolicy as PPO builds it."""
     from stable_baselines3.common.policies import MultiInputActorCriticPolicy
 
-    return MultiInputActorCriticPolicy(observation_space, action_space, lambda _: LEARNING_RATE,
-                                       net_arch=[net_width, net_width], log_std_init=log_std_init)
+    return MultiInputActorCriticPolicy(
+        observation_space,
+        action_space,
+        lambda _: LEARNING_RATE,
+        net_arch=[net_width, net_width],
+        log_std_init=log_std_init,
+    )
 
 
 def act(policy, observation: dict) -> np.ndarray:
@@ -152,12 +163,30 @@ def play_job(job: Job) -> dict:
                 length += 1
                 if terminated or truncated or length >= job.cap:
                     break
-            records.append(Episode(0, level, difficulty, seed, total, task, length, info["food_eaten"],
-                                   info["wall_hits"], bool(info["fell"]), bool(info["blew_up"]), info["max_reward"]))
+            records.append(
+                Episode(
+                    0,
+                    level,
+                    difficulty,
+                    seed,
+                    total,
+                    task,
+                    length,
+                    info["food_eaten"],
+                    info["wall_hits"],
+                    bool(info["fell"]),
+                    bool(info["blew_up"]),
+                    info["max_reward"],
+                )
+            )
     finally:
         env.close()
-    return {"observations": {key: np.stack(values) for key, values in observations.items()},
-            "labels": np.stack(labels), "episodes": records, "taught": taught}
+    return {
+        "observations": {key: np.stack(values) for key, values in observations.items()},
+        "labels": np.stack(labels),
+        "episodes": records,
+        "taught": taught,
+    }
 
 
 def plan_episodes(cells: list[tuple[int, int]], count: int, rng: np.random.Generator) -> list[tuple[int, int, int]]:
@@ -185,7 +214,7 @@ def fit(policy, observations: dict, labels: np.ndarray, epochs: int, seed: int) 
         order = torch.randperm(size, generator=generator)
         loss_sum, batches = 0.0, 0
         for start in range(0, size, BATCH_SIZE):
-            index = order[start:start + BATCH_SIZE]
+            index = order[start : start + BATCH_SIZE]
             batch = {key: value[index] for key, value in inputs.items()}
             loss = torch.nn.functional.mse_loss(mean_actions(policy, batch), targets[index])
             optimizer.zero_grad()
@@ -207,11 +236,14 @@ class StudentResult:
 
 def check_teachable(config: dict) -> None:
     if config["train"]["teacher"] != "reference":
-        raise ConfigError(f"config key 'train.teacher': got {config['train']['teacher']!r}; allowed for a student "
-                          "run: reference")
+        raise ConfigError(
+            f"config key 'train.teacher': got {config['train']['teacher']!r}; allowed for a student run: reference"
+        )
     if config["agent"]["action_mode"] == "velocity":
-        raise ConfigError("config key 'agent.action_mode': got 'velocity'; allowed for a student of the reference: "
-                          "gait or rotation (the reference steers the gait by joint angles)")
+        raise ConfigError(
+            "config key 'agent.action_mode': got 'velocity'; allowed for a student of the reference: "
+            "gait or rotation (the reference steers the gait by joint angles)"
+        )
 
 
 def _save_data(folder: Path, iteration: int, observations: dict, labels: np.ndarray) -> None:
@@ -237,8 +269,9 @@ def _load_data(folder: Path, iterations: int) -> tuple[dict, np.ndarray]:
     return {key: np.concatenate(parts) for key, parts in observations.items()}, np.concatenate(labels)
 
 
-def train_student(run_dir: str | Path, config: dict | None = None, resume: bool = False,
-                  say: Callable[[str], None] = print) -> StudentResult:
+def train_student(
+    run_dir: str | Path, config: dict | None = None, resume: bool = False, say: Callable[[str], None] = print
+) -> StudentResult:
     """Starts a DAgger run in ``run_dir`` with ``config`` (resolved), or resumes the one there."""
     import torch
     from stable_baselines3 import PPO
@@ -265,10 +298,17 @@ def train_student(run_dir: str | Path, config: dict | None = None, resume: bool 
     torch.manual_seed(settings.seed)
     torch.set_num_threads(1)
     env = AnimalAIEnv(config=env_part(config, 0.0))
-    model = PPO("MultiInputPolicy", env, policy_kwargs={"net_arch": [settings.net_width] * 2,
-                                                        "log_std_init": settings.log_std_init},
-                learning_rate=config["train"]["learning_rate"], n_steps=config["train"]["n_steps"],
-                batch_size=config["train"]["batch_size"], seed=settings.seed, device="cpu", verbose=0)
+    model = PPO(
+        "MultiInputPolicy",
+        env,
+        policy_kwargs={"net_arch": [settings.net_width] * 2, "log_std_init": settings.log_std_init},
+        learning_rate=config["train"]["learning_rate"],
+        n_steps=config["train"]["n_steps"],
+        batch_size=config["train"]["batch_size"],
+        seed=settings.seed,
+        device="cpu",
+        verbose=0,
+    )
     env.close()
     data_folder = run.path / DATA_FOLDER
     if done:
@@ -284,17 +324,32 @@ def train_student(run_dir: str | Path, config: dict | None = None, resume: bool 
             started = time.perf_counter()
             rng = np.random.default_rng([settings.seed, iteration])
             plan = plan_episodes(cells, settings.episodes, rng)
-            beta = settings.beta ** iteration
+            beta = settings.beta**iteration
             weights = None if iteration == 0 else {k: v.clone() for k, v in model.policy.state_dict().items()}
-            jobs = [Job(config, weights, settings.net_width, beta, iteration, tuple(plan[i:i + EPISODES_PER_JOB]),
-                        settings.episode_cap) for i in range(0, len(plan), EPISODES_PER_JOB)]
+            jobs = [
+                Job(
+                    config,
+                    weights,
+                    settings.net_width,
+                    beta,
+                    iteration,
+                    tuple(plan[i : i + EPISODES_PER_JOB]),
+                    settings.episode_cap,
+                )
+                for i in range(0, len(plan), EPISODES_PER_JOB)
+            ]
             results = list(pool.map(play_job, jobs))
-            new_obs = {key: np.concatenate([r["observations"][key] for r in results]) for key in results[0]["observations"]}
+            new_obs = {
+                key: np.concatenate([r["observations"][key] for r in results]) for key in results[0]["observations"]
+            }
             new_labels = np.concatenate([r["labels"] for r in results])
             finished = [episode for r in results for episode in r["episodes"]]
             _save_data(data_folder, iteration, new_obs, new_labels)
-            observations = new_obs if not observations else {
-                key: np.concatenate([observations[key], new_obs[key]]) for key in observations}
+            observations = (
+                new_obs
+                if not observations
+                else {key: np.concatenate([observations[key], new_obs[key]]) for key in observations}
+            )
             labels = np.concatenate([labels, new_labels])
             loss = fit(model.policy, observations, labels, settings.epochs, settings.seed + iteration)
             with torch.no_grad():
@@ -304,14 +359,24 @@ def train_student(run_dir: str | Path, config: dict | None = None, resume: bool 
             episodes_logged += len(finished)
             passed = sum(e.max_reward > 0 and e.task_return / e.max_reward >= 0.8 for e in finished)
             taught = sum(r["taught"] for r in results)
-            line = {"iteration": iteration, "beta": round(beta, 6), "episodes": len(finished),
-                    "decisions": len(new_labels), "teacher_share": round(taught / max(len(new_labels), 1), 4),
-                    "passed": passed, "pass_rate": round(passed / max(len(finished), 1), 4),
-                    "dataset": step, "loss": round(loss, 6), "seconds": round(time.perf_counter() - started, 1)}
+            line = {
+                "iteration": iteration,
+                "beta": round(beta, 6),
+                "episodes": len(finished),
+                "decisions": len(new_labels),
+                "teacher_share": round(taught / max(len(new_labels), 1), 4),
+                "passed": passed,
+                "pass_rate": round(passed / max(len(finished), 1), 4),
+                "dataset": step,
+                "loss": round(loss, 6),
+                "seconds": round(time.perf_counter() - started, 1),
+            }
             _log_iteration(run.path / "dagger.csv", line)
-            say(f"DAgger iteration {iteration}: beta {beta:.3f}, {len(finished)} episodes passed {passed} "
+            say(
+                f"DAgger iteration {iteration}: beta {beta:.3f}, {len(finished)} episodes passed {passed} "
                 f"({100 * line['pass_rate']:.0f} %, teacher's share of actions {100 * line['teacher_share']:.0f} %), "
-                f"{step} labelled decisions, loss {loss:.4f}, {line['seconds']:.0f} s")
+                f"{step} labelled decisions, loss {loss:.4f}, {line['seconds']:.0f} s"
+            )
             last = iteration + 1 == settings.iterations
 
             def save(path: Path) -> None:
@@ -319,8 +384,9 @@ def train_student(run_dir: str | Path, config: dict | None = None, resume: bool 
                 torch.save(model.policy.state_dict(), path.with_name("student.pth"))
 
             # No sampler state: the plan of each iteration is a pure function of (seed, iteration).
-            run.save_checkpoint(step, {"curriculum": None, "agent": {"iterations_done": iteration + 1}}, save,
-                                final=last)
+            run.save_checkpoint(
+                step, {"curriculum": None, "agent": {"iterations_done": iteration + 1}}, save, final=last
+            )
     return StudentResult(run, len(labels), episodes_logged, done)
 
 

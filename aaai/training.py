@@ -3,6 +3,7 @@
 The learner is PPO from stable-baselines3 (aaai/learner.py, the `train` extra); ``agent:
 random`` runs the same loop with uniform random actions and no torch.
 """
+
 from __future__ import annotations
 
 import time
@@ -39,9 +40,18 @@ class Progress:
     it made the ETA hours long at the start of a run of seconds.
     """
 
-    def __init__(self, total: int, done: int = 0, label: str = "training", unit: str = "steps",
-                 every: float | None = None, write: Callable[[str], None] | None = None,
-                 clock: Callable[[], float] = time.monotonic, window: float = 60.0, recent: int = 50):
+    def __init__(
+        self,
+        total: int,
+        done: int = 0,
+        label: str = "training",
+        unit: str = "steps",
+        every: float | None = None,
+        write: Callable[[str], None] | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        window: float = 60.0,
+        recent: int = 50,
+    ):
         self.total, self.done, self.label, self.unit = total, done, label, unit
         self.every, self.write, self.clock, self.window = every, write, clock, window
         self.episodes = self.env_steps = 0
@@ -87,10 +97,14 @@ class Progress:
             count = f"{self.episodes} episodes"
         else:
             elapsed = self.clock() - self.started
-            count = f"{self.env_steps} steps ({self.env_steps / elapsed:.0f} steps/s)" if elapsed > 0 else \
-                f"{self.env_steps} steps"
-        passed = f"{100 * sum(self.passes) / len(self.passes):.0f}% of the last {len(self.passes)}" if self.passes \
-            else "-"
+            count = (
+                f"{self.env_steps} steps ({self.env_steps / elapsed:.0f} steps/s)"
+                if elapsed > 0
+                else f"{self.env_steps} steps"
+            )
+        passed = (
+            f"{100 * sum(self.passes) / len(self.passes):.0f}% of the last {len(self.passes)}" if self.passes else "-"
+        )
         return f"{rate_text} {self.unit}/s, {count}, pass rate {passed}, ETA {format_duration(self.eta())}"
 
     def line(self) -> str:
@@ -116,6 +130,7 @@ def print_lines(stream: TextIO) -> Callable[[str], None]:
     def write(text: str) -> None:
         stream.write(text + "\n")
         stream.flush()
+
     return write
 
 
@@ -123,8 +138,14 @@ class Tracker:
     """Logs finished episodes and writes heatmaps and checkpoints as the step count passes their marks.
     ``on_episodes`` (if set) is told of every finished episode too (a progress report)."""
 
-    def __init__(self, run: RunFolder, curriculum: Curriculum, config: dict, start_step: int,
-                 on_episodes: Callable[[list[Episode]], None] | None = None):
+    def __init__(
+        self,
+        run: RunFolder,
+        curriculum: Curriculum,
+        config: dict,
+        start_step: int,
+        on_episodes: Callable[[list[Episode]], None] | None = None,
+    ):
         self.run, self.curriculum, self.on_episodes = run, curriculum, on_episodes
         self.checkpoint_every = config["train"]["checkpoint_every"]
         self.heatmap_every = config["train"]["heatmap_every"]
@@ -132,8 +153,13 @@ class Tracker:
         self.next_heatmap = (start_step // self.heatmap_every + 1) * self.heatmap_every
         self.episodes = 0
 
-    def update(self, step: int, finished: list[Episode], agent_state: Callable[[], dict],
-               save_model: Callable[[Path], None] | None = None) -> None:
+    def update(
+        self,
+        step: int,
+        finished: list[Episode],
+        agent_state: Callable[[], dict],
+        save_model: Callable[[Path], None] | None = None,
+    ) -> None:
         if finished:
             self.run.log_episodes(step, finished)
             self.episodes += len(finished)
@@ -191,11 +217,16 @@ def check_init_from(config: dict) -> None:
         return
     theirs = load_config(RunFolder(path).read_config())
     keys = [("agent", "action_mode"), ("agent", "body"), ("train", "net_width")] + [
-        ("sensors", key) for key in config["sensors"]]
-    differ = [f"{a}.{b}: {theirs[a][b]!r} there, {config[a][b]!r} here" for a, b in keys if theirs[a][b] != config[a][b]]
+        ("sensors", key) for key in config["sensors"]
+    ]
+    differ = [
+        f"{a}.{b}: {theirs[a][b]!r} there, {config[a][b]!r} here" for a, b in keys if theirs[a][b] != config[a][b]
+    ]
     if differ:
-        raise ConfigError(f"--init-from: run {source!r} was trained with another env or network ({'; '.join(differ)}); "
-                          "allowed: a run of the same action mode, body, senses and train.net_width")
+        raise ConfigError(
+            f"--init-from: run {source!r} was trained with another env or network ({'; '.join(differ)}); "
+            "allowed: a run of the same action mode, body, senses and train.net_width"
+        )
 
 
 def move_end(run: RunFolder, config: dict, checkpoint: Path | None, state: dict | None, total_steps: int) -> dict:
@@ -204,17 +235,24 @@ def move_end(run: RunFolder, config: dict, checkpoint: Path | None, state: dict 
     done = state["step"] if state else 0
     if total_steps <= done:
         where = f" ({checkpoint.relative_to(run.path)})" if checkpoint is not None else ""
-        raise ConfigError(f"--steps: got {total_steps}; the run already has {done} steps{where}; "
-                          f"allowed: more than {done}")
+        raise ConfigError(
+            f"--steps: got {total_steps}; the run already has {done} steps{where}; allowed: more than {done}"
+        )
     config = load_config(config, total_steps=total_steps)
     run.update_config(config)
     return config
 
 
-def train(run_dir: str | Path, config: dict | None = None, resume: bool = False,
-          progress: Callable[[int], None] | None = None, asynchronous: bool | None = None,
-          total_steps: int | None = None, say: Callable[[str], None] = print,
-          on_episodes: Callable[[list[Episode]], None] | None = None) -> TrainResult:
+def train(
+    run_dir: str | Path,
+    config: dict | None = None,
+    resume: bool = False,
+    progress: Callable[[int], None] | None = None,
+    asynchronous: bool | None = None,
+    total_steps: int | None = None,
+    say: Callable[[str], None] = print,
+    on_episodes: Callable[[list[Episode]], None] | None = None,
+) -> TrainResult:
     """Starts a run in ``run_dir`` with ``config`` (a resolved config), or resumes the run there.
 
     A resume continues from the newest readable saved point (``final/`` included); a damaged one is
@@ -258,8 +296,14 @@ def train(run_dir: str | Path, config: dict | None = None, resume: bool = False,
     return TrainResult(run, steps, tracker.episodes, start_step)
 
 
-def _train_random(vec: CurriculumVecEnv, tracker: Tracker, config: dict, start_step: int,
-                  state: dict | None, progress: Callable[[int], None]) -> int:
+def _train_random(
+    vec: CurriculumVecEnv,
+    tracker: Tracker,
+    config: dict,
+    start_step: int,
+    state: dict | None,
+    progress: Callable[[int], None],
+) -> int:
     rng = np.random.default_rng(config["train"]["seed"])
     if state:
         rng.bit_generator.state = state["agent"]["rng"]

@@ -11,6 +11,7 @@ parts (a tunnel's arch, an L block) is checked part by part (``pieces``), so the
 a tunnel and food may lie in a U; a ramp is walkable; a death zone and bad food are blocked (the
 body keeps clear of them); a hot zone is walkable (the reference controller avoids it by cost).
 """
+
 from __future__ import annotations
 
 import heapq
@@ -21,9 +22,9 @@ import numpy as np
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.behaviours import REGISTRY, behaviour_class
+from aaai.geometry import TOLERANCE, corners, footprints_overlap
 from aaai.kinds import REGISTRY as REGISTRY_KINDS
 from aaai.kinds import SOLID_KINDS, kind_class
-from aaai.geometry import TOLERANCE, corners, footprints_overlap
 from aaai.spec import LevelSpec, ObjectSpec
 
 GRID = 0.5  # occupancy grid cell, units
@@ -54,8 +55,15 @@ def pieces(obj: ObjectSpec) -> list[ObjectSpec]:
     for (x, y, z), (length, width, thickness), roll in parts:
         across = width * abs(math.cos(roll)) + thickness * abs(math.sin(roll))
         up = width * abs(math.sin(roll)) + thickness * abs(math.cos(roll))
-        boxes.append(ObjectSpec(obj.kind, "box", (obj.position[0] + c * x - s * y, obj.position[1] + s * x + c * y,
-                                                  obj.position[2] + z), (length, across, up), obj.yaw))
+        boxes.append(
+            ObjectSpec(
+                obj.kind,
+                "box",
+                (obj.position[0] + c * x - s * y, obj.position[1] + s * x + c * y, obj.position[2] + z),
+                (length, across, up),
+                obj.yaw,
+            )
+        )
     return boxes
 
 
@@ -82,14 +90,19 @@ def overlapping_solids(spec: LevelSpec) -> list[str]:
     points = np.array(quads)  # (objects, 4 corners, x y)
     low, high = points.min(axis=1), points.max(axis=1)
     zs = np.array([z_range(obj) for obj in objs])
-    candidates = ((low[:, None, :] < high[None, :, :] - TOLERANCE).all(axis=2)
-                  & (low[None, :, :] < high[:, None, :] - TOLERANCE).all(axis=2)
-                  & (zs[:, None, 0] < zs[None, :, 1] - TOLERANCE) & (zs[None, :, 0] < zs[:, None, 1] - TOLERANCE))
+    candidates = (
+        (low[:, None, :] < high[None, :, :] - TOLERANCE).all(axis=2)
+        & (low[None, :, :] < high[:, None, :] - TOLERANCE).all(axis=2)
+        & (zs[:, None, 0] < zs[None, :, 1] - TOLERANCE)
+        & (zs[None, :, 0] < zs[:, None, 1] - TOLERANCE)
+    )
     problems = []
     for i, j in zip(*np.nonzero(np.triu(candidates, 1))):
         if owners[i] != owners[j] and footprints_overlap(quads[i], quads[j]):
-            problems.append(f"solid objects overlap: {objs[i].kind} at {_xy(objs[i].position)} "
-                            f"and {objs[j].kind} at {_xy(objs[j].position)}")
+            problems.append(
+                f"solid objects overlap: {objs[i].kind} at {_xy(objs[i].position)} "
+                f"and {objs[j].kind} at {_xy(objs[j].position)}"
+            )
     return problems
 
 
@@ -102,8 +115,9 @@ def exact_overlaps(spec: LevelSpec) -> list[str]:
         key = (obj.shape, *(round(float(v) / TOLERANCE) for v in (*obj.position, *obj.size, obj.yaw)))
         if key in seen and not (obj.kind in SOLID_KINDS and seen[key].kind in SOLID_KINDS):  # (reported below)
             other = seen[key]
-            problems.append(f"objects overlap exactly: {other.kind} at {_xy(other.position)} "
-                            f"and {obj.kind} at {_xy(obj.position)}")
+            problems.append(
+                f"objects overlap exactly: {other.kind} at {_xy(other.position)} and {obj.kind} at {_xy(obj.position)}"
+            )
         else:
             seen[key] = obj
     return problems
@@ -142,7 +156,8 @@ def _supported(spec: LevelSpec, x: float, y: float, bottom: float) -> bool:
     point = np.array([x, y])
     for obj in solids(spec):
         if abs(z_range(obj)[1] - bottom) < TOLERANCE and footprints_overlap(
-                corners(obj), np.array([point + d for d in ((-0.01, -0.01), (0.01, -0.01), (0.01, 0.01), (-0.01, 0.01))])):
+            corners(obj), np.array([point + d for d in ((-0.01, -0.01), (0.01, -0.01), (0.01, 0.01), (-0.01, 0.01))])
+        ):
             return True
     return False
 
@@ -229,7 +244,9 @@ def reachable_region(spec: LevelSpec, grid: np.ndarray | None = None) -> tuple[n
     if walk is None:
         return np.zeros_like(clearance, bool), False
     lean = round((FOOTPRINT_RADIUS - REACH_CLEARANCE) / GRID) + 1
-    leaned = cv2.dilate(walk.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * lean + 1, 2 * lean + 1)))
+    leaned = cv2.dilate(
+        walk.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * lean + 1, 2 * lean + 1))
+    )
     return (leaned > 0) & (clearance > REACH_CLEARANCE), True
 
 
@@ -278,7 +295,7 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     reach = HEAD_RADIUS + food.size[0] / 2 + GRID
     row0, col0 = cell(spec, x - reach, y - reach, region.shape)
     row1, col1 = cell(spec, x + reach, y + reach, region.shape)
-    window = region[row0:row1 + 1, col0:col1 + 1]
+    window = region[row0 : row1 + 1, col0 : col1 + 1]
     cols = (np.arange(col0, col1 + 1) + 0.5) * GRID - spec.arena_size[0] / 2
     rows = (np.arange(row0, row1 + 1) + 0.5) * GRID - spec.arena_size[1] / 2
     near = np.hypot(cols[None, :] - x, rows[:, None] - y) <= reach
@@ -305,12 +322,16 @@ def malformed(spec: LevelSpec) -> list[str]:
     if finite(spec.arena_size, "the arena size") and not all(0 < v <= MAX_ARENA for v in spec.arena_size):
         problems.append(f"the arena size {spec.arena_size!r} must lie between 0 and {MAX_ARENA:g} on each side")
     if finite((spec.agent.x, spec.agent.y, spec.agent.yaw), "the agent's pose") and not all(
-            abs(v) <= MAX_ARENA / 2 for v in (spec.agent.x, spec.agent.y)):
-        problems.append(f"the agent's start ({spec.agent.x:.4g}, {spec.agent.y:.4g}) lies outside any arena "
-                        f"(allowed: -{MAX_ARENA / 2:g} to {MAX_ARENA / 2:g} on each axis)")
+        abs(v) <= MAX_ARENA / 2 for v in (spec.agent.x, spec.agent.y)
+    ):
+        problems.append(
+            f"the agent's start ({spec.agent.x:.4g}, {spec.agent.y:.4g}) lies outside any arena "
+            f"(allowed: -{MAX_ARENA / 2:g} to {MAX_ARENA / 2:g} on each axis)"
+        )
     if finite((spec.time_limit,), "the time limit") and not 0.2 <= spec.time_limit <= 200.0:
-        problems.append(f"the time limit {spec.time_limit!r} must lie between 0.2 and 200 seconds, as a level's or "
-                        "an arena file's")
+        problems.append(
+            f"the time limit {spec.time_limit!r} must lie between 0.2 and 200 seconds, as a level's or an arena file's"
+        )
     nx, ny = spec.tiles
     if not (isinstance(nx, int) and isinstance(ny, int) and 1 <= nx <= 400 and 1 <= ny <= 400):
         problems.append(f"the floor tiles {spec.tiles!r} must be two integers from 1 to 400")
@@ -321,10 +342,13 @@ def malformed(spec: LevelSpec) -> list[str]:
         if finite(obj.size, f"{what}'s size") and min(obj.size) <= 0:
             problems.append(f"{what}'s size {obj.size!r} must be positive")
         if finite((*obj.position, obj.yaw, obj.mass), f"{what}'s position, yaw and mass") and not all(
-                abs(v) <= MAX_ARENA for v in (*obj.position, *(obj.size if all(
-                    isinstance(v, (int, float)) for v in obj.size) else ()))):
-            problems.append(f"{what}'s position {tuple(float(f'{v:.4g}') for v in obj.position)!r} or size lies "
-                            f"far outside any arena (allowed: -{MAX_ARENA:g} to {MAX_ARENA:g})")
+            abs(v) <= MAX_ARENA
+            for v in (*obj.position, *(obj.size if all(isinstance(v, (int, float)) for v in obj.size) else ()))
+        ):
+            problems.append(
+                f"{what}'s position {tuple(float(f'{v:.4g}') for v in obj.position)!r} or size lies "
+                f"far outside any arena (allowed: -{MAX_ARENA:g} to {MAX_ARENA:g})"
+            )
         if obj.behaviour:
             moving = REGISTRY.get(obj.behaviour.get("type")) if isinstance(obj.behaviour, dict) else None
             if moving is None:
@@ -335,8 +359,10 @@ def malformed(spec: LevelSpec) -> list[str]:
                 problems.append(f"{what}'s behaviour {obj.behaviour['type']!r} lacks {', '.join(missing)}")
         cls = kind_class(obj.kind)
         if obj.timing is not None and not (cls is not None and cls.timed):
-            problems.append(f"{what} has timing {obj.timing!r}; allowed: timing only on "
-                            f"{', '.join(k for k, c in REGISTRY_KINDS.items() if c.timed)}")
+            problems.append(
+                f"{what} has timing {obj.timing!r}; allowed: timing only on "
+                f"{', '.join(k for k, c in REGISTRY_KINDS.items() if c.timed)}"
+            )
         if cls is not None and not problems:
             problems += [f"{what}: {problem}" for problem in cls.problems(obj)]
     return problems
@@ -353,8 +379,10 @@ def check(spec: LevelSpec, require_food: bool = True) -> list[str]:
         problems += food_problems(spec, food)
     region, clear = reachable_region(spec)
     if not clear:
-        problems.append(f"the agent's start {_xy((spec.agent.x, spec.agent.y))} is not clear: a body of "
-                        f"radius {FOOTPRINT_RADIUS} there meets a solid, a hole or the arena's edge")
+        problems.append(
+            f"the agent's start {_xy((spec.agent.x, spec.agent.y))} is not clear: a body of "
+            f"radius {FOOTPRINT_RADIUS} there meets a solid, a hole or the arena's edge"
+        )
         return problems
     for food in spec.foods:
         if not food_reachable(spec, region, food):

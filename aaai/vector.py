@@ -7,6 +7,7 @@ difficulty, seed), and resets just those workers with it; workers keep no sample
 Each step a worker sends back only its observation, reward and flags; the info the learner uses
 (``EPISODE_INFO_KEYS`` and the episode's reward shaping) comes once, when the episode ends.
 """
+
 from __future__ import annotations
 
 import os
@@ -61,6 +62,7 @@ def worker_processes(train: dict, cores: int | None = None) -> int:
 @dataclass
 class Episode:
     """A finished training episode."""
+
     worker: int
     level: int
     difficulty: int
@@ -100,8 +102,13 @@ class AssignedCell(gym.Wrapper):
         self.shaping += info["reward_terms"]["shaping"]
         if not (terminated or truncated):
             return observation, reward, terminated, truncated, {}
-        return observation, reward, terminated, truncated, {
-            "shaping": self.shaping, **{key: info[key] for key in EPISODE_INFO_KEYS}}
+        return (
+            observation,
+            reward,
+            terminated,
+            truncated,
+            {"shaping": self.shaping, **{key: info[key] for key in EPISODE_INFO_KEYS}},
+        )
 
 
 def _make_worker(index: int, config: dict) -> gym.Env:
@@ -134,8 +141,9 @@ class CurriculumVecEnv:
 
     def reset(self):
         self.assigned = [self.curriculum.sample() for _ in range(self.num_envs)]
-        observation, _ = self.envs.reset(seed=[seed for *_, seed in self.assigned],
-                                         options={"cells": [cell[:2] for cell in self.assigned]})
+        observation, _ = self.envs.reset(
+            seed=[seed for *_, seed in self.assigned], options={"cells": [cell[:2] for cell in self.assigned]}
+        )
         self.returns[:] = 0.0
         self.lengths[:] = 0
         return _copy(observation)
@@ -164,9 +172,16 @@ class CurriculumVecEnv:
 
     def _finish(self, i: int, infos: dict) -> Episode:
         level, difficulty, seed = self.assigned[i]
-        episode = Episode(i, level, difficulty, seed, float(self.returns[i]),
-                          float(self.returns[i] - infos["shaping"][i]), int(self.lengths[i]),
-                          **{key: infos[key][i].item() for key in EPISODE_INFO_KEYS})
+        episode = Episode(
+            i,
+            level,
+            difficulty,
+            seed,
+            float(self.returns[i]),
+            float(self.returns[i] - infos["shaping"][i]),
+            int(self.lengths[i]),
+            **{key: infos[key][i].item() for key in EPISODE_INFO_KEYS},
+        )
         self.curriculum.record(level, difficulty, episode.task_return, episode.max_reward)
         self.returns[i] = 0.0
         self.lengths[i] = 0

@@ -5,6 +5,7 @@ videos are written atomically (aaai.files).
 World to picture: x grows to the right, y grows upward (north at the top); ``Mapping``
 (from ``mapping_for``) turns world coordinates into pixel (column, row).
 """
+
 from __future__ import annotations
 
 import math
@@ -17,8 +18,8 @@ import numpy as np
 
 from aaai.agent.urdf_writer import COLOURS as BODY_COLOURS
 from aaai.agent.urdf_writer import HEAD_RADIUS, LEG_REACH, LEGS, SEGMENT_RADIUS
-from aaai.files import PendingFile, atomic_path
 from aaai.behaviours import behaviour_class
+from aaai.files import PendingFile, atomic_path
 from aaai.kinds import COLOURS, kind_class
 from aaai.snapshot import Snapshot
 from aaai.spec import AgentPose, LevelSpec, ObjectSpec
@@ -124,8 +125,13 @@ def live_agent(snapshot: Snapshot) -> AgentShape:
 
 
 # --- drawing -----------------------------------------------------------------------------
-def draw_top_down(spec: LevelSpec, size_px: int = 640, agent: AgentShape | None = None,
-                  objects: list[ObjectSpec] | None = None, note: str = "") -> np.ndarray:
+def draw_top_down(
+    spec: LevelSpec,
+    size_px: int = 640,
+    agent: AgentShape | None = None,
+    objects: list[ObjectSpec] | None = None,
+    note: str = "",
+) -> np.ndarray:
     """The level seen from above, from the spec alone (no physics): H x W x 3 uint8 RGB.
 
     ``agent`` and ``objects`` replace the spec's agent pose and objects (``draw_snapshot`` passes
@@ -149,8 +155,11 @@ def draw_top_down(spec: LevelSpec, size_px: int = 640, agent: AgentShape | None 
 def draw_snapshot(spec: LevelSpec, snapshot: Snapshot, size_px: int = 640) -> np.ndarray:
     """``draw_top_down`` of a level as a snapshot of it has it: objects and food where they are
     (eaten pieces gone), the agent's head and legs as they are; the title shows the simulated time."""
-    objects = [replace(obj, position=(pose.x, pose.y, pose.z), yaw=pose.yaw)
-               for obj, pose in zip(spec.objects, snapshot.objects) if pose is not None]
+    objects = [
+        replace(obj, position=(pose.x, pose.y, pose.z), yaw=pose.yaw)
+        for obj, pose in zip(spec.objects, snapshot.objects)
+        if pose is not None
+    ]
     note = f"t {snapshot.time:5.2f} s"
     return draw_top_down(spec, size_px, agent=live_agent(snapshot), objects=objects, note=note)
 
@@ -197,8 +206,10 @@ def _draw_heightfield(image: np.ndarray, m: Mapping, spec: LevelSpec) -> None:
     low, high = float(heights.min()), float(heights.max())
     grey = 70 + 170 * (heights - low) / (high - low) if high > low else np.full_like(heights, 155)
     grey = np.flipud(grey).astype(np.float32)  # row 0 is the south edge: the picture's bottom
-    (c0, r0), (c1, r1) = (m.to_px(-spec.arena_size[0] / 2, spec.arena_size[1] / 2),
-                          m.to_px(spec.arena_size[0] / 2, -spec.arena_size[1] / 2))
+    (c0, r0), (c1, r1) = (
+        m.to_px(-spec.arena_size[0] / 2, spec.arena_size[1] / 2),
+        m.to_px(spec.arena_size[0] / 2, -spec.arena_size[1] / 2),
+    )
     c1, r1 = min(c1, m.width), min(r1, m.height)
     shade = cv2.resize(grey, (c1 - c0, r1 - r0), interpolation=cv2.INTER_LINEAR)
     image[r0:r1, c0:c1] = np.clip(shade, 0, 255).astype(np.uint8)[:, :, None]
@@ -231,8 +242,10 @@ def _outline_points(m: Mapping, obj: ObjectSpec) -> list[tuple[float, float]]:
     if obj.shape == "box":
         return [(c / ONE, r / ONE) for c, r in _box_corners(m, obj)]
     radius = obj.size[0] / 2
-    return [m.to_float(obj.position[0] + radius * math.cos(a), obj.position[1] + radius * math.sin(a))
-            for a in np.linspace(0, 2 * math.pi, 24, endpoint=False)]
+    return [
+        m.to_float(obj.position[0] + radius * math.cos(a), obj.position[1] + radius * math.sin(a))
+        for a in np.linspace(0, 2 * math.pi, 24, endpoint=False)
+    ]
 
 
 def _is_hidden(obj: ObjectSpec, live: bool) -> bool:
@@ -303,7 +316,8 @@ MARK_COLOUR = (255, 255, 255)
 
 def _mark(image: np.ndarray, m: Mapping, obj: ObjectSpec, mark: str) -> None:
     """A newer kind's mark (aaai.kinds): cross (bad food), dot (multi food, decoy), clock (food that
-    ripens, decays, grows or shrinks), stripes (floor areas), arrow (a ramp, uphill), rim (a tunnel: its way through, dashed; a block: nothing more)."""
+    ripens, decays, grows or shrinks), stripes (floor areas), arrow (a ramp, uphill), rim (a tunnel: its
+    way through, dashed; a block: nothing more)."""
     x, y = obj.position[:2]
     c, s = math.cos(obj.yaw), math.sin(obj.yaw)
     if mark == "cross":
@@ -311,8 +325,15 @@ def _mark(image: np.ndarray, m: Mapping, obj: ObjectSpec, mark: str) -> None:
         for dx, dy in ((half, half), (half, -half)):
             cv2.line(image, m.fixed(x - dx, y - dy), m.fixed(x + dx, y + dy), MARK_COLOUR, 2, cv2.LINE_AA, SHIFT)
     elif mark == "dot":
-        cv2.circle(image, m.fixed(x, y), int(round(max(1.5, m.length(obj.size[0] / 6)) * ONE)), MARK_COLOUR, -1,
-                   cv2.LINE_AA, SHIFT)
+        cv2.circle(
+            image,
+            m.fixed(x, y),
+            int(round(max(1.5, m.length(obj.size[0] / 6)) * ONE)),
+            MARK_COLOUR,
+            -1,
+            cv2.LINE_AA,
+            SHIFT,
+        )
     elif mark == "stripes":  # diagonal hatching inside the area
         hx, hy = obj.size[0] / 2, obj.size[1] / 2
         step = max(1.0, min(hx, hy) / 3)
@@ -339,8 +360,13 @@ def _mark(image: np.ndarray, m: Mapping, obj: ObjectSpec, mark: str) -> None:
                 px, py = x + c * u - s * v, y + s * u + c * v
                 colour = (20, 20, 20) if pixel == "#" else (235, 235, 225)
                 half = cell / 2
-                corners = np.array([m.fixed(px + dx, py + dy) for dx, dy in ((-half, -half), (half, -half),
-                                                                             (half, half), (-half, half))], np.int32)
+                corners = np.array(
+                    [
+                        m.fixed(px + dx, py + dy)
+                        for dx, dy in ((-half, -half), (half, -half), (half, half), (-half, half))
+                    ],
+                    np.int32,
+                )
                 cv2.fillPoly(image, [corners], colour, cv2.LINE_AA, SHIFT)
     elif mark == "clock":  # food whose value changes over time: a white ring and one hand
         radius = max(1.5, m.length(obj.size[0] / 3))
@@ -348,8 +374,12 @@ def _mark(image: np.ndarray, m: Mapping, obj: ObjectSpec, mark: str) -> None:
         cv2.line(image, m.fixed(x, y), m.fixed(x, y + obj.size[0] / 3), MARK_COLOUR, 2, cv2.LINE_AA, SHIFT)
     elif mark in ("rim",) and "tunnel" in obj.kind:  # the way through, along its axis
         half = obj.size[0] / 2 + 1.5
-        _dashed(image, [m.to_float(x - c * half, y - s * half), m.to_float(x + c * half, y + s * half)], MARK_COLOUR,
-                closed=False)
+        _dashed(
+            image,
+            [m.to_float(x - c * half, y - s * half), m.to_float(x + c * half, y + s * half)],
+            MARK_COLOUR,
+            closed=False,
+        )
 
 
 def _draw_agent(image: np.ndarray, m: Mapping, agent: AgentShape) -> None:
@@ -363,8 +393,16 @@ def _draw_agent(image: np.ndarray, m: Mapping, agent: AgentShape) -> None:
     c, s = math.cos(agent.heading), math.sin(agent.heading)
     start = m.to_float(agent.x + HEAD_RADIUS * c, agent.y + HEAD_RADIUS * s)
     end = m.to_float(agent.x + HEADING_LENGTH * c, agent.y + HEADING_LENGTH * s)
-    cv2.arrowedLine(image, tuple(int(round(v * ONE)) for v in start), tuple(int(round(v * ONE)) for v in end),
-                    HEADING_COLOUR, max(2, width // 2), cv2.LINE_AA, SHIFT, 0.3)
+    cv2.arrowedLine(
+        image,
+        tuple(int(round(v * ONE)) for v in start),
+        tuple(int(round(v * ONE)) for v in end),
+        HEADING_COLOUR,
+        max(2, width // 2),
+        cv2.LINE_AA,
+        SHIFT,
+        0.3,
+    )
 
 
 def _text(image: np.ndarray, text: str, x: int, y: int, scale: float = 0.5, colour=TEXT) -> int:
@@ -487,8 +525,9 @@ class VideoWriter:
         height, width = frame.shape[:2]
         if self.writer is None:
             self.size = (width + width % 2, height + height % 2)  # codecs want even sizes
-            self.writer = cv2.VideoWriter(str(self.temporary), cv2.VideoWriter_fourcc(*self.codec),
-                                          float(self.fps), self.size)
+            self.writer = cv2.VideoWriter(
+                str(self.temporary), cv2.VideoWriter_fourcc(*self.codec), float(self.fps), self.size
+            )
             if not self.writer.isOpened():
                 raise RuntimeError(f"OpenCV could not open a {self.codec} video writer for {self.path}")
         padded = np.zeros((self.size[1], self.size[0], 3), np.uint8)
@@ -552,8 +591,15 @@ def draw_kind(kind: str, size_px: int = 320, camera_px: int = 96) -> np.ndarray:
     from aaai.levels.common import arena_walls
 
     objects = tuple(arena_walls((40.0, 40.0), 4.0)) + (kind_example(kind),)
-    spec = LevelSpec(level=0, name=kind, difficulty=0, seed=0, agent=AgentPose(-4.0, 0.0, 0.0), objects=objects,
-                     arena_size=(40.0, 40.0))
+    spec = LevelSpec(
+        level=0,
+        name=kind,
+        difficulty=0,
+        seed=0,
+        agent=AgentPose(-4.0, 0.0, 0.0),
+        objects=objects,
+        arena_size=(40.0, 40.0),
+    )
     env = AnimalAIEnv(camera=True, camera_resolution=camera_px, camera_look="task", rays=False)
     try:
         observation, _ = env.reset(seed=0, options={"spec": spec, "check": False})

@@ -6,6 +6,7 @@ terrain; a deadly floor far below the arena catches anything that falls. Moving 
 behaviours of aaai.behaviours) advance by simulated time only; one with nothing left to do is dropped,
 so a level without moving parts costs nothing per step.
 """
+
 from __future__ import annotations
 
 import math
@@ -60,8 +61,11 @@ class World:
         self.all_end = {obj.kind for obj in self.food.values() if getattr(kind_class(obj.kind), "all_end", False)}
         self._eaten: bool | None = None  # all_eaten's answer, until food is eaten or a door closes
         self._obstacles = [  # footprints that random walkers steer clear of
-            footprint(obj) for obj in spec.objects
-            if not obj.is_edible and obj.mass == 0 and _inside_arena(obj, spec)
+            footprint(obj)
+            for obj in spec.objects
+            if not obj.is_edible
+            and obj.mass == 0
+            and _inside_arena(obj, spec)
             and not getattr(kind_class(obj.kind), "zone", False)
         ]
 
@@ -83,22 +87,34 @@ class World:
         tile_x, tile_y = spec.arena_size[0] / nx, spec.arena_size[1] / ny
         boxes = []
         for i0, j0, i1, j1 in merge_tiles(nx, ny, set(map(tuple, spec.holes))):
-            centre = (-spec.arena_size[0] / 2 + (i0 + i1) / 2 * tile_x,
-                      -spec.arena_size[1] / 2 + (j0 + j1) / 2 * tile_y, -FLOOR_THICKNESS / 2)
+            centre = (
+                -spec.arena_size[0] / 2 + (i0 + i1) / 2 * tile_x,
+                -spec.arena_size[1] / 2 + (j0 + j1) / 2 * tile_y,
+                -FLOOR_THICKNESS / 2,
+            )
             half = ((i1 - i0) * tile_x / 2, (j1 - j0) * tile_y / 2, FLOOR_THICKNESS / 2)
             boxes.append((centre, half))
         for start in range(0, len(boxes), MAX_COMPOUND_SHAPES):
-            chunk = boxes[start:start + MAX_COMPOUND_SHAPES]
+            chunk = boxes[start : start + MAX_COMPOUND_SHAPES]
             count = len(chunk)
             centres, halves = [list(b[0]) for b in chunk], [list(b[1]) for b in chunk]
-            collision = p.createCollisionShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
-                                                    collisionFramePositions=centres, physicsClientId=c)
-            visual = p.createVisualShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
-                                              visualFramePositions=centres,
-                                              rgbaColors=[self.colours["floor"]] * count,
-                                              physicsClientId=c) if self.visuals else -1
-            self._register(p.createMultiBody(0, collision, visual, useMaximalCoordinates=True, physicsClientId=c),
-                           "floor")
+            collision = p.createCollisionShapeArray(
+                [p.GEOM_BOX] * count, halfExtents=halves, collisionFramePositions=centres, physicsClientId=c
+            )
+            visual = (
+                p.createVisualShapeArray(
+                    [p.GEOM_BOX] * count,
+                    halfExtents=halves,
+                    visualFramePositions=centres,
+                    rgbaColors=[self.colours["floor"]] * count,
+                    physicsClientId=c,
+                )
+                if self.visuals
+                else -1
+            )
+            self._register(
+                p.createMultiBody(0, collision, visual, useMaximalCoordinates=True, physicsClientId=c), "floor"
+            )
 
     def _build_terrain(self) -> None:
         """Rough terrain: the spec's heightfield (rows along y, columns along x) over the arena.
@@ -110,8 +126,14 @@ class World:
         heights = np.asarray(spec.heightfield, dtype=np.float64)
         rows, cols = heights.shape
         scale = [spec.arena_size[0] / (cols - 1), spec.arena_size[1] / (rows - 1), 1.0]
-        collision = p.createCollisionShape(p.GEOM_HEIGHTFIELD, meshScale=scale, heightfieldData=heights.ravel().tolist(),
-                                           numHeightfieldRows=cols, numHeightfieldColumns=rows, physicsClientId=c)
+        collision = p.createCollisionShape(
+            p.GEOM_HEIGHTFIELD,
+            meshScale=scale,
+            heightfieldData=heights.ravel().tolist(),
+            numHeightfieldRows=cols,
+            numHeightfieldColumns=rows,
+            physicsClientId=c,
+        )
         middle = (heights.min() + heights.max()) / 2
         body = p.createMultiBody(0, collision, basePosition=(0, 0, middle), physicsClientId=c)
         if self.visuals:
@@ -124,10 +146,19 @@ class World:
         c = self.client
         half = [DEADLY_FLOOR_SIZE / 2, DEADLY_FLOOR_SIZE / 2, 0.5]
         collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
-        visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=self.colours["deadly_floor"],
-                                     physicsClientId=c) if self.visuals else -1
-        body = p.createMultiBody(0, collision, visual, basePosition=(0, 0, DEADLY_FLOOR_TOP - 0.5),
-                                 useMaximalCoordinates=True, physicsClientId=c)
+        visual = (
+            p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=self.colours["deadly_floor"], physicsClientId=c)
+            if self.visuals
+            else -1
+        )
+        body = p.createMultiBody(
+            0,
+            collision,
+            visual,
+            basePosition=(0, 0, DEADLY_FLOOR_TOP - 0.5),
+            useMaximalCoordinates=True,
+            physicsClientId=c,
+        )
         self._register(body, "deadly_floor")
 
     def _shape(self, obj: ObjectSpec) -> tuple[int, int]:
@@ -170,23 +201,37 @@ class World:
             centres = [list(centre) for centre, _, _ in parts]
             halves = [[v / 2 for v in size] for _, size, _ in parts]
             turns = [list(p.getQuaternionFromEuler((roll, 0, 0))) for _, _, roll in parts]
-            collision = p.createCollisionShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
-                                                    collisionFramePositions=centres,
-                                                    collisionFrameOrientations=turns, physicsClientId=c)
+            collision = p.createCollisionShapeArray(
+                [p.GEOM_BOX] * count,
+                halfExtents=halves,
+                collisionFramePositions=centres,
+                collisionFrameOrientations=turns,
+                physicsClientId=c,
+            )
             if self.visuals and hidden:  # a speck inside it, as for a transparent wall
-                visual = p.createVisualShape(p.GEOM_SPHERE, radius=HIDDEN_VISUAL, rgbaColor=obj.rgba,
-                                             visualFramePosition=centres[0], physicsClientId=c)
+                visual = p.createVisualShape(
+                    p.GEOM_SPHERE,
+                    radius=HIDDEN_VISUAL,
+                    rgbaColor=obj.rgba,
+                    visualFramePosition=centres[0],
+                    physicsClientId=c,
+                )
             elif self.visuals:
-                visual = p.createVisualShapeArray([p.GEOM_BOX] * count, halfExtents=halves,
-                                                  visualFramePositions=centres, visualFrameOrientations=turns,
-                                                  rgbaColors=cls.part_colours(obj) or [obj.rgba] * count,
-                                                  physicsClientId=c)
+                visual = p.createVisualShapeArray(
+                    [p.GEOM_BOX] * count,
+                    halfExtents=halves,
+                    visualFramePositions=centres,
+                    visualFrameOrientations=turns,
+                    rgbaColors=cls.part_colours(obj) or [obj.rgba] * count,
+                    physicsClientId=c,
+                )
         elif mesh:
             vertices, indices = mesh
             collision = p.createCollisionShape(p.GEOM_MESH, vertices=vertices, physicsClientId=c)
             if self.visuals:
-                visual = p.createVisualShape(p.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=obj.rgba,
-                                             physicsClientId=c)
+                visual = p.createVisualShape(
+                    p.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=obj.rgba, physicsClientId=c
+                )
         else:
             return self._shape(obj)
         self._shapes[key] = (collision, visual)
@@ -199,8 +244,15 @@ class World:
         moving = behaviour_class(obj)
         position = (*obj.position[:2], HIDDEN_Z) if moving and moving.starts_hidden else obj.position
         # Static bodies in maximal coordinates: plain rigid bodies, about twice as fast to create.
-        body = p.createMultiBody(obj.mass, collision, visual, basePosition=position, baseOrientation=orientation,
-                                 useMaximalCoordinates=obj.mass == 0, physicsClientId=c)
+        body = p.createMultiBody(
+            obj.mass,
+            collision,
+            visual,
+            basePosition=position,
+            baseOrientation=orientation,
+            useMaximalCoordinates=obj.mass == 0,
+            physicsClientId=c,
+        )
         self._register(body, obj.kind)
         if obj.kind == "plank":
             p.changeDynamics(body, -1, lateralFriction=PLANK_FRICTION, physicsClientId=c)
@@ -227,8 +279,9 @@ class World:
         for point in points:
             dx, dy, dz = (point[i] - obj.position[i] for i in range(3))
             local = (c * dx + s * dy, -s * dx + c * dy, dz)  # the point in the body's frame
-            p.createConstraint(body, -1, -1, -1, p.JOINT_POINT2POINT, (0, 0, 0), local, tuple(point),
-                               physicsClientId=self.client)
+            p.createConstraint(
+                body, -1, -1, -1, p.JOINT_POINT2POINT, (0, 0, 0), local, tuple(point), physicsClientId=self.client
+            )
 
     def door_closed(self, door: Door, body: int) -> None:
         self.closed.append(door)
@@ -265,8 +318,11 @@ class World:
 
     def food_positions(self) -> list[tuple[float, float, float]]:
         """Where each piece of food still in the world is now."""
-        return [p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0]
-                for body, obj in self.food.items() if obj.is_food]
+        return [
+            p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0]
+            for body, obj in self.food.items()
+            if obj.is_food
+        ]
 
     def remove(self, body: int) -> None:
         """Takes an object (an eaten food piece) out of the world."""
@@ -291,9 +347,13 @@ class World:
         changes only when food is eaten or a door closes, so it is worked out only then."""
         if self._eaten is None:
             self._eaten = self.had_food and not any(
-                all(door.entered(*p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0][:2])
-                    for door in self.closed)
-                for body, obj in self.food.items() if obj.is_food)
+                all(
+                    door.entered(*p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0][:2])
+                    for door in self.closed
+                )
+                for body, obj in self.food.items()
+                if obj.is_food
+            )
             if self.all_end and not self._eaten:  # every piece of a multi_food kind is eaten
                 left = {obj.kind for obj in self.food.values()}
                 self._eaten = any(kind not in left for kind in self.all_end)

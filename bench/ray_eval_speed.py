@@ -6,6 +6,7 @@
 Prints both rates and their ratio: once counting Ray's start and stop (what `aaai eval --backend ray`
 costs), once for the episodes alone (Ray already up, its workers' first imports included).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,15 +37,29 @@ def main(episodes: int = 20, workers: int = 2, policy: str = "random", level: in
             started = time.perf_counter()
             evaluate_on_ray(policy, cells, folder / "ray_episodes.csv", config, workers=workers)
             ray_episodes = time.perf_counter() - started
-        same = all(_table(folder / name) == _table(folder / "local.csv") for name in ("ray_total.csv", "ray_episodes.csv"))
-    result = {"episodes": episodes, "steps": steps, "workers": workers, "policy": policy,
-              "local_s": local, "ray_total_s": ray_total, "ray_episodes_s": ray_episodes, "same_rows": same}
+        same = all(
+            _table(folder / name) == _table(folder / "local.csv") for name in ("ray_total.csv", "ray_episodes.csv")
+        )
+    result = {
+        "episodes": episodes,
+        "steps": steps,
+        "workers": workers,
+        "policy": policy,
+        "local_s": local,
+        "ray_total_s": ray_total,
+        "ray_episodes_s": ray_episodes,
+        "same_rows": same,
+    }
     print(f"{episodes} episodes of L{level} d{difficulty} ({steps} steps), policy {policy}")
     print(f"local backend:              {local:7.2f} s  {episodes / local:6.2f} episodes/s")
-    print(f"ray, {workers} workers, start+stop: {ray_total:7.2f} s  {episodes / ray_total:6.2f} episodes/s  "
-          f"ratio {local / ray_total:.2f}x")
-    print(f"ray, {workers} workers, episodes:   {ray_episodes:7.2f} s  {episodes / ray_episodes:6.2f} episodes/s  "
-          f"ratio {local / ray_episodes:.2f}x")
+    print(
+        f"ray, {workers} workers, start+stop: {ray_total:7.2f} s  {episodes / ray_total:6.2f} episodes/s  "
+        f"ratio {local / ray_total:.2f}x"
+    )
+    print(
+        f"ray, {workers} workers, episodes:   {ray_episodes:7.2f} s  {episodes / ray_episodes:6.2f} episodes/s  "
+        f"ratio {local / ray_episodes:.2f}x"
+    )
     print(f"scoreboards equal, timing aside: {same}")
     return result
 

@@ -9,6 +9,7 @@ process, so the RSS of the resumed part starts afresh; each line says which proc
 Chunk ``i`` draws its levels, difficulties, seeds and actions from seed ``(seed, i)``, so a chunk
 is the same whichever process runs it.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -65,8 +66,9 @@ def run(steps: int, out: Path | None = None, chunk: int = 25_000, seed: int = 0)
     first = len(records)
     if first * chunk >= steps:
         return records
-    env = AnimalAIEnv(config=load_config({"sensors": {"camera": True, "camera_resolution": 32},
-                                          "episode": {"max_steps": 500}}))
+    env = AnimalAIEnv(
+        config=load_config({"sensors": {"camera": True, "camera_resolution": 32}, "episode": {"max_steps": 500}})
+    )
     levels = level_ids()
     started = time.time()
     for index in range(first, -(-steps // chunk)):
@@ -85,10 +87,16 @@ def run(steps: int, out: Path | None = None, chunk: int = 25_000, seed: int = 0)
             if terminated or truncated:
                 episodes += 1
                 reset()
-        record = {"chunk": index, "steps_total": min(steps, (index + 1) * chunk), "episodes": episodes,
-                  "levels": sorted(levels_seen), "rss_mb": round(rss_mb(), 2),
-                  "connections": pybullet_connections(), "pid": os.getpid(),
-                  "seconds_in_process": round(time.time() - started, 1)}
+        record = {
+            "chunk": index,
+            "steps_total": min(steps, (index + 1) * chunk),
+            "episodes": episodes,
+            "levels": sorted(levels_seen),
+            "rss_mb": round(rss_mb(), 2),
+            "connections": pybullet_connections(),
+            "pid": os.getpid(),
+            "seconds_in_process": round(time.time() - started, 1),
+        }
         records.append(record)
         if out:
             _append(out, record)
@@ -104,12 +112,17 @@ def summary(records: list[dict]) -> dict:
     for record in records:
         by_pid.setdefault(record["pid"], []).append(record)
     longest = max(by_pid.values(), key=len)
-    return {"steps": records[-1]["steps_total"], "episodes": sum(r["episodes"] for r in records),
-            "processes": len(by_pid), "levels": sorted({level for r in records for level in r["levels"]}),
-            "rss_after_warm_up_mb": longest[0]["rss_mb"], "rss_end_mb": longest[-1]["rss_mb"],
-            "rss_max_mb": max(r["rss_mb"] for r in longest),
-            "steps_in_longest_process": longest[-1]["steps_total"] - longest[0]["steps_total"],
-            "connections": sorted({r["connections"] for r in records})}
+    return {
+        "steps": records[-1]["steps_total"],
+        "episodes": sum(r["episodes"] for r in records),
+        "processes": len(by_pid),
+        "levels": sorted({level for r in records for level in r["levels"]}),
+        "rss_after_warm_up_mb": longest[0]["rss_mb"],
+        "rss_end_mb": longest[-1]["rss_mb"],
+        "rss_max_mb": max(r["rss_mb"] for r in longest),
+        "steps_in_longest_process": longest[-1]["steps_total"] - longest[0]["steps_total"],
+        "connections": sorted({r["connections"] for r in records}),
+    }
 
 
 def main() -> None:

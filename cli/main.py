@@ -1,4 +1,5 @@
 """The ``aaai`` command group and most of its commands (``show`` and ``validate`` have their own files)."""
+
 from __future__ import annotations
 
 import contextlib
@@ -17,11 +18,15 @@ from aaai.levels import all_levels, generate, get_level, level_ids
 from aaai.registration import level_env_id
 from aaai.runs import RunFolder
 
-POLICY_HELP = ("random, reference (the privileged reference controller), gait (the example trot), "
-               "a model .zip, a run folder or module:callable")
-TRUST_HELP = ("Load a model file with stable-baselines3's own loader, which unpickles it and so runs any code in "
-              "it (default: rebuilt without unpickling; docs, Scoring agents you did not write). Only for files "
-              "you trust.")
+POLICY_HELP = (
+    "random, reference (the privileged reference controller), gait (the example trot), "
+    "a model .zip, a run folder or module:callable"
+)
+TRUST_HELP = (
+    "Load a model file with stable-baselines3's own loader, which unpickles it and so runs any code in "
+    "it (default: rebuilt without unpickling; docs, Scoring agents you did not write). Only for files "
+    "you trust."
+)
 
 
 def parse_range(text: str, name: str, low: int, high: int) -> list[int]:
@@ -40,8 +45,11 @@ def parse_levels(text: str | None, name: str = "--levels") -> list[int]:
     levels = parse_range(text, name, 0, max(known))
     missing = [level for level in levels if level not in known]
     if missing:
-        raise click.BadParameter(f"got {text!r}, and level {missing[0]} does not exist; allowed: all, or ids "
-                                 f"among {', '.join(map(str, known))}", param_hint=name)
+        raise click.BadParameter(
+            f"got {text!r}, and level {missing[0]} does not exist; allowed: all, or ids "
+            f"among {', '.join(map(str, known))}",
+            param_hint=name,
+        )
     return levels
 
 
@@ -63,9 +71,13 @@ def levels_command():
 @click.option("-d", "--difficulty", type=int, default=0, show_default=True)
 @click.option("-s", "--seed", type=int, default=0, show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print the whole spec as JSON.")
-@click.option("--yaml", "as_yaml", is_flag=True,
-              help="Print the spec as an arena file (aaai.arena), to edit into a test of your own. The file is "
-                   "fixed (every episode of it starts alike) until you put randomisation forms in it.")
+@click.option(
+    "--yaml",
+    "as_yaml",
+    is_flag=True,
+    help="Print the spec as an arena file (aaai.arena), to edit into a test of your own. The file is "
+    "fixed (every episode of it starts alike) until you put randomisation forms in it.",
+)
 def spec_command(level, difficulty, seed, as_json, as_yaml):
     """Print the level spec that (LEVEL, difficulty, seed) generates, and its hash."""
     try:
@@ -87,7 +99,10 @@ def spec_command(level, difficulty, seed, as_json, as_yaml):
     for obj in spec.objects:
         x, y, z = obj.position
         moving = f"  {obj.behaviour['type']}" if obj.behaviour else ""
-        click.echo(f"  {obj.kind:<16} {obj.shape:<8} at ({x:6.2f}, {y:6.2f}, {z:5.2f}) size {' x '.join(f'{v:.2f}' for v in obj.size)}{moving}")
+        click.echo(
+            f"  {obj.kind:<16} {obj.shape:<8} at ({x:6.2f}, {y:6.2f}, {z:5.2f}) "
+            f"size {' x '.join(f'{v:.2f}' for v in obj.size)}{moving}"
+        )
     click.echo(f"max food reward {spec.max_food_reward:.3f}   hash {spec.digest()}")
 
 
@@ -101,17 +116,41 @@ def spec_command(level, difficulty, seed, as_json, as_yaml):
 @click.option("--max-steps", type=int, help="Episode length T (overrides the config and the level's time limit).")
 @click.option("--camera/--no-camera", default=None, help="Turn the head camera on or off.")
 @click.option("--rays/--no-rays", default=None, help="Turn the rays on or off.")
-@click.option("--arena", "arena", type=click.Path(), help="Run this arena file (docs, Write your own test) instead "
-              "of generated levels: --episodes episodes, seeds from --seed.")
-@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
-              help="rotation or velocity: 8 joint targets a control step; gait: forward, turn, crouch of the gait, "
-                   "held for agent.decision_interval (default: the config's).")
+@click.option(
+    "--arena",
+    "arena",
+    type=click.Path(),
+    help="Run this arena file (docs, Write your own test) instead "
+    "of generated levels: --episodes episodes, seeds from --seed.",
+)
+@click.option(
+    "--action-mode",
+    type=click.Choice(["rotation", "velocity", "gait"]),
+    help="rotation or velocity: 8 joint targets a control step; gait: forward, turn, crouch of the gait, "
+    "held for agent.decision_interval (default: the config's).",
+)
 @click.option("--trust-model", is_flag=True, help=TRUST_HELP)
-@click.option("--replay", type=click.Path(dir_okay=False),
-              help="Run a replay file (aaai play --replays, aaai eval --save-replays) with its own level, config "
-                   "and actions, and check that it ends as recorded, bit for bit (--arena: where its arena file is now).")
-def run_command(levels_text, difficulty_text, episodes, seed, policy, config_path, max_steps, camera, rays, arena,
-                action_mode, trust_model, replay):
+@click.option(
+    "--replay",
+    type=click.Path(dir_okay=False),
+    help="Run a replay file (aaai play --replays, aaai eval --save-replays) with its own level, config "
+    "and actions, and check that it ends as recorded, bit for bit (--arena: where its arena file is now).",
+)
+def run_command(
+    levels_text,
+    difficulty_text,
+    episodes,
+    seed,
+    policy,
+    config_path,
+    max_steps,
+    camera,
+    rays,
+    arena,
+    action_mode,
+    trust_model,
+    replay,
+):
     """Run episodes with a policy (random actions by default) and print a summary of each."""
     if replay is not None:
         from aaai_cli.play import run_replay_file
@@ -119,8 +158,11 @@ def run_command(levels_text, difficulty_text, episodes, seed, policy, config_pat
         return run_replay_file(replay, arena)
     levels = parse_levels(levels_text)
     difficulties = parse_range(difficulty_text, "--difficulty", 0, 10)
-    overrides = {k: v for k, v in dict(max_steps=max_steps, camera=camera, rays=rays,
-                                       action_mode=action_mode).items() if v is not None}
+    overrides = {
+        k: v
+        for k, v in dict(max_steps=max_steps, camera=camera, rays=rays, action_mode=action_mode).items()
+        if v is not None
+    }
     try:
         for level in levels:
             get_level(level)
@@ -128,8 +170,10 @@ def run_command(levels_text, difficulty_text, episodes, seed, policy, config_pat
         actor = load_policy(policy, env, trust=trust_model)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
-    click.echo(f"{'level':<20} {'diff':>4} {'seed':>6} {'return':>8} {'max':>6} {'steps':>6} "
-               f"{'food':>4} {'walls':>5} {'end':<10} {'steps/s':>8}")
+    click.echo(
+        f"{'level':<20} {'diff':>4} {'seed':>6} {'return':>8} {'max':>6} {'steps':>6} "
+        f"{'food':>4} {'walls':>5} {'end':<10} {'steps/s':>8}"
+    )
     if arena is not None:
         from aaai.arena import load_arena
 
@@ -163,8 +207,10 @@ def run_episode(env: AnimalAIEnv, level: int, difficulty: int, seed: int, policy
         name, difficulty = Path(env.arena).name, info["difficulty"]
     else:
         name = f"{get_level(level).label} {info['level_name']}"
-    return (f"{name:<20} {difficulty:>4} {seed:>6} {result.episode_return:>8.3f} {info['max_reward']:>6.2f} "
-            f"{info['steps']:>6} {info['food_eaten']:>4} {info['wall_hits']:>5} {result.end:<10} {rate:>8.0f}")
+    return (
+        f"{name:<20} {difficulty:>4} {seed:>6} {result.episode_return:>8.3f} {info['max_reward']:>6.2f} "
+        f"{info['steps']:>6} {info['food_eaten']:>4} {info['wall_hits']:>5} {result.end:<10} {rate:>8.0f}"
+    )
 
 
 def with_action_mode(config: dict, action_mode: str | None) -> dict:
@@ -206,8 +252,9 @@ class Seconds(click.FloatRange):
         return number
 
 
-PROGRESS_HELP = ("Seconds between progress lines when the output is not a terminal (piped, nohup); in a terminal "
-                 "a progress bar.")
+PROGRESS_HELP = (
+    "Seconds between progress lines when the output is not a terminal (piped, nohup); in a terminal a progress bar."
+)
 
 
 REDRAW = 0.25  # seconds between redraws of a terminal's progress bar
@@ -221,8 +268,9 @@ def progress_output(report):
     from aaai.training import print_lines
 
     if sys.stdout.isatty():
-        with click.progressbar(length=report.total, label=report.label, show_pos=True, show_eta=False,
-                               item_show_func=lambda item: item) as bar:
+        with click.progressbar(
+            length=report.total, label=report.label, show_pos=True, show_eta=False, item_show_func=lambda item: item
+        ) as bar:
             bar.update(report.done)
             pending, drawn = [0], [0.0]
 
@@ -233,6 +281,7 @@ def progress_output(report):
                 if now - drawn[0] >= REDRAW:
                     bar.update(pending[0], current_item=report.details())
                     pending[0], drawn[0] = 0, now
+
             yield update
             bar.update(pending[0], current_item=report.details())
     else:
@@ -259,9 +308,13 @@ def _overrides(**values) -> dict:
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
 @click.option("--levels", help="Active levels, e.g. '0-3,5'.")
 @click.option("--difficulty", help="Active difficulties, e.g. '0-4'.")
-@click.option("--steps", "total_steps", type=int,
-              help="Agent decisions in all: env.step calls, one control step (0.02 s) each in the joint modes, "
-                   "agent.decision_interval (0.1 s, 5 control steps) each in gait mode.")
+@click.option(
+    "--steps",
+    "total_steps",
+    type=int,
+    help="Agent decisions in all: env.step calls, one control step (0.02 s) each in the joint modes, "
+    "agent.decision_interval (0.1 s, 5 control steps) each in gait mode.",
+)
 @click.option("--envs", "num_envs", type=int, help="Worker processes.")
 @click.option("--seed", type=int, help="Seeds the sampler and the learner.")
 @click.option("--agent", type=click.Choice(["ppo", "random"]), help="ppo (needs the train extra) or random.")
@@ -270,51 +323,125 @@ def _overrides(**values) -> dict:
 @click.option("--rays/--no-rays", default=None)
 @click.option("--run", "run_dir", type=click.Path(), help="Run folder (default runs/run-<date>-<time>).")
 @click.option("--resume", "resume_dir", type=click.Path(), help="Continue the run in this folder.")
-@click.option("--backend", type=click.Choice(["sb3", "rllib"]),
-              help="sb3 (default): stable-baselines3 PPO on local workers; rllib: RLlib PPO on Ray (the ray "
-                   "extra), its env runners anywhere on a cluster. --resume uses the run's own.")
+@click.option(
+    "--backend",
+    type=click.Choice(["sb3", "rllib"]),
+    help="sb3 (default): stable-baselines3 PPO on local workers; rllib: RLlib PPO on Ray (the ray "
+    "extra), its env runners anywhere on a cluster. --resume uses the run's own.",
+)
 @click.option("--address", help="With --backend rllib: join the Ray cluster whose head is at this address.")
-@click.option("--sampler", type=click.Choice(["paper", "uniform", "learnability", "plr"]),
-              help="How the curriculum weights cells (curriculum.sampler; docs, Training and curricula). --random is uniform.")
+@click.option(
+    "--sampler",
+    type=click.Choice(["paper", "uniform", "learnability", "plr"]),
+    help="How the curriculum weights cells (curriculum.sampler; docs, Training and curricula). --random is uniform.",
+)
 @click.option("--progress-every", type=Seconds(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
-@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
-              help="rotation or velocity: 8 joint targets a control step; gait: forward, turn, crouch of the gait, "
-                   "held for agent.decision_interval (default: the config's).")
-@click.option("--teacher", type=click.Choice(["reference"]),
-              help="Train a student of this teacher by DAgger instead of PPO: it sees only the agent's senses and "
-                   "learns the teacher's actions (train.dagger_* keys; docs, Learned agents).")
-@click.option("--init-from", type=click.Path(exists=True),
-              help="A run folder or model .zip whose policy weights PPO starts from (e.g. a student, to fine-tune).")
-@click.option("--trust-model", is_flag=True,
-              help="With --resume: load the run's checkpoint with its library's own loader, which unpickles it "
-                   "(stable-baselines3 models that cannot be rebuilt without it; RLlib checkpoints not signed on "
-                   "this machine). Only for runs you trust.")
-def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, seed, agent, camera,
-                  camera_resolution, rays, run_dir, resume_dir, backend, address, action_mode, teacher, init_from,
-                  trust_model, sampler, progress_every):
+@click.option(
+    "--action-mode",
+    type=click.Choice(["rotation", "velocity", "gait"]),
+    help="rotation or velocity: 8 joint targets a control step; gait: forward, turn, crouch of the gait, "
+    "held for agent.decision_interval (default: the config's).",
+)
+@click.option(
+    "--teacher",
+    type=click.Choice(["reference"]),
+    help="Train a student of this teacher by DAgger instead of PPO: it sees only the agent's senses and "
+    "learns the teacher's actions (train.dagger_* keys; docs, Learned agents).",
+)
+@click.option(
+    "--init-from",
+    type=click.Path(exists=True),
+    help="A run folder or model .zip whose policy weights PPO starts from (e.g. a student, to fine-tune).",
+)
+@click.option(
+    "--trust-model",
+    is_flag=True,
+    help="With --resume: load the run's checkpoint with its library's own loader, which unpickles it "
+    "(stable-baselines3 models that cannot be rebuilt without it; RLlib checkpoints not signed on "
+    "this machine). Only for runs you trust.",
+)
+def train_command(
+    mode,
+    config_path,
+    levels,
+    difficulty,
+    total_steps,
+    num_envs,
+    seed,
+    agent,
+    camera,
+    camera_resolution,
+    rays,
+    run_dir,
+    resume_dir,
+    backend,
+    address,
+    action_mode,
+    teacher,
+    init_from,
+    trust_model,
+    sampler,
+    progress_every,
+):
     """Train on a curriculum of (level, difficulty) cells; checkpoints and logs go to the run folder."""
     from aaai.rllib_learner import run_backend, train_rllib
     from aaai.training import Progress, train
 
-    ignored = {name: value for name, value in {
-        mode or "curriculum": mode, "config": config_path, **dict( levels=levels, difficulty=difficulty, envs=num_envs, seed=seed,
-        agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays, run=run_dir, backend=backend,
-        action_mode=action_mode, teacher=teacher, init_from=init_from, sampler=sampler)}.items()
-        if value is not None}
+    ignored = {
+        name: value
+        for name, value in {
+            mode or "curriculum": mode,
+            "config": config_path,
+            **dict(
+                levels=levels,
+                difficulty=difficulty,
+                envs=num_envs,
+                seed=seed,
+                agent=agent,
+                camera=camera,
+                camera_resolution=camera_resolution,
+                rays=rays,
+                run=run_dir,
+                backend=backend,
+                action_mode=action_mode,
+                teacher=teacher,
+                init_from=init_from,
+                sampler=sampler,
+            ),
+        }.items()
+        if value is not None
+    }
     if address and (backend or (resume_dir and run_backend(resume_dir))) != "rllib":
         raise click.UsageError("--address: only --backend rllib runs on a cluster")
     if resume_dir and ignored:  # a resumed run keeps its own config: say so rather than ignore the option
         options = ", ".join(f"--{name.replace('_', '-')}" for name in ignored)
-        raise click.UsageError(f"--resume continues a run with the config it was started with; {options} cannot "
-                               "change on resume (allowed with --resume: --steps, to move the run's end)")
+        raise click.UsageError(
+            f"--resume continues a run with the config it was started with; {options} cannot "
+            "change on resume (allowed with --resume: --steps, to move the run's end)"
+        )
     try:
         if resume_dir:  # --steps may move the run's end; other options come from the run's config
             run_dir, config = resume_dir, None
         else:
-            config = load_config(config_path, **_overrides(
-                mode=mode, levels=levels, difficulties=difficulty, total_steps=total_steps, num_envs=num_envs,
-                seed=seed, agent=agent, camera=camera, camera_resolution=camera_resolution, rays=rays,
-                action_mode=action_mode, teacher=teacher, init_from=init_from, sampler=sampler))
+            config = load_config(
+                config_path,
+                **_overrides(
+                    mode=mode,
+                    levels=levels,
+                    difficulties=difficulty,
+                    total_steps=total_steps,
+                    num_envs=num_envs,
+                    seed=seed,
+                    agent=agent,
+                    camera=camera,
+                    camera_resolution=camera_resolution,
+                    rays=rays,
+                    action_mode=action_mode,
+                    teacher=teacher,
+                    init_from=init_from,
+                    sampler=sampler,
+                ),
+            )
             run_dir = run_dir or time.strftime("runs/run-%Y%m%d-%H%M%S")
         total = total_steps or (config or RunFolder(run_dir).read_config())["train"]["total_steps"]
         use_rllib = (run_backend(resume_dir) if resume_dir else backend) == "rllib"
@@ -325,79 +452,168 @@ def train_command(mode, config_path, levels, difficulty, total_steps, num_envs, 
             from aaai.student import train_student
 
             result = train_student(run_dir, config, resume=bool(resume_dir), say=say)
-            click.echo(f"run {result.run.path}: {result.steps} labelled agent decisions, {result.episodes} episodes"
-                       + (f" (resumed after {result.resumed_from} iterations)" if resume_dir else "")
-                       + f"; score it with: aaai eval --policy {result.run.path}")
+            click.echo(
+                f"run {result.run.path}: {result.steps} labelled agent decisions, {result.episodes} episodes"
+                + (f" (resumed after {result.resumed_from} iterations)" if resume_dir else "")
+                + f"; score it with: aaai eval --policy {result.run.path}"
+            )
             return
         from aaai.model_io import trusting
 
         unit_config = load_config(config or RunFolder(run_dir).read_config())
-        report = Progress(total, done=steps_done(resume_dir), every=progress_every,
-                          label=f"training ({step_note(unit_config)})")
+        report = Progress(
+            total, done=steps_done(resume_dir), every=progress_every, label=f"training ({step_note(unit_config)})"
+        )
         with trusting(trust_model), progress_output(report) as update:
             if use_rllib:
-                result = train_rllib(run_dir, config, resume=bool(resume_dir), progress=update, address=address,
-                                     total_steps=total_steps if resume_dir else None, say=say)
+                result = train_rllib(
+                    run_dir,
+                    config,
+                    resume=bool(resume_dir),
+                    progress=update,
+                    address=address,
+                    total_steps=total_steps if resume_dir else None,
+                    say=say,
+                )
             else:
-                result = train(run_dir, config, resume=bool(resume_dir), progress=update,
-                               total_steps=total_steps if resume_dir else None, say=say,
-                               on_episodes=report.on_episodes)
+                result = train(
+                    run_dir,
+                    config,
+                    resume=bool(resume_dir),
+                    progress=update,
+                    total_steps=total_steps if resume_dir else None,
+                    say=say,
+                    on_episodes=report.on_episodes,
+                )
     except (ConfigError, FileExistsError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except ImportError as error:
-        raise click.UsageError(f"{error}. PPO needs the train extra: pip install -e '.[train]' "
-                               "(or make install-train), or use --agent random") from None
+        raise click.UsageError(
+            f"{error}. PPO needs the train extra: pip install -e '.[train]' "
+            "(or make install-train), or use --agent random"
+        ) from None
     run_config = result.run.read_config()
     curriculum = run_config["curriculum"]
-    click.echo(f"run {result.run.path}: {result.steps} {step_unit(run_config)}, {result.episodes} episodes"
-               + (f" (resumed at step {result.resumed_from})" if resume_dir else ""))
-    click.echo(f"cells: levels {curriculum['levels']} x difficulties {curriculum['difficulties']}; "
-               f"heatmap {result.run.path / 'curriculum.png'}")
+    click.echo(
+        f"run {result.run.path}: {result.steps} {step_unit(run_config)}, {result.episodes} episodes"
+        + (f" (resumed at step {result.resumed_from})" if resume_dir else "")
+    )
+    click.echo(
+        f"cells: levels {curriculum['levels']} x difficulties {curriculum['difficulties']}; "
+        f"heatmap {result.run.path / 'curriculum.png'}"
+    )
 
 
 @cli.command("eval")
-@click.option("--seeds", "seeds_mode", default="reserved", show_default=True,
-              help="reserved, train, or a list like 1,2,3.")
-@click.option("--policy", default="random", show_default=True,
-              help="A run folder, a model .zip, random, or module:callable (called with the env).")
+@click.option(
+    "--seeds", "seeds_mode", default="reserved", show_default=True, help="reserved, train, or a list like 1,2,3."
+)
+@click.option(
+    "--policy",
+    default="random",
+    show_default=True,
+    help="A run folder, a model .zip, random, or module:callable (called with the env).",
+)
 @click.option("--levels", help="Levels to score (default: the run's or config's curriculum levels).")
 @click.option("--difficulty", help="Difficulties to score (default: the curriculum's).")
 @click.option("--seeds-per-cell", "-k", type=click.IntRange(1), help="K seeds per cell (default: eval.seeds_per_cell).")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
 @click.option("--out", "output", type=click.Path(), help="Scoreboard CSV (default: scoreboard_<seeds>.csv in the run).")
-@click.option("--seed-key-file", type=click.Path(dir_okay=False),
-              help="A file holding a secret key: score the hidden reserved list it stands for "
-                   "(or set AAAI_SEED_KEY). The scoreboard records a hash of the key, never the key.")
-@click.option("--backend", type=click.Choice(["local", "ray"]), default="local", show_default=True,
-              help="local: one process; ray: episodes as Ray tasks (the ray extra), here or on a cluster.")
-@click.option("--address", help="With --backend ray: join the cluster whose head is at this address "
-                                "(host:port, or auto); without it a local Ray is started for the eval.")
-@click.option("--workers", type=click.IntRange(1), default=2, show_default=True,
-              help="With --backend ray and no --address: CPUs of the local Ray.")
-@click.option("--arenas", type=click.Path(exists=True),
-              help="Score a battery of arena files (a folder of *.yaml, or one file) instead of levels: seeds "
-                   "0..K-1 (-k, default eval.seeds_per_cell) or --seeds 1,2,3; a summary per arena and per category.")
-@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
-              help="Score in this action mode (default: the run's or config's). A model is scored only in the "
-                   "mode it was trained in.")
+@click.option(
+    "--seed-key-file",
+    type=click.Path(dir_okay=False),
+    help="A file holding a secret key: score the hidden reserved list it stands for "
+    "(or set AAAI_SEED_KEY). The scoreboard records a hash of the key, never the key.",
+)
+@click.option(
+    "--backend",
+    type=click.Choice(["local", "ray"]),
+    default="local",
+    show_default=True,
+    help="local: one process; ray: episodes as Ray tasks (the ray extra), here or on a cluster.",
+)
+@click.option(
+    "--address",
+    help="With --backend ray: join the cluster whose head is at this address "
+    "(host:port, or auto); without it a local Ray is started for the eval.",
+)
+@click.option(
+    "--workers",
+    type=click.IntRange(1),
+    default=2,
+    show_default=True,
+    help="With --backend ray and no --address: CPUs of the local Ray.",
+)
+@click.option(
+    "--arenas",
+    type=click.Path(exists=True),
+    help="Score a battery of arena files (a folder of *.yaml, or one file) instead of levels: seeds "
+    "0..K-1 (-k, default eval.seeds_per_cell) or --seeds 1,2,3; a summary per arena and per category.",
+)
+@click.option(
+    "--action-mode",
+    type=click.Choice(["rotation", "velocity", "gait"]),
+    help="Score in this action mode (default: the run's or config's). A model is scored only in the "
+    "mode it was trained in.",
+)
 @click.option("--trust-model", is_flag=True, help=TRUST_HELP)
 @click.option("--progress-every", type=Seconds(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
-@click.option("--save-replays", type=click.Path(file_okay=False),
-              help="Save each scored episode's replay (JSON: level, seed, config, actions) in this folder, for "
-                   "aaai run --replay and aaai show --replay (--backend local only).")
-def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_path, output, seed_key_file,
-                 backend, address, workers, arenas, action_mode, trust_model, progress_every, save_replays):
+@click.option(
+    "--save-replays",
+    type=click.Path(file_okay=False),
+    help="Save each scored episode's replay (JSON: level, seed, config, actions) in this folder, for "
+    "aaai run --replay and aaai show --replay (--backend local only).",
+)
+def eval_command(
+    seeds_mode,
+    policy,
+    levels,
+    difficulty,
+    seeds_per_cell,
+    config_path,
+    output,
+    seed_key_file,
+    backend,
+    address,
+    workers,
+    arenas,
+    action_mode,
+    trust_model,
+    progress_every,
+    save_replays,
+):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
     from aaai.baselines import one_thread
 
     one_thread()  # one episode at a time: a small network gains nothing from more torch threads
     if arenas is not None:
-        return eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty,
-                           seed_key_file, backend, action_mode, trust_model, save_replays, progress_every)
+        return eval_arenas(
+            arenas,
+            seeds_mode,
+            policy,
+            seeds_per_cell,
+            config_path,
+            output,
+            levels,
+            difficulty,
+            seed_key_file,
+            backend,
+            action_mode,
+            trust_model,
+            save_replays,
+            progress_every,
+        )
     if save_replays is not None and backend != "local":
         raise click.UsageError("--save-replays: only with --backend local")
-    from aaai.evaluation import (cells_for, evaluate, policy_config, policy_record, summarise, summary_markdown,
-                                 write_summary)
+    from aaai.evaluation import (
+        cells_for,
+        evaluate,
+        policy_config,
+        policy_record,
+        summarise,
+        summary_markdown,
+        write_summary,
+    )
     from aaai.seeds import read_seed_key
 
     try:
@@ -409,8 +625,9 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
     try:
         config = with_action_mode(policy_config(policy, config_path), action_mode)
         level_list = parse_levels(levels) if levels else config["curriculum"]["levels"]
-        difficulty_list = (parse_range(difficulty, "--difficulty", 0, 10) if difficulty
-                           else config["curriculum"]["difficulties"])
+        difficulty_list = (
+            parse_range(difficulty, "--difficulty", 0, 10) if difficulty else config["curriculum"]["difficulties"]
+        )
         count = seeds_per_cell or config["eval"]["seeds_per_cell"]
         cells = cells_for(level_list, difficulty_list, seeds_mode, count, key)
         label = seeds_mode if seeds_mode in ("reserved", "train") else "list"
@@ -421,6 +638,7 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
 
         report = Progress(episodes, label="scoring", unit="episodes", every=progress_every)
         with progress_output(report) as update:
+
             def on_episode(row: dict) -> None:
                 report.add_episodes([row["outcome"] != "failed"], steps=int(row["steps"]))
                 update(1)
@@ -428,37 +646,80 @@ def eval_command(seeds_mode, policy, levels, difficulty, seeds_per_cell, config_
             if backend == "ray":
                 from aaai.distributed import evaluate_on_ray
 
-                rows = evaluate_on_ray(policy, cells, output, config, address=address, workers=workers,
-                                       on_episode=on_episode, record=record, trust=trust_model)
+                rows = evaluate_on_ray(
+                    policy,
+                    cells,
+                    output,
+                    config,
+                    address=address,
+                    workers=workers,
+                    on_episode=on_episode,
+                    record=record,
+                    trust=trust_model,
+                )
             else:
-                rows = evaluate(policy, cells, output, config, record=record, trust=trust_model,
-                                **replay_hooks(save_replays, policy, trust_model, on_episode))
+                rows = evaluate(
+                    policy,
+                    cells,
+                    output,
+                    config,
+                    record=record,
+                    trust=trust_model,
+                    **replay_hooks(save_replays, policy, trust_model, on_episode),
+                )
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except OSError as error:  # an output that became unwritable midway (its rows so far stay)
         raise click.ClickException(f"{str(error.filename or output)!r}: {error.strerror or error}") from None
     except ImportError as error:
-        raise click.UsageError(f"{error}. Loading a model needs the train extra: pip install -e '.[train]'; "
-                               "--backend ray and RLlib runs need the ray extra: pip install -e '.[ray]'") from None
+        raise click.UsageError(
+            f"{error}. Loading a model needs the train extra: pip install -e '.[train]'; "
+            "--backend ray and RLlib runs need the ray extra: pip install -e '.[ray]'"
+        ) from None
     summary = summarise(rows)
     summary_path = _write_summary(write_summary, summary, output)
     click.echo(summary_markdown(summary), nl=False)
     click.echo(f"scoreboard {output} ({len(rows)} episodes); summary {summary_path}")
 
 
-def eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output, levels, difficulty, seed_key_file,
-                backend, action_mode=None, trust_model=False, save_replays=None, progress_every=30.0):
+def eval_arenas(
+    arenas,
+    seeds_mode,
+    policy,
+    seeds_per_cell,
+    config_path,
+    output,
+    levels,
+    difficulty,
+    seed_key_file,
+    backend,
+    action_mode=None,
+    trust_model=False,
+    save_replays=None,
+    progress_every=30.0,
+):
     """``aaai eval --arenas``: every arena file of the battery on seeds 0..K-1 (or a --seeds list)."""
     from aaai.arena import arena_files, arena_meta
-    from aaai.evaluation import evaluate_arenas, policy_config, policy_record, summarise_arenas, summary_markdown, \
-        write_summary
+    from aaai.evaluation import (
+        evaluate_arenas,
+        policy_config,
+        policy_record,
+        summarise_arenas,
+        summary_markdown,
+        write_summary,
+    )
 
-    clashes = [name for name, value in (("--levels", levels), ("--difficulty", difficulty),
-                                        ("--seed-key-file", seed_key_file)) if value is not None]
+    clashes = [
+        name
+        for name, value in (("--levels", levels), ("--difficulty", difficulty), ("--seed-key-file", seed_key_file))
+        if value is not None
+    ]
     if backend != "local":
         clashes.append("--backend ray")
     if clashes:
-        raise click.UsageError(f"--arenas: {', '.join(clashes)} cannot be used with it (an arena file is its own level)")
+        raise click.UsageError(
+            f"--arenas: {', '.join(clashes)} cannot be used with it (an arena file is its own level)"
+        )
     run_folder = Path(policy) if Path(policy).is_dir() else None
     try:
         config = with_action_mode(policy_config(policy, config_path), action_mode)
@@ -481,12 +742,21 @@ def eval_arenas(arenas, seeds_mode, policy, seeds_per_cell, config_path, output,
 
         report = Progress(episodes, label="scoring", unit="episodes", every=progress_every)
         with progress_output(report) as update:
+
             def on_episode(row: dict) -> None:
                 report.add_episodes([row["outcome"] != "failed"], steps=int(row["steps"]))
                 update(1)
 
-            rows = evaluate_arenas(policy, files, seeds, output, config, record=record, trust=trust_model,
-                                   **replay_hooks(save_replays, policy, trust_model, on_episode, files))
+            rows = evaluate_arenas(
+                policy,
+                files,
+                seeds,
+                output,
+                config,
+                record=record,
+                trust=trust_model,
+                **replay_hooks(save_replays, policy, trust_model, on_episode, files),
+            )
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except OSError as error:  # an output that became unwritable midway (its rows so far stay)
@@ -506,8 +776,10 @@ def _write_summary(write_summary, summary: list[dict], output: Path) -> Path:
     except OSError as error:
         click.echo(summary_markdown_of(summary), nl=False)
         where = getattr(error, "filename", None) or output.with_name(output.stem + "_summary.md")
-        raise click.ClickException(f"cannot write the summary {str(where)!r}: {error.strerror or error}; the "
-                                   f"scoreboard {str(output)!r} is whole, and the summary is printed above") from None
+        raise click.ClickException(
+            f"cannot write the summary {str(where)!r}: {error.strerror or error}; the "
+            f"scoreboard {str(output)!r} is whole, and the summary is printed above"
+        ) from None
 
 
 def summary_markdown_of(summary: list[dict]) -> str:
@@ -521,13 +793,26 @@ def summary_markdown_of(summary: list[dict]) -> str:
 @click.option("--levels", default="all", show_default=True, help="Levels, e.g. '0-3,5', or all.")
 @click.option("--difficulty", default="0-10", show_default=True)
 @click.option("-k", "--episodes-per-cell", "count", type=click.IntRange(1), default=1, show_default=True)
-@click.option("--seeds", "seeds_mode", default="train", show_default=True,
-              help="train (fixed draws from the training range), reserved, or a list like 1,2,3.")
-@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
-              help="The actions recorded (default: the config's, or the run's for a run folder).")
+@click.option(
+    "--seeds",
+    "seeds_mode",
+    default="train",
+    show_default=True,
+    help="train (fixed draws from the training range), reserved, or a list like 1,2,3.",
+)
+@click.option(
+    "--action-mode",
+    type=click.Choice(["rotation", "velocity", "gait"]),
+    help="The actions recorded (default: the config's, or the run's for a run folder).",
+)
 @click.option("--config", "config_path", type=click.Path(), help="A YAML for the env.")
-@click.option("--out", "out", type=click.Path(file_okay=False), required=True,
-              help="The folder holding the Minari datasets (MINARI_DATASETS_PATH to load them).")
+@click.option(
+    "--out",
+    "out",
+    type=click.Path(file_okay=False),
+    required=True,
+    help="The folder holding the Minari datasets (MINARI_DATASETS_PATH to load them).",
+)
 @click.option("--dataset-id", help="The dataset's id (default aaai/<policy>-v0).")
 def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, config_path, out, dataset_id):
     """Record a policy's episodes as a Minari dataset (the demos extra): the agent's own observations,
@@ -540,21 +825,31 @@ def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, co
         raise click.UsageError(f"{error}. aaai demos needs the demos extra: pip install -e '.[demos]'") from None
     try:
         config = with_action_mode(policy_config(policy, config_path), action_mode)
-        plan = [(level, d, seed) for level in parse_levels(levels) for d in parse_range(difficulty, "--difficulty", 0, 10)
-                for seed in seeds_for(seeds_mode, level, d, count)]
+        plan = [
+            (level, d, seed)
+            for level in parse_levels(levels)
+            for d in parse_range(difficulty, "--difficulty", 0, 10)
+            for seed in seeds_for(seeds_mode, level, d, count)
+        ]
         dataset_id = dataset_id or dataset_id_for(policy)
         with click.progressbar(length=len(plan), label=f"recording {len(plan)} episodes", show_pos=True) as bar:
             record(policy, plan, Path(out), config, dataset_id, on_episode=lambda index: bar.update(1))
     except (ConfigError, FileNotFoundError, ImportError) as error:
         raise click.UsageError(str(error)) from None
-    click.echo(f"dataset {dataset_id} in {out}: {len(plan)} episodes; load it with "
-               f"MINARI_DATASETS_PATH={out} python -c \"import minari; minari.load_dataset('{dataset_id}')\"")
+    click.echo(
+        f"dataset {dataset_id} in {out}: {len(plan)} episodes; load it with "
+        f"MINARI_DATASETS_PATH={out} python -c \"import minari; minari.load_dataset('{dataset_id}')\""
+    )
 
 
 @cli.command("diagnose")
 @click.option("--policy", required=True, help=POLICY_HELP)
-@click.option("--scoreboard", type=click.Path(exists=True, dir_okay=False), required=True,
-              help="The policy's scoreboard CSV (aaai eval): its failed episodes are replayed.")
+@click.option(
+    "--scoreboard",
+    type=click.Path(exists=True, dir_okay=False),
+    required=True,
+    help="The policy's scoreboard CSV (aaai eval): its failed episodes are replayed.",
+)
 @click.option("--levels", help="Only these levels, e.g. '7,8'.")
 @click.option("--limit", type=click.IntRange(1), help="At most this many failed episodes per level.")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
@@ -565,32 +860,47 @@ def diagnose_command(policy, scoreboard, levels, limit, config_path):
     from aaai.evaluation import policy_config
 
     try:
-        failures = diagnose(policy, Path(scoreboard), policy_config(policy, config_path),
-                            parse_levels(levels) if levels else None, limit)
+        failures = diagnose(
+            policy,
+            Path(scoreboard),
+            policy_config(policy, config_path),
+            parse_levels(levels) if levels else None,
+            limit,
+        )
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     click.echo(table_markdown(failures), nl=False)
 
 
 @cli.command("baselines")
-@click.option("--demo-run", type=click.Path(file_okay=False), default="runs/demo", show_default=True,
-              help="The trained run scored as ppo_demo (make demo writes it).")
+@click.option(
+    "--demo-run",
+    type=click.Path(file_okay=False),
+    default="runs/demo",
+    show_default=True,
+    help="The trained run scored as ppo_demo (make demo writes it).",
+)
 @click.option("--out", "folder", type=click.Path(file_okay=False), default="baselines", show_default=True)
 @click.option("--levels", default="all", show_default=True, help="Levels, e.g. '0-3,5', or all.")
 @click.option("--difficulty", default="0-10", show_default=True)
 @click.option("--seeds-per-cell", "-k", "count", type=click.IntRange(1), default=10, show_default=True)
 @click.option("--workers", type=click.IntRange(1), default=2, show_default=True, help="Worker processes.")
-@click.option("--student-run", type=click.Path(file_okay=False),
-              help="A student of the reference (aaai train --teacher reference), scored as student.")
+@click.option(
+    "--student-run",
+    type=click.Path(file_okay=False),
+    help="A student of the reference (aaai train --teacher reference), scored as student.",
+)
 @click.option("--ppo-gait-run", type=click.Path(file_okay=False), help="A PPO run in gait mode, scored as ppo_gait.")
-@click.option("--only", help="Score only these policies (e.g. 'student,ppo_gait'); the table and heatmap still "
-                             "show every scoreboard already in --out.")
+@click.option(
+    "--only",
+    help="Score only these policies (e.g. 'student,ppo_gait'); the table and heatmap still "
+    "show every scoreboard already in --out.",
+)
 def baselines_command(demo_run, folder, levels, difficulty, count, workers, student_run, ppo_gait_run, only):
     """Score random actions, the reference controller and trained runs on the reserved seeds of
     every cell: a scoreboard each, a pass-rate table and a heatmap (make baselines)."""
     from aaai.baselines import run
     from aaai.evaluation import model_path
-
     from aaai.runs import check_writable
 
     try:
@@ -609,16 +919,28 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers, stud
     known = ["random", "reference", "ppo_demo", *learned]
     if chosen is not None and (not chosen or any(name not in known for name in chosen)):
         raise click.UsageError(f"--only: got {only!r}; allowed: a list of {', '.join(known)}")
-    run(Path(folder), Path(demo_run) if needs_demo else None, parse_levels(levels),
-        parse_range(difficulty, "--difficulty", 0, 10), count, workers, echo=click.echo, learned=learned, only=chosen)
+    run(
+        Path(folder),
+        Path(demo_run) if needs_demo else None,
+        parse_levels(levels),
+        parse_range(difficulty, "--difficulty", 0, 10),
+        count,
+        workers,
+        echo=click.echo,
+        learned=learned,
+        only=chosen,
+    )
 
 
 @cli.command("seeds")
 @click.option("--levels", default="all", show_default=True, help="Levels, e.g. '0-3,5', or all.")
 @click.option("--difficulty", default="0-10", show_default=True)
 @click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=10, show_default=True)
-@click.option("--seed-key-file", type=click.Path(dir_okay=False),
-              help="A file holding a secret key: print the hidden list it stands for (or set AAAI_SEED_KEY).")
+@click.option(
+    "--seed-key-file",
+    type=click.Path(dir_okay=False),
+    help="A file holding a secret key: print the hidden list it stands for (or set AAAI_SEED_KEY).",
+)
 def seeds_command(levels, difficulty, count, seed_key_file):
     """Print the reserved evaluation seeds of each (level, difficulty) cell."""
     from aaai.seeds import key_record, read_seed_key, reserved_seeds
@@ -636,29 +958,51 @@ def seeds_command(levels, difficulty, count, seed_key_file):
 
 @cli.command("bench")
 @click.option("--levels", help="Levels to measure (default: all).")
-@click.option("--rounds", type=click.IntRange(1), default=5, show_default=True,
-              help="Alternated rounds: each figure is timed once per round; ratios are medians over rounds.")
-@click.option("--steps", type=click.IntRange(100), default=1000, show_default=True,
-              help="Steps per figure and round.")
+@click.option(
+    "--rounds",
+    type=click.IntRange(1),
+    default=5,
+    show_default=True,
+    help="Alternated rounds: each figure is timed once per round; ratios are medians over rounds.",
+)
+@click.option("--steps", type=click.IntRange(100), default=1000, show_default=True, help="Steps per figure and round.")
 @click.option("--resets", type=click.IntRange(5), default=50, show_default=True, help="Resets timed per level.")
-@click.option("--worker-steps", type=click.IntRange(100), default=1000, show_default=True,
-              help="Steps per worker and round in the 1/2/4-worker runs.")
-@click.option("--train-steps", type=click.IntRange(0), default=4096, show_default=True,
-              help="Steps per round of PPO, the random agent and the environment alone (0: no training row).")
+@click.option(
+    "--worker-steps",
+    type=click.IntRange(100),
+    default=1000,
+    show_default=True,
+    help="Steps per worker and round in the 1/2/4-worker runs.",
+)
+@click.option(
+    "--train-steps",
+    type=click.IntRange(0),
+    default=4096,
+    show_default=True,
+    help="Steps per round of PPO, the random agent and the environment alone (0: no training row).",
+)
 @click.option("--train-envs", type=click.IntRange(1, 256), help="Workers of the training row (default: the config's).")
 @click.option("--memory-steps", type=click.IntRange(1000), default=20000, show_default=True)
-@click.option("--out", "folder", type=click.Path(), default="bench", show_default=True,
-              help="Folder for bench.json and bench.md.")
+@click.option(
+    "--out", "folder", type=click.Path(), default="bench", show_default=True, help="Folder for bench.json and bench.md."
+)
 def bench_command(levels, rounds, steps, resets, worker_steps, train_steps, train_envs, memory_steps, folder):
     """Measure steps/s against a bare PyBullet loop and MuJoCo Ant-v5, training against the
     environment alone, resets, workers and memory; alternated rounds, medians and spreads."""
     from aaai import bench
 
     level_list = parse_levels(levels) if levels else None
-    results = bench.run(level_list, steps=steps, rounds=rounds, resets=resets, worker_steps=worker_steps,
-                        train_steps=train_steps, memory_steps=memory_steps,
-                        train_config={"train": {"num_envs": train_envs}} if train_envs else None,
-                        log=lambda text: click.echo(text, err=True))
+    results = bench.run(
+        level_list,
+        steps=steps,
+        rounds=rounds,
+        resets=resets,
+        worker_steps=worker_steps,
+        train_steps=train_steps,
+        memory_steps=memory_steps,
+        train_config={"train": {"num_envs": train_envs}} if train_envs else None,
+        log=lambda text: click.echo(text, err=True),
+    )
     json_path, md_path = bench.write(results, Path(folder))
     click.echo(bench.markdown(results), nl=False)
     click.echo("ratios (medians): " + ", ".join(f"{k} {v:.2f}" for k, v in results["ratios"].items()))
@@ -667,10 +1011,17 @@ def bench_command(levels, rounds, steps, resets, worker_steps, train_steps, trai
 
 @cli.command("plot")
 @click.argument("runs", nargs=-1, required=True, type=click.Path(exists=True, file_okay=False))
-@click.option("--out", "output", type=click.Path(dir_okay=False), default="learning_curves.png", show_default=True,
-              help="The PNG to write.")
-@click.option("--smooth", type=click.IntRange(1), default=50, show_default=True,
-              help="Episodes in each point's running mean.")
+@click.option(
+    "--out",
+    "output",
+    type=click.Path(dir_okay=False),
+    default="learning_curves.png",
+    show_default=True,
+    help="The PNG to write.",
+)
+@click.option(
+    "--smooth", type=click.IntRange(1), default=50, show_default=True, help="Episodes in each point's running mean."
+)
 def plot_command(runs, output, smooth):
     """Draw the learning curves of RUN folders on one figure: task return and pass rate against steps."""
     from aaai.experiments import plot_runs
@@ -695,43 +1046,93 @@ def default_action_mode() -> str:
 
 
 @experiment_group.command("curricula")
-@click.option("--samplers", default="paper,uniform,learnability,plr", show_default=True,
-              help="Samplers to compare (curriculum.sampler), comma-separated.")
+@click.option(
+    "--samplers",
+    default="paper,uniform,learnability,plr",
+    show_default=True,
+    help="Samplers to compare (curriculum.sampler), comma-separated.",
+)
 @click.option("--seeds", "seeds_text", default="0-2", show_default=True, help="Training seeds, e.g. '0-2'.")
-@click.option("--steps", "total_steps", type=click.IntRange(1), default=500_000, show_default=True,
-              help="The budget: training steps (agent decisions) of every run.")
+@click.option(
+    "--steps",
+    "total_steps",
+    type=click.IntRange(1),
+    default=500_000,
+    show_default=True,
+    help="The budget: training steps (agent decisions) of every run.",
+)
 @click.option("--levels", default="0,1,3,4", show_default=True, help="Active levels of every run.")
 @click.option("--difficulty", default="0-3", show_default=True, help="Active difficulties of every run.")
-@click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=10, show_default=True,
-              help="Episodes per cell on reserved seeds, and on seeds each run trained on.")
+@click.option(
+    "-k",
+    "--seeds-per-cell",
+    "count",
+    type=click.IntRange(1),
+    default=10,
+    show_default=True,
+    help="Episodes per cell on reserved seeds, and on seeds each run trained on.",
+)
 @click.option("--envs", "num_envs", type=click.IntRange(1), default=2, show_default=True, help="Workers per run.")
-@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
-              help="Action mode of every run (default: gait where available, else rotation).")
+@click.option(
+    "--action-mode",
+    type=click.Choice(["rotation", "velocity", "gait"]),
+    help="Action mode of every run (default: gait where available, else rotation).",
+)
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
 @click.option("--out", "folder", type=click.Path(file_okay=False), default="experiments/curricula", show_default=True)
-@click.option("--jobs", type=click.IntRange(1), default=2, show_default=True,
-              help="Runs trained at once, each in its own process (one per core: a run of 2 workers steps them in "
-                   "its own process when the cores are few, train.vector auto).")
-@click.option("--progress-every", type=Seconds(0.1), default=60.0, show_default=True,
-              help="Seconds between each run's progress lines.")
-def curricula_command(samplers, seeds_text, total_steps, levels, difficulty, count, num_envs, action_mode, config_path,
-                      folder, jobs, progress_every):
+@click.option(
+    "--jobs",
+    type=click.IntRange(1),
+    default=2,
+    show_default=True,
+    help="Runs trained at once, each in its own process (one per core: a run of 2 workers steps them in "
+    "its own process when the cores are few, train.vector auto).",
+)
+@click.option(
+    "--progress-every",
+    type=Seconds(0.1),
+    default=60.0,
+    show_default=True,
+    help="Seconds between each run's progress lines.",
+)
+def curricula_command(
+    samplers,
+    seeds_text,
+    total_steps,
+    levels,
+    difficulty,
+    count,
+    num_envs,
+    action_mode,
+    config_path,
+    folder,
+    jobs,
+    progress_every,
+):
     """Train every sampler on one budget, config and cells, several seeds each; score each run on
     reserved and on trained seeds; write a table and a learning-curve plot (make curricula).
     Re-running continues where it stopped."""
     from aaai.experiments import plan, run_experiment
     from aaai.runs import check_writable
+
     seeds = parse_range(seeds_text, "--seeds", 0, 2**32 - 1)
     try:
         check_writable(Path(folder), "--out", folder=True)
-        config = load_config(config_path, levels=parse_levels(levels),
-                             difficulties=parse_range(difficulty, "--difficulty", 0, 10), total_steps=total_steps,
-                             num_envs=num_envs, action_mode=action_mode or default_action_mode())
+        config = load_config(
+            config_path,
+            levels=parse_levels(levels),
+            difficulties=parse_range(difficulty, "--difficulty", 0, 10),
+            total_steps=total_steps,
+            num_envs=num_envs,
+            action_mode=action_mode or default_action_mode(),
+        )
         experiment = plan(folder, [s.strip() for s in samplers.split(",") if s.strip()], seeds, config, count)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
-    click.echo(f"experiment {experiment.folder}: samplers {experiment.samplers}, seeds {experiment.seeds}, "
-               f"{total_steps} steps each, action mode {config['agent']['action_mode']}")
+    click.echo(
+        f"experiment {experiment.folder}: samplers {experiment.samplers}, seeds {experiment.seeds}, "
+        f"{total_steps} steps each, action mode {config['agent']['action_mode']}"
+    )
     try:
         run_experiment(experiment, echo=click.echo, progress_every=progress_every, jobs=jobs)
     except (ConfigError, FileNotFoundError) as error:
@@ -744,18 +1145,29 @@ def curricula_command(samplers, seeds_text, total_steps, levels, difficulty, cou
 
 @experiment_group.command("competence")
 @click.option("--out", "folder", type=click.Path(file_okay=False), default="experiments/competence", show_default=True)
-@click.option("--gait-steps", type=click.IntRange(1), default=60_000, show_default=True,
-              help="Budget of the gait-mode run, in agent decisions (0.1 s each).")
-@click.option("--rotation-steps", type=click.IntRange(1), default=200_000, show_default=True,
-              help="Budget of the rotation-mode run, in agent decisions (control steps of 0.02 s).")
+@click.option(
+    "--gait-steps",
+    type=click.IntRange(1),
+    default=60_000,
+    show_default=True,
+    help="Budget of the gait-mode run, in agent decisions (0.1 s each).",
+)
+@click.option(
+    "--rotation-steps",
+    type=click.IntRange(1),
+    default=200_000,
+    show_default=True,
+    help="Budget of the rotation-mode run, in agent decisions (control steps of 0.02 s).",
+)
 def competence_command(folder, gait_steps, rotation_steps):
     """Time to competence: PPO on the default config (L0 d0-2) in gait and in rotation mode, every
     checkpoint scored on the 30 reserved episodes; the first to pass 90 % (make competence)."""
     from aaai.competence import CompetenceSettings, run_experiment
 
-    settings = CompetenceSettings(budgets={"gait": gait_steps, "rotation": rotation_steps},
-                                  checkpoint_every={"gait": max(gait_steps // 12, 1),
-                                                    "rotation": max(rotation_steps // 10, 1)})
+    settings = CompetenceSettings(
+        budgets={"gait": gait_steps, "rotation": rotation_steps},
+        checkpoint_every={"gait": max(gait_steps // 12, 1), "rotation": max(rotation_steps // 10, 1)},
+    )
     try:
         table = run_experiment(folder, settings, echo=click.echo)
     except (ConfigError, FileNotFoundError) as error:
@@ -766,8 +1178,13 @@ def competence_command(folder, gait_steps, rotation_steps):
 @cli.command("import-animalai")
 @click.argument("source", type=click.Path())
 @click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="Folder for the arena files.")
-@click.option("--scale", type=float, default=5.0, show_default=True,
-              help="Units here per Animal-AI unit (its arena is 40 across; our body's footprint 10).")
+@click.option(
+    "--scale",
+    type=float,
+    default=5.0,
+    show_default=True,
+    help="Units here per Animal-AI unit (its arena is 40 across; our body's footprint 10).",
+)
 def import_animalai_command(source, out, scale):
     """Convert Animal-AI arena files (!ArenaConfig; a FILE or a DIR of them) into aaai arena files."""
     from aaai.animalai import import_animalai
@@ -781,7 +1198,8 @@ def import_animalai_command(source, out, scale):
 
 
 # Commands that live in their own files.
-from aaai_cli.play import play as play_command, replay_hooks  # noqa: E402
+from aaai_cli.play import play as play_command  # noqa: E402
+from aaai_cli.play import replay_hooks  # noqa: E402
 from aaai_cli.show import show  # noqa: E402
 from aaai_cli.validate import validate  # noqa: E402
 

@@ -1,4 +1,5 @@
 """``aaai play``: play the levels yourself in a web browser, scored as a policy named human:NAME."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -14,33 +15,91 @@ LOOPBACK = ("127.0.0.1", "localhost", "::1")
 @click.argument("level", required=False)
 @click.option("-d", "difficulty_text", type=click.IntRange(0), help="One episode: its difficulty [default: 0].")
 @click.option("-s", "--seed", type=click.IntRange(0), help="One episode: its seed [default: 0].")
-@click.option("--arena", type=click.Path(exists=True),
-              help="Play an arena file (or a folder of them), on seed -s or the --seeds list.")
-@click.option("--seeds", "seeds_mode", help="A battery: reserved, train or a list like 1,2,3, over --levels x --difficulty.")
+@click.option(
+    "--arena",
+    type=click.Path(exists=True),
+    help="Play an arena file (or a folder of them), on seed -s or the --seeds list.",
+)
+@click.option(
+    "--seeds", "seeds_mode", help="A battery: reserved, train or a list like 1,2,3, over --levels x --difficulty."
+)
 @click.option("--levels", help="Battery levels, e.g. '0-11,12' [default with --seeds: all].")
 @click.option("--difficulty", "difficulties", help="Battery difficulties, e.g. '0,5,10' [default: 0].")
-@click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=1, show_default=True,
-              help="With --seeds reserved or train: episodes per (level, difficulty).")
-@click.option("--seed-key-file", type=click.Path(dir_okay=False),
-              help="With --seeds reserved: the hidden reserved list this key stands for (or AAAI_SEED_KEY).")
+@click.option(
+    "-k",
+    "--seeds-per-cell",
+    "count",
+    type=click.IntRange(1),
+    default=1,
+    show_default=True,
+    help="With --seeds reserved or train: episodes per (level, difficulty).",
+)
+@click.option(
+    "--seed-key-file",
+    type=click.Path(dir_okay=False),
+    help="With --seeds reserved: the hidden reserved list this key stands for (or AAAI_SEED_KEY).",
+)
 @click.option("--player", help="The player's name, recorded as human:NAME [default: the page asks].")
-@click.option("--out", "output", default="human_{player}.csv", show_default=True,
-              help="Scoreboard CSV; {player} is replaced by the player's name. Re-run with the same --out to "
-                   "resume at the next unplayed episode.")
+@click.option(
+    "--out",
+    "output",
+    default="human_{player}.csv",
+    show_default=True,
+    help="Scoreboard CSV; {player} is replaced by the player's name. Re-run with the same --out to "
+    "resume at the next unplayed episode.",
+)
 @click.option("--replays", type=click.Path(file_okay=False), help="Save each scored episode's replay (JSON) here.")
-@click.option("--host", default="127.0.0.1", show_default=True,
-              help="Address to listen on: 127.0.0.1 is this machine only; 0.0.0.0 lets anyone who can reach it play.")
+@click.option(
+    "--host",
+    default="127.0.0.1",
+    show_default=True,
+    help="Address to listen on: 127.0.0.1 is this machine only; 0.0.0.0 lets anyone who can reach it play.",
+)
 @click.option("--port", type=click.IntRange(0, 65535), default=8000, show_default=True, help="0: any free port.")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
 @click.option("--max-steps", type=int, help="Episode length in control steps (default: each level's time limit).")
-@click.option("--camera-resolution", type=click.IntRange(8, 512), default=84, show_default=True,
-              help="Pixels across the agent's camera view.")
-@click.option("--fps", type=click.FloatRange(1, 50), default=30, show_default=True,
-              help="Frames sent to a page per second, at most (the simulation runs at 50 steps/s regardless).")
-@click.option("--grace", type=click.FloatRange(0), default=20, show_default=True,
-              help="Seconds a page that lost its connection may come back before its episode is abandoned.")
-def play(level, difficulty_text, seed, arena, seeds_mode, levels, difficulties, count, seed_key_file, player, output,
-         replays, host, port, config_path, max_steps, camera_resolution, fps, grace):
+@click.option(
+    "--camera-resolution",
+    type=click.IntRange(8, 512),
+    default=84,
+    show_default=True,
+    help="Pixels across the agent's camera view.",
+)
+@click.option(
+    "--fps",
+    type=click.FloatRange(1, 50),
+    default=30,
+    show_default=True,
+    help="Frames sent to a page per second, at most (the simulation runs at 50 steps/s regardless).",
+)
+@click.option(
+    "--grace",
+    type=click.FloatRange(0),
+    default=20,
+    show_default=True,
+    help="Seconds a page that lost its connection may come back before its episode is abandoned.",
+)
+def play(
+    level,
+    difficulty_text,
+    seed,
+    arena,
+    seeds_mode,
+    levels,
+    difficulties,
+    count,
+    seed_key_file,
+    player,
+    output,
+    replays,
+    host,
+    port,
+    config_path,
+    max_steps,
+    camera_resolution,
+    fps,
+    grace,
+):
     """Play LEVEL (default L0) in a browser: arrows or WASD walk and turn, C or Shift crouches.
 
     Starts a web server and prints the address to open. Every finished episode is a scoreboard row
@@ -48,20 +107,25 @@ def play(level, difficulty_text, seed, arena, seeds_mode, levels, difficulties, 
     <out>_abandoned.csv, not scored. --seeds runs a battery, one episode after another.
     """
     from aaai.evaluation import Cell, cells_for
-    from aaai.play.session import PlaySettings, check_player, InputError
+    from aaai.play.session import InputError, PlaySettings, check_player
     from aaai_cli.main import parse_levels, parse_range
 
     battery = seeds_mode is not None or levels is not None or difficulties is not None
     if battery and arena is None and (level is not None or difficulty_text is not None or seed is not None):
-        raise click.UsageError("LEVEL, -d and -s choose one episode; --seeds, --levels and --difficulty a battery: "
-                               "use one or the other")
-    if arena is not None and (level is not None or levels is not None or difficulties is not None
-                              or difficulty_text is not None):
-        raise click.UsageError("--arena: LEVEL, --levels, -d and --difficulty cannot be used with it "
-                               "(an arena file is its own level)")
+        raise click.UsageError(
+            "LEVEL, -d and -s choose one episode; --seeds, --levels and --difficulty a battery: use one or the other"
+        )
+    if arena is not None and (
+        level is not None or levels is not None or difficulties is not None or difficulty_text is not None
+    ):
+        raise click.UsageError(
+            "--arena: LEVEL, --levels, -d and --difficulty cannot be used with it (an arena file is its own level)"
+        )
     if "{player}" not in output and player is None:
-        raise click.UsageError(f"--out: got {output!r} without {{player}}, so every player's rows would go to one "
-                               "file; name the one player with --player, or put {player} in the path")
+        raise click.UsageError(
+            f"--out: got {output!r} without {{player}}, so every player's rows would go to one "
+            "file; name the one player with --player, or put {player} in the path"
+        )
     try:
         if player is not None:
             check_player(player)
@@ -71,8 +135,14 @@ def play(level, difficulty_text, seed, arena, seeds_mode, levels, difficulties, 
         config = load_config(config_path, **overrides)
         physics = config["physics"]  # one control step per action: each env.step is 1/50 s of play
         config = load_config(config, decision_interval=physics["timestep"] * physics["action_repeat"])
-        settings = PlaySettings(config=config, output=output, player=player, max_fps=fps, grace_seconds=grace,
-                                replays=Path(replays) if replays else None)
+        settings = PlaySettings(
+            config=config,
+            output=output,
+            player=player,
+            max_fps=fps,
+            grace_seconds=grace,
+            replays=Path(replays) if replays else None,
+        )
         if arena is not None:
             from aaai.arena import arena_files, load_arena
 
@@ -114,11 +184,15 @@ def play(level, difficulty_text, seed, arena, seeds_mode, levels, difficulties, 
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     episodes = len(settings.episodes())
-    click.echo(f"aaai play: open {server.url} in a browser ({episodes} episode{'s' * (episodes != 1)} per player; "
-               f"scores to {output}). Ctrl+C stops.")
+    click.echo(
+        f"aaai play: open {server.url} in a browser ({episodes} episode{'s' * (episodes != 1)} per player; "
+        f"scores to {output}). Ctrl+C stops."
+    )
     if host not in LOOPBACK:
-        click.echo(f"--host {host}: anyone who can reach this machine on port {server.sock.getsockname()[1]} can "
-                   "open the page and play (there is no login); the scoreboards are written here.")
+        click.echo(
+            f"--host {host}: anyone who can reach this machine on port {server.sock.getsockname()[1]} can "
+            "open the page and play (there is no login); the scoreboards are written here."
+        )
     server.run()
 
 
@@ -134,11 +208,17 @@ def run_replay_file(path: str, arena: str | None = None) -> None:
         raise click.UsageError(str(error)) from None
     result, pose = outcome.result, outcome.final_pose
     where = replay["arena"]["name"] if replay["arena"] else f"L{replay['level']} {replay['level_name']}"
-    click.echo(f"replay {path}: {replay['policy']} on {where}, difficulty {replay['difficulty']}, seed {replay['seed']}")
-    click.echo(f"steps {result.steps}  return {result.episode_return!r}  food {result.info['food_eaten']}  "
-               f"end {result.end}  final pose x {pose['x']!r} y {pose['y']!r} z {pose['z']!r} yaw {pose['yaw']!r}")
+    click.echo(
+        f"replay {path}: {replay['policy']} on {where}, difficulty {replay['difficulty']}, seed {replay['seed']}"
+    )
+    click.echo(
+        f"steps {result.steps}  return {result.episode_return!r}  food {result.info['food_eaten']}  "
+        f"end {result.end}  final pose x {pose['x']!r} y {pose['y']!r} z {pose['z']!r} yaw {pose['yaw']!r}"
+    )
     if outcome.differences:
-        raise click.ClickException("the replay does not reproduce the recorded episode: " + "; ".join(outcome.differences))
+        raise click.ClickException(
+            "the replay does not reproduce the recorded episode: " + "; ".join(outcome.differences)
+        )
     click.echo("reproduced bit for bit: the same steps, return and final pose as recorded")
 
 
@@ -152,6 +232,11 @@ def replay_hooks(folder: str | None, policy: str, trust: bool, on_episode, arena
     from aaai.runs import check_writable
 
     check_writable(Path(folder), "--save-replays", folder=True)
-    saver = ReplaySaver(folder, policy, lambda env: load_policy(policy, env, trust=trust),
-                        arenas={Path(a).name: Path(a) for a in arenas}, on_episode=on_episode)
+    saver = ReplaySaver(
+        folder,
+        policy,
+        lambda env: load_policy(policy, env, trust=trust),
+        arenas={Path(a).name: Path(a) for a in arenas},
+        on_episode=on_episode,
+    )
     return {"on_episode": saver.on_episode, "make_policy": saver.make_policy}

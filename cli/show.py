@@ -1,4 +1,5 @@
 """``aaai show``: a picture of a level (top-down map beside the agent's camera), or a video."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -22,34 +23,81 @@ def frame_every(fps: float, control_dt: float) -> int:
 
 @click.command("show")
 @click.argument("level", required=False)
-@click.option("--arena", type=click.Path(dir_okay=False),
-              help="Draw this arena file (docs, Write your own test) instead of LEVEL, at --seed.")
+@click.option(
+    "--arena",
+    type=click.Path(dir_okay=False),
+    help="Draw this arena file (docs, Write your own test) instead of LEVEL, at --seed.",
+)
 @click.option("-d", "--difficulty", type=int, default=0, show_default=True)
 @click.option("-s", "--seed", type=int, default=0, show_default=True)
-@click.option("-o", "--output", type=click.Path(dir_okay=False),
-              help="PNG to write [default: <label>_d<D>_s<S>.png, e.g. L1_d0_s0.png; with --video, only if given].")
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(dir_okay=False),
+    help="PNG to write [default: <label>_d<D>_s<S>.png, e.g. L1_d0_s0.png; with --video, only if given].",
+)
 @click.option("--video", type=click.Path(dir_okay=False), help="Record an episode to this .mp4 or .avi.")
-@click.option("--policy", default="random", show_default=True,
-              help="Who moves the agent in the video: random, reference, gait, a model .zip, a run folder or "
-                   "module:callable.")
-@click.option("--steps", type=click.IntRange(1), default=None,
-              help=f"Steps to record at most [default: to the episode's end, capped at {STEP_CAP}]; when the cap "
-                   "cuts the episode, the message says so.")
-@click.option("--fps", type=click.IntRange(1, 500), default=25, show_default=True,
-              help="Video frame rate; a frame every round(1 / (fps x 0.02 s)) control steps, at least 1.")
-@click.option("--size", type=click.IntRange(200, 4000), default=MAP_SIZE, show_default=True,
-              help="Pixels across the longer side of the top-down map.")
+@click.option(
+    "--policy",
+    default="random",
+    show_default=True,
+    help="Who moves the agent in the video: random, reference, gait, a model .zip, a run folder or module:callable.",
+)
+@click.option(
+    "--steps",
+    type=click.IntRange(1),
+    default=None,
+    help=f"Steps to record at most [default: to the episode's end, capped at {STEP_CAP}]; when the cap "
+    "cuts the episode, the message says so.",
+)
+@click.option(
+    "--fps",
+    type=click.IntRange(1, 500),
+    default=25,
+    show_default=True,
+    help="Video frame rate; a frame every round(1 / (fps x 0.02 s)) control steps, at least 1.",
+)
+@click.option(
+    "--size",
+    type=click.IntRange(200, 4000),
+    default=MAP_SIZE,
+    show_default=True,
+    help="Pixels across the longer side of the top-down map.",
+)
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
-@click.option("--action-mode", type=click.Choice(["rotation", "velocity", "gait"]),
-              help="The policy's action mode (default: the config's); gait: forward, turn, crouch commands.")
-@click.option("--trust-model", is_flag=True,
-              help="Load a model file with stable-baselines3's own loader, which unpickles it and so runs any code "
-                   "in it (default: rebuilt without unpickling). Only for files you trust.")
-@click.option("--replay", type=click.Path(dir_okay=False),
-              help="With --video: film a replay file (aaai play --replays, aaai eval --save-replays): its level, "
-                   "config and actions (--arena: where its arena file is now).")
-def show(level, difficulty, seed, output, video, policy, steps, fps, size, config_path, arena, action_mode,
-         trust_model, replay):
+@click.option(
+    "--action-mode",
+    type=click.Choice(["rotation", "velocity", "gait"]),
+    help="The policy's action mode (default: the config's); gait: forward, turn, crouch commands.",
+)
+@click.option(
+    "--trust-model",
+    is_flag=True,
+    help="Load a model file with stable-baselines3's own loader, which unpickles it and so runs any code "
+    "in it (default: rebuilt without unpickling). Only for files you trust.",
+)
+@click.option(
+    "--replay",
+    type=click.Path(dir_okay=False),
+    help="With --video: film a replay file (aaai play --replays, aaai eval --save-replays): its level, "
+    "config and actions (--arena: where its arena file is now).",
+)
+def show(
+    level,
+    difficulty,
+    seed,
+    output,
+    video,
+    policy,
+    steps,
+    fps,
+    size,
+    config_path,
+    arena,
+    action_mode,
+    trust_model,
+    replay,
+):
     """Draw LEVEL (id, label like L1, or name) from above beside the agent's camera view.
 
     Writes a PNG, and with --video records an episode (random policy by default) so that the
@@ -85,9 +133,15 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
     from aaai.evaluation import load_policy
 
     try:
-        env = AnimalAIEnv(level=lvl.id if lvl else None, difficulty=difficulty, config=config_path, camera=True,
-                          camera_resolution=CAMERA_RESOLUTION, arena=arena,
-                          **({"action_mode": action_mode} if action_mode else {}))
+        env = AnimalAIEnv(
+            level=lvl.id if lvl else None,
+            difficulty=difficulty,
+            config=config_path,
+            camera=True,
+            camera_resolution=CAMERA_RESOLUTION,
+            arena=arena,
+            **({"action_mode": action_mode} if action_mode else {}),
+        )
         # the camera is turned on here to draw it: a model that was not trained with it does not see it
         extra = () if load_config(config_path)["sensors"]["camera"] else ("camera",)
         actor = load_policy(policy, env, trust=trust_model, extra_keys=extra) if video is not None else None
@@ -108,23 +162,35 @@ def show(level, difficulty, seed, output, video, policy, steps, fps, size, confi
 def picture_writer(env, output: str | None, size: int):
     """``picture(observation, info=None)``: writes the level's top-down map beside the head camera's
     view to the PNG ``output``."""
+
     def picture(observation, info=None) -> None:
         image = compose(draw_top_down(env.level_spec, size), observation["camera"])
         click.echo(f"wrote {save_png(image, output)} ({image.shape[1]} x {image.shape[0]})")
+
     return picture
 
 
 ENDS = {"ate green": "ate green food", "time": "reached max_steps"}  # how the messages name them
 
 
-def record(env, policy, seed: int, path: str, steps: int | None, fps: int, size: int, on_reset=None,
-           options: dict | None = None) -> int:
+def record(
+    env,
+    policy,
+    seed: int,
+    path: str,
+    steps: int | None,
+    fps: int,
+    size: int,
+    on_reset=None,
+    options: dict | None = None,
+) -> int:
     """Resets ``env`` to ``seed``, runs ``policy`` to the episode's end (or ``steps`` steps at most;
     None: :data:`STEP_CAP`) and writes a frame every few steps; returns the frames. When the cap cuts
     the episode, the message says so. ``on_reset(observation, info)`` sees the start."""
     cap = STEP_CAP if steps is None else steps
     every = frame_every(fps, env.control_dt * env.hold)  # an env step is `hold` control steps in gait mode
     with VideoWriter(path, fps) as writer:
+
         def frame(step: int, observation, reward: float, info: dict) -> None:
             if step % every == 0:
                 writer.write(compose(draw_world(env, size), observation["camera"]))
@@ -133,15 +199,26 @@ def record(env, policy, seed: int, path: str, steps: int | None, fps: int, size:
         if writer.frames == 0:  # the episode ended before the first frame
             writer.write(compose(draw_world(env, size), result.observation["camera"]))
     end = ENDS.get(result.end, result.end)
-    ended = (f"; the episode ended at step {result.steps} ({end})" if end else
-             f"; stopped at step {result.steps} by {'--steps' if steps is not None else 'the cap'} before the episode "
-             f"ended (it runs to step {result.info.get('max_steps', '?')} at most; raise --steps to see more)")
+    ended = (
+        f"; the episode ended at step {result.steps} ({end})"
+        if end
+        else f"; stopped at step {result.steps} by {'--steps' if steps is not None else 'the cap'} before the episode "
+        f"ended (it runs to step {result.info.get('max_steps', '?')} at most; raise --steps to see more)"
+    )
     click.echo(f"wrote {path} ({writer.frames} frames at {fps} fps, a frame every {every} steps{ended})")
     return writer.frames
 
 
-def show_replay(path: str, video: str | None, output: str | None, steps: int | None, fps: int, size: int,
-                arena: str | None, level: str | None) -> None:
+def show_replay(
+    path: str,
+    video: str | None,
+    output: str | None,
+    steps: int | None,
+    fps: int,
+    size: int,
+    arena: str | None,
+    level: str | None,
+) -> None:
     """``aaai show --video FILE --replay REPLAY``: the recorded episode filmed (its own level,
     config and actions; the camera turned on to draw it, which changes nothing the body does)."""
     from aaai.replays import ReplayPolicy, load_replay, make_env, replay_options
@@ -164,7 +241,16 @@ def show_replay(path: str, video: str | None, output: str | None, steps: int | N
     picture = picture_writer(env, output, size)
 
     try:
-        record(env, ReplayPolicy(data), data["seed"], video, min(steps or data["steps"], data["steps"]), fps, size,
-               on_reset=picture if output is not None else None, options=options)
+        record(
+            env,
+            ReplayPolicy(data),
+            data["seed"],
+            video,
+            min(steps or data["steps"], data["steps"]),
+            fps,
+            size,
+            on_reset=picture if output is not None else None,
+            options=options,
+        )
     finally:
         env.close()

@@ -1,4 +1,5 @@
 """``aaai validate``: generate levels over many seeds and check that each is solvable."""
+
 from __future__ import annotations
 
 import click
@@ -14,22 +15,29 @@ ARENA_SEEDS = 10  # seeds an arena file is checked with unless --seeds says othe
 @click.option("--difficulty", "difficulty_text", default="0-10", show_default=True, help="Difficulties, e.g. '0,5'.")
 @click.option("--seeds", type=click.IntRange(1), default=100, show_default=True, help="Seeds per (level, difficulty).")
 @click.option("--first-seed", type=click.IntRange(0), default=0, show_default=True, help="The first seed checked.")
-@click.option("--arena", "arena", type=click.Path(exists=True),
-              help="Check an arena file, or every *.yaml in a folder, instead of levels: each loaded with seeds "
-                   f"--first-seed onwards ({ARENA_SEEDS} unless --seeds is given); every problem is printed with "
-                   "its file, line and object.")
+@click.option(
+    "--arena",
+    "arena",
+    type=click.Path(exists=True),
+    help="Check an arena file, or every *.yaml in a folder, instead of levels: each loaded with seeds "
+    f"--first-seed onwards ({ARENA_SEEDS} unless --seeds is given); every problem is printed with "
+    "its file, line and object.",
+)
 @click.pass_context
 def validate(ctx, levels_text, difficulty_text, seeds, first_seed, arena):
     """Check generated levels without running a policy: no overlapping solids; the start and every
     food piece inside the arena, on solid ground and clear of walls; every piece reachable by a body
     of the agent's footprint. Prints seeds checked, regenerated and failed per (level, difficulty);
     exits with status 1 if any failed."""
-    from aaai_cli.main import parse_levels, parse_range  # here, not at the top: main imports this module
     from aaai.levels import SEED_LIMIT
+    from aaai_cli.main import parse_levels, parse_range  # here, not at the top: main imports this module
 
     if first_seed + seeds > SEED_LIMIT:  # every seed checked must be one a level takes
-        raise click.BadParameter(f"got {first_seed} with --seeds {seeds}; allowed: seeds up to {SEED_LIMIT - 1} "
-                                 f"(a first seed of at most {SEED_LIMIT - seeds})", param_hint="--first-seed")
+        raise click.BadParameter(
+            f"got {first_seed} with --seeds {seeds}; allowed: seeds up to {SEED_LIMIT - 1} "
+            f"(a first seed of at most {SEED_LIMIT - seeds})",
+            param_hint="--first-seed",
+        )
 
     if arena is not None:
         explicit = ctx.get_parameter_source("seeds") == click.core.ParameterSource.COMMANDLINE

@@ -12,6 +12,7 @@ Install:  pip install -e '.[train]'   (only torch is needed)
 Run:      python examples/cleanrl_ppo.py --total-timesteps 512 --num-steps 128
           python examples/cleanrl_ppo.py --total-timesteps 1000000 --max-steps 1000
 """
+
 from __future__ import annotations
 
 import argparse
@@ -74,6 +75,7 @@ def make_env(args: Args):
         env = gym.wrappers.NormalizeReward(env, gamma=args.gamma)
         env = gym.wrappers.TransformReward(env, lambda reward: np.clip(reward, -10, 10))
         return env
+
     return thunk
 
 
@@ -86,9 +88,16 @@ def layer_init(layer, std=np.sqrt(2), bias_const=0.0):
 class Agent(nn.Module):
     def __init__(self, n_obs: int, n_act: int):
         super().__init__()
+
         def mlp(n_out, std):
-            return nn.Sequential(layer_init(nn.Linear(n_obs, 64)), nn.Tanh(), layer_init(nn.Linear(64, 64)),
-                                 nn.Tanh(), layer_init(nn.Linear(64, n_out), std=std))
+            return nn.Sequential(
+                layer_init(nn.Linear(n_obs, 64)),
+                nn.Tanh(),
+                layer_init(nn.Linear(64, 64)),
+                nn.Tanh(),
+                layer_init(nn.Linear(64, n_out), std=std),
+            )
+
         self.critic, self.actor_mean = mlp(1, 1.0), mlp(n_act, 0.01)
         self.actor_logstd = nn.Parameter(torch.zeros(1, n_act))
 
@@ -161,7 +170,7 @@ def main(args: Args) -> list[dict]:
         for _ in range(args.update_epochs):
             np.random.shuffle(b_inds)
             for begin in range(0, len(b_inds), minibatch_size):
-                mb = b_inds[begin:begin + minibatch_size]
+                mb = b_inds[begin : begin + minibatch_size]
                 _, newlogprob, entropy, newvalue = agent.get_action_and_value(b_obs[mb], b_actions[mb])
                 logratio = newlogprob - b_logprobs[mb]
                 ratio = logratio.exp()
@@ -170,8 +179,9 @@ def main(args: Args) -> list[dict]:
                     clipfracs.append(((ratio - 1.0).abs() > args.clip_coef).float().mean().item())
                 mb_adv = b_advantages[mb]
                 mb_adv = (mb_adv - mb_adv.mean()) / (mb_adv.std(unbiased=False) + 1e-8)
-                pg_loss = torch.max(-mb_adv * ratio,
-                                    -mb_adv * torch.clamp(ratio, 1 - args.clip_coef, 1 + args.clip_coef)).mean()
+                pg_loss = torch.max(
+                    -mb_adv * ratio, -mb_adv * torch.clamp(ratio, 1 - args.clip_coef, 1 + args.clip_coef)
+                ).mean()
                 newvalue = newvalue.view(-1)
                 v_clipped = b_values[mb] + torch.clamp(newvalue - b_values[mb], -args.clip_coef, args.clip_coef)
                 v_loss = 0.5 * torch.max((newvalue - b_returns[mb]) ** 2, (v_clipped - b_returns[mb]) ** 2).mean()
@@ -182,11 +192,19 @@ def main(args: Args) -> list[dict]:
                 nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
                 optimizer.step()
 
-        stats = {"iteration": iteration, "global_step": global_step, "policy_loss": pg_loss.item(),
-                 "value_loss": v_loss.item(), "entropy": entropy_loss.item(), "approx_kl": approx_kl.item(),
-                 "clipfrac": float(np.mean(clipfracs)), "masked_steps": int((valid == 0).sum()),
-                 "episodes": len(returns_seen), "mean_return": float(np.mean(returns_seen)) if returns_seen else float("nan"),
-                 "sps": int(global_step / (time.time() - start))}
+        stats = {
+            "iteration": iteration,
+            "global_step": global_step,
+            "policy_loss": pg_loss.item(),
+            "value_loss": v_loss.item(),
+            "entropy": entropy_loss.item(),
+            "approx_kl": approx_kl.item(),
+            "clipfrac": float(np.mean(clipfracs)),
+            "masked_steps": int((valid == 0).sum()),
+            "episodes": len(returns_seen),
+            "mean_return": float(np.mean(returns_seen)) if returns_seen else float("nan"),
+            "sps": int(global_step / (time.time() - start)),
+        }
         history.append(stats)
         print(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in stats.items()))
     envs.close()
@@ -197,8 +215,9 @@ def parse_args(argv=None) -> Args:
     """``--field value`` for every field of Args (CleanRL uses tyro; plain argparse here)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     for f in dataclasses.fields(Args):
-        parser.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default,
-                            help=f"default {f.default}")
+        parser.add_argument(
+            "--" + f.name.replace("_", "-"), type=type(f.default), default=f.default, help=f"default {f.default}"
+        )
     return Args(**vars(parser.parse_args(argv)))
 
 

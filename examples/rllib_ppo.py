@@ -13,6 +13,7 @@ Install:  pip install -e '.[ray]'
 Run:      python examples/rllib_ppo.py --iterations 2 --batch 400
           python examples/rllib_ppo.py --iterations 50 --batch 4000 --env-runners 1 --checkpoint runs/rllib_l0
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,8 +40,14 @@ def flatten_observations(env, spaces, device):
     return FlattenObservations()
 
 
-def main(iterations: int = 2, batch: int = 400, max_steps: int = 200, env_runners: int = 0,
-         checkpoint: str | None = None, seed: int = 0) -> dict:
+def main(
+    iterations: int = 2,
+    batch: int = 400,
+    max_steps: int = 200,
+    env_runners: int = 0,
+    checkpoint: str | None = None,
+    seed: int = 0,
+) -> dict:
     """Train PPO for ``iterations`` iterations of ``batch`` env steps each; return the last result."""
     import ray
     from ray.rllib.algorithms.ppo import PPOConfig
@@ -48,20 +55,19 @@ def main(iterations: int = 2, batch: int = 400, max_steps: int = 200, env_runner
     from ray.tune.registry import register_env
 
     # Local use: only this machine's CPUs, no dashboard; the environment is single-threaded.
-    ray.init(num_cpus=max(2, env_runners + 1), include_dashboard=False, log_to_driver=False,
-             configure_logging=False)
+    ray.init(num_cpus=max(2, env_runners + 1), include_dashboard=False, log_to_driver=False, configure_logging=False)
     try:
         register_env(ENV_NAME, make_env)
         config = (
             PPOConfig()  # the new API stack (RLModule, Learner, EnvRunner, ConnectorV2) is the default
             .environment(ENV_NAME, env_config={"max_steps": max_steps})
             .env_runners(
-                num_env_runners=env_runners,           # 0: sample in the driver process
+                num_env_runners=env_runners,  # 0: sample in the driver process
                 num_envs_per_env_runner=1,
                 rollout_fragment_length="auto",
                 env_to_module_connector=flatten_observations,
             )
-            .learners(num_learners=0)                  # learn in the driver process, on CPU
+            .learners(num_learners=0)  # learn in the driver process, on CPU
             .training(
                 train_batch_size_per_learner=batch,
                 minibatch_size=min(128, batch),
@@ -78,9 +84,11 @@ def main(iterations: int = 2, batch: int = 400, max_steps: int = 200, env_runner
             result = algo.train()
             runners = result["env_runners"]
             learner = result["learners"]["default_policy"]
-            print(f"iteration {i + 1}: env steps sampled {runners['num_env_steps_sampled_lifetime']}, "
-                  f"episode return mean {runners.get('episode_return_mean', math.nan):.3f}, "
-                  f"policy loss {learner['policy_loss']:.4f}")
+            print(
+                f"iteration {i + 1}: env steps sampled {runners['num_env_steps_sampled_lifetime']}, "
+                f"episode return mean {runners.get('episode_return_mean', math.nan):.3f}, "
+                f"policy loss {learner['policy_loss']:.4f}"
+            )
         if checkpoint:
             path = algo.save_to_path(os.path.abspath(checkpoint))
             print(f"checkpoint: {path}")

@@ -13,6 +13,7 @@ Install:  pip install -e '.[train]'
 Run:      python examples/sb3_ppo.py --steps 256 --out /tmp/sb3_l0
           python examples/sb3_ppo.py --steps 200000 --max-steps auto --out runs/sb3_l0
 """
+
 from __future__ import annotations
 
 import argparse
@@ -31,8 +32,9 @@ import aaai  # noqa: F401  (registers aaai/AnimalAI-v0 and the per-level ids)
 ENV_ID = "aaai/L0-FoodContact-v0"
 
 
-def main(steps: int = 256, out: str = "runs/sb3_l0", max_steps: int | str = 200,
-         eval_episodes: int = 2, seed: int = 0) -> tuple[str, float, float]:
+def main(
+    steps: int = 256, out: str = "runs/sb3_l0", max_steps: int | str = 200, eval_episodes: int = 2, seed: int = 0
+) -> tuple[str, float, float]:
     """Check, train, save, reload and evaluate; return (model path, mean return, std)."""
     torch.set_num_threads(1)
     env_kwargs = {"rays_flat": True, "max_steps": max_steps}
@@ -43,8 +45,17 @@ def main(steps: int = 256, out: str = "runs/sb3_l0", max_steps: int | str = 200,
 
     vec_env = make_vec_env(ENV_ID, n_envs=2, seed=seed, env_kwargs=env_kwargs)
     n_steps = max(8, min(1024, steps // 2))  # rollout length per env, so `steps` is >= one rollout
-    model = PPO("MultiInputPolicy", vec_env, n_steps=n_steps, batch_size=min(64, 2 * n_steps),
-                n_epochs=4, gamma=0.99, seed=seed, device="cpu", verbose=0)
+    model = PPO(
+        "MultiInputPolicy",
+        vec_env,
+        n_steps=n_steps,
+        batch_size=min(64, 2 * n_steps),
+        n_epochs=4,
+        gamma=0.99,
+        seed=seed,
+        device="cpu",
+        verbose=0,
+    )
     model.learn(total_timesteps=steps)
     os.makedirs(out, exist_ok=True)
     path = os.path.join(out, "ppo_l0.zip")
@@ -55,8 +66,10 @@ def main(steps: int = 256, out: str = "runs/sb3_l0", max_steps: int | str = 200,
     eval_env = Monitor(gym.make(ENV_ID, **env_kwargs))  # Monitor: true episode returns
     mean, std = evaluate_policy(model, eval_env, n_eval_episodes=eval_episodes, deterministic=True)
     eval_env.close()
-    print(f"trained {model.num_timesteps} steps, saved {path}; "
-          f"evaluation over {eval_episodes} episodes: {mean:.3f} +- {std:.3f}")
+    print(
+        f"trained {model.num_timesteps} steps, saved {path}; "
+        f"evaluation over {eval_episodes} episodes: {mean:.3f} +- {std:.3f}"
+    )
     return path, float(mean), float(std)
 
 
@@ -64,8 +77,9 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=256, help="training env steps")
     parser.add_argument("--out", default="runs/sb3_l0", help="folder for ppo_l0.zip")
-    parser.add_argument("--max-steps", default="200",
-                        help="episode length in steps, or 'auto' for the level's own time limit")
+    parser.add_argument(
+        "--max-steps", default="200", help="episode length in steps, or 'auto' for the level's own time limit"
+    )
     parser.add_argument("--eval-episodes", type=int, default=2)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()

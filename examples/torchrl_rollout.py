@@ -12,6 +12,7 @@ Shows:
 Install:  pip install -e '.[torchrl]'
 Run:      python examples/torchrl_rollout.py --steps 300
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,10 +40,14 @@ def main(steps: int = 300, max_steps: int = 100, seed: int = 0):
     rollout = env.rollout(steps, break_when_any_done=False)
     episodes_done = int(rollout["next", "done"].sum())
     print(f"rollout batch size: {tuple(rollout.batch_size)}")
-    print(f"  joints {tuple(rollout['joints'].shape)}, rays {tuple(rollout['rays'].shape)}, "
-          f"action {tuple(rollout['action'].shape)}, reward {tuple(rollout['next', 'reward'].shape)}")
-    print(f"  episodes ended inside it: {episodes_done}, "
-          f"return so far of the last one: {rollout['next', 'episode_reward'][-1].item():.3f}")
+    print(
+        f"  joints {tuple(rollout['joints'].shape)}, rays {tuple(rollout['rays'].shape)}, "
+        f"action {tuple(rollout['action'].shape)}, reward {tuple(rollout['next', 'reward'].shape)}"
+    )
+    print(
+        f"  episodes ended inside it: {episodes_done}, "
+        f"return so far of the last one: {rollout['next', 'episode_reward'][-1].item():.3f}"
+    )
     env.close()
     return rollout
 

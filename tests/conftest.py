@@ -17,9 +17,16 @@ def heading(rotation: np.ndarray) -> float:
 def open_arena(*objects: ObjectSpec, agent=(0.0, 0.0, 0.0), **extra) -> LevelSpec:
     """A hand-made level: the 50 x 50 arena, the agent at ``agent`` (x, y, yaw), these objects."""
     foods = [o for o in objects if o.is_food]
-    return LevelSpec(level=0, name="test", difficulty=0, seed=0, agent=AgentPose(*agent),
-                     objects=tuple(arena_walls((50.0, 50.0), 4.0)) + objects,
-                     max_food_reward=max([f.food_value for f in foods], default=0.0), **extra)
+    return LevelSpec(
+        level=0,
+        name="test",
+        difficulty=0,
+        seed=0,
+        agent=AgentPose(*agent),
+        objects=tuple(arena_walls((50.0, 50.0), 4.0)) + objects,
+        max_food_reward=max([f.food_value for f in foods], default=0.0),
+        **extra,
+    )
 
 
 @pytest.fixture

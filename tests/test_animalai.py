@@ -1,5 +1,6 @@
 """aaai import-animalai: Animal-AI arena files (fixtures in tests/fixtures/animalai, written in its
 format) converted into aaai arena files."""
+
 import math
 from pathlib import Path
 
@@ -55,8 +56,12 @@ def test_positions_sizes_and_rotations_are_mapped_with_the_scale(tmp_path):
 
 def test_a_random_value_becomes_seeded_randomisation(tmp_path):
     _, _, out = imported(tmp_path)
-    xs = {seed: [o for o in parse_arena(out / "two_arenas_a1.yaml", seed)[0].objects if o.kind == "multi_food"][0]
-          .position[0] for seed in range(6)}
+    xs = {
+        seed: [o for o in parse_arena(out / "two_arenas_a1.yaml", seed)[0].objects if o.kind == "multi_food"][
+            0
+        ].position[0]
+        for seed in range(6)
+    }
     assert len(set(xs.values())) > 1  # x was -1: drawn per episode seed
     assert all(abs(x) <= 20 * S for x in xs.values())
     again = [o for o in parse_arena(out / "two_arenas_a1.yaml", 3)[0].objects if o.kind == "multi_food"][0]

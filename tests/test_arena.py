@@ -1,4 +1,5 @@
 """Arena files (aaai.arena): the round trip, errors naming file and line, and loading everywhere."""
+
 import csv
 from pathlib import Path
 
@@ -65,8 +66,11 @@ def error_of(path: Path) -> str:
 
 
 def test_unknown_key_names_file_line_and_object(tmp_path):
-    path = write(tmp_path, BASE + "  - {kind: food_green, position: [0, 5, 1.5], size: [3, 3, 3]}\n"
-                                  "  - {kind: wall, position: [8, 0, 2], size: [4, 1, 4], colur: [1, 0, 0, 1]}\n")
+    path = write(
+        tmp_path,
+        BASE + "  - {kind: food_green, position: [0, 5, 1.5], size: [3, 3, 3]}\n"
+        "  - {kind: wall, position: [8, 0, 2], size: [4, 1, 4], colur: [1, 0, 0, 1]}\n",
+    )
     message = error_of(path)
     assert message.startswith("my_test.yaml line 7, objects[1].colur: key 'colur' does not exist"), message
     top = write(tmp_path, "agnet: {x: 0, y: 0}\n" + BASE, "top.yaml")
@@ -76,30 +80,44 @@ def test_unknown_key_names_file_line_and_object(tmp_path):
 def test_wrong_type_names_file_line_and_field(tmp_path):
     path = write(tmp_path, BASE + "  - {kind: food_green, position: [0, five, 1.5], size: [3, 3, 3]}\n")
     message = error_of(path)
-    assert message.startswith("my_test.yaml line 6, objects[0].position[1]: got 'five'; allowed: a finite number"), message
+    assert message.startswith("my_test.yaml line 6, objects[0].position[1]: got 'five'; allowed: a finite number"), (
+        message
+    )
     bad_kind = write(tmp_path, BASE + "  - {kind: food_blue, position: [0, 5, 1.5], size: [3, 3, 3]}\n", "kind.yaml")
-    assert error_of(bad_kind).startswith("kind.yaml line 6, objects[0].kind: got 'food_blue'; allowed: one of food_green")
+    assert error_of(bad_kind).startswith(
+        "kind.yaml line 6, objects[0].kind: got 'food_blue'; allowed: one of food_green"
+    )
 
 
 def test_overlapping_objects_name_both(tmp_path):
-    path = write(tmp_path, BASE + "  - {kind: food_green, position: [0, 12, 1.5], size: [3, 3, 3]}\n"
-                                  "  - {kind: wall, position: [-8, 0, 2], size: [6, 1, 4]}\n"
-                                  "  - {kind: wall, position: [-6, 0, 2], size: [6, 1, 4]}\n")
+    path = write(
+        tmp_path,
+        BASE + "  - {kind: food_green, position: [0, 12, 1.5], size: [3, 3, 3]}\n"
+        "  - {kind: wall, position: [-8, 0, 2], size: [6, 1, 4]}\n"
+        "  - {kind: wall, position: [-6, 0, 2], size: [6, 1, 4]}\n",
+    )
     message = error_of(path)
     assert "my_test.yaml line 7, objects[1] (wall): at (-8.0, 0.0) overlaps objects[2] (wall)" in message, message
 
 
 def test_unreachable_food_names_its_line(tmp_path):
-    boxed = "".join(f"  - {{kind: wall, position: [{x}, {y}, 2], size: [{sx}, {sy}, 4]}}\n" for x, y, sx, sy in
-                    ((0, 6, 9, 1), (0, 14, 9, 1), (-4, 10, 1, 7), (4, 10, 1, 7)))
+    boxed = "".join(
+        f"  - {{kind: wall, position: [{x}, {y}, 2], size: [{sx}, {sy}, 4]}}\n"
+        for x, y, sx, sy in ((0, 6, 9, 1), (0, 14, 9, 1), (-4, 10, 1, 7), (4, 10, 1, 7))
+    )
     path = write(tmp_path, BASE + boxed + "  - {kind: food_green, position: [0, 10, 1], size: [2, 2, 2]}\n")
     message = error_of(path)
-    assert message.startswith("my_test.yaml line 10, objects[4] (food_green): at (0.0, 10.0) cannot be reached"), message
+    assert message.startswith("my_test.yaml line 10, objects[4] (food_green): at (0.0, 10.0) cannot be reached"), (
+        message
+    )
 
 
 def test_agent_inside_a_wall(tmp_path):
-    path = write(tmp_path, BASE + "  - {kind: wall, position: [0, -18, 2], size: [8, 1, 4]}\n"
-                                  "  - {kind: food_green, position: [0, 12, 1.5], size: [3, 3, 3]}\n")
+    path = write(
+        tmp_path,
+        BASE + "  - {kind: wall, position: [0, -18, 2], size: [8, 1, 4]}\n"
+        "  - {kind: food_green, position: [0, 12, 1.5], size: [3, 3, 3]}\n",
+    )
     message = error_of(path)
     assert "my_test.yaml line 4, agent: the agent's start (0.0, -18.0) is not clear" in message, message
 
@@ -142,8 +160,11 @@ def test_shipped_battery_is_valid():
 
 
 def test_validate_arena_reports_problems(tmp_path):
-    write(tmp_path, BASE + "  - {kind: wall, position: [0, -18, 2], size: [8, 1, 4]}\n"
-                           "  - {kind: food_green, position: [0, 12, 1.5], size: [3, 3, 3]}\n")
+    write(
+        tmp_path,
+        BASE + "  - {kind: wall, position: [0, -18, 2], size: [8, 1, 4]}\n"
+        "  - {kind: food_green, position: [0, 12, 1.5], size: [3, 3, 3]}\n",
+    )
     result = CliRunner().invoke(cli, ["validate", "--arena", str(tmp_path)])
     assert result.exit_code == 1
     assert "my_test.yaml line 4, agent" in result.output
@@ -152,8 +173,10 @@ def test_validate_arena_reports_problems(tmp_path):
 def test_eval_arenas_writes_scoreboard_and_summary(tmp_path):
     config = write(tmp_path, "episode:\n  max_steps: 10\n", "short.yaml")
     out = tmp_path / "board.csv"
-    result = CliRunner().invoke(cli, ["eval", "--arenas", str(ARENAS), "--policy", "random", "-k", "1",
-                                      "--config", str(config), "--out", str(out)])
+    result = CliRunner().invoke(
+        cli,
+        ["eval", "--arenas", str(ARENAS), "--policy", "random", "-k", "1", "--config", str(config), "--out", str(out)],
+    )
     assert result.exit_code == 0, result.output
     with open(out, newline="") as handle:
         rows = list(csv.DictReader(handle))
@@ -163,8 +186,10 @@ def test_eval_arenas_writes_scoreboard_and_summary(tmp_path):
     summary = (tmp_path / "board_summary.md").read_text()
     assert "| arena l3_transparent_detour.yaml | 1 |" in summary
     assert "| category L3 obstacles | 2 |" in summary and "| overall |" in summary
-    again = CliRunner().invoke(cli, ["eval", "--arenas", str(ARENAS), "--policy", "random", "-k", "1",
-                                     "--config", str(config), "--out", str(out)])
+    again = CliRunner().invoke(
+        cli,
+        ["eval", "--arenas", str(ARENAS), "--policy", "random", "-k", "1", "--config", str(config), "--out", str(out)],
+    )
     assert again.exit_code == 0 and len(scored_episodes(out)) == len(files)  # nothing played twice
 
 
@@ -188,8 +213,9 @@ def test_show_draws_a_shipped_arena(tmp_path):
 
 
 def test_run_with_arena():
-    result = CliRunner().invoke(cli, ["run", "--arena", str(ARENAS / "l0_food_ahead.yaml"), "--max-steps", "10",
-                                      "--episodes", "2"])
+    result = CliRunner().invoke(
+        cli, ["run", "--arena", str(ARENAS / "l0_food_ahead.yaml"), "--max-steps", "10", "--episodes", "2"]
+    )
     assert result.exit_code == 0, result.output
     assert result.output.count("l0_food_ahead.yaml") == 2
 
@@ -222,8 +248,10 @@ def test_eval_arenas_honours_an_arenas_own_pass_mark(tmp_path):
     (battery / "plain.yaml").write_text(source)
     config = write(tmp_path, "episode:\n  max_steps: 10\n", "short.yaml")
     out = tmp_path / "board.csv"
-    result = CliRunner().invoke(cli, ["eval", "--arenas", str(battery), "--policy", "random", "-k", "1",
-                                      "--config", str(config), "--out", str(out)])
+    result = CliRunner().invoke(
+        cli,
+        ["eval", "--arenas", str(battery), "--policy", "random", "-k", "1", "--config", str(config), "--out", str(out)],
+    )
     assert result.exit_code == 0, result.output
     outcomes = {row["arena"]: row["outcome"] for row in scored_episodes(out)}
     assert outcomes == {"easy.yaml": "passed", "hard.yaml": "failed", "plain.yaml": "failed"}

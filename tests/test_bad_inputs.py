@@ -1,6 +1,7 @@
 """Bad inputs on the surfaces tests/test_trust.py covers least: damaged model files, hand-made
 level specs, and command lines. Each must end in one clear error naming the thing, never a
 traceback. (Configs and arena files: tests/test_trust.py, 330 + 120 inputs.)"""
+
 from __future__ import annotations
 
 import io
@@ -8,7 +9,6 @@ import json
 import math
 import zipfile
 from dataclasses import replace
-from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -19,7 +19,7 @@ from aaai.config import ConfigError, load_config  # noqa: E402
 from aaai.env import AnimalAIEnv  # noqa: E402
 from aaai.evaluation import ModelPolicy  # noqa: E402
 from aaai.levels import generate  # noqa: E402
-from aaai.spec import AgentPose, ObjectSpec  # noqa: E402
+from aaai.spec import AgentPose  # noqa: E402
 from aaai_cli.main import cli  # noqa: E402
 
 SHORT = {"episode": {"max_steps": 15}}
@@ -31,8 +31,9 @@ def model_parts(tmp_path_factory):
     from stable_baselines3 import PPO
 
     env = AnimalAIEnv(config=load_config(SHORT))
-    model = PPO("MultiInputPolicy", env, n_steps=64, batch_size=64, seed=0, device="cpu",
-                policy_kwargs={"net_arch": [8, 8]})
+    model = PPO(
+        "MultiInputPolicy", env, n_steps=64, batch_size=64, seed=0, device="cpu", policy_kwargs={"net_arch": [8, 8]}
+    )
     path = tmp_path_factory.mktemp("model") / "model.zip"
     model.save(path)
     env.close()
@@ -55,10 +56,16 @@ def _with_data(parts: dict, change) -> bytes:
 
 
 def _damaged_models(whole: bytes, parts: dict) -> dict[str, bytes]:
-    cases = {"empty": b"", "text": b"not a model", "zeros": bytes(4096), "pdf": b"%PDF-1.4\n" + bytes(100),
-             "gzip": b"\x1f\x8b\x08" + bytes(64), "empty_zip": _zip({})}
+    cases = {
+        "empty": b"",
+        "text": b"not a model",
+        "zeros": bytes(4096),
+        "pdf": b"%PDF-1.4\n" + bytes(100),
+        "gzip": b"\x1f\x8b\x08" + bytes(64),
+        "empty_zip": _zip({}),
+    }
     for fraction in (0.01, 0.1, 0.25, 0.5, 0.75, 0.9, 0.99):
-        cases[f"cut_at_{fraction}"] = whole[:int(len(whole) * fraction)]
+        cases[f"cut_at_{fraction}"] = whole[: int(len(whole) * fraction)]
     for name in parts:
         cases[f"without_{name}"] = _zip({k: v for k, v in parts.items() if k != name})
     for name in ("policy.pth", "pytorch_variables.pth", "data"):
@@ -96,8 +103,9 @@ def test_damaged_model_files_are_refused_naming_the_file(model_parts, tmp_path):
                 assert f"{name}.zip" in str(error), (name, str(error))
             else:
                 # Parts scoring does not read (optimizer state, version notes) may be missing or damaged.
-                assert name == "policy_kwargs_a_string" or any(name.endswith(part) for part in OPTIONAL), \
+                assert name == "policy_kwargs_a_string" or any(name.endswith(part) for part in OPTIONAL), (
                     f"{name} was accepted"
+                )
     finally:
         env.close()
     assert len(cases) >= 40
@@ -113,13 +121,24 @@ def _bad_specs() -> dict[str, object]:
         cases[f"agent_x_{value}"] = lambda value=value: replace(spec, agent=AgentPose(value, 0.0, 0.0))
         if not math.isfinite(value):  # (any finite yaw is an angle)
             cases[f"agent_yaw_{value}"] = lambda value=value: replace(spec, agent=AgentPose(0.0, 0.0, value))
-        cases[f"food_x_{value}"] = lambda value=value: replace(spec, objects=spec.objects + (replace(food, position=(value, 0.0, 0.5)),))
-    for size in ((0.0, 1.0, 1.0), (-1.0, 1.0, 1.0), (1.0, 0.0, 1.0), (1.0, 1.0, -2.0), (math.nan, 1.0, 1.0),
-                 (math.inf, 1.0, 1.0), (1e308, 1e308, 1e308)):
+        cases[f"food_x_{value}"] = lambda value=value: replace(
+            spec, objects=spec.objects + (replace(food, position=(value, 0.0, 0.5)),)
+        )
+    for size in (
+        (0.0, 1.0, 1.0),
+        (-1.0, 1.0, 1.0),
+        (1.0, 0.0, 1.0),
+        (1.0, 1.0, -2.0),
+        (math.nan, 1.0, 1.0),
+        (math.inf, 1.0, 1.0),
+        (1e308, 1e308, 1e308),
+    ):
         cases[f"food_size_{size}"] = lambda size=size: replace(spec, objects=spec.objects + (replace(food, size=size),))
     cases["food_twice_in_one_place"] = lambda: replace(spec, objects=spec.objects + (food,))
     cases["food_outside"] = lambda: replace(spec, objects=spec.objects + (replace(food, position=(80.0, 80.0, 0.5)),))
-    cases["food_under_the_floor"] = lambda: replace(spec, objects=spec.objects + (replace(food, position=(3.0, 3.0, -5.0)),))
+    cases["food_under_the_floor"] = lambda: replace(
+        spec, objects=spec.objects + (replace(food, position=(3.0, 3.0, -5.0)),)
+    )
     for arena in ((0.0, 50.0), (-10.0, 50.0), (math.nan, 50.0), (math.inf, 50.0), (1e308, 1e308)):
         cases[f"arena_{arena}"] = lambda arena=arena: replace(spec, arena_size=arena)
     for limit in (0.0, 0.1, -1.0, 200.5, math.nan, math.inf, 1e308):
@@ -153,31 +172,92 @@ def test_bad_hand_made_specs_are_refused_at_reset(tmp_path):
 
 # --- command lines ------------------------------------------------------------------------------
 BAD_LINES = [
-    ["nothing"], ["--nothing"], ["spec"], ["spec", "99"], ["spec", "-1"], ["spec", "L99"], ["spec", "x"],
-    ["spec", "1", "-d", "11"], ["spec", "1", "-d", "-1"], ["spec", "1", "-s", "-1"], ["spec", "1", "-s", "x"],
-    ["spec", "1", "-s", "99999999999999999999"], ["seeds", "--levels", "13"], ["seeds", "--levels", "x"],
-    ["seeds", "--difficulty", "11"], ["seeds", "-k", "0"], ["seeds", "-k", "-1"], ["seeds", "-k", "x"],
-    ["validate", "--levels", "0-x"], ["validate", "--seeds", "0"], ["validate", "--first-seed", "-1"],
+    ["nothing"],
+    ["--nothing"],
+    ["spec"],
+    ["spec", "99"],
+    ["spec", "-1"],
+    ["spec", "L99"],
+    ["spec", "x"],
+    ["spec", "1", "-d", "11"],
+    ["spec", "1", "-d", "-1"],
+    ["spec", "1", "-s", "-1"],
+    ["spec", "1", "-s", "x"],
+    ["spec", "1", "-s", "99999999999999999999"],
+    ["seeds", "--levels", "13"],
+    ["seeds", "--levels", "x"],
+    ["seeds", "--difficulty", "11"],
+    ["seeds", "-k", "0"],
+    ["seeds", "-k", "-1"],
+    ["seeds", "-k", "x"],
+    ["validate", "--levels", "0-x"],
+    ["validate", "--seeds", "0"],
+    ["validate", "--first-seed", "-1"],
     ["validate", "--arena", "NOFILE"],
-    ["run", "--levels", "99"], ["run", "--episodes", "0"], ["run", "--episodes", "-1"], ["run", "--policy", "x"],
-    ["run", "--policy", "json:nothing"], ["run", "--policy", "NOFILE"], ["run", "--policy", "os:system"],
-    ["run", "--max-steps", "0"], ["run", "--max-steps", "-5"], ["run", "--config", "NOFILE"],
-    ["run", "--config", "BROKEN"], ["run", "--arena", "NOFILE"], ["run", "--arena", "BROKEN"],
-    ["eval", "-k", "0"], ["eval", "--levels", "13"], ["eval", "--difficulty", "11"], ["eval", "--seeds", "x"],
-    ["eval", "--policy", "x"], ["eval", "--policy", "json:nothing"], ["eval", "--policy", "NOFILE"],
-    ["eval", "--backend", "cluster"], ["eval", "--workers", "0"], ["eval", "--config", "BROKEN"],
-    ["eval", "--out", "DIR"], ["eval", "--progress-every", "nan"], ["eval", "--progress-every", "0"],
-    ["train", "--steps", "0"], ["train", "--steps", "-1"], ["train", "--steps", "x"], ["train", "--envs", "0"],
-    ["train", "--agent", "x"], ["train", "--levels", "13"], ["train", "--difficulty", "x"],
-    ["train", "--resume", "NOFILE"], ["train", "--resume", "DIR"], ["train", "--init-from", "NOFILE"],
-    ["train", "--config", "BROKEN"], ["train", "--camera-resolution", "0"], ["train", "--sampler", "x"],
-    ["train", "--progress-every", "inf"], ["train", "--backend", "x"], ["train", "--action-mode", "x"],
-    ["show", "99"], ["show", "x"], ["show", "-d", "11"], ["show", "--size", "10"], ["show", "--fps", "0"],
-    ["show", "--steps", "0"], ["show", "-o", "out.txt"], ["show", "--arena", "NOFILE"], ["show", "--arena", "BROKEN"],
-    ["show", "--video", "out.gif"], ["show", "--policy", "x", "--video", "out.mp4"], ["show", "--replay", "NOFILE"],
-    ["show", "--replay", "BROKEN", "--video", "out.mp4"], ["show", "--config", "BROKEN"],
-    ["levels", "--nothing"], ["plot"], ["plot", "NOFILE"], ["import-animalai", "NOFILE"],
-    ["import-animalai", "BROKEN"], ["play", "--port", "-1"], ["play", "--port", "x"], ["play", "99"],
+    ["run", "--levels", "99"],
+    ["run", "--episodes", "0"],
+    ["run", "--episodes", "-1"],
+    ["run", "--policy", "x"],
+    ["run", "--policy", "json:nothing"],
+    ["run", "--policy", "NOFILE"],
+    ["run", "--policy", "os:system"],
+    ["run", "--max-steps", "0"],
+    ["run", "--max-steps", "-5"],
+    ["run", "--config", "NOFILE"],
+    ["run", "--config", "BROKEN"],
+    ["run", "--arena", "NOFILE"],
+    ["run", "--arena", "BROKEN"],
+    ["eval", "-k", "0"],
+    ["eval", "--levels", "13"],
+    ["eval", "--difficulty", "11"],
+    ["eval", "--seeds", "x"],
+    ["eval", "--policy", "x"],
+    ["eval", "--policy", "json:nothing"],
+    ["eval", "--policy", "NOFILE"],
+    ["eval", "--backend", "cluster"],
+    ["eval", "--workers", "0"],
+    ["eval", "--config", "BROKEN"],
+    ["eval", "--out", "DIR"],
+    ["eval", "--progress-every", "nan"],
+    ["eval", "--progress-every", "0"],
+    ["train", "--steps", "0"],
+    ["train", "--steps", "-1"],
+    ["train", "--steps", "x"],
+    ["train", "--envs", "0"],
+    ["train", "--agent", "x"],
+    ["train", "--levels", "13"],
+    ["train", "--difficulty", "x"],
+    ["train", "--resume", "NOFILE"],
+    ["train", "--resume", "DIR"],
+    ["train", "--init-from", "NOFILE"],
+    ["train", "--config", "BROKEN"],
+    ["train", "--camera-resolution", "0"],
+    ["train", "--sampler", "x"],
+    ["train", "--progress-every", "inf"],
+    ["train", "--backend", "x"],
+    ["train", "--action-mode", "x"],
+    ["show", "99"],
+    ["show", "x"],
+    ["show", "-d", "11"],
+    ["show", "--size", "10"],
+    ["show", "--fps", "0"],
+    ["show", "--steps", "0"],
+    ["show", "-o", "out.txt"],
+    ["show", "--arena", "NOFILE"],
+    ["show", "--arena", "BROKEN"],
+    ["show", "--video", "out.gif"],
+    ["show", "--policy", "x", "--video", "out.mp4"],
+    ["show", "--replay", "NOFILE"],
+    ["show", "--replay", "BROKEN", "--video", "out.mp4"],
+    ["show", "--config", "BROKEN"],
+    ["levels", "--nothing"],
+    ["plot"],
+    ["plot", "NOFILE"],
+    ["import-animalai", "NOFILE"],
+    ["import-animalai", "BROKEN"],
+    ["play", "--port", "-1"],
+    ["play", "--port", "x"],
+    ["play", "99"],
 ]
 
 
@@ -186,9 +266,14 @@ def test_bad_command_lines_end_in_one_clear_error(tmp_path, monkeypatch):
     broken = tmp_path / "broken.yaml"
     broken.write_text("episode: {max_steps: [\n")
     (tmp_path / "dir").mkdir()
-    names = {"NOFILE": str(tmp_path / "missing.yaml"), "BROKEN": str(broken), "DIR": str(tmp_path / "dir"),
-             "out.txt": str(tmp_path / "out.txt"), "out.gif": str(tmp_path / "out.gif"),
-             "out.mp4": str(tmp_path / "out.mp4")}
+    names = {
+        "NOFILE": str(tmp_path / "missing.yaml"),
+        "BROKEN": str(broken),
+        "DIR": str(tmp_path / "dir"),
+        "out.txt": str(tmp_path / "out.txt"),
+        "out.gif": str(tmp_path / "out.gif"),
+        "out.mp4": str(tmp_path / "out.mp4"),
+    }
     assert len({tuple(line) for line in BAD_LINES}) == len(BAD_LINES) >= 80
     for line in BAD_LINES:
         args = [names.get(arg, arg) for arg in line]

@@ -1,4 +1,5 @@
 """make baselines: three scoreboards, a pass-rate table and a heatmap, on the reserved seeds."""
+
 import csv
 
 import cv2
@@ -11,12 +12,29 @@ from aaai_cli.main import cli
 
 def test_aaai_baselines_scores_three_policies_and_tabulates_them(tmp_path):
     run = tmp_path / "demo"
-    trained = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "200", "--envs", "1",
-                                       "--run", str(run)])
+    trained = CliRunner().invoke(
+        cli, ["train", "--agent", "random", "--steps", "200", "--envs", "1", "--run", str(run)]
+    )
     assert trained.exit_code == 0, trained.output
     out = tmp_path / "baselines"
-    result = CliRunner().invoke(cli, ["baselines", "--demo-run", str(run), "--out", str(out), "--levels", "0,8",
-                                      "--difficulty", "0,10", "-k", "2", "--workers", "2"])
+    result = CliRunner().invoke(
+        cli,
+        [
+            "baselines",
+            "--demo-run",
+            str(run),
+            "--out",
+            str(out),
+            "--levels",
+            "0,8",
+            "--difficulty",
+            "0,10",
+            "-k",
+            "2",
+            "--workers",
+            "2",
+        ],
+    )
     assert result.exit_code == 0, result.output
     assert "min on 2 workers" in result.output  # how long it took
     boards = {}
@@ -25,7 +43,8 @@ def test_aaai_baselines_scores_three_policies_and_tabulates_them(tmp_path):
             rows = list(csv.DictReader(handle))
         assert list(rows[0]) == COLUMNS
         assert [(int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows] == [
-            (level, d, seed) for level in (0, 8) for d in (0, 10) for seed in sorted(reserved_seeds(level, d, 2))]
+            (level, d, seed) for level in (0, 8) for d in (0, 10) for seed in sorted(reserved_seeds(level, d, 2))
+        ]
         boards[name] = rows
     passed = {name: sum(r["outcome"] != "failed" for r in rows) for name, rows in boards.items()}
     assert passed["reference"] > passed["random"]

@@ -1,18 +1,19 @@
 """Moving parts, deadly floors, sector doors, the L10 bridge and the L7 blackout, tested by
 running physics. All timing is in simulated time (steps x control dt)."""
+
 import math
 from dataclasses import replace
 
 import numpy as np
 import pybullet as p
 import pytest
+from test_env import assert_identical, run_random
 
 from aaai.gait import SineGait
 from aaai.levels import generate
-from aaai.spec import AgentPose, Blackout
 from aaai.sensors import EYE_OFFSET
+from aaai.spec import AgentPose, Blackout
 from aaai.world import HIDDEN_Z
-from test_env import assert_identical, run_random
 
 
 def bodies_of(env, kind):
@@ -64,8 +65,9 @@ def test_the_l8_food_slides_behind_the_occluder_and_stops(make_env):
         travel = np.linalg.norm(target - start) / speed
         steps = int(travel / 2 / env.control_dt)
         rest(env, steps)
-        assert position(env, food)[:2] == pytest.approx(start + (target - start) * steps * env.control_dt * speed
-                                                      / np.linalg.norm(target - start), abs=1e-6)
+        assert position(env, food)[:2] == pytest.approx(
+            start + (target - start) * steps * env.control_dt * speed / np.linalg.norm(target - start), abs=1e-6
+        )
         rest(env, int(travel / env.control_dt))
         x, y, _ = position(env, food)
         assert (x, y) == pytest.approx(tuple(target))
@@ -86,8 +88,9 @@ def test_an_l9_door_closes_once_the_head_is_inside_its_sector(make_env):
     body = env.body.id
 
     def teleport(y):
-        p.resetBasePositionAndOrientation(body, (0.0, y, 1.5), p.getQuaternionFromEuler((0, 0, math.pi / 2)),
-                                          physicsClientId=env.client)
+        p.resetBasePositionAndOrientation(
+            body, (0.0, y, 1.5), p.getQuaternionFromEuler((0, 0, math.pi / 2)), physicsClientId=env.client
+        )
 
     teleport(12.0)  # in the opening, not yet past the trigger line
     rest(env, 5)
@@ -108,8 +111,10 @@ def test_an_l9_door_closes_once_the_head_is_inside_its_sector(make_env):
 def hole_centre(spec, tile):
     nx, ny = spec.tiles
     i, j = tile
-    return (-spec.arena_size[0] / 2 + (i + 0.5) * spec.arena_size[0] / nx,
-            -spec.arena_size[1] / 2 + (j + 0.5) * spec.arena_size[1] / ny)
+    return (
+        -spec.arena_size[0] / 2 + (i + 0.5) * spec.arena_size[0] / nx,
+        -spec.arena_size[1] / 2 + (j + 0.5) * spec.arena_size[1] / ny,
+    )
 
 
 @pytest.mark.parametrize("level, what", [(4, "hole"), (8, "pit"), (10, "trench")])
@@ -161,10 +166,12 @@ def walk_north(env, lane_x, goal_y, steps=2500):
         velocity, spin = p.getBaseVelocity(env.body.id, physicsClientId=env.client)
         sideways = 20.0 * (lane_x - head[0]) - 10.0 * velocity[0]
         turn = math.remainder(math.pi / 2 - math.atan2(rotation[1, 0], rotation[0, 0]), 2 * math.pi)
-        p.applyExternalForce(env.body.id, -1, (sideways, 0.0, 0.0), head.tolist(), p.WORLD_FRAME,
-                             physicsClientId=env.client)
-        p.applyExternalTorque(env.body.id, -1, (0.0, 0.0, 40.0 * turn - 8.0 * spin[2]), p.WORLD_FRAME,
-                              physicsClientId=env.client)
+        p.applyExternalForce(
+            env.body.id, -1, (sideways, 0.0, 0.0), head.tolist(), p.WORLD_FRAME, physicsClientId=env.client
+        )
+        p.applyExternalTorque(
+            env.body.id, -1, (0.0, 0.0, 40.0 * turn - 8.0 * spin[2]), p.WORLD_FRAME, physicsClientId=env.client
+        )
         observation, _, terminated, truncated, info = env.step(gait(observation))
         lowest = min(lowest, env.body.head_pose()[0][2])
         if terminated or truncated or head[1] > goal_y:
@@ -238,7 +245,9 @@ def test_shut_in_an_l9_sector_the_episode_ends_when_no_food_is_left_in_it(make_e
     for _ in range(20):  # in the hub every sector's food can still be got to
         _, _, terminated, _, _ = env.step(env.body.rest_action())
         assert not terminated
-    p.resetBasePositionAndOrientation(env.body.id, (16.0 * ux, 16.0 * uy, 1.5), (0, 0, 0, 1), physicsClientId=env.client)
+    p.resetBasePositionAndOrientation(
+        env.body.id, (16.0 * ux, 16.0 * uy, 1.5), (0, 0, 0, 1), physicsClientId=env.client
+    )
     for _ in range(5):  # past the trigger line: the door closes behind the head
         _, _, terminated, truncated, info = env.step(env.body.rest_action())
         if terminated:
@@ -257,11 +266,18 @@ def first_hole_sighting(env, lane_x, gap_y, steps=2500):
     for _ in range(steps):
         head, rotation = env.body.head_pose()
         velocity, spin = p.getBaseVelocity(env.body.id, physicsClientId=env.client)
-        p.applyExternalForce(env.body.id, -1, (20.0 * (lane_x - head[0]) - 10.0 * velocity[0], 0.0, 0.0),
-                             head.tolist(), p.WORLD_FRAME, physicsClientId=env.client)
+        p.applyExternalForce(
+            env.body.id,
+            -1,
+            (20.0 * (lane_x - head[0]) - 10.0 * velocity[0], 0.0, 0.0),
+            head.tolist(),
+            p.WORLD_FRAME,
+            physicsClientId=env.client,
+        )
         turn = math.remainder(math.pi / 2 - math.atan2(rotation[1, 0], rotation[0, 0]), 2 * math.pi)
-        p.applyExternalTorque(env.body.id, -1, (0.0, 0.0, 40.0 * turn - 8.0 * spin[2]), p.WORLD_FRAME,
-                              physicsClientId=env.client)
+        p.applyExternalTorque(
+            env.body.id, -1, (0.0, 0.0, 40.0 * turn - 8.0 * spin[2]), p.WORLD_FRAME, physicsClientId=env.client
+        )
         observation, _, terminated, truncated, _ = env.step(gait(observation))
         ray = observation["rays"][forward]
         if ray[KIND_INDEX["hole"]] == 1.0:
@@ -296,8 +312,9 @@ def test_the_forward_ray_sees_a_hole_well_before_the_head_is_over_it(make_env, l
 def test_a_thin_post_between_two_rays_is_missed_as_the_readme_says(make_env, between, seen):
     """Rays are lines, not sphere casts: a post 0.3 wide, 10 away, midway between two rays
     (which are 2 x 10 sin(5.6 / 2 deg) = 0.98 apart there) is not seen; on a ray it is."""
-    from aaai.levels.common import slab
     from conftest import open_arena
+
+    from aaai.levels.common import slab
 
     env = make_env(rays=True)  # 8 rays a side over 45 degrees: 5.6 degrees apart
     step = math.radians(45.0 / 8)

@@ -1,5 +1,6 @@
 """The benchmark: alternated rounds, per-round ratios, medians and spreads, and every figure in its
 output (its numbers are read by people, not asserted)."""
+
 import json
 import subprocess
 import sys
@@ -16,10 +17,11 @@ def test_each_round_runs_everything_once_in_an_order_rotated_by_one():
         def run():
             calls.append(name)
             return float(len(calls))
+
         return run
 
     rates = bench.alternate({name: runner(name) for name in "abc"}, rounds=4)
-    assert calls == list("abc" "bca" "cab" "abc")  # no figure is always first
+    assert calls == list("abcbcacababc")  # no figure is always first
     assert rates == {"a": [1.0, 6.0, 8.0, 10.0], "b": [2.0, 4.0, 9.0, 11.0], "c": [3.0, 5.0, 7.0, 12.0]}
 
 
@@ -37,20 +39,50 @@ def test_ratios_are_taken_within_a_round_and_summarised_by_median_and_spread():
 
 def test_bench_writes_every_figure_with_medians_spreads_and_load(tmp_path):
     result = subprocess.run(
-        [sys.executable, "-m", "aaai_cli.main", "bench", "--levels", "0,10", "--rounds", "2", "--steps", "100",
-         "--resets", "5", "--worker-steps", "100", "--train-steps", "0", "--memory-steps", "1000",
-         "--out", str(tmp_path)],
-        capture_output=True, text=True, check=True)
+        [
+            sys.executable,
+            "-m",
+            "aaai_cli.main",
+            "bench",
+            "--levels",
+            "0,10",
+            "--rounds",
+            "2",
+            "--steps",
+            "100",
+            "--resets",
+            "5",
+            "--worker-steps",
+            "100",
+            "--train-steps",
+            "0",
+            "--memory-steps",
+            "1000",
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     results = json.loads((tmp_path / "bench.json").read_text())
     assert results["settings"]["rounds"] == 2
     assert len(results["load"]["before"]) == 3 and len(results["load"]["after"]) == 3
     level = results["levels"]["L0"]
-    assert set(level["rates"]) == {"limit", "joints", "joints+rays", "joints+cam64rgb", "joints+cam84gray",
-                                   bench.RAYS_TWO_THREADS, bench.WIDE_RAYS}
+    assert set(level["rates"]) == {
+        "limit",
+        "joints",
+        "joints+rays",
+        "joints+cam64rgb",
+        "joints+cam84gray",
+        bench.RAYS_TWO_THREADS,
+        bench.WIDE_RAYS,
+    }
     for figure in [*level["rates"].values(), *level["ratios"].values()]:
         assert len(figure["rounds"]) == 2 and figure["min"] <= figure["median"] <= figure["max"]
     assert level["ratios"]["joints / limit"]["rounds"] == [
-        j / lim for j, lim in zip(level["rates"]["joints"]["rounds"], level["rates"]["limit"]["rounds"])]
+        j / lim for j, lim in zip(level["rates"]["joints"]["rounds"], level["rates"]["limit"]["rounds"])
+    ]
     assert set(level["reset_ms"]) == {"median", "p95"} and level["load"]["before"]
     assert set(results["workers"]["rates"]) == {"1", "2", "4", "2 in-process"}
     assert {"L0 joints / limit", "L0 rays overhead", "L0 wide rays overhead", "2 workers / 1"} <= set(results["ratios"])
@@ -66,9 +98,11 @@ def test_bench_writes_every_figure_with_medians_spreads_and_load(tmp_path):
 
 def test_the_training_row_sets_ppo_and_the_random_agent_against_the_environment_alone():
     pytest.importorskip("stable_baselines3", reason="needs the train extra")
-    config = {"sensors": {"rays": False}, "curriculum": {"levels": "0", "difficulties": "0"},
-              "train": {"num_envs": 2, "vector": "sync", "n_steps": 32, "batch_size": 32, "n_epochs": 1,
-                        "net_width": 8}}
+    config = {
+        "sensors": {"rays": False},
+        "curriculum": {"levels": "0", "difficulties": "0"},
+        "train": {"num_envs": 2, "vector": "sync", "n_steps": 32, "batch_size": 32, "n_epochs": 1, "net_width": 8},
+    }
     row = bench.training_rates(steps=64, rounds=2, config=config)
     assert row["config"]["runs"] == "in-process" and row["config"]["num_envs"] == 2
     assert set(row["rates"]) == {"env alone, in-process", "env alone, worker processes", "random agent", "PPO"}

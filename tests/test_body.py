@@ -1,11 +1,12 @@
 """The body, tested by running physics."""
+
 import math
 
 import numpy as np
 import pytest
+from conftest import heading, open_arena
 
 from aaai.gait import SineGait
-from conftest import heading, open_arena
 
 
 @pytest.mark.parametrize("body, n_axes", [("quadruped", 8), ("quadruped16", 16)])

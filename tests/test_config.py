@@ -86,17 +86,21 @@ def test_bad_seed_is_rejected():
         generate(0, 0, -1)
 
 
-@pytest.mark.parametrize("time_limit, words", [
-    ("500", ["time_limit", "500", "0.2 to 200 seconds"]),
-    ('"10 * d"', ["time_limit", "0.0", "difficulty 0"]),
-])
+@pytest.mark.parametrize(
+    "time_limit, words",
+    [
+        ("500", ["time_limit", "500", "0.2 to 200 seconds"]),
+        ('"10 * d"', ["time_limit", "0.0", "difficulty 0"]),
+    ],
+)
 def test_a_level_file_with_a_bad_time_limit_is_refused(tmp_path, time_limit, words):
     from aaai.levels import _load_level
 
     text = (config_dir() / "levels" / "L0.yaml").read_text()
     path = tmp_path / "L0.yaml"
-    path.write_text("\n".join(f"time_limit: {time_limit}" if line.startswith("time_limit:") else line
-                              for line in text.splitlines()))
+    path.write_text(
+        "\n".join(f"time_limit: {time_limit}" if line.startswith("time_limit:") else line for line in text.splitlines())
+    )
     with pytest.raises(ConfigError) as error:
         _load_level(path)
     assert all(word in str(error.value) for word in words)
@@ -123,7 +127,9 @@ def test_the_env_refuses_an_unknown_or_training_keyword_as_python_does(keyword):
 
     import aaai  # noqa: F401  (registers the ids)
 
-    with pytest.raises(TypeError, match=rf"__init__\(\) got an unexpected keyword argument '{keyword}'; allowed: .*camera"):
+    with pytest.raises(
+        TypeError, match=rf"__init__\(\) got an unexpected keyword argument '{keyword}'; allowed: .*camera"
+    ):
         gym.make("aaai/L0-FoodContact-v0", **{keyword: 1})
 
 
@@ -143,13 +149,16 @@ def test_importing_aaai_prints_nothing():
     assert result.returncode == 0 and result.stdout == "" and result.stderr == ""
 
 
-@pytest.mark.parametrize("content, words", [
-    (b"a: &x [1, 2]\nb: *x\n", ["alias", "not allowed"]),
-    (b"lol1: &l1 [a, a, a, a, a, a, a, a, a]\nlol2: &l2 [*l1, *l1, *l1, *l1, *l1, *l1]\n", ["alias"]),
-    (b"episode:\n  max_steps: 500\n\xff\xfe\n", ["not UTF-8"]),
-    (b"[" * 5000 + b"]" * 5000, ["nests too deeply"]),
-    (b"- 1\n- 2\n", ["top level must be a mapping"]),
-])
+@pytest.mark.parametrize(
+    "content, words",
+    [
+        (b"a: &x [1, 2]\nb: *x\n", ["alias", "not allowed"]),
+        (b"lol1: &l1 [a, a, a, a, a, a, a, a, a]\nlol2: &l2 [*l1, *l1, *l1, *l1, *l1, *l1]\n", ["alias"]),
+        (b"episode:\n  max_steps: 500\n\xff\xfe\n", ["not UTF-8"]),
+        (b"[" * 5000 + b"]" * 5000, ["nests too deeply"]),
+        (b"- 1\n- 2\n", ["top level must be a mapping"]),
+    ],
+)
 def test_a_hostile_yaml_file_gets_one_clear_message(tmp_path, content, words):
     path = tmp_path / "bad.yaml"
     path.write_bytes(content)

@@ -131,7 +131,7 @@ def test_heatmap_colours_each_cell_by_its_mean_return(tmp_path):
 
     def cell(image, row, col):  # a corner of the cell's square in the first panel (mean return), clear of its label
         y, x = MARGIN_PX + row * CELL_PX + 4, MARGIN_PX + col * CELL_PX + 4
-        return image[y:y + 6, x:x + 6].reshape(-1, 3)
+        return image[y : y + 6, x : x + 6].reshape(-1, 3)
 
     image = picture({(0, 0): [-2.0, -2.0], (1, 1): [5.0, 5.0]})
     assert image is not None and image.std() > 20  # not a blank picture
@@ -303,7 +303,11 @@ def test_sampler_keys_in_the_config():
     config = load_config(sampler="plr", warmup=4, plr_temperature=0.1, plr_staleness=0.5, levels="0-1")
     curriculum = Curriculum.from_config(config)
     assert (curriculum.sampler, curriculum.warmup, curriculum.plr_temperature, curriculum.plr_staleness) == (
-        "plr", 4, 0.1, 0.5)
+        "plr",
+        4,
+        0.1,
+        0.5,
+    )
     assert Curriculum.from_config(load_config(sampler="plr", mode="random")).sampler == "uniform"  # --random
     with pytest.raises(ConfigError, match="curriculum.sampler.*'best'.*paper, uniform, learnability, plr"):
         load_config(sampler="best")

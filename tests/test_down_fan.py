@@ -3,15 +3,16 @@
 The head walks about 2.3 above the floor, so rays in its plane pass over food smaller than that:
 on reserved L0 d8-10 (size-2 food) the reference's episodes show the food to level rays in about
 1 % of their decisions. Tested by running physics: teleport, step, read the rays."""
+
 import math
 
 import numpy as np
 import pytest
+from conftest import open_arena, sphere
 
 from aaai.config import ConfigError
 from aaai.kinds import KIND_INDEX
 from aaai.sensors import EYE_OFFSET
-from conftest import open_arena, sphere
 
 GREEN, FLOOR = KIND_INDEX["food_green"], KIND_INDEX["floor"]
 FAN = dict(rays=True, rays_per_side=4, ray_max_angle=180.0, ray_length=50.0)

@@ -1,13 +1,14 @@
 """The Gymnasium environment: API, spaces, determinism, rendering."""
+
 import gymnasium as gym
 import numpy as np
 import pytest
+from conftest import open_arena, sphere
 from gymnasium.utils.env_checker import check_env
 
 import aaai  # noqa: F401  (registers the ids)
 from aaai.config import ConfigError
 from aaai.kinds import KIND_INDEX, KINDS
-from conftest import open_arena, sphere
 
 
 def test_ids_are_registered_per_level():
@@ -26,8 +27,16 @@ def test_passes_gymnasium_env_checker_with_rays_and_camera(level):
 
 
 def test_spaces_follow_the_sensor_config(make_env):
-    env = make_env(rays=True, rays_per_side=5, camera=True, camera_resolution=64, camera_grayscale=True,
-                   joint_velocities=True, head_orientation=True, foot_contacts=True)
+    env = make_env(
+        rays=True,
+        rays_per_side=5,
+        camera=True,
+        camera_resolution=64,
+        camera_grayscale=True,
+        joint_velocities=True,
+        head_orientation=True,
+        foot_contacts=True,
+    )
     space = env.observation_space
     assert space["rays"].shape == (11, len(KINDS) + 2)
     assert space["camera"].shape == (64, 64, 1) and space["camera"].dtype == np.uint8
@@ -171,28 +180,34 @@ def test_an_env_pickles_to_its_configuration_and_copies_are_independent():
     duplicate.close()  # closing a copy leaves the original running
     observation, _ = env.reset(seed=5)
     assert env.step(np.zeros(8))[0]["camera"].shape == (16, 16, 3)
-    code = ("import pickle, sys, numpy as np\n"
-            "env = pickle.loads(sys.stdin.buffer.read())\n"
-            "observation, info = env.reset(seed=5)\n"
-            "print(env.level, env.difficulty, info['level_name'], observation['camera'].shape)\n")
+    code = (
+        "import pickle, sys, numpy as np\n"
+        "env = pickle.loads(sys.stdin.buffer.read())\n"
+        "observation, info = env.reset(seed=5)\n"
+        "print(env.level, env.difficulty, info['level_name'], observation['camera'].shape)\n"
+    )
     result = subprocess.run([sys.executable, "-c", code], input=pickle.dumps(env), capture_output=True)
     assert result.returncode == 0, result.stderr.decode()
     assert result.stdout.decode().split() == ["2", "4", "y_maze", "(16,", "16,", "3)"]
     env.close()
 
 
-@pytest.mark.parametrize("change, words", [
-    (dict(agent=(30.0, 0.0, 0.0)), ["not clear"]),
-    (dict(arena_size=(float("nan"), 50.0)), ["arena size", "finite"]),
-    (dict(tiles=(5, 5), holes=((9, 9),)), ["hole lies outside"]),
-])
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        (dict(agent=(30.0, 0.0, 0.0)), ["not clear"]),
+        (dict(arena_size=(float("nan"), 50.0)), ["arena size", "finite"]),
+        (dict(tiles=(5, 5), holes=((9, 9),)), ["hole lies outside"]),
+    ],
+)
 def test_a_hand_made_spec_is_checked_before_it_is_run(change, words):
     from dataclasses import replace
+
+    from conftest import open_arena
 
     from aaai.config import ConfigError
     from aaai.env import AnimalAIEnv
     from aaai.spec import AgentPose
-    from conftest import open_arena
 
     change = dict(change)  # the parameter itself stays as it was (pytest may run the test again in this process)
     if "agent" in change:
@@ -226,8 +241,10 @@ def test_step_before_reset_and_use_after_close_get_clear_errors():
 
 def test_the_grayscale_camera_sees_the_colour_cameras_scene_as_its_luminance(make_env):
     spec = open_arena(sphere("food_green", 6.0, 0.0, 3.0))
-    colour, grey = make_env(camera=True, camera_resolution=32), make_env(camera=True, camera_resolution=32,
-                                                                          camera_grayscale=True)
+    colour, grey = (
+        make_env(camera=True, camera_resolution=32),
+        make_env(camera=True, camera_resolution=32, camera_grayscale=True),
+    )
     rgb = colour.reset(options={"spec": spec})[0]["camera"].astype(float)
     seen = grey.reset(options={"spec": spec})[0]["camera"]
     assert seen.shape == (32, 32, 1) and seen.dtype == np.uint8

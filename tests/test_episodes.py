@@ -1,4 +1,5 @@
 """The shared episode loop (aaai.episodes.play): resets, callbacks, step limit and the result."""
+
 import numpy as np
 
 from aaai.episodes import play
@@ -23,10 +24,15 @@ class Recorder:
 def test_play_stops_at_max_steps_and_calls_back_in_order(make_env):
     env = make_env(max_steps=50)
     policy, events = Recorder(env), []
-    result = play(env, policy, 7, options={"level": 1, "difficulty": 2},
-                  on_reset=lambda observation, info: events.append(("reset", info["seed"], len(policy.resets))),
-                  on_step=lambda step, observation, reward, info: events.append((step, info["steps"])),
-                  max_steps=5)
+    result = play(
+        env,
+        policy,
+        7,
+        options={"level": 1, "difficulty": 2},
+        on_reset=lambda observation, info: events.append(("reset", info["seed"], len(policy.resets))),
+        on_step=lambda step, observation, reward, info: events.append((step, info["steps"])),
+        max_steps=5,
+    )
     assert events == [("reset", 7, 0), (1, 1), (2, 2), (3, 3), (4, 4), (5, 5)]  # on_reset before the policy's
     assert policy.resets == [7] and policy.calls == 5 and env.level_spec.level == 1
     assert result.steps == 5 and result.info["steps"] == 5 and result.end is None

@@ -2,6 +2,7 @@
 
 Each test skips only when its RL library is not installed (`make test` installs them all).
 """
+
 from __future__ import annotations
 
 import importlib.util
@@ -82,8 +83,10 @@ def ray_processes() -> set[int]:
             cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ")
         except OSError:
             continue
-        if any(tag in cmdline for tag in (b"raylet", b"gcs_server", b"ray::", b"default_worker.py",
-                                           b"ray/_private", b"ray/dashboard")):
+        if any(
+            tag in cmdline
+            for tag in (b"raylet", b"gcs_server", b"ray::", b"default_worker.py", b"ray/_private", b"ray/dashboard")
+        ):
             pids.add(int(entry.name))
     return pids
 
@@ -113,13 +116,15 @@ def test_rllib_ppo(tmp_path):
     pytest.importorskip("ray.rllib", reason="needs the ray extra, which make test installs")
     batch, checkpoint = 256, tmp_path / "checkpoint"
     code = inspect.getsource(ray_processes) + RLLIB_CHILD.format(
-        examples=str(EXAMPLES), batch=batch, checkpoint=str(checkpoint))
-    run = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=OFFLINE_ENV,
-                         capture_output=True, text=True, timeout=300)
+        examples=str(EXAMPLES), batch=batch, checkpoint=str(checkpoint)
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, env=OFFLINE_ENV, capture_output=True, text=True, timeout=300
+    )
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
     lines = [line for line in run.stdout.splitlines() if line.startswith("RESULT ")]
     assert lines, run.stdout[-3000:] + run.stderr[-3000:]
-    result = json.loads(lines[-1][len("RESULT "):])
+    result = json.loads(lines[-1][len("RESULT ") :])
     assert result["sampled"] >= batch
     assert result["episodes"] >= 1  # episodes of 100 steps ended inside the batch
     assert math.isfinite(result["policy_loss"]) and math.isfinite(result["vf_loss"])
@@ -146,8 +151,20 @@ def test_torchrl_rollout():
 def test_cleanrl_ppo():
     pytest.importorskip("torch", reason="needs the train extra, which make test installs")
     example = load_example("cleanrl_ppo")
-    args = example.parse_args(["--total-timesteps", "512", "--num-steps", "128", "--max-steps", "100",
-                               "--num-minibatches", "4", "--update-epochs", "2"])
+    args = example.parse_args(
+        [
+            "--total-timesteps",
+            "512",
+            "--num-steps",
+            "128",
+            "--max-steps",
+            "100",
+            "--num-minibatches",
+            "4",
+            "--update-epochs",
+            "2",
+        ]
+    )
     assert (args.num_envs, args.num_steps, args.max_steps) == (2, 128, 100)
     history = example.main(args)
     assert [h["iteration"] for h in history] == [1, 2]
@@ -170,10 +187,33 @@ def test_rl_zoo3_ppo(tmp_path):
     conf = EXAMPLES / "rl_zoo3" / "ppo.yml"
     hyperparams = yaml.safe_load(conf.read_text())
     assert list(hyperparams) == [ENV_ID] and hyperparams[ENV_ID]["policy"] == "MultiInputPolicy"
-    command = [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", ENV_ID,
-               "--gym-packages", "aaai", "--conf-file", str(conf), "-n", "256", "--eval-freq", "-1",
-               "--seed", "0", "--log-folder", str(tmp_path), "--num-threads", "1",
-               "-params", "n_steps:128", "batch_size:64", "n_epochs:2"]
+    command = [
+        sys.executable,
+        "-m",
+        "rl_zoo3.train",
+        "--algo",
+        "ppo",
+        "--env",
+        ENV_ID,
+        "--gym-packages",
+        "aaai",
+        "--conf-file",
+        str(conf),
+        "-n",
+        "256",
+        "--eval-freq",
+        "-1",
+        "--seed",
+        "0",
+        "--log-folder",
+        str(tmp_path),
+        "--num-threads",
+        "1",
+        "-params",
+        "n_steps:128",
+        "batch_size:64",
+        "n_epochs:2",
+    ]
     run = subprocess.run(command, cwd=ROOT, env=OFFLINE_ENV, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
 
@@ -196,19 +236,32 @@ def test_rl_zoo3_ppo(tmp_path):
 @pytest.mark.parametrize("script", ["sb3_ppo.py", "rllib_ppo.py", "torchrl_rollout.py", "cleanrl_ppo.py"])
 def test_example_command_line(script):
     """Each script's command line parses (its --help runs) and names its --steps-like option."""
-    library = {"sb3_ppo.py": "stable_baselines3", "rllib_ppo.py": "ray.rllib",
-               "torchrl_rollout.py": "torchrl", "cleanrl_ppo.py": "torch"}[script]
+    library = {
+        "sb3_ppo.py": "stable_baselines3",
+        "rllib_ppo.py": "ray.rllib",
+        "torchrl_rollout.py": "torchrl",
+        "cleanrl_ppo.py": "torch",
+    }[script]
     pytest.importorskip(library, reason="needs its library's extra, which make test installs")
-    run = subprocess.run([sys.executable, str(EXAMPLES / script), "--help"], cwd=ROOT, env=OFFLINE_ENV,
-                         capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [sys.executable, str(EXAMPLES / script), "--help"],
+        cwd=ROOT,
+        env=OFFLINE_ENV,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     assert any(option in run.stdout for option in ("--steps", "--iterations", "--total-timesteps"))
 
 
 def test_examples_are_documented():
     """examples/README.md and the docs' library page (docs/rl-libraries.md) list every example and its extra."""
-    files = sorted(str(p.relative_to(EXAMPLES)) for p in EXAMPLES.rglob("*")
-                   if p.suffix in (".py", ".yml") and "__pycache__" not in p.parts)
+    files = sorted(
+        str(p.relative_to(EXAMPLES))
+        for p in EXAMPLES.rglob("*")
+        if p.suffix in (".py", ".yml") and "__pycache__" not in p.parts
+    )
     assert files == ["cleanrl_ppo.py", "rl_zoo3/ppo.yml", "rllib_ppo.py", "sb3_ppo.py", "torchrl_rollout.py"]
     table = (EXAMPLES / "README.md").read_text()
     section = (ROOT / "docs" / "rl-libraries.md").read_text()

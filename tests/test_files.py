@@ -1,4 +1,5 @@
 """Atomic writing (aaai.files): whole files or nothing, with the permissions open() would give."""
+
 import os
 import stat
 

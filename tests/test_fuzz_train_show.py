@@ -5,6 +5,7 @@ pointed at still reads whole, a picture or video already in place is still whole
 A fast budget runs in make test; make test-long runs FUZZ_LONG of each. Inputs that once failed
 are kept as @example()s.
 """
+
 from __future__ import annotations
 
 import csv
@@ -17,7 +18,7 @@ from pathlib import Path
 import pytest
 import yaml
 from click.testing import CliRunner
-from hypothesis import HealthCheck, example, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from aaai_cli.main import cli
@@ -47,26 +48,35 @@ def _invoke(args: list[str]):
 
 
 def _ends_cleanly(args: list[str], result) -> None:
-    assert result.exception is None or isinstance(result.exception, SystemExit), \
-        (args, result.output, repr(result.exception))
+    assert result.exception is None or isinstance(result.exception, SystemExit), (
+        args,
+        result.output,
+        repr(result.exception),
+    )
     assert "Traceback" not in result.output, (args, result.output)
     if result.exit_code not in (0, None):
         assert result.output.strip(), (args, "failed without a message")
 
 
 # --- train -------------------------------------------------------------------------------------
-small_text = st.one_of(st.sampled_from(["0", "1", "0-1", "1,0", "12", "13", "-1", "x", "", "0-", "1e3",
-                                        "99999999999999999999"]),
-                       st.text(alphabet="0123456789-,x ", max_size=6))
+small_text = st.one_of(
+    st.sampled_from(["0", "1", "0-1", "1,0", "12", "13", "-1", "x", "", "0-", "1e3", "99999999999999999999"]),
+    st.text(alphabet="0123456789-,x ", max_size=6),
+)
 TRAIN = {
-    "--levels": small_text, "--difficulty": small_text,
+    "--levels": small_text,
+    "--difficulty": small_text,
     "--steps": st.sampled_from(["32", "64", "0", "-5", "x", "1e3", "99999999999999999999", ""]),
     "--envs": st.sampled_from(["1", "0", "-1", "x", "100000"]),
     "--seed": st.sampled_from(["0", "-1", "x", "99999999999999999999"]),
     "--agent": st.sampled_from(["random", "ppo", "x", ""]),
-    "--camera": None, "--no-camera": None, "--rays": None, "--no-rays": None,
+    "--camera": None,
+    "--no-camera": None,
+    "--rays": None,
+    "--no-rays": None,
     "--camera-resolution": st.sampled_from(["8", "0", "-4", "x", "100000"]),
-    "--random": None, "--curriculum": None,
+    "--random": None,
+    "--curriculum": None,
     "--sampler": st.sampled_from(["paper", "uniform", "plr", "x"]),
     "--progress-every": st.sampled_from(["0.1", "0", "nan", "inf", "x"]),
     "--action-mode": st.sampled_from(["rotation", "gait", "x"]),
@@ -74,15 +84,17 @@ TRAIN = {
     "--init-from": st.sampled_from(["RUN", "nothing.zip", "CONFIG", ""]),
     "--resume": st.sampled_from(["RUN", "nothing", "CONFIG", ""]),
     "--config": st.sampled_from(["CONFIG", "BROKEN", "nothing.yaml"]),
-    "--trust-model": None, "--teacher": st.sampled_from(["reference", "x"]),
+    "--trust-model": None,
+    "--teacher": st.sampled_from(["reference", "x"]),
 }
 
 
 @st.composite
 def train_lines(draw):
     args = ["train"]
-    for option, values in draw(st.lists(st.sampled_from(sorted(TRAIN.items())), max_size=4,
-                                        unique_by=lambda item: item[0])):
+    for option, values in draw(
+        st.lists(st.sampled_from(sorted(TRAIN.items())), max_size=4, unique_by=lambda item: item[0])
+    ):
         args += [option] if values is None else [option, draw(values)]
     if draw(st.booleans()):
         args.append(draw(st.sampled_from(["--nothing", "extra", "--steps"])))
@@ -94,13 +106,30 @@ def train_place(tmp_path_factory):
     """A short config, a broken one, and a finished random-agent run to resume or start from."""
     folder = tmp_path_factory.mktemp("train_fuzz")
     config = folder / "short.yaml"
-    config.write_text(yaml.safe_dump({"episode": {"max_steps": 10}, "train": {
-        "checkpoint_every": 64, "heatmap_every": 100000, "n_steps": 16, "batch_size": 16, "n_epochs": 1,
-        "net_width": 8, "num_envs": 1, "dagger_iterations": 1, "dagger_episodes": 2, "dagger_epochs": 1}}))
+    config.write_text(
+        yaml.safe_dump(
+            {
+                "episode": {"max_steps": 10},
+                "train": {
+                    "checkpoint_every": 64,
+                    "heatmap_every": 100000,
+                    "n_steps": 16,
+                    "batch_size": 16,
+                    "n_epochs": 1,
+                    "net_width": 8,
+                    "num_envs": 1,
+                    "dagger_iterations": 1,
+                    "dagger_episodes": 2,
+                    "dagger_epochs": 1,
+                },
+            }
+        )
+    )
     (folder / "broken.yaml").write_text("episode: {max_steps: [\n")
     run = folder / "run"
-    result = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "32", "--envs", "1",
-                                      "--config", str(config), "--run", str(run)])
+    result = CliRunner().invoke(
+        cli, ["train", "--agent", "random", "--steps", "32", "--envs", "1", "--config", str(config), "--run", str(run)]
+    )
     assert result.exit_code == 0, result.output
     return folder
 
@@ -125,7 +154,7 @@ def _train_ends_cleanly(place: Path, args: list[str]) -> None:
     shutil.copytree(place / "run", work / "run")  # each example gets the finished run afresh
     names = {"RUN": str(work / "run"), "CONFIG": str(place / "short.yaml"), "BROKEN": str(place / "broken.yaml")}
     args = [names.get(arg, arg) for arg in args]
-    resuming = "--resume" in args and args[args.index("--resume") + 1:][:1] == [names["RUN"]]
+    resuming = "--resume" in args and args[args.index("--resume") + 1 :][:1] == [names["RUN"]]
     if "--config" not in args and not resuming:  # not the default config's long run (or DAgger's 8 x 143 episodes)
         args += ["--config", names["CONFIG"]]
     if "--steps" not in args:
@@ -157,7 +186,8 @@ def test_fuzzed_train_command_lines_end_cleanly_long(train_place, args):
 
 # --- show --------------------------------------------------------------------------------------
 SHOW = {
-    "-d": small_text, "-s": small_text,
+    "-d": small_text,
+    "-s": small_text,
     "--arena": st.sampled_from(["ARENA", "BROKEN", "nothing.yaml", ""]),
     "-o": st.sampled_from(["PNG", "out.jpg", "out.txt", "DIR", ""]),
     "--video": st.sampled_from(["VIDEO", "out.avi", "out.gif", "DIR", ""]),
@@ -177,8 +207,9 @@ def show_lines(draw):
     args = ["show"]
     if draw(st.booleans()):
         args.append(draw(st.one_of(small_text, st.sampled_from(["L1", "L2b", "food_contact", "L99", "nothing"]))))
-    for option, values in draw(st.lists(st.sampled_from(sorted(SHOW.items())), max_size=4,
-                                        unique_by=lambda item: item[0])):
+    for option, values in draw(
+        st.lists(st.sampled_from(sorted(SHOW.items())), max_size=4, unique_by=lambda item: item[0])
+    ):
         args += [option] if values is None else [option, draw(values)]
     if draw(st.booleans()):
         args.append(draw(st.sampled_from(["--nothing", "extra", "--steps"])))
@@ -191,8 +222,15 @@ def show_place(tmp_path_factory):
     folder = tmp_path_factory.mktemp("show_fuzz")
     (folder / "short.yaml").write_text(yaml.safe_dump({"episode": {"max_steps": 10}}))
     (folder / "broken.yaml").write_text("agent: {x: [\n")
-    (folder / "arena.yaml").write_text(yaml.safe_dump({"agent": {"x": 0, "y": 0}, "arena_walls": True, "objects": [
-        {"kind": "food_green", "position": [3, 3, 0.5], "size": [1, 1, 1]}]}))
+    (folder / "arena.yaml").write_text(
+        yaml.safe_dump(
+            {
+                "agent": {"x": 0, "y": 0},
+                "arena_walls": True,
+                "objects": [{"kind": "food_green", "position": [3, 3, 0.5], "size": [1, 1, 1]}],
+            }
+        )
+    )
     (folder / "dir").mkdir()
     for extra in (["-o", str(folder / "keep.png")], ["--video", str(folder / "keep.mp4"), "--steps", "5"]):
         result = CliRunner().invoke(cli, ["show", "0", "--size", "200", *extra])
@@ -222,10 +260,18 @@ def _show_ends_cleanly(place: Path, args: list[str]) -> None:
     work.mkdir()
     shutil.copy(place / "keep.png", work / "keep.png")
     shutil.copy(place / "keep.mp4", work / "keep.mp4")
-    names = {"ARENA": str(place / "arena.yaml"), "BROKEN": str(place / "broken.yaml"), "CONFIG": str(place / "short.yaml"),
-             "PNG": str(work / "keep.png"), "VIDEO": str(work / "keep.mp4"), "DIR": str(place / "dir"),
-             "out.jpg": str(work / "out.jpg"), "out.txt": str(work / "out.txt"), "out.avi": str(work / "out.avi"),
-             "out.gif": str(work / "out.gif")}
+    names = {
+        "ARENA": str(place / "arena.yaml"),
+        "BROKEN": str(place / "broken.yaml"),
+        "CONFIG": str(place / "short.yaml"),
+        "PNG": str(work / "keep.png"),
+        "VIDEO": str(work / "keep.mp4"),
+        "DIR": str(place / "dir"),
+        "out.jpg": str(work / "out.jpg"),
+        "out.txt": str(work / "out.txt"),
+        "out.avi": str(work / "out.avi"),
+        "out.gif": str(work / "out.gif"),
+    }
     args = [names.get(arg, arg) for arg in args]
     if "--config" not in args:
         args += ["--config", names["CONFIG"]]

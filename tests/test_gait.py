@@ -1,11 +1,12 @@
 """The steerable gait, tested by running physics: speed, turning, blending, crouching."""
+
 import math
 
 import numpy as np
 import pytest
+from conftest import heading, open_arena
 
 from aaai.gait import SineGait, approach, load_parameters, steer
-from conftest import heading, open_arena
 
 OPEN = 200.0  # an arena this big: 10 s of walking never reaches a wall
 
@@ -28,8 +29,12 @@ def walk(env, forward, turn, seconds=10.0, crouch=0.0):
         heights.append(position[2])
         ground += info["reward_terms"]["ground"] != 0
     facing = np.array([math.cos(yaws[0]), math.sin(yaws[0])])
-    return (float((position - start)[:2] @ facing), math.degrees(np.unwrap(yaws)[-1] - yaws[0]),
-            float(np.mean(heights[len(heights) // 2:])), ground / steps)
+    return (
+        float((position - start)[:2] @ facing),
+        math.degrees(np.unwrap(yaws)[-1] - yaws[0]),
+        float(np.mean(heights[len(heights) // 2 :])),
+        ground / steps,
+    )
 
 
 def test_the_gait_walks_3_units_a_second_with_the_head_off_the_floor(make_env):
@@ -79,11 +84,14 @@ def test_the_gait_drives_only_its_axes_and_stays_in_range(make_env):
         assert (np.abs(actions) <= 1.0).all()
         moving = np.abs(actions).max(axis=0) > 0
         names = env.body.joint_names
-        assert all(moving[i] == (n.endswith(("hip", "hip_updown", "knee", "knee_sideways"))) for i, n in enumerate(names))
+        assert all(
+            moving[i] == (n.endswith(("hip", "hip_updown", "knee", "knee_sideways"))) for i, n in enumerate(names)
+        )
 
 
-@pytest.mark.parametrize("error, forward_sign, turn_sign", [
-    (0.5, 1, 1), (-0.5, 1, -1), (0.0, 1, 0), (2.8, -1, -1), (-2.8, -1, 1)])
+@pytest.mark.parametrize(
+    "error, forward_sign, turn_sign", [(0.5, 1, 1), (-0.5, 1, -1), (0.0, 1, 0), (2.8, -1, -1), (-2.8, -1, 1)]
+)
 def test_steer_turns_toward_the_point_and_backs_up_to_a_near_one_behind(error, forward_sign, turn_sign):
     forward, turn = steer(error, 2.0)
     assert np.sign(forward) == forward_sign and np.sign(turn) == turn_sign
@@ -100,10 +108,13 @@ def test_approach_crouches_only_near_the_food():
     assert approach(parameters, 0.0, 1.0 + parameters.crouch_distance / 2, 1.0)[2] == 1.0
 
 
-@pytest.mark.parametrize("text, words", [
-    ("frequency: 2\nstride: 1\n", ["'stride'", "does not exist", "frequency"]),
-    ("frequency: fast\n", ["'frequency'", "'fast'", "a finite number"]),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("frequency: 2\nstride: 1\n", ["'stride'", "does not exist", "frequency"]),
+        ("frequency: fast\n", ["'frequency'", "'fast'", "a finite number"]),
+    ],
+)
 def test_a_bad_gait_file_fails_with_one_clear_message(tmp_path, text, words):
     from aaai.config import ConfigError
 

@@ -1,4 +1,5 @@
 """Gait mode: the action is the gait's (forward, turn, crouch), held for agent.decision_interval."""
+
 from __future__ import annotations
 
 import math
@@ -13,8 +14,8 @@ import aaai  # noqa: F401 - registers the ids
 from aaai.config import ConfigError
 from aaai.env import AnimalAIEnv
 from aaai.gait import SineGait
-from aaai.registration import level_env_id
 from aaai.levels import get_level, level_ids
+from aaai.registration import level_env_id
 
 IDS = ["aaai/AnimalAI-v0"] + [level_env_id(get_level(level)) for level in level_ids()]
 
@@ -72,6 +73,7 @@ def test_a_gait_action_is_the_gait_run_for_the_held_control_steps_bit_for_bit():
 def test_the_commands_walk_turn_and_crouch_the_way_they_say():
     env = AnimalAIEnv(level=0, difficulty=0, action_mode="gait", max_steps=2000)
     try:
+
         def run(command, seconds):
             env.reset(seed=5, options={"spec": open_floor(env)})
             start, yaw = pose(env)
@@ -110,8 +112,9 @@ def open_floor(env):
 
     spec = generate(0, 0, 5)
     corner = (spec.arena_size[0] / 2 - 4, spec.arena_size[1] / 2 - 4)
-    objects = tuple(replace(o, position=(*corner, o.position[2])) if o.kind.endswith("food") else o
-                    for o in spec.objects)
+    objects = tuple(
+        replace(o, position=(*corner, o.position[2])) if o.kind.endswith("food") else o for o in spec.objects
+    )
     return replace(spec, objects=objects, agent=replace(spec.agent, x=-corner[0] / 2, y=-corner[1] / 2, yaw=0.0))
 
 
@@ -176,8 +179,8 @@ def test_out_of_range_commands_are_clipped_to_the_box():
 
 
 def test_every_built_in_policy_acts_in_gait_mode():
-    from aaai.evaluation import load_policy
     from aaai.episodes import play
+    from aaai.evaluation import load_policy
 
     env = AnimalAIEnv(level=0, difficulty=0, action_mode="gait", max_steps=100)
     try:

@@ -8,6 +8,7 @@ A deliberate change of behaviour rewrites the file with
 
 and the commit says why the trajectories moved.
 """
+
 import hashlib
 import json
 import sys
@@ -20,8 +21,17 @@ from aaai.env import AnimalAIEnv
 from aaai.levels import all_levels
 
 GOLDEN = Path(__file__).with_name("golden_trajectories.json")
-SENSES = dict(rays=True, camera=True, camera_resolution=16, joint_velocities=True, head_orientation=True,
-              foot_contacts=True, shaping=0.1, shaping_gamma=0.99, limb_food_reward="flat")
+SENSES = dict(
+    rays=True,
+    camera=True,
+    camera_resolution=16,
+    joint_velocities=True,
+    head_orientation=True,
+    foot_contacts=True,
+    shaping=0.1,
+    shaping_gamma=0.99,
+    limb_food_reward="flat",
+)
 # (name, level, difficulty, seed, policy, steps): random actions on every level, and the reference
 # controller where it eats (yellows on L1, the green on L0) so that food events are covered.
 CASES = [(f"random-L{level}", level, 5, 1000 + level, "random", 250) for level in sorted(all_levels())] + [
@@ -61,8 +71,13 @@ def trajectory_digest(level: int, difficulty: int, seed: int, policy: str, steps
             if terminated or truncated:
                 ended = step + 1
                 break
-        return {"sha256": digest.hexdigest(), "return": round(total, 6), "steps": ended,
-                "food_eaten": info["food_eaten"], "dark_steps": dark}
+        return {
+            "sha256": digest.hexdigest(),
+            "return": round(total, 6),
+            "steps": ended,
+            "food_eaten": info["food_eaten"],
+            "dark_steps": dark,
+        }
     finally:
         env.close()
 

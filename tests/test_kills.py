@@ -8,6 +8,7 @@ command again (or `--resume`), and what survives is checked.
 - `aaai eval --backend ray`: the driver killed after some rows, then run again, gives the
   scoreboard of an uninterrupted local run, row for row; no Ray process outlives it.
 """
+
 from __future__ import annotations
 
 import csv
@@ -24,7 +25,6 @@ from pathlib import Path
 
 import pytest
 import yaml
-
 from conftest import processes_holding
 
 AAAI = [sys.executable, "-m", "aaai_cli.main"]
@@ -75,31 +75,56 @@ def _check_resumed(run: Path, last: dict, target: int) -> None:
     saved, resumed = last["curriculum"]["episodes"], final["curriculum"]["episodes"]
     assert all(after >= before for before, after in zip(saved, resumed)) and sum(resumed) > sum(saved)
     rows = _episode_rows(run)
-    assert all(None not in row and all(value not in (None, "") for value in row.values()) for row in rows), \
+    assert all(None not in row and all(value not in (None, "") for value in row.values()) for row in rows), (
         "a torn row in the episode log"
+    )
     steps = [int(row["step"]) for row in rows]
     assert steps == sorted(steps), "episodes out of order: rows from after the checkpoint were kept"
     assert len(rows) == sum(resumed), "the episode log does not match the curriculum's count"
     assert len({tuple(row.items()) for row in rows}) == len(rows), "a duplicated episode row"
-    assert sum(step <= last["step"] for step in steps) == sum(saved), \
+    assert sum(step <= last["step"] for step in steps) == sum(saved), (
         "the episodes up to the checkpoint are not exactly those the checkpoint counted"
+    )
 
 
 def _train_config(tmp_path: Path) -> Path:
-    config = {"episode": {"max_steps": 60}, "curriculum": {"levels": "0-1", "difficulties": "0-1"},
-              "train": {"checkpoint_every": 256, "heatmap_every": 100000, "n_steps": 64, "batch_size": 64,
-                        "n_epochs": 1, "net_width": 16}}
+    config = {
+        "episode": {"max_steps": 60},
+        "curriculum": {"levels": "0-1", "difficulties": "0-1"},
+        "train": {
+            "checkpoint_every": 256,
+            "heatmap_every": 100000,
+            "n_steps": 64,
+            "batch_size": 64,
+            "n_epochs": 1,
+            "net_width": 16,
+        },
+    }
     path = tmp_path / "small.yaml"
     path.write_text(yaml.safe_dump(config))
     return path
 
 
-def _kill_train_and_resume(tmp_path: Path, seed: int, extra: list[str], env: dict | None = None,
-                           resume_steps: int = 512) -> None:
+def _kill_train_and_resume(
+    tmp_path: Path, seed: int, extra: list[str], env: dict | None = None, resume_steps: int = 512
+) -> None:
     rng = random.Random(seed)
     run = tmp_path / "run"
-    command = [*AAAI, "train", "--agent", "ppo", "--envs", "2", "--steps", "10000000",
-               "--config", str(_train_config(tmp_path)), "--run", str(run), *extra]
+    command = [
+        *AAAI,
+        "train",
+        "--agent",
+        "ppo",
+        "--envs",
+        "2",
+        "--steps",
+        "10000000",
+        "--config",
+        str(_train_config(tmp_path)),
+        "--run",
+        str(run),
+        *extra,
+    ]
     with open(tmp_path / "stderr.txt", "w") as stderr:  # a file: orphaned workers may hold a pipe open
         process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=stderr, env=env, start_new_session=True)
     try:
@@ -110,8 +135,13 @@ def _kill_train_and_resume(tmp_path: Path, seed: int, extra: list[str], env: dic
     assert not (run / "final").exists()
     last = json.loads((_whole_checkpoints(run)[-1] / "state.json").read_text())
     target = last["step"] + resume_steps
-    resumed = subprocess.run([*AAAI, "train", "--resume", str(run), "--steps", str(target)],
-                             capture_output=True, text=True, env=env, timeout=600)
+    resumed = subprocess.run(
+        [*AAAI, "train", "--resume", str(run), "--steps", str(target)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+    )
     assert resumed.returncode == 0, (resumed.stdout + resumed.stderr)[-3000:]
     _check_resumed(run, last, target)
 
@@ -158,8 +188,20 @@ def test_ray_eval_driver_killed_at_a_random_moment_then_rerun_equals_an_uninterr
     rng = random.Random(seed)
     config = tmp_path / "short.yaml"
     config.write_text(yaml.safe_dump({"episode": {"max_steps": 40}}))
-    command = [*AAAI, "eval", "--policy", "random", "--levels", "0", "--difficulty", "0-1", "-k", "5",
-               "--config", str(config)]
+    command = [
+        *AAAI,
+        "eval",
+        "--policy",
+        "random",
+        "--levels",
+        "0",
+        "--difficulty",
+        "0-1",
+        "-k",
+        "5",
+        "--config",
+        str(config),
+    ]
     whole, killed = tmp_path / "whole.csv", tmp_path / "killed.csv"
     subprocess.run([*command, "--out", str(whole)], check=True, capture_output=True, timeout=300)
     rows_before_kill = rng.randint(0, 6)
@@ -167,13 +209,23 @@ def test_ray_eval_driver_killed_at_a_random_moment_then_rerun_equals_an_uninterr
     def enough_rows() -> bool:
         return killed.exists() and len(killed.read_text().splitlines()) - 1 >= rows_before_kill
 
-    process = subprocess.Popen([*command, "--backend", "ray", "--workers", "2", "--out", str(killed)],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=ray_env, start_new_session=True)
+    process = subprocess.Popen(
+        [*command, "--backend", "ray", "--workers", "2", "--out", str(killed)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=ray_env,
+        start_new_session=True,
+    )
     try:
         _kill_when(process, enough_rows, rng.uniform(0.0, 0.3))
     finally:
         _reap_group(process)
-    again = subprocess.run([*command, "--backend", "ray", "--workers", "2", "--out", str(killed)],
-                           capture_output=True, text=True, env=ray_env, timeout=300)
+    again = subprocess.run(
+        [*command, "--backend", "ray", "--workers", "2", "--out", str(killed)],
+        capture_output=True,
+        text=True,
+        env=ray_env,
+        timeout=300,
+    )
     assert again.returncode == 0, again.stderr[-3000:]
     assert _table(killed) == _table(whole)

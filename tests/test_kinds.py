@@ -1,10 +1,12 @@
 """The newer object kinds (aaai.kinds): their rules in the rewards, the rays, the camera, the viewer,
 validation and the reference controller; and the camera that agrees with the task."""
+
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import open_arena, sphere
 
 from aaai import validate
 from aaai.arena import load_arena
@@ -13,7 +15,6 @@ from aaai.env import AnimalAIEnv
 from aaai.kinds import ALL_KINDS, COLOURS, HOT_ZONE_FACTOR, KINDS, REGISTRY, ZONE_THICKNESS, ray_channels
 from aaai.spec import ObjectSpec
 from aaai.viewer import draw_top_down, mapping_for
-from conftest import open_arena, sphere
 
 ARENAS = Path(__file__).resolve().parents[1] / "configs" / "arenas"
 STILL = np.zeros(8, np.float32)
@@ -55,8 +56,9 @@ def green_pixels(image: np.ndarray) -> int:
 @pytest.mark.parametrize("look, seen", [("task", True), ("classic", False)])
 def test_food_behind_a_transparent_wall_shows_in_the_camera_with_the_task_look(make_env, look, seen):
     env = make_env(camera=True, camera_resolution=84, camera_look=look)
-    spec = open_arena(ObjectSpec("transparent_wall", "box", (8.0, 0.0, 2.0), (1.0, 24.0, 4.0)),
-                      sphere("food_green", 16.0, 0.0, 3.0))
+    spec = open_arena(
+        ObjectSpec("transparent_wall", "box", (8.0, 0.0, 2.0), (1.0, 24.0, 4.0)), sphere("food_green", 16.0, 0.0, 3.0)
+    )
     observation, _ = env.reset(seed=0, options={"spec": spec})
     assert (green_pixels(observation["camera"]) > 20) is seen
     hit = env.step(STILL)[0]  # still solid for the rays
@@ -66,8 +68,9 @@ def test_food_behind_a_transparent_wall_shows_in_the_camera_with_the_task_look(m
 
 def test_a_transparent_wall_stays_solid_for_the_rays_and_the_body(make_env):
     env = make_env(rays=True, camera=True, camera_resolution=16, camera_look="task")
-    spec = open_arena(ObjectSpec("transparent_wall", "box", (8.0, 0.0, 2.0), (1.0, 24.0, 4.0)),
-                      sphere("food_green", 16.0, 0.0, 3.0))
+    spec = open_arena(
+        ObjectSpec("transparent_wall", "box", (8.0, 0.0, 2.0), (1.0, 24.0, 4.0)), sphere("food_green", 16.0, 0.0, 3.0)
+    )
     observation, _ = env.reset(seed=0, options={"spec": spec})
     forward = observation["rays"][observation["rays"].shape[0] // 2]
     assert forward[KINDS.index("transparent_wall")] == 1.0 and forward[-1] < 1.0
@@ -121,8 +124,9 @@ def test_bad_food_touched_by_a_leg_alone_still_costs_its_size(make_env):
     env.reset(seed=0, options={"spec": open_arena()})
     foot = env.snapshot().legs[0].foot  # the front-left foot of the resting X, away from the head
     away = 1.2 / math.hypot(foot[0], foot[1])  # the piece overlaps the foot by 0.3
-    spec = open_arena(sphere("bad_food", foot[0] * (1 + away), foot[1] * (1 + away), 3.0),
-                      sphere("food_green", -15.0, 15.0, 3.0))
+    spec = open_arena(
+        sphere("bad_food", foot[0] * (1 + away), foot[1] * (1 + away), 3.0), sphere("food_green", -15.0, 15.0, 3.0)
+    )
     _, _, terminated, _, info = first_step(env, spec)
     for _ in range(5):
         if terminated:
@@ -159,13 +163,20 @@ def test_a_death_zone_touched_is_a_fall(make_env):
     assert terminated and info["fell"] and info["reward_terms"]["fall"] == -1.0
 
 
-@pytest.mark.parametrize("kind", ["decoy", "ramp", "tunnel", "transparent_tunnel", "l_block", "j_block", "u_block",
-                                  "hollow_box", "sign_tick"])
+@pytest.mark.parametrize(
+    "kind",
+    ["decoy", "ramp", "tunnel", "transparent_tunnel", "l_block", "j_block", "u_block", "hollow_box", "sign_tick"],
+)
 def test_touching_a_solid_newer_kind_pays_nothing_and_ends_nothing(make_env, kind):
     env = make_env()
     obj = example(kind, 4.0, 0.0)
-    obj = ObjectSpec(obj.kind, obj.shape, (2.7 + obj.size[0] / 2 - 0.3 if obj.shape == "box" else 2.7, 0.0,
-                                           obj.position[2]), obj.size, math.pi / 2 if "tunnel" in kind else 0.0)
+    obj = ObjectSpec(
+        obj.kind,
+        obj.shape,
+        (2.7 + obj.size[0] / 2 - 0.3 if obj.shape == "box" else 2.7, 0.0, obj.position[2]),
+        obj.size,
+        math.pi / 2 if "tunnel" in kind else 0.0,
+    )
     spec = open_arena(obj, sphere("food_green", -15.0, 15.0, 3.0))
     _, _, terminated, _, info = first_step(env, spec)
     for _ in range(10):
@@ -227,8 +238,10 @@ def test_validation_keeps_the_body_clear_of_bad_food_and_death_zones_and_goes_th
     band = [ObjectSpec("death_zone", "box", (0.0, 0.0, ZONE_THICKNESS / 2), (50.0, 4.0, ZONE_THICKNESS))]
     spec = open_arena(*band, sphere("food_green", 0.0, 15.0, 3.0), agent=(0.0, -15.0, 0.0))
     assert any("cannot be reached" in problem for problem in validate.check(spec))
-    wall = [ObjectSpec("wall", "box", (-17.35, 0.0, 2.0), (15.3, 1.0, 4.0)),
-            ObjectSpec("wall", "box", (17.35, 0.0, 2.0), (15.3, 1.0, 4.0))]
+    wall = [
+        ObjectSpec("wall", "box", (-17.35, 0.0, 2.0), (15.3, 1.0, 4.0)),
+        ObjectSpec("wall", "box", (17.35, 0.0, 2.0), (15.3, 1.0, 4.0)),
+    ]
     tunnel = ObjectSpec("tunnel", "box", (0.0, 0.0, 4.5), (10.0, 18.0, 9.0), math.pi / 2)
     plug = ObjectSpec("wall", "box", (0.0, 0.0, 2.0), (18.0, 1.0, 4.0))
     food, agent = sphere("food_green", 0.0, 15.0, 3.0), (0.0, -15.0, 0.0)
@@ -284,8 +297,13 @@ def test_every_kind_is_listed_once_with_a_colour():
 
 def test_bouncing_food_goes_straight_and_comes_back_off_a_wall(make_env):
     env = make_env()
-    food = ObjectSpec("food_green", "sphere", (10.0, 15.0, 1.5), (3.0, 3.0, 3.0),
-                      behaviour={"type": "bounce", "speed": 5.0, "heading": 0.0})
+    food = ObjectSpec(
+        "food_green",
+        "sphere",
+        (10.0, 15.0, 1.5),
+        (3.0, 3.0, 3.0),
+        behaviour={"type": "bounce", "speed": 5.0, "heading": 0.0},
+    )
     env.reset(seed=0, options={"spec": open_arena(food)})
     xs, ys = [], []
     for _ in range(250):  # 5 s: 15 units east to the wall (at 25 less its radius), then back

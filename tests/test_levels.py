@@ -55,7 +55,7 @@ def test_l1_food_count_colours_spacing_and_motion(difficulty):
             assert max(abs(a.position[0]), abs(a.position[1])) + a.size[0] / 2 < 25
             gap = math.hypot(a.position[0] - spec.agent.x, a.position[1] - spec.agent.y)
             assert gap >= AGENT_RADIUS + a.size[0] / 2
-            for b in foods[i + 1:]:
+            for b in foods[i + 1 :]:
                 assert math.dist(a.position[:2], b.position[:2]) >= 10
         moving += sum(f.behaviour is not None for f in foods)
         expected = sum(f.food_value for f in foods)

@@ -1,4 +1,5 @@
 """All thirteen level generators: registry, reproducibility, content, and solvability (aaai validate)."""
+
 import math
 import subprocess
 import sys
@@ -26,7 +27,10 @@ def test_every_level_is_registered_with_its_label_and_gymnasium_id():
     assert get_level("L2b").name == "delayed_gratification" and get_level("y_maze").id == 2
     assert "aaai/L2b-DelayedGratification-v0" in gym.registry and "aaai/L11-BodyAwareness-v0" in gym.registry
     assert load_config(level=12)["level"] == 12
-    with pytest.raises(ConfigError, match="config key 'level': got 13, and level 13 does not exist; allowed: registered level ids 0 to 12"):
+    with pytest.raises(
+        ConfigError,
+        match="config key 'level': got 13, and level 13 does not exist; allowed: registered level ids 0 to 12",
+    ):
         load_config(level=13)
 
 
@@ -39,10 +43,11 @@ def test_every_level_gives_the_same_spec_for_the_same_seed(level):
 
 def test_spec_hashes_are_the_same_in_two_separate_processes():
     cells = [(level, difficulty, 1000 + level) for level in LEVELS for difficulty in (0, 7, 10)]
-    code = ("from aaai.levels import generate\n"
-            f"for l, d, s in {cells!r}: print(generate(l, d, s).digest())")
-    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
-            for _ in range(2)]
+    code = f"from aaai.levels import generate\nfor l, d, s in {cells!r}: print(generate(l, d, s).digest())"
+    runs = [
+        subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+        for _ in range(2)
+    ]
     assert runs[0] == runs[1] == [generate(*cell).digest() for cell in cells]
 
 
@@ -70,31 +75,45 @@ def test_aaai_validate_refuses_bad_ranges():
 # --- the checks catch what they should -------------------------------------------------
 def arena(*objects, agent=(0.0, -15.0, 0.0), **extra):
     foods = [o for o in objects if o.is_food]
-    return LevelSpec(level=0, name="test", difficulty=0, seed=0, agent=AgentPose(*agent),
-                     objects=tuple(arena_walls((50.0, 50.0), 4.0)) + objects,
-                     max_food_reward=max([f.food_value for f in foods], default=0.0), **extra)
+    return LevelSpec(
+        level=0,
+        name="test",
+        difficulty=0,
+        seed=0,
+        agent=AgentPose(*agent),
+        objects=tuple(arena_walls((50.0, 50.0), 4.0)) + objects,
+        max_food_reward=max([f.food_value for f in foods], default=0.0),
+        **extra,
+    )
 
 
 def test_a_plain_level_is_valid():
     assert validate.check(arena(sphere("food_green", 0.0, 10.0, 2.0))) == []
 
 
-@pytest.mark.parametrize("spec, problem", [
-    (arena(sphere("food_green", 0, 10, 2), slab("wall", 5, 0, 6, 1, 4), slab("wall", 5, 0, 6, 1, 4, yaw=1.0)),
-     "solid objects overlap"),
-    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 10, 6, 1, 4)), "cuts into wall"),
-    (arena(sphere("food_green", 0, 10, 2), tiles=(5, 5), holes=((2, 3),)), "not on solid ground"),
-    (arena(sphere("food_green", 0, 24.5, 2)), "outside the arena"),
-    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, -15, 6, 1, 4)), "start"),
-    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 50, 1, 4)), "cannot be reached"),
-    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 34, 1, 4)), "cannot be reached"),  # gaps of 8
-    (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 30, 1, 4)), "cannot be reached"),  # gaps of 10
-    # food the head could reach only by leaning in against the wall, a foot touching it
-    (arena(sphere("food_green", 0, 23.4, 2)), "cannot be reached"),
-    (arena(sphere("food_green", 0, 10, 2), tiles=(50, 50), holes=tuple((i, 24) for i in range(50))),
-     "cannot be reached"),
-    (arena(ObjectSpec("food_green", "sphere", (0, 10, 3), (2, 2, 2))), "not on solid ground"),
-])
+@pytest.mark.parametrize(
+    "spec, problem",
+    [
+        (
+            arena(sphere("food_green", 0, 10, 2), slab("wall", 5, 0, 6, 1, 4), slab("wall", 5, 0, 6, 1, 4, yaw=1.0)),
+            "solid objects overlap",
+        ),
+        (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 10, 6, 1, 4)), "cuts into wall"),
+        (arena(sphere("food_green", 0, 10, 2), tiles=(5, 5), holes=((2, 3),)), "not on solid ground"),
+        (arena(sphere("food_green", 0, 24.5, 2)), "outside the arena"),
+        (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, -15, 6, 1, 4)), "start"),
+        (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 50, 1, 4)), "cannot be reached"),
+        (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 34, 1, 4)), "cannot be reached"),  # gaps of 8
+        (arena(sphere("food_green", 0, 10, 2), slab("wall", 0, 0, 30, 1, 4)), "cannot be reached"),  # gaps of 10
+        # food the head could reach only by leaning in against the wall, a foot touching it
+        (arena(sphere("food_green", 0, 23.4, 2)), "cannot be reached"),
+        (
+            arena(sphere("food_green", 0, 10, 2), tiles=(50, 50), holes=tuple((i, 24) for i in range(50))),
+            "cannot be reached",
+        ),
+        (arena(ObjectSpec("food_green", "sphere", (0, 10, 3), (2, 2, 2))), "not on solid ground"),
+    ],
+)
 def test_the_checks_find_each_kind_of_problem(spec, problem):
     problems = validate.check(spec)
     assert any(problem in text for text in problems), problems
@@ -189,8 +208,10 @@ def test_l3_a_transparent_wall_hides_the_green_and_obstacles_grow(difficulty):
     spec = generate(3, difficulty, 1)
     (food,) = spec.foods
     # the glass: the transparent wall nearest the food (the extra obstacles keep 4 or more clear of it)
-    glass = min((o for o in inside(spec) if o.kind == "transparent_wall"),
-                key=lambda o: math.dist(o.position[:2], food.position[:2]))
+    glass = min(
+        (o for o in inside(spec) if o.kind == "transparent_wall"),
+        key=lambda o: math.dist(o.position[:2], food.position[:2]),
+    )
     assert glass.size[0] == difficulty + 5 and glass.size[2] == difficulty + 6
     assert food.position[1] == pytest.approx(glass.position[1] + 0.5 + 3)
     extra = [o for o in inside(spec) if not o.is_food and o is not glass]
@@ -213,7 +234,10 @@ def test_l5_maze_grows_and_puts_agent_and_food_farthest_apart(difficulty):
     maze = spec.extras["maze"]
     assert maze["chunks"] == round(0.6 * difficulty + 4)
     assert spec.arena_size == (30.0 * maze["columns"], 30.0 * maze["rows"]) and spec.wall_height == 10
-    cell = lambda x, y: [int((x + spec.arena_size[0] / 2) // 30), int((y + spec.arena_size[1] / 2) // 30)]
+
+    def cell(x, y):
+        return [int((x + spec.arena_size[0] / 2) // 30), int((y + spec.arena_size[1] / 2) // 30)]
+
     assert cell(spec.agent.x, spec.agent.y) == maze["start"]
     assert cell(*spec.foods[0].position[:2]) == maze["goal"] and maze["start"] != maze["goal"]
 
@@ -228,7 +252,8 @@ def test_l6_recolours_kinds_with_five_colours_and_raises_walls():
         assert all(o.colour is not None for o in spec.objects)
         assert all(o.size[2] >= 10 for o in spec.objects if o.kind in ("wall", "transparent_wall"))
         assert generate(inner.level, inner.difficulty, inner.seed).foods == [
-            replace(f, colour=None) for f in spec.foods]
+            replace(f, colour=None) for f in spec.foods
+        ]
 
 
 def test_l7_wraps_another_level_with_a_blackout_schedule():
@@ -264,8 +289,12 @@ def test_l10_trench_plank_and_side_walls(difficulty):
 
 def test_l10_side_walls_are_transparent_with_probability_1_2_minus_0_1d():
     for difficulty, expected in ((4, 0.8), (10, 0.2)):
-        kinds = [o.kind for seed in range(150) for o in inside(generate(10, difficulty, seed))
-                 if o.kind in ("wall", "transparent_wall")]
+        kinds = [
+            o.kind
+            for seed in range(150)
+            for o in inside(generate(10, difficulty, seed))
+            if o.kind in ("wall", "transparent_wall")
+        ]
         assert abs(kinds.count("transparent_wall") / len(kinds) - expected) < 0.1
 
 

@@ -1,5 +1,6 @@
 """aaai play: the page in a real browser (headless Chromium through Selenium), sessions side by
 side, bad messages, a closed tab, resuming a battery, and replays run again bit for bit."""
+
 from __future__ import annotations
 
 import csv
@@ -23,7 +24,7 @@ if not os.environ.get("CI"):  # on CI (make test installs the play extra) a miss
 from websockets.sync.client import connect  # noqa: E402  (the play extra)
 
 from aaai.play.server import Server  # noqa: E402
-from aaai.play.session import PlaySettings, abandoned_path, command_of, control_of, InputError  # noqa: E402
+from aaai.play.session import InputError, PlaySettings, abandoned_path, command_of, control_of  # noqa: E402
 from aaai.replays import load_replay, run_replay  # noqa: E402
 
 CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver")
@@ -32,8 +33,14 @@ ROOT_ARENAS = Path(__file__).resolve().parent.parent / "configs" / "arenas"
 
 def settings_for(folder: Path, seeds=(0,), max_steps: int = 100, **changes) -> PlaySettings:
     config = load_config(None, camera=True, action_mode="gait", decision_interval=0.02, max_steps=max_steps)
-    values = dict(config=config, cells=[Cell(0, 0, list(seeds))], output=str(folder / "human_{player}.csv"),
-                  replays=folder / "replays", between_seconds=0.0, grace_seconds=0.0)
+    values = dict(
+        config=config,
+        cells=[Cell(0, 0, list(seeds))],
+        output=str(folder / "human_{player}.csv"),
+        replays=folder / "replays",
+        between_seconds=0.0,
+        grace_seconds=0.0,
+    )
     values.update(changes)
     return PlaySettings(**values)
 
@@ -102,8 +109,10 @@ def test_keys_and_commands():
     assert command_of({"forward", "backward", "right"}) == (0.0, -1.0, 0.0)  # opposite keys cancel
 
 
-@pytest.mark.skipif(not (CHROMIUM.exists() and CHROMEDRIVER.exists()) and not os.environ.get("CI"),
-                    reason="needs Debian's chromium and chromium-driver (make test installs them; on CI it never skips)")
+@pytest.mark.skipif(
+    not (CHROMIUM.exists() and CHROMEDRIVER.exists()) and not os.environ.get("CI"),
+    reason="needs Debian's chromium and chromium-driver (make test installs them; on CI it never skips)",
+)
 def test_browser_plays_an_episode_scores_it_and_its_replay_runs_again_bit_for_bit(tmp_path):
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
@@ -115,9 +124,19 @@ def test_browser_plays_an_episode_scores_it_and_its_replay_runs_again_bit_for_bi
     options = webdriver.ChromeOptions()
     options.binary_location = str(CHROMIUM)
     profile = tempfile.mkdtemp(prefix="aaai-chromium-")
-    for flag in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                 "--disable-dev-shm-usage", f"--user-data-dir={profile}", "--window-size=1000,800"):
+    for flag in (
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--disable-dev-shm-usage",
+        f"--user-data-dir={profile}",
+        "--window-size=1000,800",
+    ):
         options.add_argument(flag)
     driver = webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=options)
     try:
@@ -131,7 +150,9 @@ def test_browser_plays_an_episode_scores_it_and_its_replay_runs_again_bit_for_bi
         def wait(condition, timeout=10.0):
             end = time.monotonic() + timeout
             while not condition():
-                assert time.monotonic() < end, f"timed out; phase {phase()}, error {driver.find_element(By.ID, 'error').text!r}"
+                assert time.monotonic() < end, (
+                    f"timed out; phase {phase()}, error {driver.find_element(By.ID, 'error').text!r}"
+                )
                 time.sleep(0.05)
 
         wait(lambda: driver.find_element(By.ID, "player").is_displayed())
@@ -206,8 +227,13 @@ def test_two_sessions_play_side_by_side_and_bad_input_changes_nothing(tmp_path):
             start_ann, start_bob = ann.status["pose"], bob.status["pose"]
             ann.key("ArrowUp")
             bob.key("ArrowLeft")
-            for bad in ("not json", json.dumps([1]), json.dumps({"type": "key", "key": "q", "down": True}),
-                        json.dumps({"type": "key", "key": "w", "down": "yes"}), json.dumps({"type": "warp"})):
+            for bad in (
+                "not json",
+                json.dumps([1]),
+                json.dumps({"type": "key", "key": "q", "down": True}),
+                json.dumps({"type": "key", "key": "w", "down": "yes"}),
+                json.dumps({"type": "warp"}),
+            ):
                 ann.send(bad)
             end_ann = ann.pump(over)
             end_bob = bob.pump(over)
@@ -267,9 +293,26 @@ def test_lost_focus_pauses_a_closed_tab_is_abandoned_not_scored_and_the_battery_
 def test_eval_replays_run_and_film_again_and_a_changed_replay_is_caught(tmp_path):
     (tmp_path / "short.yaml").write_text("episode:\n  max_steps: 40\n")
     runner = CliRunner()
-    result = runner.invoke(cli, ["eval", "--seeds", "5", "--policy", "random", "--levels", "1", "--difficulty", "3",
-                                 "--config", str(tmp_path / "short.yaml"), "--out", str(tmp_path / "sb.csv"),
-                                 "--save-replays", str(tmp_path / "replays")])
+    result = runner.invoke(
+        cli,
+        [
+            "eval",
+            "--seeds",
+            "5",
+            "--policy",
+            "random",
+            "--levels",
+            "1",
+            "--difficulty",
+            "3",
+            "--config",
+            str(tmp_path / "short.yaml"),
+            "--out",
+            str(tmp_path / "sb.csv"),
+            "--save-replays",
+            str(tmp_path / "replays"),
+        ],
+    )
     assert result.exit_code == 0, result.output
     path = tmp_path / "replays" / "L1_d3_s5.json"
     result = runner.invoke(cli, ["run", "--replay", str(path)])
@@ -296,11 +339,13 @@ def test_play_command_refuses_bad_options_and_a_port_in_use(tmp_path):
     import socket
 
     runner = CliRunner()
-    for args, message in ((["1", "--levels", "2"], "use one or the other"),
-                          (["--out", "one.csv"], "without {player}"),
-                          (["--player", "a b"], "player: got 'a b'"),
-                          (["L9", "-d", "11"], "difficulty: got 11"),
-                          (["--arena", str(ROOT_ARENAS), "--levels", "1"], "an arena file is its own level")):
+    for args, message in (
+        (["1", "--levels", "2"], "use one or the other"),
+        (["--out", "one.csv"], "without {player}"),
+        (["--player", "a b"], "player: got 'a b'"),
+        (["L9", "-d", "11"], "difficulty: got 11"),
+        (["--arena", str(ROOT_ARENAS), "--levels", "1"], "an arena file is its own level"),
+    ):
         result = runner.invoke(cli, ["play", *args])
         assert result.exit_code == 2 and message in result.output, (args, result.output)
     with socket.socket() as taken:
@@ -308,7 +353,9 @@ def test_play_command_refuses_bad_options_and_a_port_in_use(tmp_path):
         taken.listen()
         port = taken.getsockname()[1]
         result = runner.invoke(cli, ["play", "--port", str(port), "--out", str(tmp_path / "h_{player}.csv")])
-    assert result.exit_code == 2 and f"--port: got {port}, and 127.0.0.1:{port} is in use" in result.output, result.output
+    assert result.exit_code == 2 and f"--port: got {port}, and 127.0.0.1:{port} is in use" in result.output, (
+        result.output
+    )
 
 
 def test_a_dropped_connection_pauses_and_the_tab_carries_on_with_its_token(tmp_path):

@@ -1,5 +1,6 @@
 """Levels are plug-ins: a 14th level made of a generator module and a level file outside the
 package runs through every tool with no other change."""
+
 import csv
 import json
 import os
@@ -33,7 +34,7 @@ def generate(p, rng):
             "max_food_reward": food.food_value, "arena_size": (40.0, 40.0)}
 '''
 
-LEVEL_FILE = '''
+LEVEL_FILE = """
 id: 13
 name: straight_ahead
 title: Straight ahead
@@ -42,7 +43,7 @@ generator: plugin_levels_straight
 time_limit: 30
 params:
   distance: "8 + d"
-'''
+"""
 
 
 @pytest.fixture
@@ -60,8 +61,9 @@ def plugin(tmp_path, monkeypatch):
 
 
 def aaai(*args, cwd):
-    result = subprocess.run([sys.executable, "-m", "aaai_cli.main", *map(str, args)], capture_output=True,
-                            text=True, cwd=cwd)
+    result = subprocess.run(
+        [sys.executable, "-m", "aaai_cli.main", *map(str, args)], capture_output=True, text=True, cwd=cwd
+    )
     assert result.returncode == 0, f"aaai {' '.join(map(str, args))}:\n{result.stdout}\n{result.stderr}"
     return result.stdout
 
@@ -95,8 +97,22 @@ def test_a_fourteenth_level_runs_through_every_command(plugin):
     aaai("show", "13", "-o", plugin / "l13.png", cwd=plugin)
     assert (plugin / "l13.png").stat().st_size > 1000
     assert "straight_ahead" in aaai("run", "--levels", "13", "--episodes", "1", "--max-steps", "20", cwd=plugin)
-    aaai("eval", "--seeds", "reserved", "--policy", "reference", "--levels", "13", "--difficulty", "0", "-k", "2",
-         "--out", plugin / "board.csv", cwd=plugin)
+    aaai(
+        "eval",
+        "--seeds",
+        "reserved",
+        "--policy",
+        "reference",
+        "--levels",
+        "13",
+        "--difficulty",
+        "0",
+        "-k",
+        "2",
+        "--out",
+        plugin / "board.csv",
+        cwd=plugin,
+    )
     with open(plugin / "board.csv") as handle:
         rows = list(csv.DictReader(handle))
     assert [row["level"] for row in rows] == ["13", "13"]
@@ -106,8 +122,12 @@ def test_a_fourteenth_level_runs_through_every_command(plugin):
 def test_plugin_level_files_are_checked(tmp_path, monkeypatch):
     folder = tmp_path / "levels"
     folder.mkdir()
-    (folder / "L5.yaml").write_text(textwrap.dedent(LEVEL_FILE).replace("id: 13", "id: 5")
-                                    .replace("plugin_levels_straight", "food_contact").replace("distance", "x"))
+    (folder / "L5.yaml").write_text(
+        textwrap.dedent(LEVEL_FILE)
+        .replace("id: 13", "id: 5")
+        .replace("plugin_levels_straight", "food_contact")
+        .replace("distance", "x")
+    )
     taken = get_level(5).name
     monkeypatch.setenv("AAAI_LEVELS", str(folder))
     with pytest.raises(ConfigError, match=r"levels/L5.yaml: level id 5 is taken by L5.yaml \(" + taken):
@@ -121,6 +141,9 @@ def test_plugin_level_files_are_checked(tmp_path, monkeypatch):
 
 
 def test_an_unregistered_level_id_is_refused_with_the_registered_ones():
-    with pytest.raises(ConfigError, match=r"config key 'level': got 13, and level 13 does not exist; allowed: "
-                                          r"registered level ids 0 to 12"):
+    with pytest.raises(
+        ConfigError,
+        match=r"config key 'level': got 13, and level 13 does not exist; allowed: "
+        r"registered level ids 0 to 12",
+    ):
         load_config(level=13)

@@ -5,6 +5,7 @@ one CPU each), started once for the module in a private Ray temp folder (so that
 ``ray.init()`` on this machine finds and joins it) and shut down after it; every eval connects to it
 with ``address=`` and disconnects when it ends. One test starts and stops a local Ray of its own.
 """
+
 from __future__ import annotations
 
 import csv
@@ -18,7 +19,6 @@ import time
 from pathlib import Path
 
 import pytest
-
 from conftest import processes_holding
 
 pytest.importorskip("ray", reason="needs the ray extra, which make test installs")
@@ -83,7 +83,6 @@ def wait_gone(pids, seconds: float = 20.0) -> set[int]:
     return left
 
 
-
 class TwoNodes:
     def __init__(self, cluster, helpers: Path, kill_dir: Path):
         self.cluster, self.helpers, self.kill_dir = cluster, helpers, kill_dir
@@ -105,8 +104,12 @@ def two_nodes(tmp_path_factory):
     kill_dir.mkdir()
     (helpers / "aaai_test_kill.py").write_text(textwrap.dedent(KILL_POLICY.format(seed=KILL_SEED, step=KILL_STEP)))
     ray_tmp = tempfile.mkdtemp(prefix="aaairay", dir="/tmp")  # short: Ray's socket paths live here
-    changes = {"RAY_AUTH_MODE": "disabled", "RAY_TMPDIR": ray_tmp, "AAAI_TEST_KILL_DIR": str(kill_dir),
-               "PYTHONPATH": os.pathsep.join(filter(None, [str(helpers), os.environ.get("PYTHONPATH")]))}
+    changes = {
+        "RAY_AUTH_MODE": "disabled",
+        "RAY_TMPDIR": ray_tmp,
+        "AAAI_TEST_KILL_DIR": str(kill_dir),
+        "PYTHONPATH": os.pathsep.join(filter(None, [str(helpers), os.environ.get("PYTHONPATH")])),
+    }
     saved = {key: os.environ.get(key) for key in changes}
     os.environ.update(changes)  # the nodes' processes (and their workers) inherit these
     cluster = None
@@ -115,8 +118,12 @@ def two_nodes(tmp_path_factory):
         cluster.add_node(num_cpus=1)
         cluster.wait_for_nodes()
         nodes = TwoNodes(cluster, helpers, kill_dir)
-        system_pids = {info.process.pid for node in cluster.list_all_nodes()
-                       for infos in node.all_processes.values() for info in infos}
+        system_pids = {
+            info.process.pid
+            for node in cluster.list_all_nodes()
+            for infos in node.all_processes.values()
+            for info in infos
+        }
         yield nodes
     finally:
         if cluster is not None:
@@ -142,8 +149,15 @@ def ppo_model(tmp_path_factory):
 
     env = AnimalAIEnv(config=env_part(CONFIG, shaping=0.0))
     try:
-        model = PPO("MultiInputPolicy", env, n_steps=64, batch_size=64, seed=0, device="cpu",
-                    policy_kwargs={"net_arch": [16, 16]})
+        model = PPO(
+            "MultiInputPolicy",
+            env,
+            n_steps=64,
+            batch_size=64,
+            seed=0,
+            device="cpu",
+            policy_kwargs={"net_arch": [16, 16]},
+        )
         path = tmp_path_factory.mktemp("model") / "model.zip"
         model.save(path)
     finally:
@@ -156,11 +170,13 @@ def test_scoreboard_equals_the_local_one(two_nodes, ppo_model, tmp_path, policy)
     policy = ppo_model if policy == "model" else policy
     plan = cells((0, 0, [11, 12]), (0, 1, [13]), (1, 0, [14]))
     local = evaluate(policy, plan, tmp_path / "local.csv", CONFIG)
-    on_ray = evaluate_on_ray(policy, plan, tmp_path / "ray.csv", CONFIG, address=two_nodes.address,
-                             on_task=two_nodes.record)
+    on_ray = evaluate_on_ray(
+        policy, plan, tmp_path / "ray.csv", CONFIG, address=two_nodes.address, on_task=two_nodes.record
+    )
     assert table(tmp_path / "ray.csv") == table(tmp_path / "local.csv")  # same rows, same order, timing aside
-    assert [{k: v for k, v in row.items() if k != "wall_seconds"} for row in on_ray] == \
-           [{k: v for k, v in row.items() if k != "wall_seconds"} for row in local]
+    assert [{k: v for k, v in row.items() if k != "wall_seconds"} for row in on_ray] == [
+        {k: v for k, v in row.items() if k != "wall_seconds"} for row in local
+    ]
     assert (tmp_path / "ray_scored_with.json").read_text() == (tmp_path / "local_scored_with.json").read_text()
 
 
@@ -171,8 +187,14 @@ def test_work_runs_on_both_nodes(two_nodes, tmp_path):
         two_nodes.record(rows, where)
         nodes.append(where["node_id"])
 
-    rows = evaluate_on_ray("random", cells((0, 0, range(31, 37))), tmp_path / "board.csv", CONFIG,
-                           address=two_nodes.address, on_task=record)
+    rows = evaluate_on_ray(
+        "random",
+        cells((0, 0, range(31, 37))),
+        tmp_path / "board.csv",
+        CONFIG,
+        address=two_nodes.address,
+        on_task=record,
+    )
     assert len(rows) == len(nodes) == 6
     assert set(nodes) == two_nodes.node_ids and len(two_nodes.node_ids) == 2
 
@@ -185,9 +207,15 @@ def test_resume_scores_only_the_missing_episodes(two_nodes, tmp_path):
     lines = board.read_text().splitlines(keepends=True)
     board.write_text("".join(lines[:3]) + lines[3][:20])  # header, two rows and a torn third (a kill mid-write)
     scored = []
-    rows = evaluate_on_ray("random", plan, board, CONFIG, address=two_nodes.address,
-                           on_episode=lambda row: scored.append((row["level"], row["difficulty"], row["seed"])),
-                           on_task=two_nodes.record)
+    rows = evaluate_on_ray(
+        "random",
+        plan,
+        board,
+        CONFIG,
+        address=two_nodes.address,
+        on_episode=lambda row: scored.append((row["level"], row["difficulty"], row["seed"])),
+        on_task=two_nodes.record,
+    )
     assert sorted(scored) == [(0, 0, 43), (0, 2, 44), (0, 2, 45)]
     assert table(board) == whole and len(rows) == 5
     again = []
@@ -204,8 +232,9 @@ def test_an_episode_whose_worker_is_killed_is_played_again(two_nodes, tmp_path, 
         two_nodes.record(rows, info)
         where.update({row["seed"]: info["pid"] for row in rows})
 
-    rows = evaluate_on_ray("aaai_test_kill:KillOnce", plan, tmp_path / "board.csv", CONFIG,
-                           address=two_nodes.address, on_task=record)
+    rows = evaluate_on_ray(
+        "aaai_test_kill:KillOnce", plan, tmp_path / "board.csv", CONFIG, address=two_nodes.address, on_task=record
+    )
     marker = two_nodes.kill_dir / f"killed_{KILL_SEED}"
     assert marker.is_file(), "the first attempt never reached the kill"
     killed_pid = int(marker.read_text())
@@ -223,9 +252,12 @@ def test_bad_input_is_refused_before_ray_starts(tmp_path):
         free.bind(("127.0.0.1", 0))
         port = free.getsockname()[1]
     for policy, options, message in [
-            ("no_such_module:make", {}, "cannot load"), (str(tmp_path / "missing.zip"), {}, "does not exist"),
-            ("nonsense", {}, "allowed"), ("random", {"workers": 0}, "workers"),
-            ("random", {"address": f"127.0.0.1:{port}"}, "no Ray cluster answers")]:
+        ("no_such_module:make", {}, "cannot load"),
+        (str(tmp_path / "missing.zip"), {}, "does not exist"),
+        ("nonsense", {}, "allowed"),
+        ("random", {"workers": 0}, "workers"),
+        ("random", {"address": f"127.0.0.1:{port}"}, "no Ray cluster answers"),
+    ]:
         started = time.time()
         with pytest.raises(ConfigError, match=message):
             evaluate_on_ray(policy, cells((0, 0, [1])), tmp_path / f"board_{len(message)}.csv", CONFIG, **options)
@@ -237,8 +269,14 @@ def test_without_an_address_a_local_ray_is_started_and_stopped(tmp_path):
 
     pids = set()
     before = os.environ.get("RAY_AUTH_MODE")
-    rows = evaluate_on_ray("random", cells((0, 0, [51, 52, 53])), tmp_path / "ray.csv", CONFIG, workers=2,
-                           on_task=lambda rows, where: pids.add(where["pid"]))
+    rows = evaluate_on_ray(
+        "random",
+        cells((0, 0, [51, 52, 53])),
+        tmp_path / "ray.csv",
+        CONFIG,
+        workers=2,
+        on_task=lambda rows, where: pids.add(where["pid"]),
+    )
     evaluate("random", cells((0, 0, [51, 52, 53])), tmp_path / "local.csv", CONFIG)
     assert len(rows) == 3 and table(tmp_path / "ray.csv") == table(tmp_path / "local.csv")
     assert not ray.is_initialized()
@@ -256,12 +294,29 @@ def test_repeated_seeds_score_once_on_both_backends(tmp_path):
 
 def test_the_eval_command_scores_the_same_on_ray(tmp_path):
     """`aaai eval --backend ray` as a user types it: a local Ray for the eval, the same scoreboard."""
-    args = [sys.executable, "-m", "aaai_cli.main", "eval", "--policy", "random", "-k", "2", "--levels", "0-1",
-            "--difficulty", "0"]
+    args = [
+        sys.executable,
+        "-m",
+        "aaai_cli.main",
+        "eval",
+        "--policy",
+        "random",
+        "-k",
+        "2",
+        "--levels",
+        "0-1",
+        "--difficulty",
+        "0",
+    ]
     env = {**os.environ, "RAY_AUTH_MODE": "disabled", "RAY_TMPDIR": tempfile.mkdtemp(prefix="aaaicli", dir="/tmp")}
     for backend in ("local", "ray"):
-        result = subprocess.run([*args, "--backend", backend, "--out", str(tmp_path / f"{backend}.csv")],
-                                capture_output=True, text=True, env=env, timeout=300)
+        result = subprocess.run(
+            [*args, "--backend", backend, "--out", str(tmp_path / f"{backend}.csv")],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=300,
+        )
         assert result.returncode == 0, result.stderr[-3000:]
 
     def rows(name):

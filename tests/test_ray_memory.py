@@ -1,11 +1,12 @@
 """`sensors.ray_memory`: what the rays showed of food 1, 2, 4 ... steps ago, by running physics."""
+
 import numpy as np
 import pybullet as p
 import pytest
+from conftest import open_arena, sphere
 
 from aaai.config import ConfigError
 from aaai.kinds import KIND_INDEX
-from conftest import open_arena, sphere
 
 GREEN = KIND_INDEX["food_green"]
 SENSES = dict(rays=True, rays_per_side=4, ray_max_angle=180.0, ray_length=50.0)

@@ -1,13 +1,14 @@
 """sensors.ray_width: each ray cast again w/2 to its left and right, the nearest hit winning (an
 approximation of Animal-AI's 0.5 sphere casts)."""
+
 import math
 
 import numpy as np
 import pytest
+from conftest import open_arena
 
 from aaai.config import ConfigError
 from aaai.levels.common import slab
-from conftest import open_arena
 
 
 def post_seen(env, angle: float) -> bool:

@@ -1,4 +1,5 @@
 """The reference controller: every level solvable by this body within its time limit."""
+
 import numpy as np
 import pytest
 

@@ -1,5 +1,6 @@
 """Resuming a run: from the newest saved point, past damaged ones, never backwards; and models that
 cannot be loaded refused with the file named."""
+
 import csv
 import json
 import re
@@ -15,9 +16,19 @@ from aaai.runs import RunFolder, model_problem
 from aaai.training import train
 from aaai_cli.main import cli
 
-SMALL = {"episode": {"max_steps": 100}, "curriculum": {"levels": "0", "difficulties": "0"},
-         "train": {"checkpoint_every": 400, "heatmap_every": 400, "n_steps": 64, "batch_size": 64,
-                   "n_epochs": 1, "net_width": 16, "num_envs": 2}}
+SMALL = {
+    "episode": {"max_steps": 100},
+    "curriculum": {"levels": "0", "difficulties": "0"},
+    "train": {
+        "checkpoint_every": 400,
+        "heatmap_every": 400,
+        "n_steps": 64,
+        "batch_size": 64,
+        "n_epochs": 1,
+        "net_width": 16,
+        "num_envs": 2,
+    },
+}
 
 
 def start(run: Path, agent: str, steps: int) -> None:
@@ -64,7 +75,7 @@ def test_a_finished_run_resumes_from_final_and_keeps_every_logged_episode(random
     assert result.resumed_from == 1000 and said == []  # from final/, not from the step-800 checkpoint
     assert step_of(run / "final") == 1600
     after = episode_rows(run)
-    assert after[:len(before)] == before and len(after) > len(before)
+    assert after[: len(before)] == before and len(after) > len(before)
 
 
 def test_a_damaged_newest_point_is_skipped_with_a_message(random_run, tmp_path):
@@ -114,23 +125,42 @@ def test_ppo_resume_skips_a_damaged_final_model(ppo_run, tmp_path):
     assert model_problem(run / "final" / "model.zip") is None and step_of(run / "final") >= 1100
 
 
-@pytest.mark.parametrize("damage, problem", [
-    (lambda path: path.write_bytes(b""), "is empty"),
-    # torn at the end: the archive's index is gone (what is left may open as the zip nested inside)
-    (lambda path: path.write_bytes(path.read_bytes()[:-200]), "(not a whole zip archive|not a stable-baselines3)"),
-    (lambda path: path.write_bytes(b"PK" + bytes(300)), "not a whole zip archive"),
-    (lambda path: zipfile.ZipFile(path, "w").writestr("notes.txt", "hello"), "not a stable-baselines3 model"),
-])
+@pytest.mark.parametrize(
+    "damage, problem",
+    [
+        (lambda path: path.write_bytes(b""), "is empty"),
+        # torn at the end: the archive's index is gone (what is left may open as the zip nested inside)
+        (lambda path: path.write_bytes(path.read_bytes()[:-200]), "(not a whole zip archive|not a stable-baselines3)"),
+        (lambda path: path.write_bytes(b"PK" + bytes(300)), "not a whole zip archive"),
+        (lambda path: zipfile.ZipFile(path, "w").writestr("notes.txt", "hello"), "not a stable-baselines3 model"),
+    ],
+)
 def test_eval_refuses_a_damaged_model_naming_it(ppo_run, tmp_path, damage, problem):
     run = copy_of(ppo_run, tmp_path)
     damage(run / "final" / "model.zip")
-    with pytest.raises(ConfigError, match=rf"newest model of run .*final.*{problem}.*checkpoints/step_000000000800/model.zip"):
+    with pytest.raises(
+        ConfigError, match=rf"newest model of run .*final.*{problem}.*checkpoints/step_000000000800/model.zip"
+    ):
         model_path(str(run))
     bare = tmp_path / "model.zip"
     damage_copy = (run / "final" / "model.zip").read_bytes()
     bare.write_bytes(damage_copy)
-    result = CliRunner().invoke(cli, ["eval", "--policy", str(bare), "-k", "1", "--levels", "0", "--difficulty", "0",
-                                      "--out", str(tmp_path / "board.csv")])
+    result = CliRunner().invoke(
+        cli,
+        [
+            "eval",
+            "--policy",
+            str(bare),
+            "-k",
+            "1",
+            "--levels",
+            "0",
+            "--difficulty",
+            "0",
+            "--out",
+            str(tmp_path / "board.csv"),
+        ],
+    )
     assert result.exit_code == 2 and "model.zip" in result.output and re.search(problem, result.output)
     assert not (tmp_path / "board.csv").exists()
 

@@ -1,13 +1,14 @@
 """Rewards and episode ends, tested by running physics."""
+
 import math
 
 import numpy as np
 import pybullet as p
 import pytest
+from conftest import open_arena, sphere
 
 from aaai.gait import SineGait
 from aaai.spec import ObjectSpec
-from conftest import open_arena, sphere
 
 
 def walk_until(env, spec, predicate, steps=600):
@@ -104,7 +105,7 @@ def test_falling_onto_the_deadly_floor_costs_one_and_ends_the_episode(make_env):
 def test_step_costs_with_and_without_the_ground_penalty(make_env):
     env = make_env(max_steps=100)
     env.reset(options={"spec": open_arena()})
-    _, reward, *_ , info = env.step(env.body.rest_action())  # lying at rest: the head is on the floor
+    _, reward, *_, info = env.step(env.body.rest_action())  # lying at rest: the head is on the floor
     assert info["reward_terms"]["ground"] == -0.005 and reward == pytest.approx(-0.01)
     flat = make_env(max_steps=100, ground_penalty=False)
     flat.reset(options={"spec": open_arena()})
@@ -189,8 +190,9 @@ def test_a_leg_touching_green_food_pays_as_limb_food_reward_says(make_env, mode,
 @pytest.mark.parametrize("mode, paid", [("none", 0.0), ("flat", 0.5), ("size", 0.75)])
 def test_a_leg_touching_yellow_food_pays_as_limb_food_reward_says_and_eats_it(make_env, mode, paid):
     env = make_env(limb_food_reward=mode)
-    spec = open_arena(ObjectSpec("food_yellow", "sphere", ON_THE_LEG, (1.5, 1.5, 1.5)),
-                      sphere("food_yellow", -15.0, 15.0, 2.0))  # another piece: eating one does not end it
+    spec = open_arena(
+        ObjectSpec("food_yellow", "sphere", ON_THE_LEG, (1.5, 1.5, 1.5)), sphere("food_yellow", -15.0, 15.0, 2.0)
+    )  # another piece: eating one does not end it
     env.reset(options={"spec": spec, "check": False})
     _, _, terminated, _, info = env.step(env.body.rest_action())
     assert info["reward_terms"]["food"] == paid and not terminated

@@ -4,6 +4,7 @@ Ray runs in a child process (its global state stays out of the test session) wit
 temp folder, whose path every Ray process inherits in its environment: after the child exits, no
 process may still hold it.
 """
+
 from __future__ import annotations
 
 import csv
@@ -14,12 +15,10 @@ import subprocess
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 import pytest
-
-from conftest import processes_holding
 import yaml
+from conftest import processes_holding
 
 pytest.importorskip("ray.rllib", reason="needs the ray extra, which make test installs")
 
@@ -60,7 +59,6 @@ print("RESULT " + json.dumps({"first": [first.steps, first.episodes], "resumed":
 """
 
 
-
 def test_rllib_run_writes_its_folder_and_resumes(tmp_path):
     ray_tmp = tempfile.mkdtemp(prefix="aaairl", dir="/tmp")  # short: Ray's socket paths live here
     run = tmp_path / "run"
@@ -68,8 +66,14 @@ def test_rllib_run_writes_its_folder_and_resumes(tmp_path):
 
     try:
         with open(tmp_path / "stderr.txt", "w") as stderr:  # a file: a leftover process may hold a pipe open
-            child = subprocess.run([sys.executable, "-c", CHILD, str(run)], env=env, stdout=subprocess.PIPE,
-                                   stderr=stderr, text=True, timeout=600)
+            child = subprocess.run(
+                [sys.executable, "-c", CHILD, str(run)],
+                env=env,
+                stdout=subprocess.PIPE,
+                stderr=stderr,
+                text=True,
+                timeout=600,
+            )
         log = child.stdout[-3000:] + (tmp_path / "stderr.txt").read_text()[-3000:]
         assert child.returncode == 0, log
         deadline = time.time() + 20
@@ -109,9 +113,28 @@ def test_rllib_run_writes_its_folder_and_resumes(tmp_path):
 
     # Scored like any run, by the command a user types; the record names the RLlib checkpoint.
     board = tmp_path / "board.csv"
-    scored = subprocess.run([sys.executable, "-m", "aaai_cli.main", "eval", "--policy", str(run), "-k", "2",
-                             "--levels", "0", "--difficulty", "1", "--out", str(board)],
-                            capture_output=True, text=True, env=env, timeout=300)
+    scored = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "aaai_cli.main",
+            "eval",
+            "--policy",
+            str(run),
+            "-k",
+            "2",
+            "--levels",
+            "0",
+            "--difficulty",
+            "1",
+            "--out",
+            str(board),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
     assert scored.returncode == 0, scored.stderr[-3000:]
     with open(board) as handle:
         rows = list(csv.DictReader(handle))
@@ -160,8 +183,13 @@ def test_a_killed_env_runner_is_replaced_and_training_goes_on(tmp_path):
     ray_tmp = tempfile.mkdtemp(prefix="aaairk", dir="/tmp")
     env = {**os.environ, "RAY_AUTH_MODE": "disabled", "RAY_TMPDIR": ray_tmp, "PYTHONUNBUFFERED": "1"}
     try:
-        child = subprocess.run([sys.executable, "-c", KILL_CHILD, str(tmp_path / "run"), ray_tmp], env=env,
-                               capture_output=True, text=True, timeout=600)
+        child = subprocess.run(
+            [sys.executable, "-c", KILL_CHILD, str(tmp_path / "run"), ray_tmp],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
     finally:
         shutil.rmtree(ray_tmp, ignore_errors=True)
     assert child.returncode == 0, child.stdout[-2000:] + child.stderr[-3000:]

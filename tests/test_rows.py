@@ -1,5 +1,6 @@
 """The durable row writer (aaai.files.append_row) that `aaai play`'s abandoned-episode file uses:
 header once, each row whole and fsynced, a torn tail cut, a failed write cut back."""
+
 import csv
 import errno
 import os
@@ -22,7 +23,10 @@ def test_header_once_then_rows(tmp_path):
     append_row(path, COLUMNS, {"player": "cat", "seed": 1, "reason": "closed, the tab"})
     append_row(path, COLUMNS, {"player": "dog", "seed": 2, "reason": "idle"})
     assert path.read_text().count("player,seed,reason") == 1
-    assert [(r["player"], r["seed"], r["reason"]) for r in _rows(path)] == [("cat", "1", "closed, the tab"), ("dog", "2", "idle")]
+    assert [(r["player"], r["seed"], r["reason"]) for r in _rows(path)] == [
+        ("cat", "1", "closed, the tab"),
+        ("dog", "2", "idle"),
+    ]
 
 
 def test_a_torn_last_line_is_cut_not_glued_to_the_next_row(tmp_path):

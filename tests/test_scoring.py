@@ -1,5 +1,6 @@
 """Scoring rules a published score depends on: seed ranges, the pass mark, the summary's counts
 and the episode plan both backends play. Each test says what it guards."""
+
 from __future__ import annotations
 
 import csv
@@ -20,13 +21,24 @@ def test_training_and_reserved_seeds_meet_without_overlap():
     assert RESERVED_SEEDS.start == last_train + 1 == TRAIN_SEEDS.stop
     assert all(seed_range(s) is RESERVED_SEEDS for s in reserved_seeds(3, 1, 20))
     import numpy as np
+
     rng = np.random.default_rng(0)
     assert all(seed_range(training_seed(rng)) is TRAIN_SEEDS for _ in range(200))
 
 
-@pytest.mark.parametrize("ratio, expected", [(0.799, "failed"), (0.7999999, "failed"), (0.8, "passed"),
-                                             (0.999, "passed"), (1.0, "succeeded"), (1.5, "succeeded"),
-                                             (0.7, "failed"), (-0.5, "failed")])
+@pytest.mark.parametrize(
+    "ratio, expected",
+    [
+        (0.799, "failed"),
+        (0.7999999, "failed"),
+        (0.8, "passed"),
+        (0.999, "passed"),
+        (1.0, "succeeded"),
+        (1.5, "succeeded"),
+        (0.7, "failed"),
+        (-0.5, "failed"),
+    ],
+)
 def test_pass_mark_is_eight_tenths(ratio, expected):
     """Guards the pass mark (0.8, as in Animal-AI): 0.799 fails, 0.8 passes, 1.0 succeeds.
     Moving the mark to 0.7 turns the 0.7 and 0.799 cases red."""
@@ -34,15 +46,24 @@ def test_pass_mark_is_eight_tenths(ratio, expected):
 
 
 def _row(level, outcome_, ratio, ret=0.0):
-    return {"level": str(level), "level_name": {0: "food_only", 3: "avoidance"}.get(level, "food_only"),
-            "outcome": outcome_, "ratio": str(ratio), "return": str(ret)}
+    return {
+        "level": str(level),
+        "level_name": {0: "food_only", 3: "avoidance"}.get(level, "food_only"),
+        "outcome": outcome_,
+        "ratio": str(ratio),
+        "return": str(ret),
+    }
 
 
 def test_summary_counts_passed_and_succeeded_as_passing():
     """Guards the summary's "passed or better": succeeded and passed both count, failed does not
     (counting only "passed" gives 25% here, not 50%)."""
-    rows = [_row(0, "succeeded", 1.0, 1.0), _row(0, "passed", 0.85, 0.8),
-            _row(0, "failed", 0.1, 0.0), _row(0, "failed", 0.2, 0.1)]
+    rows = [
+        _row(0, "succeeded", 1.0, 1.0),
+        _row(0, "passed", 0.85, 0.8),
+        _row(0, "failed", 0.1, 0.0),
+        _row(0, "failed", 0.2, 0.1),
+    ]
     overall = summarise(rows)[-1]
     assert overall["level"] == "overall" and overall["episodes"] == 4
     assert overall["passed_pct"] == 50.0

@@ -1,4 +1,5 @@
 """Random actions in every level at every difficulty: the physics settings keep the body whole."""
+
 import numpy as np
 import pybullet as p
 import pytest
@@ -25,12 +26,16 @@ def test_random_actions_never_blow_up_leave_the_arena_or_sink(level):
             if info["fell"] or terminated or truncated:
                 break
             positions = [env.body.head_pose()[0]] + [
-                np.array(state[0]) for state in
-                p.getLinkStates(env.body.id, env.body.links[1:], physicsClientId=env.client)]
+                np.array(state[0])
+                for state in p.getLinkStates(env.body.id, env.body.links[1:], physicsClientId=env.client)
+            ]
             for position in positions:
                 assert np.all(np.isfinite(position))
-                assert abs(position[0]) < half_x and abs(position[1]) < half_y, f"left the arena: L{level} d{difficulty}"
+                assert abs(position[0]) < half_x and abs(position[1]) < half_y, (
+                    f"left the arena: L{level} d{difficulty}"
+                )
                 over_hole = spec.holes and position[2] < floor
-                assert over_hole or position[2] > floor + SEGMENT_RADIUS * 0.5, \
+                assert over_hole or position[2] > floor + SEGMENT_RADIUS * 0.5, (
                     f"a part sank into the floor: L{level} d{difficulty} z={position[2]:.2f}"
+                )
     env.close()

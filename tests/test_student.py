@@ -1,4 +1,5 @@
 """The student of the reference (DAgger) and demonstrations as a Minari dataset."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -15,19 +16,28 @@ from aaai.env import AnimalAIEnv  # noqa: E402
 from aaai.reference import ReferenceController  # noqa: E402
 from aaai.runs import RunFolder  # noqa: E402
 from aaai.seeds import TRAIN_SEEDS  # noqa: E402
-from aaai.student import plan_episodes, play_job, Job, train_student  # noqa: E402
+from aaai.student import Job, plan_episodes, play_job, train_student  # noqa: E402
 from aaai_cli.main import cli  # noqa: E402
 
-TINY = {"agent": {"action_mode": "gait"}, "curriculum": {"levels": "0", "difficulties": "0-1"},
-        "train": {"teacher": "reference", "num_envs": 1, "net_width": 32, "dagger_iterations": 2,
-                  "dagger_episodes": 4, "dagger_epochs": 3}}
+TINY = {
+    "agent": {"action_mode": "gait"},
+    "curriculum": {"levels": "0", "difficulties": "0-1"},
+    "train": {
+        "teacher": "reference",
+        "num_envs": 1,
+        "net_width": 32,
+        "dagger_iterations": 2,
+        "dagger_episodes": 4,
+        "dagger_epochs": 3,
+    },
+}
 
 
 def test_the_plan_spreads_episodes_over_every_cell_before_repeating_any_on_training_seeds():
     cells = [(level, d) for level in (0, 1, 2) for d in (0, 5)]
     plan = plan_episodes(cells, 14, np.random.default_rng(0))
-    assert sorted((l, d) for l, d, _ in plan[:6]) == sorted(cells)  # every cell once ...
-    assert sorted((l, d) for l, d, _ in plan[6:12]) == sorted(cells)  # ... before any a third time
+    assert sorted((lv, d) for lv, d, _ in plan[:6]) == sorted(cells)  # every cell once ...
+    assert sorted((lv, d) for lv, d, _ in plan[6:12]) == sorted(cells)  # ... before any a third time
     assert all(TRAIN_SEEDS.start <= seed < TRAIN_SEEDS.stop for *_, seed in plan)
     assert plan == plan_episodes(cells, 14, np.random.default_rng(0))
 
@@ -67,8 +77,9 @@ def test_a_student_run_is_an_ordinary_run_that_eval_scores_and_resume_continues(
     assert config["agent"]["action_mode"] == "gait" and config["sensors"]["foot_contacts"]
 
     out = tmp_path / "scores.csv"
-    scored = CliRunner().invoke(cli, ["eval", "--policy", str(run), "--levels", "0", "--difficulty", "0",
-                                      "-k", "2", "--out", str(out)])
+    scored = CliRunner().invoke(
+        cli, ["eval", "--policy", str(run), "--levels", "0", "--difficulty", "0", "-k", "2", "--out", str(out)]
+    )
     assert scored.exit_code == 0, scored.output
     assert len(out.read_text().splitlines()) == 3
 
@@ -91,13 +102,32 @@ def test_a_student_can_be_fine_tuned_by_ppo_from_its_weights(tmp_path):
     run = tmp_path / "student"
     train_student(run, load_config(TINY, dagger_iterations=1), say=lambda message: None)
     tuned = tmp_path / "tuned"
-    result = CliRunner().invoke(cli, ["train", "--init-from", str(run), "--action-mode", "gait", "--levels", "0",
-                                      "--difficulty", "0", "--steps", "64", "--envs", "1", "--run", str(tuned),
-                                      "--config", str(_write(tmp_path, {"train": {"net_width": 32, "n_steps": 64,
-                                                                                  "batch_size": 32, "n_epochs": 1}}))])
+    result = CliRunner().invoke(
+        cli,
+        [
+            "train",
+            "--init-from",
+            str(run),
+            "--action-mode",
+            "gait",
+            "--levels",
+            "0",
+            "--difficulty",
+            "0",
+            "--steps",
+            "64",
+            "--envs",
+            "1",
+            "--run",
+            str(tuned),
+            "--config",
+            str(_write(tmp_path, {"train": {"net_width": 32, "n_steps": 64, "batch_size": 32, "n_epochs": 1}})),
+        ],
+    )
     assert result.exit_code == 0, result.output
-    refused = CliRunner().invoke(cli, ["train", "--init-from", str(run), "--levels", "0", "--steps", "64",
-                                       "--run", str(tmp_path / "joints")])
+    refused = CliRunner().invoke(
+        cli, ["train", "--init-from", str(run), "--levels", "0", "--steps", "64", "--run", str(tmp_path / "joints")]
+    )
     assert refused.exit_code != 0 and "agent.action_mode: 'gait' there, 'rotation' here" in refused.output
     assert not (tmp_path / "joints").exists()  # refused before the run folder is made
 
@@ -118,8 +148,24 @@ def test_demos_are_a_minari_dataset_that_loads_and_replays_bit_for_bit(tmp_path)
     from aaai.demos import datasets_path, replay
 
     out = tmp_path / "demos"
-    result = CliRunner().invoke(cli, ["demos", "--policy", "reference", "--levels", "0,1", "--difficulty", "0",
-                                      "-k", "1", "--action-mode", "gait", "--out", str(out)])
+    result = CliRunner().invoke(
+        cli,
+        [
+            "demos",
+            "--policy",
+            "reference",
+            "--levels",
+            "0,1",
+            "--difficulty",
+            "0",
+            "-k",
+            "1",
+            "--action-mode",
+            "gait",
+            "--out",
+            str(out),
+        ],
+    )
     assert result.exit_code == 0, result.output
     with datasets_path(out):
         dataset = minari.load_dataset("aaai/reference-v0")
@@ -135,8 +181,24 @@ def test_demos_are_a_minari_dataset_that_loads_and_replays_bit_for_bit(tmp_path)
             for key, value in observations.items():
                 assert np.array_equal(value, episode.observations[key]), key
     # Re-running the same command adds nothing; the dataset is whole.
-    again = CliRunner().invoke(cli, ["demos", "--policy", "reference", "--levels", "0,1", "--difficulty", "0",
-                                     "-k", "1", "--action-mode", "gait", "--out", str(out)])
+    again = CliRunner().invoke(
+        cli,
+        [
+            "demos",
+            "--policy",
+            "reference",
+            "--levels",
+            "0,1",
+            "--difficulty",
+            "0",
+            "-k",
+            "1",
+            "--action-mode",
+            "gait",
+            "--out",
+            str(out),
+        ],
+    )
     assert again.exit_code == 0, again.output
     with datasets_path(out):
         assert minari.load_dataset("aaai/reference-v0").total_episodes == 2
@@ -146,9 +208,24 @@ def test_diagnose_replays_each_failed_episode_into_one_first_cause(tmp_path):
     from aaai.diagnose import CAUSES, diagnose, food_in_view
 
     out = tmp_path / "random.csv"
-    scored = CliRunner().invoke(cli, ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0",
-                                      "--seeds", "1,2", "--out", str(out),
-                                      "--config", _write(tmp_path, {"episode": {"max_steps": 200}})])
+    scored = CliRunner().invoke(
+        cli,
+        [
+            "eval",
+            "--policy",
+            "random",
+            "--levels",
+            "0",
+            "--difficulty",
+            "0",
+            "--seeds",
+            "1,2",
+            "--out",
+            str(out),
+            "--config",
+            _write(tmp_path, {"episode": {"max_steps": 200}}),
+        ],
+    )
     assert scored.exit_code == 0, scored.output
     failures = diagnose("random", out, load_config(max_steps=200), [0])
     assert [(f.level, f.seed) for f in failures] == [(0, 1), (0, 2)]  # random actions fail both
@@ -179,16 +256,32 @@ def test_the_committed_student_fails_l8_for_want_of_object_permanence(tmp_path):
         assert 0.0 < failure.seen_share < 0.01  # in view for a moment at the start, then never again
     finally:
         env.close()
-    reference = CliRunner().invoke(cli, ["eval", "--policy", "reference", "--levels", "8", "--difficulty", "0",
-                                         "--seeds", "1429051819", "--action-mode", "gait", "--out",
-                                         str(tmp_path / "reference.csv")])
+    reference = CliRunner().invoke(
+        cli,
+        [
+            "eval",
+            "--policy",
+            "reference",
+            "--levels",
+            "8",
+            "--difficulty",
+            "0",
+            "--seeds",
+            "1429051819",
+            "--action-mode",
+            "gait",
+            "--out",
+            str(tmp_path / "reference.csv"),
+        ],
+    )
     assert reference.exit_code == 0 and "| 100% |" in reference.output, reference.output
 
 
 def test_a_student_learns_in_rotation_mode_too(tmp_path):
     """In the joint modes the labels are the reference's joint targets (its gait's output)."""
-    config = load_config(TINY, action_mode="rotation", dagger_iterations=1, dagger_episodes=1, levels="0",
-                         difficulties="0")
+    config = load_config(
+        TINY, action_mode="rotation", dagger_iterations=1, dagger_episodes=1, levels="0", difficulties="0"
+    )
     gathered = play_job(Job(config, None, 32, 1.0, 0, ((0, 0, 3),)))
     assert gathered["labels"].shape[1] == 8 and gathered["episodes"][0].food_eaten == 1
     result = train_student(tmp_path / "joints", config, say=lambda message: None)
@@ -198,6 +291,7 @@ def test_a_student_learns_in_rotation_mode_too(tmp_path):
 def test_a_teacher_does_not_take_the_students_standing_still_for_its_own_lack_of_progress():
     """While the student drives, the reference's stuck clock is held: a student that stands still
     for 6 s does not make the teacher label "back off" (it would after 3 s of its own)."""
+
     def labels(held: bool) -> list:
         env = AnimalAIEnv(level=4, difficulty=3, action_mode="gait")
         teacher = ReferenceController(env)

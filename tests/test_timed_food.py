@@ -1,16 +1,17 @@
 """Food that ripens, decays, grows or shrinks (aaai.kinds.TimedFood): its reward is its value at the
 time it is eaten, and ripening and decaying food leave the episode running, growing and shrinking
 food end it."""
+
 import math
 
 import numpy as np
 import pytest
+from conftest import open_arena, sphere
 
 from aaai import validate
 from aaai.arena import ArenaProblems, load_arena
 from aaai.kinds import REGISTRY
 from aaai.spec import ObjectSpec
-from conftest import open_arena, sphere
 
 STILL = np.zeros(8, np.float32)
 TIMED = ("ripening_food", "decaying_food", "growing_food", "shrinking_food")
@@ -23,8 +24,10 @@ def timing_for(kind: str) -> dict:
 
 def eaten_at(env, kind: str, steps: int):
     """The food starts out of reach and is put against the head for the ``steps``-th step."""
-    spec = open_arena(ObjectSpec(kind, "sphere", (-18.0, 18.0, 1.5), (3.0, 3.0, 3.0), timing=timing_for(kind)),
-                      sphere("food_green", 18.0, -18.0, 3.0))
+    spec = open_arena(
+        ObjectSpec(kind, "sphere", (-18.0, 18.0, 1.5), (3.0, 3.0, 3.0), timing=timing_for(kind)),
+        sphere("food_green", 18.0, -18.0, 3.0),
+    )
     env.reset(seed=0, options={"spec": spec, "check": False})
     body = next(b for b, obj in env.world.food.items() if obj.kind == kind)
     for _ in range(steps - 1):
@@ -52,24 +55,32 @@ def test_timed_food_pays_its_value_at_the_time_it_is_eaten(make_env, kind):
 
 
 def test_a_timed_food_value_moves_in_a_straight_line_between_delay_and_end():
-    obj = ObjectSpec("ripening_food", "sphere", (0, 0, 1.5), (3, 3, 3),
-                     timing={"start": 0.0, "end": 10.0, "delay": 2.0, "duration": 5.0})
+    obj = ObjectSpec(
+        "ripening_food",
+        "sphere",
+        (0, 0, 1.5),
+        (3, 3, 3),
+        timing={"start": 0.0, "end": 10.0, "delay": 2.0, "duration": 5.0},
+    )
     cls = REGISTRY["ripening_food"]
     assert [cls.value_at(obj, t) for t in (0, 2, 3, 4.5, 7, 100)] == [0, 0, 2, 5, 10, 10]
     assert obj.food_value == 10.0  # its best, for the level's best reward
 
 
-@pytest.mark.parametrize("kind,timing,words", [
-    ("ripening_food", None, "timing is None"),
-    ("ripening_food", {"start": 3, "end": 1, "delay": 0, "duration": 1}, "end above start"),
-    ("decaying_food", {"start": 1, "end": 3, "delay": 0, "duration": 1}, "end below start"),
-    ("growing_food", {"start": 1, "end": 3, "delay": -1, "duration": 1}, "delay 0 or more"),
-    ("shrinking_food", {"start": 3, "end": 1, "delay": 0, "duration": 0}, "duration above 0"),
-    ("growing_food", {"start": 1, "end": 3, "delay": 0}, "with start, end, delay, duration"),
-    ("growing_food", {"start": 1, "end": "3", "delay": 0, "duration": 1}, "numbers"),
-    ("growing_food", {"start": 1, "end": 199, "delay": 0, "duration": 1}, "0..100"),
-    ("food_green", {"start": 1, "end": 3, "delay": 0, "duration": 1}, "timing only on ripening_food"),
-])
+@pytest.mark.parametrize(
+    "kind,timing,words",
+    [
+        ("ripening_food", None, "timing is None"),
+        ("ripening_food", {"start": 3, "end": 1, "delay": 0, "duration": 1}, "end above start"),
+        ("decaying_food", {"start": 1, "end": 3, "delay": 0, "duration": 1}, "end below start"),
+        ("growing_food", {"start": 1, "end": 3, "delay": -1, "duration": 1}, "delay 0 or more"),
+        ("shrinking_food", {"start": 3, "end": 1, "delay": 0, "duration": 0}, "duration above 0"),
+        ("growing_food", {"start": 1, "end": 3, "delay": 0}, "with start, end, delay, duration"),
+        ("growing_food", {"start": 1, "end": "3", "delay": 0, "duration": 1}, "numbers"),
+        ("growing_food", {"start": 1, "end": 199, "delay": 0, "duration": 1}, "0..100"),
+        ("food_green", {"start": 1, "end": 3, "delay": 0, "duration": 1}, "timing only on ripening_food"),
+    ],
+)
 def test_bad_timing_is_refused_naming_the_object_the_value_and_what_is_allowed(kind, timing, words):
     spec = open_arena(ObjectSpec(kind, "sphere", (10.0, 0.0, 1.5), (3.0, 3.0, 3.0), timing=timing))
     problems = [p for p in validate.check(spec) if kind in p]
@@ -102,15 +113,18 @@ def test_a_spec_without_timed_food_keeps_its_digest_keys():
 def test_animal_ai_goals_that_ripen_decay_grow_and_shrink_are_imported_with_their_timing(tmp_path):
     from pathlib import Path
 
-    from aaai.animalai import DEFAULT_SCALE as S, SECONDS_PER_STEP, import_animalai
+    from aaai.animalai import DEFAULT_SCALE as S
+    from aaai.animalai import SECONDS_PER_STEP, import_animalai
 
     fixtures = Path(__file__).with_name("fixtures") / "animalai_timed"
     lines = []
     import_animalai(fixtures, tmp_path, S, echo=lines.append)
     printed = "\n".join(lines)
     assert sorted(p.name for p in tmp_path.glob("*.yaml")) == ["timed_goals_a0.yaml"]
-    assert ("arena 1, item 1 (RipenGoal): cannot be mapped (initialValues 3, finalValues 1; allowed: 0..5 with the "
-            "final value above the initial)") in printed
+    assert (
+        "arena 1, item 1 (RipenGoal): cannot be mapped (initialValues 3, finalValues 1; allowed: 0..5 with the "
+        "final value above the initial)"
+    ) in printed
     assert "arena 2, item 1 (ShrinkGoal): cannot be mapped (initialValues None, finalValues 1" in printed
     spec = load_arena(tmp_path / "timed_goals_a0.yaml", 0)
     by_kind = {obj.kind: obj for obj in spec.objects}
@@ -123,7 +137,9 @@ def test_animal_ai_goals_that_ripen_decay_grow_and_shrink_are_imported_with_thei
     assert decay.size == (4 * S,) * 3
     grow, shrink = by_kind["growing_food"], by_kind["shrinking_food"]
     assert grow.timing == pytest.approx({"start": S, "end": 3.5 * S, "delay": 0.0, "duration": 250 * frame})
-    assert shrink.timing == pytest.approx({"start": 2.5 * S, "end": 1.5 * S, "delay": 40 * frame, "duration": 5 * frame})
+    assert shrink.timing == pytest.approx(
+        {"start": 2.5 * S, "end": 1.5 * S, "delay": 40 * frame, "duration": 5 * frame}
+    )
     # the best reward: the better of the two ending foods, plus both that leave the episode running
     assert spec.max_food_reward == pytest.approx(3.5 * S + 3 * S + 4 * S)
 
@@ -154,10 +170,12 @@ def test_the_reference_eats_the_timed_food_of_its_animal_ai_style_arena_and_pass
 
 
 def test_the_solvability_check_requires_timed_food_to_be_reachable():
-    ring = [ObjectSpec("wall", "box", (15.0, 0.0, 2.0), (1.0, 12.0, 4.0)),
-            ObjectSpec("wall", "box", (5.0, 0.0, 2.0), (1.0, 12.0, 4.0)),
-            ObjectSpec("wall", "box", (10.0, 5.5, 2.0), (11.0, 1.0, 4.0)),
-            ObjectSpec("wall", "box", (10.0, -5.5, 2.0), (11.0, 1.0, 4.0))]
+    ring = [
+        ObjectSpec("wall", "box", (15.0, 0.0, 2.0), (1.0, 12.0, 4.0)),
+        ObjectSpec("wall", "box", (5.0, 0.0, 2.0), (1.0, 12.0, 4.0)),
+        ObjectSpec("wall", "box", (10.0, 5.5, 2.0), (11.0, 1.0, 4.0)),
+        ObjectSpec("wall", "box", (10.0, -5.5, 2.0), (11.0, 1.0, 4.0)),
+    ]
     food = ObjectSpec("growing_food", "sphere", (10.0, 0.0, 1.5), (3.0, 3.0, 3.0), timing=timing_for("growing_food"))
     assert validate.check(open_arena(food, agent=(-15.0, 0.0, 0.0))) == []
     problems = validate.check(open_arena(*ring, food, agent=(-15.0, 0.0, 0.0)))

@@ -1,4 +1,5 @@
 """`aaai train` and `aaai eval` as a user runs them: the CLI in subprocesses."""
+
 import csv
 import json
 import os
@@ -25,9 +26,20 @@ def aaai(*args, check=True):
 
 
 def small_config(tmp_path, **train):
-    config = {"episode": {"max_steps": 100}, "curriculum": {"levels": "0-1", "difficulties": "0-1"},
-              "train": {"num_envs": 2, "checkpoint_every": 400, "heatmap_every": 200, "n_steps": 64, "batch_size": 64,
-                        "n_epochs": 2, "net_width": 32, **train}}
+    config = {
+        "episode": {"max_steps": 100},
+        "curriculum": {"levels": "0-1", "difficulties": "0-1"},
+        "train": {
+            "num_envs": 2,
+            "checkpoint_every": 400,
+            "heatmap_every": 200,
+            "n_steps": 64,
+            "batch_size": 64,
+            "n_epochs": 2,
+            "net_width": 32,
+            **train,
+        },
+    }
     path = tmp_path / "small.yaml"
     path.write_text(yaml.safe_dump(config))
     return path
@@ -78,14 +90,30 @@ cli(sys.argv[1:], prog_name="aaai")
 def test_resume_after_a_kill_continues_curriculum_and_step_count(tmp_path):
     run = tmp_path / "run"
     with open(tmp_path / "stderr.txt", "w") as stderr:  # a file: orphaned workers may hold a pipe open
-        process = subprocess.Popen([sys.executable, "-c", KILLED_TRAIN, "train", "--agent", "random",
-                                    "--steps", "10000000", "--config", str(small_config(tmp_path)), "--run", str(run)],
-                                   stdout=subprocess.DEVNULL, stderr=stderr)
+        process = subprocess.Popen(
+            [
+                sys.executable,
+                "-c",
+                KILLED_TRAIN,
+                "train",
+                "--agent",
+                "random",
+                "--steps",
+                "10000000",
+                "--config",
+                str(small_config(tmp_path)),
+                "--run",
+                str(run),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=stderr,
+        )
         process.wait(timeout=600)  # only a guard against a hang; it dies at step KILL_AT
     assert process.returncode == -signal.SIGKILL, (tmp_path / "stderr.txt").read_text()
     assert not (run / "final").exists()  # killed: the run never finished
     assert [p.name for p in sorted((run / "checkpoints").glob("step_*"))] == [
-        f"step_{s:012d}" for s in (400, 800, 1200)]  # checkpoint_every 400, killed at 1400
+        f"step_{s:012d}" for s in (400, 800, 1200)
+    ]  # checkpoint_every 400, killed at 1400
     with open(run / "episodes.csv") as handle:
         assert max(int(row["step"]) for row in csv.DictReader(handle)) > 1200  # logged after the last checkpoint
     checkpoints = sorted((run / "checkpoints").iterdir())
@@ -104,8 +132,21 @@ def test_resume_after_a_kill_continues_curriculum_and_step_count(tmp_path):
 
 def test_eval_scoreboard_schema_determinism_and_skipping(tmp_path):
     out = tmp_path / "board.csv"
-    args = ["eval", "--seeds", "reserved", "--policy", "random", "--levels", "0-1", "--difficulty", "0",
-            "-k", 2, "--config", small_config(tmp_path)]
+    args = [
+        "eval",
+        "--seeds",
+        "reserved",
+        "--policy",
+        "random",
+        "--levels",
+        "0-1",
+        "--difficulty",
+        "0",
+        "-k",
+        2,
+        "--config",
+        small_config(tmp_path),
+    ]
     result = aaai(*args, "--out", out)
     assert "| overall | 4 |" in result.stdout
     with open(out) as handle:
@@ -189,8 +230,9 @@ def test_a_secret_seed_key_gives_a_hidden_reproducible_list_and_is_recorded_not_
     key_file = tmp_path / "key.txt"
     key_file.write_text("a secret only the organisers hold\n")
     public = CliRunner().invoke(cli, ["seeds", "--levels", "0", "--difficulty", "0", "-k", "3"])
-    hidden = CliRunner().invoke(cli, ["seeds", "--levels", "0", "--difficulty", "0", "-k", "3",
-                                      "--seed-key-file", str(key_file)])
+    hidden = CliRunner().invoke(
+        cli, ["seeds", "--levels", "0", "--difficulty", "0", "-k", "3", "--seed-key-file", str(key_file)]
+    )
     monkeypatch.setenv("AAAI_SEED_KEY", "a secret only the organisers hold")
     from_variable = CliRunner().invoke(cli, ["seeds", "--levels", "0", "--difficulty", "0", "-k", "3"])
     assert public.exit_code == hidden.exit_code == from_variable.exit_code == 0
@@ -199,8 +241,9 @@ def test_a_secret_seed_key_gives_a_hidden_reproducible_list_and_is_recorded_not_
     assert all(seed in RESERVED_SEEDS for seed in seeds) and seeds != reserved_seeds(0, 0, 3)
 
     out = tmp_path / "hidden.csv"
-    scored = CliRunner().invoke(cli, ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0", "-k", "3",
-                                      "--out", str(out)])
+    scored = CliRunner().invoke(
+        cli, ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0", "-k", "3", "--out", str(out)]
+    )
     assert scored.exit_code == 0, scored.output
     with open(out) as handle:
         assert sorted(int(row["seed"]) for row in csv.DictReader(handle)) == sorted(seeds)
@@ -225,7 +268,9 @@ def test_a_scoreboard_refuses_episodes_of_another_policy(tmp_path):
 @pytest.mark.parametrize("extra", [["--levels", "5-7"], ["--camera"], ["--random"], ["--envs", "4"]])
 def test_resume_refuses_options_it_cannot_honour(tmp_path, extra):
     run = tmp_path / "run"
-    started = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "100", "--envs", "1", "--run", str(run)])
+    started = CliRunner().invoke(
+        cli, ["train", "--agent", "random", "--steps", "100", "--envs", "1", "--run", str(run)]
+    )
     assert started.exit_code == 0, started.output
     before = (run / "config.yaml").read_text()
     resumed = CliRunner().invoke(cli, ["train", "--resume", str(run), "--steps", "200", *extra])
@@ -236,17 +281,34 @@ def test_resume_refuses_options_it_cannot_honour(tmp_path, extra):
 def test_outputs_that_cannot_be_written_are_refused_before_any_work(tmp_path, monkeypatch):
     folder = tmp_path / "a_folder"
     folder.mkdir()
-    into_folder = CliRunner().invoke(cli, ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0", "-k", "1",
-                                           "--out", str(folder)])
+    into_folder = CliRunner().invoke(
+        cli, ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0", "-k", "1", "--out", str(folder)]
+    )
     assert into_folder.exit_code == 2 and "which is a folder" in into_folder.output
     locked = tmp_path / "locked"
     locked.mkdir()
     # a folder without write permission (as root, which writes anywhere, the permission is denied here)
     real_access = os.access
-    monkeypatch.setattr("aaai.runs.os.access",
-                        lambda path, mode: False if str(path).startswith(str(locked)) else real_access(path, mode))
-    result = CliRunner().invoke(cli, ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0", "-k", "1",
-                                      "--out", str(locked / "board.csv")])
+    monkeypatch.setattr(
+        "aaai.runs.os.access",
+        lambda path, mode: False if str(path).startswith(str(locked)) else real_access(path, mode),
+    )
+    result = CliRunner().invoke(
+        cli,
+        [
+            "eval",
+            "--policy",
+            "random",
+            "--levels",
+            "0",
+            "--difficulty",
+            "0",
+            "-k",
+            "1",
+            "--out",
+            str(locked / "board.csv"),
+        ],
+    )
     assert result.exit_code == 2 and "cannot be written to" in result.output
     run = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "50", "--run", str(locked / "run")])
     assert run.exit_code == 2 and "cannot be written to" in run.output
@@ -254,7 +316,10 @@ def test_outputs_that_cannot_be_written_are_refused_before_any_work(tmp_path, mo
 
 
 # --- progress, TensorBoard, plots, the curricula experiment -----------------------------------
-PROGRESS_LINE = r"training(?: \([^)]*\))?: (\d+) / 3000 steps \(\d+%\), (\d+|-) steps/s, (\d+) episodes, pass rate (-|\d+% of the last \d+), ETA "
+PROGRESS_LINE = (
+    r"training(?: \([^)]*\))?: (\d+) / 3000 steps \(\d+%\), (\d+|-) steps/s, (\d+) episodes, "
+    r"pass rate (-|\d+% of the last \d+), ETA "
+)
 
 
 def test_progress_rate_and_eta_leave_out_the_startup():
@@ -280,8 +345,19 @@ def test_a_non_terminal_train_and_eval_print_progress_lines(tmp_path):
     import re
 
     run = tmp_path / "run"
-    result = aaai("train", "--agent", "random", "--steps", 3000, "--progress-every", 0.1,
-                  "--config", small_config(tmp_path), "--run", run)  # stdout is a pipe
+    result = aaai(
+        "train",
+        "--agent",
+        "random",
+        "--steps",
+        3000,
+        "--progress-every",
+        0.1,
+        "--config",
+        small_config(tmp_path),
+        "--run",
+        run,
+    )  # stdout is a pipe
     lines = [line for line in result.stdout.splitlines() if line.startswith("training")]
     assert len(lines) >= 3, result.stdout
     parsed = [re.match(PROGRESS_LINE, line) for line in lines]
@@ -290,11 +366,29 @@ def test_a_non_terminal_train_and_eval_print_progress_lines(tmp_path):
     assert steps == sorted(steps) and steps[-1] == 3000
     assert int(parsed[-1].group(3)) >= 20 and parsed[-1].group(4) != "-"  # 100-step episodes were counted
     board = tmp_path / "board.csv"
-    scored = aaai("eval", "--policy", "random", "--levels", 0, "--difficulty", "0-1", "-k", 2, "--progress-every", 0.1,
-                  "--config", small_config(tmp_path), "--out", board)
+    scored = aaai(
+        "eval",
+        "--policy",
+        "random",
+        "--levels",
+        0,
+        "--difficulty",
+        "0-1",
+        "-k",
+        2,
+        "--progress-every",
+        0.1,
+        "--config",
+        small_config(tmp_path),
+        "--out",
+        board,
+    )
     last = [line for line in scored.stdout.splitlines() if line.startswith("scoring:")][-1]
-    assert re.match(r"scoring: 4 / 4 episodes \(100%\), .* episodes/s, 400 steps \(\d+ steps/s\), pass rate 0% of "
-                    r"the last 4, ETA", last), last
+    assert re.match(
+        r"scoring: 4 / 4 episodes \(100%\), .* episodes/s, 400 steps \(\d+ steps/s\), pass rate 0% of "
+        r"the last 4, ETA",
+        last,
+    ), last
 
     from aaai.experiments import plot_runs
 
@@ -313,9 +407,21 @@ def test_tensorboard_gets_the_task_return_without_shaping(tmp_path):
     from aaai.config import load_config
     from aaai.training import train
 
-    config = load_config({"episode": {"max_steps": 30}, "curriculum": {"levels": "0", "difficulties": "0-1"},
-                          "train": {"n_steps": 64, "batch_size": 64, "n_epochs": 1, "net_width": 16, "num_envs": 1,
-                                    "total_steps": 128, "reward_shaping": 5.0}})
+    config = load_config(
+        {
+            "episode": {"max_steps": 30},
+            "curriculum": {"levels": "0", "difficulties": "0-1"},
+            "train": {
+                "n_steps": 64,
+                "batch_size": 64,
+                "n_epochs": 1,
+                "net_width": 16,
+                "num_envs": 1,
+                "total_steps": 128,
+                "reward_shaping": 5.0,
+            },
+        }
+    )
     train(tmp_path / "run", config, asynchronous=False)
     with open(tmp_path / "run" / "episodes.csv") as handle:
         episodes = list(csv.DictReader(handle))
@@ -328,7 +434,8 @@ def test_tensorboard_gets_the_task_return_without_shaping(tmp_path):
     assert logged["rollout/ep_rew_mean"][-1] == pytest.approx(sum(shaped) / len(shaped), rel=1e-5)
     assert abs(logged["rollout/task_return_mean"][-1] - logged["rollout/ep_rew_mean"][-1]) > 1e-3  # not the shaped one
     assert logged["rollout/food_eaten_mean"][-1] == pytest.approx(
-        sum(int(e["food_eaten"]) for e in episodes) / len(episodes))
+        sum(int(e["food_eaten"]) for e in episodes) / len(episodes)
+    )
     assert logged["rollout/pass_rate"][-1] == 0.0
     assert {"cells/pass_rate_L0_d0", "cells/pass_rate_L0_d1", "curriculum/p_L0_d0"} <= set(logged)
 
@@ -336,10 +443,35 @@ def test_tensorboard_gets_the_task_return_without_shaping(tmp_path):
 @pytest.mark.parametrize("jobs", [1, pytest.param(2, marks=pytest.mark.long)])
 def test_curricula_experiment_runs_scores_and_resumes(tmp_path, jobs):
     config = tmp_path / "random.yaml"
-    config.write_text(yaml.safe_dump({"episode": {"max_steps": 50}, "train": {"agent": "random", "checkpoint_every": 100,
-                                                                               "heatmap_every": 100}}))
-    args = ["experiment", "curricula", "--samplers", "paper,plr", "--seeds", "0", "--steps", 200, "--levels", 0,
-            "--difficulty", "0-1", "-k", 1, "--envs", 1, "--config", config, "--out", tmp_path / "exp", "--jobs", jobs]
+    config.write_text(
+        yaml.safe_dump(
+            {"episode": {"max_steps": 50}, "train": {"agent": "random", "checkpoint_every": 100, "heatmap_every": 100}}
+        )
+    )
+    args = [
+        "experiment",
+        "curricula",
+        "--samplers",
+        "paper,plr",
+        "--seeds",
+        "0",
+        "--steps",
+        200,
+        "--levels",
+        0,
+        "--difficulty",
+        "0-1",
+        "-k",
+        1,
+        "--envs",
+        1,
+        "--config",
+        config,
+        "--out",
+        tmp_path / "exp",
+        "--jobs",
+        jobs,
+    ]
     first = aaai(*args)
     from aaai.config import RULES
 
@@ -348,7 +480,9 @@ def test_curricula_experiment_runs_scores_and_resumes(tmp_path, jobs):
     with open(folder / "runs.csv") as handle:
         runs = list(csv.DictReader(handle))
     assert [(r["sampler"], r["seed"]) for r in runs] == [("paper", "0"), ("plr", "0")]
-    assert all(r["reserved_episodes"] == "2" and r["trained_episodes"] == "2" and r["cells_played"] == "2" for r in runs)
+    assert all(
+        r["reserved_episodes"] == "2" and r["trained_episodes"] == "2" and r["cells_played"] == "2" for r in runs
+    )
     for sampler in ("paper", "plr"):
         run = folder / f"{sampler}-seed0"
         assert yaml.safe_load((run / "config.yaml").read_text())["curriculum"]["sampler"] == sampler
@@ -366,10 +500,14 @@ def test_curricula_experiment_runs_scores_and_resumes(tmp_path, jobs):
 
 
 def test_train_sampler_option_and_random_alias_reach_the_runs_sampler(tmp_path):
-    for extra, expected in ((["--sampler", "learnability"], "learnability"), (["--random", "--sampler", "plr"], "uniform")):
+    for extra, expected in (
+        (["--sampler", "learnability"], "learnability"),
+        (["--random", "--sampler", "plr"], "uniform"),
+    ):
         run = tmp_path / expected
-        result = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "50", "--envs", "1", "--run", str(run),
-                                          *extra])
+        result = CliRunner().invoke(
+            cli, ["train", "--agent", "random", "--steps", "50", "--envs", "1", "--run", str(run), *extra]
+        )
         assert result.exit_code == 0, result.output
         assert read_state(run / "final")["curriculum"]["sampler"] == expected
     bad = CliRunner().invoke(cli, ["train", "--agent", "random", "--sampler", "best", "--run", str(tmp_path / "x")])

@@ -1,6 +1,7 @@
 """Trust at the boundaries: a model file runs no code as it loads, a model is checked against the
 environment before any episode, scoreboards record what they were scored with and cannot mix, and
 a write that fails names its file and keeps the rows written before it."""
+
 import base64
 import csv
 import errno
@@ -70,8 +71,16 @@ def trained(tmp_path_factory):
     run = RunFolder(folder / "run")
     run.create(config)
     env = AnimalAIEnv(config=config)
-    model = PPO("MultiInputPolicy", env, n_steps=128, batch_size=64, n_epochs=2, seed=0, device="cpu",
-                policy_kwargs={"net_arch": [32, 32], "log_std_init": -1.0})
+    model = PPO(
+        "MultiInputPolicy",
+        env,
+        n_steps=128,
+        batch_size=64,
+        n_epochs=2,
+        seed=0,
+        device="cpu",
+        policy_kwargs={"net_arch": [32, 32], "log_std_init": -1.0},
+    )
     model.learn(256)
     env.close()
     run.save_checkpoint(256, {"curriculum": {}}, save_model=model.save, final=True)
@@ -114,14 +123,24 @@ def test_resume_loads_the_whole_model_without_unpickling(trained):
     env = AnimalAIEnv(config=load_config(SHORT))
     safe = model_io.load_for_training(path, env)
     original = PPO.load(path, env=env, device="cpu")
-    for key in ("n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "ent_coef", "num_timesteps", "seed",
-                "_n_updates"):
+    for key in (
+        "n_steps",
+        "batch_size",
+        "n_epochs",
+        "gamma",
+        "gae_lambda",
+        "ent_coef",
+        "num_timesteps",
+        "seed",
+        "_n_updates",
+    ):
         assert getattr(safe, key) == getattr(original, key), key
     assert safe.clip_range(1.0) == original.clip_range(1.0) and safe.lr_schedule(0.5) == original.lr_schedule(0.5)
     for name, tensor in original.policy.state_dict().items():
         assert np.array_equal(tensor.numpy(), safe.policy.state_dict()[name].numpy()), name
-    assert str(original.policy.optimizer.state_dict()["state"][0]["exp_avg"]) == \
-        str(safe.policy.optimizer.state_dict()["state"][0]["exp_avg"])
+    assert str(original.policy.optimizer.state_dict()["state"][0]["exp_avg"]) == str(
+        safe.policy.optimizer.state_dict()["state"][0]["exp_avg"]
+    )
     env.close()
 
 
@@ -140,8 +159,12 @@ def test_a_model_whose_pickles_would_create_a_file_runs_nothing(trained, tmp_pat
 
     # (b) a policy class that is not one of ours: refused, naming the field and the flag
     def poison_class(data):
-        data["policy_class"] = {":type:": "<class 'type'>", ":serialized:": _pickle_creating(marker),
-                                "__module__": "evil", "__init__": "<function Evil.__init__ at 0x0>"}
+        data["policy_class"] = {
+            ":type:": "<class 'type'>",
+            ":serialized:": _pickle_creating(marker),
+            "__module__": "evil",
+            "__init__": "<function Evil.__init__ at 0x0>",
+        }
 
     evil = _rewrite_data(trained / "final" / "model.zip", tmp_path / "evil.zip", poison_class)
     refused = _eval("--policy", evil, "--config", config, "--out", tmp_path / "b.csv")
@@ -201,8 +224,11 @@ def test_a_model_that_does_not_fit_the_environment_is_refused_before_any_file(tr
     bare.write_bytes(model.read_bytes())
     result = _eval("--policy", bare, "--config", fewer_rays, "--out", out)
     message = " ".join(result.output.split())
-    assert result.exit_code == 2 and "observation 'rays': model Box(0.0, 1.0, (17, 11), float32), environment " \
-        "Box(0.0, 1.0, (9, 11), float32)" in message
+    assert (
+        result.exit_code == 2
+        and "observation 'rays': model Box(0.0, 1.0, (17, 11), float32), environment Box(0.0, 1.0, (9, 11), float32)"
+        in message
+    )
     assert not out.exists() and not record_path(out).exists()
 
 
@@ -303,8 +329,9 @@ def test_show_video_runs_to_the_episode_end_and_says_when_steps_cut_it(tmp_path)
     whole = CliRunner().invoke(cli, ["show", "0", "--config", str(config), "--video", str(tmp_path / "a.mp4")])
     assert whole.exit_code == 0, whole.output
     assert "ended at step 15 (reached max_steps)" in whole.output
-    cut = CliRunner().invoke(cli, ["show", "0", "--config", str(config), "--video", str(tmp_path / "b.mp4"),
-                                   "--steps", "5"])
+    cut = CliRunner().invoke(
+        cli, ["show", "0", "--config", str(config), "--video", str(tmp_path / "b.mp4"), "--steps", "5"]
+    )
     assert cut.exit_code == 0 and "stopped at step 5 by --steps before the episode ended" in cut.output
 
 
@@ -318,12 +345,18 @@ def test_validate_reports_every_problem_of_an_arena_file_each_with_its_line(tmp_
         "- {kind: food_blue, position: [3, 3, 0.5], size: [1, 1, 1]}\n"
         "- {kind: food_green, position: [-5, -5, 0.5], size: [1, 1, 1], mass: -2}\n"
         "time_limit: 0\n"
-        "colour: red\n")
+        "colour: red\n"
+    )
     result = CliRunner().invoke(cli, ["validate", "--arena", str(folder), "--seeds", "1"])
     assert result.exit_code == 1
     failed = [line for line in result.output.splitlines() if line.startswith("FAILED")]
-    for where in ("line 3, objects[0].position[1]", "line 4, objects[1].kind", "line 5, objects[2].mass",
-                  "line 6, time_limit", "line 7, colour"):
+    for where in (
+        "line 3, objects[0].position[1]",
+        "line 4, objects[1].kind",
+        "line 5, objects[2].mass",
+        "line 6, time_limit",
+        "line 7, colour",
+    ):
         assert sum(where in line for line in failed) == 1, (where, failed)
     assert len(failed) == 5
 
@@ -334,8 +367,11 @@ def test_objects_that_overlap_exactly_and_numbers_far_out_are_clear_errors(tmp_p
     food = "{kind: food_green, position: [-10, -10, 0.5], size: [1, 1, 1]}"
     twice = tmp_path / "twice.yaml"
     twice.write_text(f"agent: {{x: 0, y: 0}}\narena_walls: true\nobjects:\n- {food}\n- {food}\n")
-    with pytest.raises(ConfigError, match=r"twice.yaml line 4, objects\[0\] \(food_green\): at \(-10.0, -10.0\) is "
-                                          r"exactly where objects\[1\]"):
+    with pytest.raises(
+        ConfigError,
+        match=r"twice.yaml line 4, objects\[0\] \(food_green\): at \(-10.0, -10.0\) is "
+        r"exactly where objects\[1\]",
+    ):
         load_arena(twice)
     far = tmp_path / "far.yaml"
     far.write_text(f"agent: {{x: 1.0e+308, y: 0}}\narena_walls: true\nobjects:\n- {food}\n")
@@ -382,7 +418,7 @@ def test_a_write_refused_midway_names_the_file_and_a_rerun_resumes(tmp_path, mon
 
 # --- bad inputs in bulk: each a clear error or a valid result, never another exception -------------
 EXTREMES = [float("inf"), float("nan"), 1e308, "1e400", 2**63]
-MORE_EXTREMES = EXTREMES + [-1e308, 10**30, -10**30, float("-inf"), "0x10", 1e-320, "nan", "  7 ", True, None, [], {}]
+MORE_EXTREMES = EXTREMES + [-1e308, 10**30, -(10**30), float("-inf"), "0x10", 1e-320, "nan", "  7 ", True, None, [], {}]
 
 
 def _config_sweep(values) -> int:
@@ -460,17 +496,39 @@ junk = st.one_of(st.none(), st.booleans(), st.text(max_size=6), st.lists(st.inte
 triple = st.one_of(st.lists(number, min_size=3, max_size=3), junk)
 objects = st.fixed_dictionaries(
     {"kind": st.one_of(st.sampled_from(OBJECT_KINDS), junk), "position": triple, "size": triple},
-    optional={"shape": st.one_of(st.sampled_from(["box", "sphere", "cylinder"]), junk), "yaw": number,
-              "mass": number, "colour": junk, "behaviour": st.one_of(junk, st.fixed_dictionaries(
-                  {"type": st.sampled_from(["random_walk", "sink", "slide", "door", "hinge", "other"])})),
-              "junk": junk})
+    optional={
+        "shape": st.one_of(st.sampled_from(["box", "sphere", "cylinder"]), junk),
+        "yaw": number,
+        "mass": number,
+        "colour": junk,
+        "behaviour": st.one_of(
+            junk,
+            st.fixed_dictionaries(
+                {"type": st.sampled_from(["random_walk", "sink", "slide", "door", "hinge", "other"])}
+            ),
+        ),
+        "junk": junk,
+    },
+)
 arenas = st.fixed_dictionaries(
-    {"agent": st.one_of(st.fixed_dictionaries({"x": number, "y": number}, optional={"yaw": number}), junk),
-     "objects": st.one_of(st.lists(objects, max_size=4), junk)},
-    optional={"arena_walls": st.one_of(st.booleans(), junk), "arena_size": st.one_of(st.lists(number, min_size=2,
-              max_size=2), junk), "time_limit": number, "tiles": junk, "holes": junk, "seed": number,
-              "difficulty": number, "category": st.one_of(st.sampled_from(["food_contact", "L3", "nowhere"]), junk),
-              "colours": junk, "extras": junk, "uniform": junk})
+    {
+        "agent": st.one_of(st.fixed_dictionaries({"x": number, "y": number}, optional={"yaw": number}), junk),
+        "objects": st.one_of(st.lists(objects, max_size=4), junk),
+    },
+    optional={
+        "arena_walls": st.one_of(st.booleans(), junk),
+        "arena_size": st.one_of(st.lists(number, min_size=2, max_size=2), junk),
+        "time_limit": number,
+        "tiles": junk,
+        "holes": junk,
+        "seed": number,
+        "difficulty": number,
+        "category": st.one_of(st.sampled_from(["food_contact", "L3", "nowhere"]), junk),
+        "colours": junk,
+        "extras": junk,
+        "uniform": junk,
+    },
+)
 
 
 def _arena_ends_cleanly(tmp_path: Path, data: dict, seed: int) -> None:
@@ -487,8 +545,17 @@ def _arena_ends_cleanly(tmp_path: Path, data: dict, seed: int) -> None:
 @settings(max_examples=FUZZ_FAST, **_fuzz)
 @given(data=arenas, seed=st.integers(0, 3))
 @example(data={"agent": {"x": 1e308, "y": 0}, "objects": [], "arena_walls": True}, seed=0)  # once a traceback
-@example(data={"agent": {"x": 0, "y": 0}, "arena_walls": True, "objects": [  # once accepted: exact overlap
-    {"kind": "food_green", "position": [-9, -9, 0.5], "size": [1, 1, 1]}] * 2}, seed=0)
+@example(
+    data={
+        "agent": {"x": 0, "y": 0},
+        "arena_walls": True,
+        "objects": [  # once accepted: exact overlap
+            {"kind": "food_green", "position": [-9, -9, 0.5], "size": [1, 1, 1]}
+        ]
+        * 2,
+    },
+    seed=0,
+)
 def test_fuzzed_arena_files_end_cleanly(tmp_path_factory, data, seed):
     _arena_ends_cleanly(tmp_path_factory.mktemp("fuzz"), data, seed)
 
@@ -506,9 +573,11 @@ def _config_keys():
     return sorted(_flatten(load_config(None)))
 
 
-configs = st.dictionaries(st.sampled_from(_config_keys() + ["agent.nothing", "nowhere"]),
-                          st.one_of(number, junk, st.sampled_from(["auto", "gait", "std", "0-3", "1e400"])),
-                          max_size=4)
+configs = st.dictionaries(
+    st.sampled_from(_config_keys() + ["agent.nothing", "nowhere"]),
+    st.one_of(number, junk, st.sampled_from(["auto", "gait", "std", "0-3", "1e400"])),
+    max_size=4,
+)
 
 
 def _config_ends_cleanly(flat: dict) -> None:
@@ -535,20 +604,38 @@ def test_fuzzed_configs_end_cleanly_long(flat):
     _config_ends_cleanly(flat)
 
 
-small_text = st.one_of(st.sampled_from(["0", "1", "0-1", "1,0", "12", "13", "-1", "x", "", "0-", "1e3", "99999999999999999999"]),
-                       st.text(alphabet="0123456789-,x ", max_size=6))
+small_text = st.one_of(
+    st.sampled_from(["0", "1", "0-1", "1,0", "12", "13", "-1", "x", "", "0-", "1e3", "99999999999999999999"]),
+    st.text(alphabet="0123456789-,x ", max_size=6),
+)
 OPTIONS = {
     "spec": {"-d": small_text, "-s": small_text, "--json": None, "--yaml": None},
     "seeds": {"--levels": small_text, "--difficulty": small_text, "-k": st.sampled_from(["1", "2", "0", "x"])},
-    "validate": {"--levels": small_text, "--difficulty": small_text, "--seeds": st.sampled_from(["1", "0", "x"]),
-                 "--first-seed": small_text},
-    "run": {"--levels": small_text, "--difficulty": small_text, "--episodes": st.sampled_from(["1", "0", "-3", "x"]),
-            "--seed": small_text, "--policy": st.sampled_from(["random", "reference", "json:nothing", "nothing.zip", "x"]),
-            "--max-steps": st.sampled_from(["10", "0", "-5", "1e9", "x"]), "--camera": None, "--no-rays": None},
-    "eval": {"--levels": small_text, "--difficulty": small_text, "-k": st.sampled_from(["1", "0", "x"]),
-             "--seeds": st.sampled_from(["reserved", "train", "1,2", "x", ""]),
-             "--policy": st.sampled_from(["random", "json:nothing", "nothing.zip", "x", "reference"]),
-             "--backend": st.sampled_from(["local", "cluster"]), "--trust-model": None},
+    "validate": {
+        "--levels": small_text,
+        "--difficulty": small_text,
+        "--seeds": st.sampled_from(["1", "0", "x"]),
+        "--first-seed": small_text,
+    },
+    "run": {
+        "--levels": small_text,
+        "--difficulty": small_text,
+        "--episodes": st.sampled_from(["1", "0", "-3", "x"]),
+        "--seed": small_text,
+        "--policy": st.sampled_from(["random", "reference", "json:nothing", "nothing.zip", "x"]),
+        "--max-steps": st.sampled_from(["10", "0", "-5", "1e9", "x"]),
+        "--camera": None,
+        "--no-rays": None,
+    },
+    "eval": {
+        "--levels": small_text,
+        "--difficulty": small_text,
+        "-k": st.sampled_from(["1", "0", "x"]),
+        "--seeds": st.sampled_from(["reserved", "train", "1,2", "x", ""]),
+        "--policy": st.sampled_from(["random", "json:nothing", "nothing.zip", "x", "reference"]),
+        "--backend": st.sampled_from(["local", "cluster"]),
+        "--trust-model": None,
+    },
 }
 
 
@@ -558,8 +645,13 @@ def command_lines(draw):
     args = [command]
     if command == "spec":
         args.append(draw(small_text))
-    for option, values in draw(st.lists(st.sampled_from(sorted(OPTIONS.get(command, {"--x": None}).items())),
-                                        max_size=4, unique_by=lambda item: item[0])):
+    for option, values in draw(
+        st.lists(
+            st.sampled_from(sorted(OPTIONS.get(command, {"--x": None}).items())),
+            max_size=4,
+            unique_by=lambda item: item[0],
+        )
+    ):
         args += [option] if values is None else [option, draw(values)]
     if draw(st.booleans()):
         args.append(draw(st.sampled_from(["--nothing", "extra", "--levels"])))
@@ -611,8 +703,22 @@ def test_an_eval_killed_at_a_random_moment_resumes_to_the_uninterrupted_scoreboa
     import time
 
     config = _yaml(tmp_path, "short.yaml", {"episode": {"max_steps": 40}})
-    command = [sys.executable, "-m", "aaai_cli.main", "eval", "--policy", "reference", "--levels", "0-1",
-               "--difficulty", "0-1", "-k", "2", "--config", str(config)]
+    command = [
+        sys.executable,
+        "-m",
+        "aaai_cli.main",
+        "eval",
+        "--policy",
+        "reference",
+        "--levels",
+        "0-1",
+        "--difficulty",
+        "0-1",
+        "-k",
+        "2",
+        "--config",
+        str(config),
+    ]
     whole = tmp_path / "whole.csv"
     subprocess.run(command + ["--out", str(whole)], check=True, capture_output=True)
     rng = random.Random(seed)
@@ -652,8 +758,9 @@ def soak(steps: int, seed: int = 0, warm_up_episodes: int = 100) -> dict:
     from aaai.levels import level_ids
 
     rng = np.random.default_rng(seed)
-    env = AnimalAIEnv(config=load_config({"sensors": {"camera": True, "camera_resolution": 32},
-                                          "episode": {"max_steps": 500}}))
+    env = AnimalAIEnv(
+        config=load_config({"sensors": {"camera": True, "camera_resolution": 32}, "episode": {"max_steps": 500}})
+    )
     env.action_space.seed(seed)
     levels, episodes, warm = level_ids(), 0, None
     env.reset(seed=0, options={"level": 0, "difficulty": 0})
@@ -663,12 +770,20 @@ def soak(steps: int, seed: int = 0, warm_up_episodes: int = 100) -> dict:
             episodes += 1
             if episodes == warm_up_episodes:
                 warm = _rss_mb()
-            env.reset(seed=int(rng.integers(10**6)), options={"level": int(rng.choice(levels)),
-                                                              "difficulty": int(rng.integers(0, 11))})
+            env.reset(
+                seed=int(rng.integers(10**6)),
+                options={"level": int(rng.choice(levels)), "difficulty": int(rng.integers(0, 11))},
+            )
     end, connections = _rss_mb(), _pybullet_connections()
     env.close()
-    return {"steps": steps, "episodes": episodes, "rss_after_warm_up_mb": warm, "rss_end_mb": end,
-            "connections": connections, "connections_after_close": _pybullet_connections()}
+    return {
+        "steps": steps,
+        "episodes": episodes,
+        "rss_after_warm_up_mb": warm,
+        "rss_end_mb": end,
+        "connections": connections,
+        "connections_after_close": _pybullet_connections(),
+    }
 
 
 @pytest.mark.long
@@ -720,8 +835,24 @@ def test_a_real_full_disk_keeps_the_rows_and_a_rerun_after_freeing_space_complet
             handle.truncate(max(0, filler.stat().st_size - 2 * 4096))
         config = _yaml(tmp_path, "short.yaml", {"episode": {"max_steps": 10}})
         out = disk / "board.csv"
-        command = [sys.executable, "-m", "aaai_cli.main", "eval", "--policy", "random", "--levels", "0",
-                   "--difficulty", "0-1", "-k", "60", "--config", str(config), "--out", str(out)]
+        command = [
+            sys.executable,
+            "-m",
+            "aaai_cli.main",
+            "eval",
+            "--policy",
+            "random",
+            "--levels",
+            "0",
+            "--difficulty",
+            "0-1",
+            "-k",
+            "60",
+            "--config",
+            str(config),
+            "--out",
+            str(out),
+        ]
         full = subprocess.run(command, capture_output=True, text=True)
         message = " ".join((full.stdout + full.stderr).split())
         assert full.returncode != 0 and "Traceback" not in message, message
@@ -733,7 +864,7 @@ def test_a_real_full_disk_keeps_the_rows_and_a_rerun_after_freeing_space_complet
         subprocess.run(command, check=True, capture_output=True)
         with open(out) as handle:
             rows = list(csv.DictReader(handle))
-        assert len(rows) == 120 and rows[:len(kept) - 1] == kept[:-1]  # (the last kept may have been torn)
+        assert len(rows) == 120 and rows[: len(kept) - 1] == kept[:-1]  # (the last kept may have been torn)
     finally:
         subprocess.run(["umount", str(disk)], capture_output=True)
 

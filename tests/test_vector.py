@@ -1,4 +1,5 @@
 """The training workers (aaai.vector): what a finished episode reports, and what the curriculum counts."""
+
 import numpy as np
 import pytest
 
@@ -89,8 +90,19 @@ def test_ppo_learns_the_same_weights_in_process_and_in_worker_processes(tmp_path
     pytest.importorskip("stable_baselines3", reason="needs the train extra")
     from aaai.training import train
 
-    config = load_config(levels="0-1", difficulties="0-1", max_steps=60, total_steps=384, num_envs=2, n_steps=64,
-                         batch_size=64, n_epochs=2, net_width=16, checkpoint_every=10**6, heatmap_every=10**6)
+    config = load_config(
+        levels="0-1",
+        difficulties="0-1",
+        max_steps=60,
+        total_steps=384,
+        num_envs=2,
+        n_steps=64,
+        batch_size=64,
+        n_epochs=2,
+        net_width=16,
+        checkpoint_every=10**6,
+        heatmap_every=10**6,
+    )
     runs = {}
     for name, asynchronous in (("sync", False), ("async", True)):
         runs[name] = tmp_path / name

@@ -1,4 +1,5 @@
 """The level viewer: top-down pictures from a spec or a running world, and `aaai show`."""
+
 import math
 from dataclasses import replace
 
@@ -7,16 +8,24 @@ import numpy as np
 import pybullet as p
 import pytest
 from click.testing import CliRunner
+from conftest import open_arena, sphere
 
 from aaai.kinds import COLOURS
 from aaai.levels import generate
 from aaai.levels.common import arena_walls
 from aaai.spec import AgentPose, LevelSpec, ObjectSpec
-from aaai.viewer import (HEAD_COLOUR, HEADING_COLOUR, LEG_COLOUR, compose, draw_snapshot, draw_top_down, draw_world,
-                         mapping_for, rgb)
+from aaai.viewer import (
+    HEAD_COLOUR,
+    HEADING_COLOUR,
+    LEG_COLOUR,
+    compose,
+    draw_snapshot,
+    draw_top_down,
+    draw_world,
+    mapping_for,
+    rgb,
+)
 from aaai_cli.main import cli
-
-from conftest import open_arena, sphere
 
 
 def colour_at(image, mapping, x, y):
@@ -89,8 +98,15 @@ def test_shapes_other_arenas_and_heightfield():
         ObjectSpec("pillar", "cylinder", (30.0, 10.0, 3.0), (4.0, 4.0, 6.0)),
         ObjectSpec("wall", "box", (-20.0, 0.0, 2.0), (2.0, 12.0, 4.0), yaw=math.pi / 2),
     )
-    spec = LevelSpec(level=8, name="wide", difficulty=0, seed=0, agent=AgentPose(-30.0, -10.0, 0.0),
-                     objects=objects, arena_size=(90.0, 45.0))
+    spec = LevelSpec(
+        level=8,
+        name="wide",
+        difficulty=0,
+        seed=0,
+        agent=AgentPose(-30.0, -10.0, 0.0),
+        objects=objects,
+        arena_size=(90.0, 45.0),
+    )
     image = draw_top_down(spec, size_px=600)
     m = mapping_for(spec, 600)
     assert image.shape == (m.height, m.width, 3) and m.width == 600 and m.width > m.height
@@ -108,8 +124,13 @@ def test_shapes_other_arenas_and_heightfield():
 
 
 def test_door_not_yet_standing_is_only_outlined():
-    door = ObjectSpec("wall", "box", (0.0, 10.0, 2.0), (10.0, 2.0, 4.0),
-                      behaviour={"type": "door", "direction": [0.0, 1.0], "distance": 5.0})
+    door = ObjectSpec(
+        "wall",
+        "box",
+        (0.0, 10.0, 2.0),
+        (10.0, 2.0, 4.0),
+        behaviour={"type": "door", "direction": [0.0, 1.0], "distance": 5.0},
+    )
     spec = open_arena(door, agent=(0.0, -15.0, 0.0))
     m = mapping_for(spec)
     assert colour_at(draw_top_down(spec), m, 0.0, 10.0) == rgb(COLOURS["floor"])
@@ -161,15 +182,18 @@ def test_reference_video_records_the_episode_to_its_end(tmp_path):
     assert 0 < count_frames(out) < 1000
 
 
-@pytest.mark.parametrize("args, words", [
-    (["L0", "--video", "x.mp4", "--policy", "nobody"], ["'nobody'", "reference", "random"]),
-    (["L0", "-o", "x.jpg"], ["'x.jpg'", ".png"]),
-    (["L0", "--video", "x.gif"], ["'x.gif'", ".mp4 or .avi", "GIF"]),
-    (["L0", "--video", "x.mov"], ["'x.mov'", ".mp4 or .avi"]),
-    (["L99"], ["'L99'", "does not exist", "allowed"]),
-    (["L0", "-d", "11"], ["difficulty: got 11", "0 to 10"]),
-    (["L0", "-o", "no/such/folder/x.png"], ["does not exist"]),
-])
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["L0", "--video", "x.mp4", "--policy", "nobody"], ["'nobody'", "reference", "random"]),
+        (["L0", "-o", "x.jpg"], ["'x.jpg'", ".png"]),
+        (["L0", "--video", "x.gif"], ["'x.gif'", ".mp4 or .avi", "GIF"]),
+        (["L0", "--video", "x.mov"], ["'x.mov'", ".mp4 or .avi"]),
+        (["L99"], ["'L99'", "does not exist", "allowed"]),
+        (["L0", "-d", "11"], ["difficulty: got 11", "0 to 10"]),
+        (["L0", "-o", "no/such/folder/x.png"], ["does not exist"]),
+    ],
+)
 def test_bad_input_fails_with_one_clear_message(tmp_path, monkeypatch, args, words):
     monkeypatch.chdir(tmp_path)
     result = run_show(*args)
@@ -180,8 +204,13 @@ def test_bad_input_fails_with_one_clear_message(tmp_path, monkeypatch, args, wor
 
 
 def test_snapshot_is_plain_data_by_spec_index_and_drawn_as_the_world(make_env):
-    door = ObjectSpec("wall", "box", (0.0, 10.0, 2.0), (10.0, 2.0, 4.0),
-                      behaviour={"type": "door", "direction": [0.0, 1.0], "distance": 5.0})
+    door = ObjectSpec(
+        "wall",
+        "box",
+        (0.0, 10.0, 2.0),
+        (10.0, 2.0, 4.0),
+        behaviour={"type": "door", "direction": [0.0, 1.0], "distance": 5.0},
+    )
     pieces = (sphere("food_yellow", 10.0, -10.0, 2.0), sphere("food_yellow", -10.0, -10.0, 2.0))
     env = make_env(camera=False)
     env.reset(seed=0, options={"spec": open_arena(door, *pieces, agent=(0.0, -15.0, 0.0))})

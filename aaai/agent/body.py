@@ -1,4 +1,5 @@
 """The quadruped in a PyBullet client: loading, driving its axes, reading its joints and contacts."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -28,9 +29,18 @@ def urdf_path(body: str, visuals: bool = True) -> Path:
 class Quadruped:
     """One body in one client. Load it with ``load`` after every resetSimulation."""
 
-    def __init__(self, client: int, body: str, action_mode: str, max_force: float,
-                 max_joint_velocity: float, friction: float, visuals: bool = True,
-                 position_gain: float = 0.1, velocity_gain: float = 1.0):
+    def __init__(
+        self,
+        client: int,
+        body: str,
+        action_mode: str,
+        max_force: float,
+        max_joint_velocity: float,
+        friction: float,
+        visuals: bool = True,
+        position_gain: float = 0.1,
+        velocity_gain: float = 1.0,
+    ):
         self.client = client
         self.path = str(urdf_path(body, visuals))
         self.action_mode = action_mode
@@ -46,7 +56,10 @@ class Quadruped:
         scratch = p.connect(p.DIRECT)
         try:
             body = p.loadURDF(self.path, physicsClientId=scratch)
-            infos = [p.getJointInfo(body, j, physicsClientId=scratch) for j in range(p.getNumJoints(body, physicsClientId=scratch))]
+            infos = [
+                p.getJointInfo(body, j, physicsClientId=scratch)
+                for j in range(p.getNumJoints(body, physicsClientId=scratch))
+            ]
         finally:
             p.disconnect(scratch)
         revolute = [info for info in infos if info[2] == p.JOINT_REVOLUTE]
@@ -83,14 +96,25 @@ class Quadruped:
         """Sends one control step's commands: target angles (rotation) or speeds (velocity)."""
         if self.action_mode == "rotation":
             targets = self._middle + action * self._half_range
-            p.setJointMotorControlArray(self.id, self.joint_ids, p.POSITION_CONTROL,
-                                        targetPositions=targets.tolist(), forces=self._forces,
-                                        positionGains=self._position_gains, velocityGains=self._velocity_gains,
-                                        physicsClientId=self.client)
+            p.setJointMotorControlArray(
+                self.id,
+                self.joint_ids,
+                p.POSITION_CONTROL,
+                targetPositions=targets.tolist(),
+                forces=self._forces,
+                positionGains=self._position_gains,
+                velocityGains=self._velocity_gains,
+                physicsClientId=self.client,
+            )
         else:
-            p.setJointMotorControlArray(self.id, self.joint_ids, p.VELOCITY_CONTROL,
-                                        targetVelocities=(action * self.max_joint_velocity).tolist(),
-                                        forces=self._forces, physicsClientId=self.client)
+            p.setJointMotorControlArray(
+                self.id,
+                self.joint_ids,
+                p.VELOCITY_CONTROL,
+                targetVelocities=(action * self.max_joint_velocity).tolist(),
+                forces=self._forces,
+                physicsClientId=self.client,
+            )
 
     def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
         """Angles normalised to [-1, 1] over each axis's range (0 at rest) and speeds in rad/s."""
@@ -114,8 +138,9 @@ class Quadruped:
             thigh, shin = links.get(f"{leg}_thigh"), links.get(f"{leg}_shin")
             if thigh is None or shin is None:
                 return []
-            hip_state, knee_state = p.getLinkStates(self.id, [thigh, shin], computeForwardKinematics=True,
-                                                    physicsClientId=self.client)
+            hip_state, knee_state = p.getLinkStates(
+                self.id, [thigh, shin], computeForwardKinematics=True, physicsClientId=self.client
+            )
             hip, knee = np.array(hip_state[4]), np.array(knee_state[4])
             along = np.array(p.getMatrixFromQuaternion(knee_state[5])).reshape(3, 3)[:, 0]
             legs.append((hip, knee, knee + SEGMENT_TIP * along))
@@ -131,7 +156,11 @@ class Quadruped:
         (a half-size) from the origin. Comparisons are written so that NaN fails them."""
         (vx, vy, vz), _ = p.getBaseVelocity(self.id, physicsClientId=self.client)
         x, y, z = position
-        healthy = (vx * vx + vy * vy + vz * vz <= max_speed_sq
-                   and all(-BLOWUP_JOINT_SPEED <= speed <= BLOWUP_JOINT_SPEED for speed in joint_speeds.tolist())
-                   and -bound <= x <= bound and -bound <= y <= bound and z <= bound)
+        healthy = (
+            vx * vx + vy * vy + vz * vz <= max_speed_sq
+            and all(-BLOWUP_JOINT_SPEED <= speed <= BLOWUP_JOINT_SPEED for speed in joint_speeds.tolist())
+            and -bound <= x <= bound
+            and -bound <= y <= bound
+            and z <= bound
+        )
         return not healthy

@@ -12,6 +12,7 @@ has PARAMETERS (the names its level file's params must give) and ``generate(para
 returning the spec's fields; with ``WRAPS_OTHER_LEVELS = True`` it is ``generate(params, rng,
 inner)`` and ``inner(rng)`` makes it a random level that wraps no other.
 """
+
 from __future__ import annotations
 
 import functools
@@ -71,12 +72,22 @@ def _load_level(path) -> Level:
         if key not in data and key not in OPTIONAL_KEYS:
             raise ConfigError(f"{path.name}: key '{key}' is missing")
     label = data.get("label", f"L{data['id']}")
-    level = Level(data["id"], data["name"], data["title"], _generator(data["generator"], path.name),
-                  data["params"], path.name, label, data["time_limit"])
+    level = Level(
+        data["id"],
+        data["name"],
+        data["title"],
+        _generator(data["generator"], path.name),
+        data["params"],
+        path.name,
+        label,
+        data["time_limit"],
+    )
     for difficulty in DIFFICULTIES:
         if not 0.2 <= level.time_limit_at(difficulty) <= 200.0:
-            raise ConfigError(f"{path.name}: key 'time_limit': got {level.time_limit_at(difficulty)!r} at difficulty "
-                              f"{difficulty}; allowed: 0.2 to 200 seconds")
+            raise ConfigError(
+                f"{path.name}: key 'time_limit': got {level.time_limit_at(difficulty)!r} at difficulty "
+                f"{difficulty}; allowed: 0.2 to 200 seconds"
+            )
     return level
 
 
@@ -88,9 +99,11 @@ def _generator(name: str, source: str) -> ModuleType:
     try:
         module = importlib.import_module(f"aaai.levels.{name}" if name in ours else name)
     except (ImportError, ValueError, TypeError) as error:
-        raise ConfigError(f"{source}: generator {name!r} cannot be imported ({error}); allowed: a module of "
-                          f"aaai/levels/ ({', '.join(n for n in ours if n not in ('common', 'params'))}) or an "
-                          "importable module path") from None
+        raise ConfigError(
+            f"{source}: generator {name!r} cannot be imported ({error}); allowed: a module of "
+            f"aaai/levels/ ({', '.join(n for n in ours if n not in ('common', 'params'))}) or an "
+            "importable module path"
+        ) from None
     if not callable(getattr(module, "generate", None)) or not hasattr(module, "PARAMETERS"):
         raise ConfigError(f"{source}: generator {name!r} needs PARAMETERS and a generate() function")
     return module
@@ -101,7 +114,9 @@ def level_folders() -> list[Path]:
     extra = [Path(part) for part in os.environ.get("AAAI_LEVELS", "").split(os.pathsep) if part]
     for folder in extra:
         if not folder.is_dir():
-            raise ConfigError(f"AAAI_LEVELS: got {str(folder)!r}, which is not a folder; allowed: folders of L*.yaml files")
+            raise ConfigError(
+                f"AAAI_LEVELS: got {str(folder)!r}, which is not a folder; allowed: folders of L*.yaml files"
+            )
     return [config_dir() / "levels", *extra]
 
 
@@ -113,8 +128,10 @@ def _levels(folders: tuple[Path, ...]) -> dict[int, Level]:
             level = _load_level(path)
             clash = found.get(level.id)
             if clash is not None:
-                raise ConfigError(f"{path}: level id {level.id} is taken by {clash.source} ({clash.name}); "
-                                  "allowed: an id no other level file has")
+                raise ConfigError(
+                    f"{path}: level id {level.id} is taken by {clash.source} ({clash.name}); "
+                    "allowed: an id no other level file has"
+                )
             found[level.id] = level
     return dict(sorted(found.items()))
 
@@ -180,7 +197,9 @@ def generate(level: int | str, difficulty: int, seed: int) -> LevelSpec:
         try:
             rng = attempt_rng(lvl.id, difficulty, seed, attempt)
             if lvl.wraps:  # the inner seed stays in the outer seed's range
-                built = lvl.generator.generate(params, rng, inner=functools.partial(other_level, seeds=seed_range(seed)))
+                built = lvl.generator.generate(
+                    params, rng, inner=functools.partial(other_level, seeds=seed_range(seed))
+                )
             else:
                 built = lvl.generator.generate(params, rng)
         except PlacementError as error:
@@ -192,8 +211,10 @@ def generate(level: int | str, difficulty: int, seed: int) -> LevelSpec:
         if not problems:
             return spec
         problem = problems[0]
-    raise InvalidLevelError(f"level {lvl.label} ({lvl.name}) difficulty {difficulty} seed {seed}: no valid level "
-                            f"in {MAX_ATTEMPTS} attempts; last problem: {problem}")
+    raise InvalidLevelError(
+        f"level {lvl.label} ({lvl.name}) difficulty {difficulty} seed {seed}: no valid level "
+        f"in {MAX_ATTEMPTS} attempts; last problem: {problem}"
+    )
 
 
 def _assemble(lvl: Level, difficulty: int, seed: int, built: dict, attempt: int) -> LevelSpec:

@@ -1,5 +1,6 @@
 """L4 Avoidance: a floor of n x n tiles with some left out (holes: falling in costs 1 and ends
 the episode) and a few walls; the agent must reach the green without falling."""
+
 from __future__ import annotations
 
 import math
@@ -28,8 +29,15 @@ def generate(p: dict, rng: np.random.Generator) -> dict:
     holes = tuple(sorted(free[int(k)] for k in chosen))
     food = sphere("food_green", food_x, food_y, size)
     walls = arena_walls(ARENA, 4.0)
-    inner = [{"kind": "wall", "length": float(rng.uniform(p["wall_length_min"], p["wall_length_max"])),
-              "thickness": 1.0, "height": 4.0} for _ in range(int(p["walls"]))]
+    inner = [
+        {
+            "kind": "wall",
+            "length": float(rng.uniform(p["wall_length_min"], p["wall_length_max"])),
+            "thickness": 1.0,
+            "height": 4.0,
+        }
+        for _ in range(int(p["walls"]))
+    ]
     keep_out = [(agent_x, agent_y, AGENT_RADIUS + 1.5), (food_x, food_y, size / 2 + 4.0)]
     return {
         "agent": (agent_x, agent_y, float(rng.uniform(-math.pi, math.pi))),

@@ -1,5 +1,6 @@
 """L11 Body awareness: rough terrain (a heightfield of seeded smooth noise) and one green far
 from the agent, so walking itself is the challenge."""
+
 from __future__ import annotations
 
 import math
@@ -42,8 +43,11 @@ def generate(p: dict, rng: np.random.Generator) -> dict:
     size = float(p["food_size"])
     food_x, food_y = sample_clear_point(rng, ARENA, size / 2 + 1.0, [(agent_x, agent_y, p["food_distance"])])
     # resting on the highest ground under it, so it never sinks into a slope
-    ground = max(height_at(heights, food_x + dx, food_y + dy)
-                 for dx in (-size / 2, 0, size / 2) for dy in (-size / 2, 0, size / 2))
+    ground = max(
+        height_at(heights, food_x + dx, food_y + dy)
+        for dx in (-size / 2, 0, size / 2)
+        for dy in (-size / 2, 0, size / 2)
+    )
     food = replace(sphere("food_green", food_x, food_y, size), position=(food_x, food_y, ground + size / 2))
     return {
         "agent": (agent_x, agent_y, float(rng.uniform(-math.pi, math.pi))),

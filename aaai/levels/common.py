@@ -1,4 +1,5 @@
 """Pieces that level generators share: arena walls, slabs, spheres and collision-free placement."""
+
 from __future__ import annotations
 
 import math
@@ -31,20 +32,24 @@ def arena_walls(size: tuple[float, float], height: float, bottom: float = 0.0) -
         ((-half_x - t / 2, 0.0), (t, size[1])),
     ]
     tall = height - bottom
-    return [
-        ObjectSpec("wall", "box", (x, y, bottom + tall / 2), (sx, sy, tall)) for (x, y), (sx, sy) in spans
-    ]
+    return [ObjectSpec("wall", "box", (x, y, bottom + tall / 2), (sx, sy, tall)) for (x, y), (sx, sy) in spans]
 
 
-def slab(kind: str, x: float, y: float, length: float, thickness: float, height: float,
-         yaw: float = 0.0, **extra) -> ObjectSpec:
+def slab(
+    kind: str, x: float, y: float, length: float, thickness: float, height: float, yaw: float = 0.0, **extra
+) -> ObjectSpec:
     """An upright box standing on the floor: ``length`` along its yaw, ``thickness`` across it."""
     return ObjectSpec(kind, "box", (x, y, height / 2), (length, thickness, height), yaw=yaw, **extra)
 
 
-def place_slabs(rng: np.random.Generator, size: tuple[float, float], slabs: list[dict],
-                existing: list[ObjectSpec], keep_out: list[tuple[float, float, float]],
-                gap: float = 1.0) -> list[ObjectSpec]:
+def place_slabs(
+    rng: np.random.Generator,
+    size: tuple[float, float],
+    slabs: list[dict],
+    existing: list[ObjectSpec],
+    keep_out: list[tuple[float, float, float]],
+    gap: float = 1.0,
+) -> list[ObjectSpec]:
     """Upright slabs (dicts of slab() arguments but x, y, yaw) at random places and headings, each
     inside the arena, ``gap`` clear of every existing object and of the others, and outside every
     circle (x, y, r) of keep_out."""
@@ -56,12 +61,15 @@ def place_slabs(rng: np.random.Generator, size: tuple[float, float], slabs: list
             y = float(rng.uniform(-size[1] / 2 + reach, size[1] / 2 - reach))
             candidate = slab(x=x, y=y, yaw=float(rng.uniform(0, math.pi)), **spec)
             quad = corners(candidate)
-            if (all(distance_to_footprint(candidate, cx, cy) >= r for cx, cy, r in keep_out)
-                    and not any(footprints_overlap(quad, corners(o), gap) for o in existing + placed)):
+            if all(distance_to_footprint(candidate, cx, cy) >= r for cx, cy, r in keep_out) and not any(
+                footprints_overlap(quad, corners(o), gap) for o in existing + placed
+            ):
                 placed.append(candidate)
                 break
         else:
-            raise PlacementError(f"no place for a {spec['kind']} of length {spec['length']:.1f} after {MAX_TRIES} tries")
+            raise PlacementError(
+                f"no place for a {spec['kind']} of length {spec['length']:.1f} after {MAX_TRIES} tries"
+            )
     return placed
 
 

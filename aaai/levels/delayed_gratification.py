@@ -1,5 +1,6 @@
 """L2b Delayed gratification: a small green ahead; a larger yellow on a pillar that sinks to the
 floor. Waiting for the yellow, then eating the green, pays most."""
+
 from __future__ import annotations
 
 import math
@@ -9,8 +10,17 @@ import numpy as np
 from aaai.levels.common import arena_walls, sphere
 from aaai.spec import ObjectSpec
 
-PARAMETERS = ("agent_y", "green_distance", "green_size", "yellow_size", "pillar_height", "pillar_diameter",
-              "pillar_offset_min", "pillar_offset_max", "sink_seconds")
+PARAMETERS = (
+    "agent_y",
+    "green_distance",
+    "green_size",
+    "yellow_size",
+    "pillar_height",
+    "pillar_diameter",
+    "pillar_offset_min",
+    "pillar_offset_max",
+    "sink_seconds",
+)
 ARENA = (50.0, 50.0)
 
 
@@ -21,8 +31,9 @@ def generate(p: dict, rng: np.random.Generator) -> dict:
     y = float(p["agent_y"] + p["green_distance"] + rng.uniform(-4.0, 4.0))
     height, size = float(p["pillar_height"]), float(p["yellow_size"])
     sink = {"type": "sink", "depth": height, "duration": float(p["sink_seconds"])}
-    pillar = ObjectSpec("pillar", "cylinder", (x, y, height / 2), (p["pillar_diameter"],) * 2 + (height,),
-                        behaviour=sink)
+    pillar = ObjectSpec(
+        "pillar", "cylinder", (x, y, height / 2), (p["pillar_diameter"],) * 2 + (height,), behaviour=sink
+    )
     yellow = ObjectSpec("food_yellow", "sphere", (x, y, height + size / 2), (size,) * 3, behaviour=sink)
     return {
         "agent": (0.0, float(p["agent_y"]), math.pi / 2),

@@ -1,4 +1,5 @@
 """L0 Initial food contact: one green piece straight ahead of an agent facing north."""
+
 from __future__ import annotations
 
 import math

@@ -1,4 +1,5 @@
 """L1 Basic food retrieval: one green and some yellow pieces, some moving, random heading."""
+
 from __future__ import annotations
 
 import math

@@ -1,5 +1,6 @@
 """L7 Internal models: a random other level and cell, seen through a camera that goes dark for a
 while every few seconds (the rays stay on), so the agent must keep a model of where things are."""
+
 from __future__ import annotations
 
 from typing import Callable

@@ -1,5 +1,6 @@
 """L9 Numerosity: four sectors around the agent, each holding a random number of food pieces;
 entering a sector closes its opening behind the agent, so it must pick the one with the most."""
+
 from __future__ import annotations
 
 import math
@@ -53,8 +54,10 @@ def _spokes(hub: float, height: float) -> list[ObjectSpec]:
     """Walls on the diagonals from the hub's corners to the arena's corners: the sector borders."""
     length = (SPOKE_END - hub) * math.sqrt(2)
     middle = (hub + SPOKE_END) / 2
-    return [slab("wall", sx * middle, sy * middle, length, 1.0, height, yaw=math.atan2(sy, sx))
-            for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1))]
+    return [
+        slab("wall", sx * middle, sy * middle, length, 1.0, height, yaw=math.atan2(sy, sx))
+        for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1))
+    ]
 
 
 def _door(direction: tuple[float, float], hub: float, height: float, depth: float) -> ObjectSpec:
@@ -63,8 +66,9 @@ def _door(direction: tuple[float, float], hub: float, height: float, depth: floa
     ux, uy = direction
     centre = hub + 0.5
     trigger = {"type": "door", "direction": [ux, uy], "distance": hub + 1.0 + depth}
-    return slab("wall", ux * centre, uy * centre, 2 * hub - 2.0, 1.0, height, yaw=math.atan2(ux, -uy),
-                behaviour=trigger)
+    return slab(
+        "wall", ux * centre, uy * centre, 2 * hub - 2.0, 1.0, height, yaw=math.atan2(ux, -uy), behaviour=trigger
+    )
 
 
 def _sector_food(rng: np.random.Generator, direction, count: int, near: float, size: float) -> list[ObjectSpec]:

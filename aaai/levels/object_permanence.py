@@ -1,6 +1,7 @@
 """L8 Object permanence: a green piece slides from one side behind a central occluding wall.
 Behind the wall a barrier splits the arena's back half: the food's side, and a pit of missing
 floor (deadly below) on the other. The agent must remember which side the food went."""
+
 from __future__ import annotations
 
 import math
@@ -9,8 +10,21 @@ import numpy as np
 
 from aaai.levels.common import arena_walls, slab, sphere
 
-PARAMETERS = ("arena_x", "arena_y", "tile", "agent_y", "agent_x_range", "occluder_length", "occluder_height",
-              "food_size", "food_y", "food_start_x", "food_stop_x", "speed", "pit_depth")
+PARAMETERS = (
+    "arena_x",
+    "arena_y",
+    "tile",
+    "agent_y",
+    "agent_x_range",
+    "occluder_length",
+    "occluder_height",
+    "food_size",
+    "food_y",
+    "food_start_x",
+    "food_stop_x",
+    "speed",
+    "pit_depth",
+)
 
 
 def generate(p: dict, rng: np.random.Generator) -> dict:
@@ -19,8 +33,7 @@ def generate(p: dict, rng: np.random.Generator) -> dict:
     side = 1 if rng.random() < 0.5 else -1  # the food's side: east (+1) or west
     occluder = slab("wall", 0.0, 0.0, p["occluder_length"], 1.0, p["occluder_height"])
     barrier_length = half_y - 0.5
-    barrier = slab("wall", 0.0, 0.5 + barrier_length / 2, barrier_length, 1.0, p["occluder_height"],
-                   yaw=math.pi / 2)
+    barrier = slab("wall", 0.0, 0.5 + barrier_length / 2, barrier_length, 1.0, p["occluder_height"], yaw=math.pi / 2)
     slide = {"type": "slide", "to": [side * float(p["food_stop_x"]), float(p["food_y"])], "speed": float(p["speed"])}
     food = sphere("food_green", side * float(p["food_start_x"]), p["food_y"], p["food_size"], behaviour=slide)
     tiles, holes = _pit(arena, float(p["tile"]), -side, p["occluder_length"] / 2, float(p["pit_depth"]))

@@ -6,6 +6,7 @@ A parameter is one of:
 - a string: an expression in ``d`` (the difficulty) using + - * / // % **, parentheses and
   round, floor, ceil, min, max, abs, clamp(x, low, high). Example: ``"round(0.4 * d + 1)"``.
 """
+
 from __future__ import annotations
 
 import ast
@@ -87,9 +88,7 @@ def resolve(params: Mapping[str, Any], d: int, expected: tuple[str, ...], source
     """All of a level's parameters at difficulty d, checked against the generator's names."""
     unknown = sorted(set(params) - set(expected))
     if unknown:
-        raise LevelParamError(
-            f"{source}: parameter '{unknown[0]}' does not exist; allowed: {', '.join(expected)}"
-        )
+        raise LevelParamError(f"{source}: parameter '{unknown[0]}' does not exist; allowed: {', '.join(expected)}")
     missing = [name for name in expected if name not in params]
     if missing:
         raise LevelParamError(f"{source}: parameter '{missing[0]}' is missing; required: {', '.join(expected)}")

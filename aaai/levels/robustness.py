@@ -1,9 +1,9 @@
 """L6 Robustness: a random other level and cell, with every object kind recoloured to one of a
 few randomly generated colours, and walls taller with the L6 difficulty."""
+
 from __future__ import annotations
 
 from dataclasses import replace
-
 from typing import Callable
 
 import numpy as np
@@ -33,6 +33,9 @@ def _restyle(obj, colours: dict, wall_height: float):
     obj = replace(obj, colour=colours[obj.kind])
     if obj.kind in WALL_KINDS and obj.size[2] < wall_height:
         bottom = obj.position[2] - obj.size[2] / 2
-        obj = replace(obj, position=(obj.position[0], obj.position[1], bottom + wall_height / 2),
-                      size=(obj.size[0], obj.size[1], wall_height))
+        obj = replace(
+            obj,
+            position=(obj.position[0], obj.position[1], bottom + wall_height / 2),
+            size=(obj.size[0], obj.size[1], wall_height),
+        )
     return obj

@@ -1,5 +1,6 @@
 """L5 Spatial reasoning: a maze over a grid of square chunks, carved by a seeded depth-first
 search; the agent and the green lie in the two chunks farthest apart along the maze."""
+
 from __future__ import annotations
 
 import math
@@ -7,12 +8,19 @@ from collections import deque
 
 import numpy as np
 
+from aaai.geometry import merge_tiles
 from aaai.levels.common import AGENT_RADIUS, arena_walls, place_slabs, sphere
 from aaai.spec import ObjectSpec
-from aaai.geometry import merge_tiles
 
-PARAMETERS = ("chunks", "chunk_size", "wall_height", "obstacles", "obstacle_length_min", "obstacle_length_max",
-              "food_size")
+PARAMETERS = (
+    "chunks",
+    "chunk_size",
+    "wall_height",
+    "obstacles",
+    "obstacle_length_min",
+    "obstacle_length_max",
+    "food_size",
+)
 THICKNESS = 1.0
 OBSTACLE_KINDS = ("plank", "transparent_wall", "wall")
 
@@ -32,8 +40,15 @@ def generate(p: dict, rng: np.random.Generator) -> dict:
     extra = []
     for index in range(int(p["obstacles"])):
         kind = OBSTACLE_KINDS[index % len(OBSTACLE_KINDS)]
-        extra.append({"kind": kind, "length": float(rng.uniform(p["obstacle_length_min"], p["obstacle_length_max"])),
-                      "thickness": 1.0, "height": 4.0, "mass": 10.0 if kind == "plank" else 0.0})
+        extra.append(
+            {
+                "kind": kind,
+                "length": float(rng.uniform(p["obstacle_length_min"], p["obstacle_length_max"])),
+                "thickness": 1.0,
+                "height": 4.0,
+                "mass": 10.0 if kind == "plank" else 0.0,
+            }
+        )
     keep_out = [(agent_x, agent_y, AGENT_RADIUS + 1.5), (food_x, food_y, p["food_size"] / 2 + 4.0)]
     obstacles = place_slabs(rng, arena, extra, walls, keep_out)
     return {
@@ -42,8 +57,9 @@ def generate(p: dict, rng: np.random.Generator) -> dict:
         "max_food_reward": food.food_value,
         "arena_size": arena,
         "wall_height": height,
-        "extras": {"maze": {"columns": columns, "rows": rows, "chunks": count,
-                            "start": list(start), "goal": list(goal)}},
+        "extras": {
+            "maze": {"columns": columns, "rows": rows, "chunks": count, "start": list(start), "goal": list(goal)}
+        },
     }
 
 
@@ -97,7 +113,9 @@ def maze_walls(columns: int, rows: int, cells, passages, chunk: float, height: f
         if i % 2 == 0 and j % 2 == 0:
             return False  # a chunk's interior (an unused chunk stays closed by its walls)
         if i % 2 == 1 and j % 2 == 1:
-            return any(solid(a, b) for a, b in ((i - 1, j), (i + 1, j), (i, j - 1), (i, j + 1)) if 0 <= a < nx and 0 <= b < ny)
+            return any(
+                solid(a, b) for a, b in ((i - 1, j), (i + 1, j), (i, j - 1), (i, j + 1)) if 0 <= a < nx and 0 <= b < ny
+            )
         a, b = ((i - 1) // 2, j // 2), ((i + 1) // 2, j // 2)
         if i % 2 == 0:
             a, b = (i // 2, (j - 1) // 2), (i // 2, (j + 1) // 2)
@@ -110,8 +128,11 @@ def maze_walls(columns: int, rows: int, cells, passages, chunk: float, height: f
     walls = []
     for i0, j0, i1, j1 in merge_tiles(nx, ny, free):
         x0, x1, y0, y1 = edges_x[i0], edges_x[i1], edges_y[j0], edges_y[j1]
-        walls.append(ObjectSpec("wall", "box", ((x0 + x1) / 2 - half_x, (y0 + y1) / 2 - half_y, height / 2),
-                                (x1 - x0, y1 - y0, height)))
+        walls.append(
+            ObjectSpec(
+                "wall", "box", ((x0 + x1) / 2 - half_x, (y0 + y1) / 2 - half_y, height / 2), (x1 - x0, y1 - y0, height)
+            )
+        )
     return walls
 
 
@@ -126,8 +147,9 @@ def _block_edges(count: int, chunk: float) -> list[float]:
     return edges[:-1] + [count * chunk]
 
 
-def _chunk_point(cell: tuple[int, int], arena: tuple[float, float], chunk: float,
-                 rng: np.random.Generator) -> tuple[float, float]:
+def _chunk_point(
+    cell: tuple[int, int], arena: tuple[float, float], chunk: float, rng: np.random.Generator
+) -> tuple[float, float]:
     """A point near the middle of a chunk."""
     x = -arena[0] / 2 + (cell[0] + 0.5) * chunk + float(rng.uniform(-chunk / 6, chunk / 6))
     y = -arena[1] / 2 + (cell[1] + 0.5) * chunk + float(rng.uniform(-chunk / 6, chunk / 6))

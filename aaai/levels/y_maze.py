@@ -1,5 +1,6 @@
 """L2 Y-maze: a stem opening onto two arms; a large green in one arm, above difficulty 5 a
 smaller green in the other. Only one green can be eaten, so the agent must pick the better arm."""
+
 from __future__ import annotations
 
 import math
@@ -8,8 +9,16 @@ import numpy as np
 
 from aaai.levels.common import arena_walls, slab, sphere
 
-PARAMETERS = ("stem_width", "stem_length", "divider_start", "agent_y", "food_size_min", "food_size_max",
-              "second_food", "second_food_size")
+PARAMETERS = (
+    "stem_width",
+    "stem_length",
+    "divider_start",
+    "agent_y",
+    "food_size_min",
+    "food_size_max",
+    "second_food",
+    "second_food_size",
+)
 ARENA = (50.0, 50.0)
 HEIGHT = 4.0
 

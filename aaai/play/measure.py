@@ -9,6 +9,7 @@ test does), starts the episode with the forward key held, and counts for ``--sec
 frames that reached the page, the control steps simulated and the server
 process's CPU time (user + system, from /proc) over the wall time. Prints a Markdown table.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -22,9 +23,18 @@ import time
 from pathlib import Path
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
-FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage",
-         "--window-size=1000,800")
+FLAGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-dev-shm-usage",
+    "--window-size=1000,800",
+)
 
 
 def cpu_seconds(pid: int) -> float:
@@ -40,9 +50,27 @@ def measure(resolution: int, fps: int, seconds: float, folder: Path) -> dict:
     from selenium.webdriver.common.by import By
     from selenium.webdriver.common.keys import Keys
 
-    server = subprocess.Popen([sys.executable, "-m", "aaai_cli.main", "play", "L1", "--port", "0", "--player", "bench",
-                               "--out", str(folder / f"bench_{resolution}_{fps}.csv"), "--camera-resolution",
-                               str(resolution), "--fps", str(fps)], stdout=subprocess.PIPE, text=True)
+    server = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "aaai_cli.main",
+            "play",
+            "L1",
+            "--port",
+            "0",
+            "--player",
+            "bench",
+            "--out",
+            str(folder / f"bench_{resolution}_{fps}.csv"),
+            "--camera-resolution",
+            str(resolution),
+            "--fps",
+            str(fps),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     profile = tempfile.mkdtemp(prefix="aaai-measure-")
     driver = None
     try:
@@ -69,8 +97,15 @@ def measure(resolution: int, fps: int, seconds: float, folder: Path) -> dict:
         cpu, wall = cpu_seconds(server.pid) - cpu_start, time.monotonic() - wall_start
         frames = int(driver.execute_script("return frameNo")) - frame_start
         steps = int(driver.execute_script("return lastStatus.steps")) - steps_start
-        return {"resolution": resolution, "fps_cap": fps, "frames_per_s": frames / wall, "cpu_share": cpu / wall,
-                "steps_per_s": steps / wall, "phase": phase(), "load": os.getloadavg()[0]}
+        return {
+            "resolution": resolution,
+            "fps_cap": fps,
+            "frames_per_s": frames / wall,
+            "cpu_share": cpu / wall,
+            "steps_per_s": steps / wall,
+            "phase": phase(),
+            "load": os.getloadavg()[0],
+        }
     finally:
         if driver is not None:
             driver.quit()
@@ -94,8 +129,10 @@ def main(argv=None) -> None:
     print("| camera | --fps | frames/s delivered | control steps/s | server CPU (one core = 100%) |")
     print("|---|---:|---:|---:|---:|")
     for row in rows:
-        print(f"| {row['resolution']} x {row['resolution']} | {row['fps_cap']} | {row['frames_per_s']:.1f} | "
-              f"{row['steps_per_s']:.1f} | {100 * row['cpu_share']:.0f}% |")
+        print(
+            f"| {row['resolution']} x {row['resolution']} | {row['fps_cap']} | {row['frames_per_s']:.1f} | "
+            f"{row['steps_per_s']:.1f} | {100 * row['cpu_share']:.0f}% |"
+        )
 
 
 if __name__ == "__main__":

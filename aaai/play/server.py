@@ -17,6 +17,7 @@ Each tab's session is its own (its own environment, thread and scoreboard rows);
 held by one tab at a time, and a dropped tab can come back (with its token) within the grace
 period, after which its episode is abandoned.
 """
+
 from __future__ import annotations
 
 import asyncio
@@ -63,8 +64,10 @@ class Registry:
                 session.start()
                 return session
             if token != session.token:
-                raise InputError(f"player {player!r} is playing in another tab; one tab per player (their episodes "
-                                 "go to one scoreboard): choose another name, or close that tab")
+                raise InputError(
+                    f"player {player!r} is playing in another tab; one tab per player (their episodes "
+                    "go to one scoreboard): choose another name, or close that tab"
+                )
             if session.attached:
                 raise InputError(f"player {player!r} is open in another tab (a duplicated tab?); close it first")
             self.generation[player] += 1
@@ -103,7 +106,9 @@ def parse_message(text: Any) -> dict:
     try:
         data = json.loads(text)
     except ValueError:
-        raise InputError(f"message: got {text[:60]!r}, which is not JSON; allowed: a JSON object with a \"type\"") from None
+        raise InputError(
+            f'message: got {text[:60]!r}, which is not JSON; allowed: a JSON object with a "type"'
+        ) from None
     if not isinstance(data, dict) or data.get("type") not in MESSAGE_TYPES:
         shown = data.get("type") if isinstance(data, dict) else data
         raise InputError(f"message type: got {shown!r}; allowed: {', '.join(MESSAGE_TYPES)}")
@@ -120,8 +125,14 @@ def parse_message(text: Any) -> dict:
 
 
 def hello(settings: PlaySettings) -> dict:
-    return {"type": "hello", "keys": list(KEYS), "controls": CONTROL_KEYS, "start_keys": list(GO_KEYS),
-            "player": settings.player, "episodes": len(settings.episodes())}
+    return {
+        "type": "hello",
+        "keys": list(KEYS),
+        "controls": CONTROL_KEYS,
+        "start_keys": list(GO_KEYS),
+        "player": settings.player,
+        "episodes": len(settings.episodes()),
+    }
 
 
 def create_app(settings: PlaySettings) -> FastAPI:
@@ -193,8 +204,14 @@ def create_app(settings: PlaySettings) -> FastAPI:
                         if session is not None:
                             raise InputError(f"join: this page plays {session.player!r} already")
                         session = registry.join(data.get("player"), data.get("token"), notify)
-                        await send({"type": "joined", "player": session.player, "token": session.token,
-                                    "output": str(session.output)})
+                        await send(
+                            {
+                                "type": "joined",
+                                "player": session.player,
+                                "token": session.token,
+                                "output": str(session.output),
+                            }
+                        )
                         sender = asyncio.create_task(send_updates(session))
                         notify()
                     elif session is None:
@@ -233,8 +250,10 @@ def bind(host: str, port: int) -> socket.socket:
     except OSError as error:
         sock.close()
         if error.errno == errno.EADDRINUSE:
-            raise ConfigError(f"--port: got {port}, and {host}:{port} is in use (another aaai play?); allowed: a free "
-                              "port, e.g. --port 8001, or --port 0 for any free one") from None
+            raise ConfigError(
+                f"--port: got {port}, and {host}:{port} is in use (another aaai play?); allowed: a free "
+                "port, e.g. --port 8001, or --port 0 for any free one"
+            ) from None
         raise ConfigError(f"--host/--port: cannot listen on {host}:{port}: {error.strerror}") from None
     sock.listen(128)
     sock.set_inheritable(True)
@@ -256,8 +275,9 @@ class Server:
         self.sock = bind(host, port)
         self.url = url_of(self.sock)
         self.app = create_app(settings)
-        self.server = uvicorn.Server(uvicorn.Config(self.app, log_level="warning", ws="websockets-sansio",
-                                                    ws_max_size=1 << 16, lifespan="on"))
+        self.server = uvicorn.Server(
+            uvicorn.Config(self.app, log_level="warning", ws="websockets-sansio", ws_max_size=1 << 16, lifespan="on")
+        )
         self.thread: threading.Thread | None = None
 
     @property

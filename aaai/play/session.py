@@ -12,6 +12,7 @@ screen, and the browser only watches: its frame rate changes nothing.
 Nothing here knows about the web: the server (aaai.play.server) passes key, focus and frame
 acknowledgements in, and sends out what ``status()`` and ``frame()`` give.
 """
+
 from __future__ import annotations
 
 import re
@@ -34,9 +35,18 @@ from aaai.levels import get_level
 from aaai.viewer import camera_image, draw_snapshot
 
 # event.key values (letters lower-cased) -> the control they hold down.
-CONTROL_KEYS = {"ArrowUp": "forward", "w": "forward", "ArrowDown": "backward", "s": "backward",
-                "ArrowLeft": "left", "a": "left", "ArrowRight": "right", "d": "right",
-                "c": "crouch", "Shift": "crouch"}
+CONTROL_KEYS = {
+    "ArrowUp": "forward",
+    "w": "forward",
+    "ArrowDown": "backward",
+    "s": "backward",
+    "ArrowLeft": "left",
+    "a": "left",
+    "ArrowRight": "right",
+    "d": "right",
+    "c": "crouch",
+    "Shift": "crouch",
+}
 GO_KEYS = (" ", "Enter")  # start an episode, go on after a pause (any control key does too)
 KEYS = tuple(CONTROL_KEYS) + GO_KEYS
 PLAYER_NAME = re.compile(r"[A-Za-z0-9_.-]{1,40}")
@@ -47,9 +57,11 @@ PHASES = ("loading", "ready", "running", "paused", "finished", "abandoned", "err
 # files say their title or description.
 TASKS = {
     "food_contact": "Walk to the green ball and touch it with your head.",
-    "food_retrieval": "Eat the food: yellow balls add to your score, a green one ends the episode. Get as much as you can.",
+    "food_retrieval": "Eat the food: yellow balls add to your score, a green one ends the episode. "
+    "Get as much as you can.",
     "y_maze": "Choose one arm of the Y-maze: only one green ball can be eaten, and the bigger is worth more.",
-    "delayed_gratification": "A small green ball lies ahead; a yellow one sinks from a pillar. Eat the yellow first, then the green.",
+    "delayed_gratification": "A small green ball lies ahead; a yellow one sinks from a pillar. "
+    "Eat the yellow first, then the green.",
     "obstacles": "The green ball is behind a see-through wall: find your way round the obstacles.",
     "avoidance": "Reach the green ball without falling into a hole in the floor (falling ends the episode).",
     "spatial_reasoning": "Find your way through the maze to the green ball.",
@@ -60,8 +72,19 @@ TASKS = {
     "causal_reasoning": "Push the plank over so that it falls across the trench, then cross to the green ball.",
     "body_awareness": "Cross the rough ground to the green ball.",
 }
-ABANDONED_COLUMNS = ["player", "level", "level_name", "difficulty", "seed", "arena", "steps", "max_steps",
-                     "food_eaten", "reason", "utc"]
+ABANDONED_COLUMNS = [
+    "player",
+    "level",
+    "level_name",
+    "difficulty",
+    "seed",
+    "arena",
+    "steps",
+    "max_steps",
+    "food_eaten",
+    "reason",
+    "utc",
+]
 
 
 class Abandoned(Exception):
@@ -241,10 +264,20 @@ class Session:
     def status(self) -> dict:
         with self.cond:
             now = time.monotonic()
-            return {"player": self.player, "phase": self.phase, "message": self.message, "episode": dict(self.episode),
-                    **self.live, "last": self.last, "scored": len(self.rows), "output": str(self.output),
-                    "fps": len([t for t in self.delivered if now - t < 1.0]), "frame": self.frame_no, "version": self.version,
-                    "accepts_start": self.phase in ("ready", "paused") and now >= self.ready_at}
+            return {
+                "player": self.player,
+                "phase": self.phase,
+                "message": self.message,
+                "episode": dict(self.episode),
+                **self.live,
+                "last": self.last,
+                "scored": len(self.rows),
+                "output": str(self.output),
+                "fps": len([t for t in self.delivered if now - t < 1.0]),
+                "frame": self.frame_no,
+                "version": self.version,
+                "accepts_start": self.phase in ("ready", "paused") and now >= self.ready_at,
+            }
 
     def frame(self) -> tuple[int, list[bytes]] | None:
         """The newest frame not yet acknowledged by the page: its number and images (camera PNG,
@@ -268,13 +301,29 @@ class Session:
             make_policy, on_episode = self._policy_makers()
             record = settings.record(self.player)
             if settings.arenas:
-                evaluate_arenas(f"human:{self.player}", settings.arenas, settings.arena_seeds, self.output,
-                                settings.config, on_episode=on_episode, record=record, make_policy=make_policy)
+                evaluate_arenas(
+                    f"human:{self.player}",
+                    settings.arenas,
+                    settings.arena_seeds,
+                    self.output,
+                    settings.config,
+                    on_episode=on_episode,
+                    record=record,
+                    make_policy=make_policy,
+                )
             else:
-                evaluate(f"human:{self.player}", settings.cells, self.output, settings.config,
-                         on_episode=on_episode, record=record, make_policy=make_policy)
-            self._finish(f"the battery is done ({self.total} episode{'s' * (self.total != 1)}); the scores are in "
-                         f"{self.output}")
+                evaluate(
+                    f"human:{self.player}",
+                    settings.cells,
+                    self.output,
+                    settings.config,
+                    on_episode=on_episode,
+                    record=record,
+                    make_policy=make_policy,
+                )
+            self._finish(
+                f"the battery is done ({self.total} episode{'s' * (self.total != 1)}); the scores are in {self.output}"
+            )
         except Abandoned:
             self._write_abandoned()
         except ConfigError as error:
@@ -291,8 +340,14 @@ class Session:
             return human, self._scored
         from aaai.replays import ReplaySaver
 
-        saver = ReplaySaver(self.settings.replays, f"human:{self.player}", human, prefix=self.player,
-                            arenas={a.name: a for a in self.settings.arenas}, on_episode=self._scored)
+        saver = ReplaySaver(
+            self.settings.replays,
+            f"human:{self.player}",
+            human,
+            prefix=self.player,
+            arenas={a.name: a for a in self.settings.arenas},
+            on_episode=self._scored,
+        )
         return saver.make_policy, saver.on_episode
 
     @staticmethod
@@ -311,10 +366,19 @@ class Session:
         arena = self.remaining[0][3] if self.remaining else None
         with self.cond:
             self.env, self.started, self.keys = env, False, set()
-            self.episode = {"index": self.played + 1, "total": self.total, "label": get_level(spec.level).label,
-                            "level": spec.level, "name": spec.name, "title": get_level(spec.level).title,
-                            "task": task_of(spec.level, arena), "difficulty": spec.difficulty, "seed": spec.seed,
-                            "arena": arena.name if arena is not None else "", "max_steps": env.max_steps}
+            self.episode = {
+                "index": self.played + 1,
+                "total": self.total,
+                "label": get_level(spec.level).label,
+                "level": spec.level,
+                "name": spec.name,
+                "title": get_level(spec.level).title,
+                "task": task_of(spec.level, arena),
+                "difficulty": spec.difficulty,
+                "seed": spec.seed,
+                "arena": arena.name if arena is not None else "",
+                "max_steps": env.max_steps,
+            }
             self.ready_at = max(self.ready_at, time.monotonic())
             self.force_frame = True
             self._changed()
@@ -348,8 +412,22 @@ class Session:
             self.rows.append(row)
             self.played += 1
             self.remaining.pop(0)
-            self.last = {key: row[key] for key in ("level", "level_name", "difficulty", "seed", "arena", "return",
-                                                   "max_reward", "ratio", "outcome", "steps", "food_eaten")}
+            self.last = {
+                key: row[key]
+                for key in (
+                    "level",
+                    "level_name",
+                    "difficulty",
+                    "seed",
+                    "arena",
+                    "return",
+                    "max_reward",
+                    "ratio",
+                    "outcome",
+                    "steps",
+                    "food_eaten",
+                )
+            }
             self.ready_at = time.monotonic() + self.settings.between_seconds
             self._set_phase("loading")
             self._changed()
@@ -359,20 +437,30 @@ class Session:
         spec, snapshot = env.level_spec, env.snapshot()
         head = snapshot.head
         controls = {CONTROL_KEYS[k] for k in self.keys}
-        live = {"steps": env.steps, "max_steps": env.max_steps,
-                "time_left": round(max(0, env.max_steps - env.steps) * env.control_dt, 2),
-                "sim_time": round(snapshot.time, 3), "food_eaten": env.task.food_eaten,
-                "pose": {"x": round(head.x, 3), "y": round(head.y, 3), "z": round(head.z, 3),
-                         "yaw_deg": round(float(np.degrees(head.yaw)), 1)},
-                "command": list(command_of(controls)), "dark": bool(env.dark)}
+        live = {
+            "steps": env.steps,
+            "max_steps": env.max_steps,
+            "time_left": round(max(0, env.max_steps - env.steps) * env.control_dt, 2),
+            "sim_time": round(snapshot.time, 3),
+            "food_eaten": env.task.food_eaten,
+            "pose": {
+                "x": round(head.x, 3),
+                "y": round(head.y, 3),
+                "z": round(head.z, 3),
+                "yaw_deg": round(float(np.degrees(head.yaw)), 1),
+            },
+            "command": list(command_of(controls)),
+            "dark": bool(env.dark),
+        }
         with self.cond:
             self.live = live
             now = time.monotonic()
-            wanted = self.attached and (self.force_frame or (
-                self.acked >= self.frame_no and now >= self.next_frame_at))
+            wanted = self.attached and (self.force_frame or (self.acked >= self.frame_no and now >= self.next_frame_at))
         if wanted:
-            images = [encode(camera_image(observation["camera"]), ".png"),
-                      encode(draw_snapshot(spec, snapshot, self.settings.map_size), ".jpg")]
+            images = [
+                encode(camera_image(observation["camera"]), ".png"),
+                encode(draw_snapshot(spec, snapshot, self.settings.map_size), ".jpg"),
+            ]
             with self.cond:
                 self.frame_no += 1
                 self.frame_data, self.force_frame = images, False
@@ -402,12 +490,23 @@ class Session:
             return
         path = abandoned_path(self.output)
         try:
-            append_row(path, ABANDONED_COLUMNS, {
-                "player": self.player, "level": episode["level"], "level_name": episode["name"],
-                "difficulty": episode["difficulty"], "seed": episode["seed"], "arena": episode["arena"],
-                "steps": live.get("steps", 0), "max_steps": episode["max_steps"],
-                "food_eaten": live.get("food_eaten", 0), "reason": reason,
-                "utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")})
+            append_row(
+                path,
+                ABANDONED_COLUMNS,
+                {
+                    "player": self.player,
+                    "level": episode["level"],
+                    "level_name": episode["name"],
+                    "difficulty": episode["difficulty"],
+                    "seed": episode["seed"],
+                    "arena": episode["arena"],
+                    "steps": live.get("steps", 0),
+                    "max_steps": episode["max_steps"],
+                    "food_eaten": live.get("food_eaten", 0),
+                    "reason": reason,
+                    "utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+                },
+            )
         except OSError as error:
             self._fail(f"cannot write {str(path)!r}: {error.strerror or error}; the episode left was not logged")
 
@@ -442,5 +541,16 @@ def abandoned_path(output: Path) -> Path:
     return output.with_name(output.stem + "_abandoned.csv")
 
 
-__all__ = ["Abandoned", "HumanPolicy", "InputError", "PlaySettings", "Session", "KEYS", "CONTROL_KEYS",
-           "abandoned_path", "check_player", "control_of", "command_of"]
+__all__ = [
+    "Abandoned",
+    "HumanPolicy",
+    "InputError",
+    "PlaySettings",
+    "Session",
+    "KEYS",
+    "CONTROL_KEYS",
+    "abandoned_path",
+    "check_player",
+    "control_of",
+    "command_of",
+]
