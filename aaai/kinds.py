@@ -188,6 +188,7 @@ class TimedFood(Kind):
     shape, shapes = "sphere", ("sphere",)
     edible, good, any_part = True, True, False
     timed = True
+    mark = "clock"
     rising: ClassVar[bool] = True  # the value grows (ripen, grow) or falls (decay, shrink)
 
     @classmethod
@@ -239,7 +240,6 @@ class RipeningFood(TimedFood):
     name = "ripening_food"
     colour = (0.55, 0.7, 0.3, 1.0)
     classic = "food_yellow"
-    mark = "clock"
     camera = "an olive sphere"
     rule = "eaten: the value at that time (start -> end, rising), taken out; the episode goes on (RipenGoal)"
 
@@ -250,7 +250,6 @@ class DecayingFood(TimedFood):
     colour = (0.75, 0.55, 0.2, 1.0)
     classic = "food_yellow"
     rising = False
-    mark = "clock"
     camera = "an ochre sphere"
     rule = "eaten: the value at that time (start -> end, falling), taken out; the episode goes on (DecayGoal)"
 
@@ -261,7 +260,6 @@ class GrowingFood(TimedFood):
     colour = (0.2, 0.9, 0.5, 1.0)
     classic = "food_green"
     ends = True
-    mark = "clock"
     camera = "a mint-green sphere"
     rule = "eaten: the value at that time (start -> end, rising); the episode ends (GrowGoal)"
 
@@ -272,7 +270,6 @@ class ShrinkingFood(TimedFood):
     colour = (0.1, 0.55, 0.25, 1.0)
     classic = "food_green"
     ends, rising = True, False
-    mark = "clock"
     camera = "a dark green sphere"
     rule = "eaten: the value at that time (start -> end, falling); the episode ends (ShrinkGoal)"
 

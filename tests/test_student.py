@@ -148,24 +148,9 @@ def test_demos_are_a_minari_dataset_that_loads_and_replays_bit_for_bit(tmp_path)
     from aaai.demos import datasets_path, replay
 
     out = tmp_path / "demos"
-    result = CliRunner().invoke(
-        cli,
-        [
-            "demos",
-            "--policy",
-            "reference",
-            "--levels",
-            "0,1",
-            "--difficulty",
-            "0",
-            "-k",
-            "1",
-            "--action-mode",
-            "gait",
-            "--out",
-            str(out),
-        ],
-    )
+    command = ["demos", "--policy", "reference", "--levels", "0,1", "--difficulty", "0", "-k", "1"]
+    command += ["--action-mode", "gait", "--out", str(out)]
+    result = CliRunner().invoke(cli, command)
     assert result.exit_code == 0, result.output
     with datasets_path(out):
         dataset = minari.load_dataset("aaai/reference-v0")
@@ -181,24 +166,7 @@ def test_demos_are_a_minari_dataset_that_loads_and_replays_bit_for_bit(tmp_path)
             for key, value in observations.items():
                 assert np.array_equal(value, episode.observations[key]), key
     # Re-running the same command adds nothing; the dataset is whole.
-    again = CliRunner().invoke(
-        cli,
-        [
-            "demos",
-            "--policy",
-            "reference",
-            "--levels",
-            "0,1",
-            "--difficulty",
-            "0",
-            "-k",
-            "1",
-            "--action-mode",
-            "gait",
-            "--out",
-            str(out),
-        ],
-    )
+    again = CliRunner().invoke(cli, command)
     assert again.exit_code == 0, again.output
     with datasets_path(out):
         assert minari.load_dataset("aaai/reference-v0").total_episodes == 2

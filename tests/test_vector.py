@@ -155,7 +155,7 @@ def test_processes_are_apart_from_num_envs():
 def test_rllib_env_runners_follow_processes():
     """The rllib backend's EnvRunners come from train.processes; the num_envs environments are shared
     out over them and a rollout is still n_steps x num_envs steps."""
-    pytest.importorskip("ray")
+    pytest.importorskip("ray.rllib", reason="needs the ray extra, which make test installs")
     from aaai.rllib_learner import ppo_config
     from aaai.vector import worker_processes
 
