@@ -70,14 +70,14 @@ demo: install-train
 	$(BIN)/aaai train --curriculum --run $(DEMO_RUN)
 	$(BIN)/aaai eval --seeds reserved --policy $(DEMO_RUN)
 
-# The baseline table in the README: random actions, the reference controller and the demo's PPO
+# The baseline table (docs: Baselines; the README shows it): random actions, the reference controller and the demo's PPO
 # policy on the reserved seeds of all 13 levels x 11 difficulties (10 seeds each); runs the demo
 # first if its run is missing. Prints how long it took.
 baselines: install-train
 	test -f $(DEMO_RUN)/final/model.zip || $(MAKE) demo
 	$(BIN)/aaai baselines --demo-run $(DEMO_RUN) --out baselines
 
-# The learned rows of the baseline table (README, Learned agents): the student of the reference
+# The learned rows of the baseline table (docs: Learned agents): the student of the reference
 # (DAgger, configs/student.yaml) and PPO in gait mode with the paper's curriculum over every cell
 # (configs/ppo_gait.yaml), each trained (or resumed) if its run is not finished, then scored on all
 # 1,430 reserved episodes; the table and heatmap keep the other rows.
@@ -90,12 +90,12 @@ baselines-learned: install-all
 	  $(BIN)/aaai train --resume $(PPO_GAIT_RUN); else $(BIN)/aaai train --config configs/ppo_gait.yaml --run $(PPO_GAIT_RUN); fi; fi
 	$(BIN)/aaai baselines --student-run $(STUDENT_RUN) --ppo-gait-run $(PPO_GAIT_RUN) --only student,ppo_gait --out baselines
 
-# Time to competence (README, Learned agents): PPO on L0 d0-2 in gait and in rotation mode, each
+# Time to competence (docs: Learned agents): PPO on L0 d0-2 in gait and in rotation mode, each
 # checkpoint scored on the 30 reserved episodes; resumes where it stopped.
 competence: install-train
 	$(BIN)/aaai experiment competence --out experiments/competence
 
-# The curricula experiment (README, Curricula): every sampler (paper, uniform, learnability, plr)
+# The curricula experiment (docs: Training, Curricula): every sampler (paper, uniform, learnability, plr)
 # trained on one budget, config and cells, 3 seeds each, scored on reserved and trained seeds; writes
 # experiments/curricula/ (table.md, table.csv, curves.png, runs.csv, each run's CSVs). The committed
 # results are this budget: 50,000 gait decisions per run, 5 seeds per cell scored (about 25 minutes
@@ -105,7 +105,7 @@ CURRICULA_ARGS ?=
 curricula: install-train
 	$(BIN)/aaai experiment curricula --steps 50000 -k 5 --out experiments/curricula $(CURRICULA_ARGS)
 
-# The gait: measure its speeds (README, "The body"), or tune it again (CMA-ES, the tune extra).
+# The gait: measure its speeds (docs: Environment, "The body"), or tune it again (CMA-ES, the tune extra).
 gait: install
 	$(BIN)/python -m aaai.gait_tuning --measure
 

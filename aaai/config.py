@@ -347,4 +347,20 @@ def load_config(config: str | Path | Mapping | None = None, **keywords: Any) -> 
         else:
             allowed = ", ".join(sorted(set(leaves) | sections))
             raise ConfigError(f"config key '{name}' (keyword) does not exist; allowed: {allowed}")
+    _check_ray_options(flat)
     return _unflatten(flat)
+
+
+RAY_OPTIONS = ("sensors.ray_memory", "sensors.ray_down_fan", "sensors.ray_width")
+
+
+def _check_ray_options(flat: Mapping[str, Any]) -> None:
+    """An option of the rays set while the rays are off would be silently ignored: refuse it."""
+    if flat["sensors.rays"]:
+        return
+    for key in RAY_OPTIONS:
+        if flat[key]:
+            raise ConfigError(
+                f"config key '{key}': got {flat[key]!r} with 'sensors.rays': false; allowed: 0 when the rays "
+                f"are off, or set 'sensors.rays': true"
+            )

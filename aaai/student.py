@@ -18,7 +18,7 @@ gets only the ordinary observation (rays, proprioception, the camera if on). Eac
 The teacher is stateful: it notices when it makes no progress and backs off, and it times its
 plank pushes. While the student drives, those clocks are held (``ReferenceController.
 student_drove``): a first version let them run, and labelled the student's detours "stuck, back
-off", and its students got worse with every round after the third (README, Learned agents).
+off", and its students got worse with every round after the third (docs: Learned agents).
 
 The student is an ordinary stable-baselines3 PPO model in an ordinary run folder, so ``aaai eval
 --policy RUN`` scores it and ``aaai train --init-from RUN`` fine-tunes it with PPO. Every

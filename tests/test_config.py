@@ -170,3 +170,13 @@ def test_a_hostile_yaml_file_gets_one_clear_message(tmp_path, content, words):
 def test_a_config_that_is_neither_a_path_nor_a_mapping_is_refused():
     with pytest.raises(ConfigError, match="got 123; allowed: a YAML file's path or a mapping"):
         load_config(123)
+
+
+@pytest.mark.parametrize(
+    "key, value", [("ray_memory", 7), ("ray_down_fan", 8.0), ("ray_width", 1.0)], ids=["memory", "fan", "width"]
+)
+def test_an_option_of_the_rays_with_the_rays_off_is_refused_not_ignored(key, value):
+    with pytest.raises(ConfigError, match=rf"'sensors.{key}': got {value!r} with 'sensors.rays': false"):
+        load_config(sensors={"rays": False, key: value})
+    assert load_config(sensors={"rays": True, key: value})["sensors"][key] == value
+    assert load_config(sensors={"rays": False, key: 0})["sensors"]["rays"] is False
