@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: lint install install-train install-all test docs play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
+.PHONY: lint check install install-train install-all test docs play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -42,11 +42,15 @@ lint: install
 	$(BIN)/python -m ruff check .
 	$(BIN)/python -m ruff format --check .
 
+# Lint, format and types: ruff, then mypy on the core modules ([tool.mypy] in pyproject.toml).
+check: lint
+	$(BIN)/python -m mypy
+
 install-train: $(VENV)/.installed-train
 
 install-all: $(VENV)/.installed-all
 
-test: install-all $(CHROMIUM_BINARIES) lint
+test: install-all $(CHROMIUM_BINARIES) check
 	$(BIN)/python -m pytest -q -m "not long" $(PYTEST_ARGS)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --quiet
 

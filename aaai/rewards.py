@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable
 
-from aaai.kinds import EDIBLE_KINDS, ENDING_KINDS, HOT_ZONE_FACTOR, KIND_INDEX, KINDS, REGISTRY
+from aaai.kinds import EDIBLE_KINDS, ENDING_KINDS, HOT_ZONE_FACTOR, KIND_INDEX, KINDS, REGISTRY, TimedFood
 from aaai.spec import LevelSpec, ObjectSpec
 
 LIMB_FLAT_REWARD = {"food_green": 1.0, "food_yellow": 0.5, **{k: c.flat_value for k, c in REGISTRY.items() if c.edible}}
@@ -52,8 +52,8 @@ def limb_eats(limb_food_reward: str) -> bool:
 def food_reward(food: ObjectSpec, by_head: bool, limb_food_reward: str, seconds: float = 0.0) -> float:
     """What eating ``food`` pays ``seconds`` into the episode (only timed food's value depends on it)."""
     if by_head or limb_food_reward == "size" or food.kind in ANY_PART:
-        timed = REGISTRY.get(food.kind)
-        return timed.value_at(food, seconds) if timed is not None and timed.timed else food.food_value
+        kind = REGISTRY.get(food.kind)
+        return kind.value_at(food, seconds) if kind is not None and issubclass(kind, TimedFood) else food.food_value
     return LIMB_FLAT_REWARD[food.kind] if limb_food_reward == "flat" else 0.0
 
 

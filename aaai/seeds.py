@@ -75,10 +75,10 @@ def read_seed_key(path: str | Path | None = None) -> str | None:
         key = path.read_text(errors="strict").strip()
         source = f"--seed-key-file {str(path)!r}"
     else:
-        key = os.environ.get(SEED_KEY_VARIABLE)
-        if key is None:
+        variable = os.environ.get(SEED_KEY_VARIABLE)
+        if variable is None:
             return None
-        key, source = key.strip(), SEED_KEY_VARIABLE
+        key, source = variable.strip(), SEED_KEY_VARIABLE
     if len(key) < 8:
         raise ValueError(f"{source}: the key is {len(key)} characters long; allowed: a key of at least 8 characters")
     return key

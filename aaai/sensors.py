@@ -78,8 +78,8 @@ class Rays:
         shape = (self.n_rays * (self.n_kinds + 2),) if flat else self.grid_shape
         self.space = spaces.Box(0.0, 1.0, shape, np.float32)
         self._nothing = self.n_kinds
-        self._holes = None  # (m, 4) rectangles x0, y0, x1, y1 of missing floor, or None
-        self._zones = None  # (m, 7) floor areas: centre x y, cos and sin of yaw, half x y, column; or None
+        self._holes: np.ndarray | None = None  # (m, 4) rectangles x0, y0, x1, y1 of missing floor, or None
+        self._zones: np.ndarray | None = None  # (m, 7) floor areas: centre x y, cos, sin of yaw, half x y, column
         self.threads = 1  # rayTestBatch's numThreads (0: all cores); the hits are the same for any
 
     def set_holes(self, rectangles) -> None:
@@ -153,6 +153,7 @@ class Rays:
     def _see_zones(self, obs: np.ndarray, starts: np.ndarray, dirs: np.ndarray) -> None:
         """Marks each ray whose ground track enters a floor area before its hit as seeing that area's
         kind: the slab method in each area's own frame."""
+        assert self._zones is not None  # observe calls it only when the level has floor areas
         cx, cy, cos, sin, hx, hy, columns = self._zones.T  # (m,)
         dx, dy = starts[:, 0:1] - cx, starts[:, 1:2] - cy  # (n, m)
         u0, v0 = dx * cos + dy * sin, -dx * sin + dy * cos
@@ -174,6 +175,7 @@ class Rays:
 
     def _see_holes(self, obs: np.ndarray, starts: np.ndarray, dirs: np.ndarray) -> None:
         """Marks each ray whose ground track enters missing floor before its hit as seeing a hole."""
+        assert self._holes is not None  # observe calls it only when the level has missing floor
         x0, y0, x1, y1 = self._holes.T  # (m,)
         ground = dirs[:, :2].copy()
         ground[ground == 0.0] = 1e-12  # no division by zero: a ray parallel to a side meets it 'very far'
@@ -288,11 +290,11 @@ class Senses:
         self.foot_slot = body.foot_slot
         self.feet = np.zeros(len(body.foot_links), np.float32)
         n = body.n_axes
-        space = {"joints": spaces.Box(-1.0, 1.0, (n,), np.float32)}
+        space: dict[str, spaces.Space] = {"joints": spaces.Box(-1.0, 1.0, (n,), np.float32)}
         if self.rays:
             space["rays"] = self.rays.space
-        depth = sensors.get("ray_memory", 0) if self.rays else 0
-        self.memory = RayMemory(self.rays, depth) if depth else None
+        depth = sensors.get("ray_memory", 0)
+        self.memory = RayMemory(self.rays, depth) if self.rays and depth else None
         if self.memory:
             space["ray_memory"] = self.memory.space
         if self.camera:

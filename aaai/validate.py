@@ -110,7 +110,8 @@ def exact_overlaps(spec: LevelSpec) -> list[str]:
     """Objects of any kind that fill the very same place (same shape, position, size and yaw, within
     TOLERANCE): a copy-and-paste slip in a hand-made level. Two solids there are reported by
     :func:`overlapping_solids`; two pieces of food or floor are caught here."""
-    problems, seen = [], {}
+    problems: list[str] = []
+    seen: dict[tuple, ObjectSpec] = {}
     for obj in spec.objects:
         key = (obj.shape, *(round(float(v) / TOLERANCE) for v in (*obj.position, *obj.size, obj.yaw)))
         if key in seen and not (obj.kind in SOLID_KINDS and seen[key].kind in SOLID_KINDS):  # (reported below)
@@ -153,11 +154,9 @@ def _supported(spec: LevelSpec, x: float, y: float, bottom: float) -> bool:
     """Rests on the floor (not over a hole) or on top of a solid object."""
     if abs(bottom) < TOLERANCE:
         return tile_at(spec, x, y) not in set(map(tuple, spec.holes))
-    point = np.array([x, y])
+    point = tuple((x + dx, y + dy) for dx, dy in ((-0.01, -0.01), (0.01, -0.01), (0.01, 0.01), (-0.01, 0.01)))
     for obj in solids(spec):
-        if abs(z_range(obj)[1] - bottom) < TOLERANCE and footprints_overlap(
-            corners(obj), np.array([point + d for d in ((-0.01, -0.01), (0.01, -0.01), (0.01, 0.01), (-0.01, 0.01))])
-        ):
+        if abs(z_range(obj)[1] - bottom) < TOLERANCE and footprints_overlap(corners(obj), point):
             return True
     return False
 
@@ -350,7 +349,8 @@ def malformed(spec: LevelSpec) -> list[str]:
                 f"far outside any arena (allowed: -{MAX_ARENA:g} to {MAX_ARENA:g})"
             )
         if obj.behaviour:
-            moving = REGISTRY.get(obj.behaviour.get("type")) if isinstance(obj.behaviour, dict) else None
+            name = obj.behaviour.get("type") if isinstance(obj.behaviour, dict) else None
+            moving = REGISTRY.get(name) if isinstance(name, str) else None
             if moving is None:
                 problems.append(f"{what}'s behaviour {obj.behaviour!r} is not one of {', '.join(REGISTRY)}")
                 continue
