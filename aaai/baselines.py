@@ -22,9 +22,10 @@ import cv2
 import numpy as np
 
 from aaai.curriculum import heatmap_panel
-from aaai.evaluation import COLUMNS, cells_for, evaluate, policy_config, policy_record, scored_episodes
+from aaai.evaluation import COLUMNS, cells_for, evaluate, policy_record, scored_episodes
 from aaai.files import atomic_path, write_atomic
 from aaai.levels import all_levels, get_level
+from aaai.policies import Policy, resolve
 
 SHOWN_DIFFICULTIES = (0, 5, 10)
 
@@ -52,14 +53,14 @@ def policies(demo_run: Path | None, learned: dict[str, Path] | None = None) -> d
     return named
 
 
-def _score_part(policy: str, level: int, difficulties: list[int], count: int, part: Path) -> tuple[Path, float]:
+def _score_part(policy: Policy, level: int, difficulties: list[int], count: int, part: Path) -> tuple[Path, float]:
     one_thread()
     started = time.perf_counter()
     evaluate(
         policy,
         cells_for([level], difficulties, "reserved", count),
         part,
-        policy_config(policy),
+        policy.config(),
         record=policy_record(policy, "reserved"),
     )
     return part, time.perf_counter() - started
@@ -83,6 +84,7 @@ def run(
     named = policies(demo_run, learned)
     if only is not None:
         named = {name: named[name] for name in only}
+    resolved = {name: resolve(policy) for name, policy in named.items()}  # each read once, here
     parts = out / "parts"
     parts.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
@@ -90,7 +92,7 @@ def run(
     with ProcessPoolExecutor(max_workers=workers) as pool:
         jobs = {
             pool.submit(_score_part, policy, level, difficulties, count, parts / f"{name}_L{level}.csv"): name
-            for name, policy in named.items()
+            for name, policy in resolved.items()
             for level in levels
         }
         for job in jobs:
