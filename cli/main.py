@@ -881,11 +881,10 @@ def diagnose_command(policy, scoreboard, levels, limit, config_path):
 def baselines_command(demo_run, folder, levels, difficulty, count, workers, student_run, ppo_gait_run, only):
     """Score random actions, the reference controller and trained runs on the reserved seeds of
     every cell: a scoreboard each, a pass-rate table and a heatmap (make baselines)."""
-    from aaai.baselines import run
+    from aaai.baselines import policies, run
     from aaai.runs import check_writable
 
     try:
-        resolve(demo_run) if Path(demo_run).is_dir() else None  # a damaged model is refused before any work
         check_writable(Path(folder), "--out", folder=True)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
@@ -900,17 +899,12 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers, stud
     known = ["random", "reference", "ppo_demo", *learned]
     if chosen is not None and (not chosen or any(name not in known for name in chosen)):
         raise click.UsageError(f"--only: got {only!r}; allowed: a list of {', '.join(known)}")
-    run(
-        Path(folder),
-        Path(demo_run) if needs_demo else None,
-        parse_levels(levels),
-        parse_range(difficulty, "--difficulty", 0, 10),
-        count,
-        workers,
-        echo=click.echo,
-        learned=learned,
-        only=chosen,
-    )
+    level_list, difficulties = parse_levels(levels), parse_range(difficulty, "--difficulty", 0, 10)
+    try:  # each policy read once, here: a damaged model is refused before any work
+        named = policies(Path(demo_run) if needs_demo else None, learned, chosen)
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    run(Path(folder), named, level_list, difficulties, count, workers, echo=click.echo)
 
 
 @cli.command("seeds")
