@@ -203,7 +203,7 @@ def evaluate_on_ray(
                 for ref in pending:  # an error or an interrupt: nothing more is started for this eval
                     ray.cancel(ref, force=True)
 
-    rows = score(policy, output, config, plan, record, on_episode, play)
+    rows = score(policy, output, config, plan, play, record, on_episode)
     return _put_in_order(output, rows, settled[0], order) if settled[0] < len(rows) else rows
 
 

@@ -149,29 +149,27 @@ class Scoreboard:
             rows,
             on_episode,
         )
-        self.handle: io.TextIOWrapper[io.BufferedWriter] | None = None
-        self.writer: csv.DictWriter | None = None
+        self.handle: io.TextIOWrapper[io.BufferedWriter] | None = None  # open from the first row on
 
-    def _opened(self) -> tuple[io.TextIOWrapper[io.BufferedWriter], csv.DictWriter]:
+    def _opened(self) -> io.TextIOWrapper[io.BufferedWriter]:
         """The file open for appending (opened, with the record beside it, at the first row)."""
-        if self.handle is None or self.writer is None:
+        if self.handle is None:
             new = not self.output.exists() or self.output.stat().st_size == 0
             if new or not record_path(self.output).exists():
                 write_atomic(record_path(self.output), json.dumps(self.record, indent=1, sort_keys=True) + "\n")
             self.handle = io.TextIOWrapper(open(self.output, "ab"), newline="")  # its buffer dropped on a failed write
-            self.writer = csv.DictWriter(self.handle, fieldnames=self.columns, extrasaction="ignore")
             if new:
-                self.writer.writeheader()
-        return self.handle, self.writer
+                csv.writer(self.handle).writerow(self.columns)
+        return self.handle
 
     def append(self, row: dict) -> None:
         """Writes one episode's row and makes it durable before the next episode starts. A row
         that cannot be written whole is cut off again, so that the file ends with the last whole row."""
         durable = None
         try:
-            handle, writer = self._opened()
+            handle = self._opened()
             durable = os.fstat(handle.fileno()).st_size
-            writer.writerow(row)
+            csv.DictWriter(handle, fieldnames=self.columns, extrasaction="ignore").writerow(row)
             handle.flush()
             os.fsync(handle.fileno())
         except OSError as error:
@@ -197,7 +195,7 @@ class Scoreboard:
             self.handle.close()  # (a no-op once the file below is closed)
         except (OSError, ValueError):
             pass
-        self.handle = self.writer = None
+        self.handle = None
 
     def close(self) -> None:
         if self.handle is not None:
@@ -279,17 +277,18 @@ def score(
     output: Path,
     config: dict,
     plan: Callable[[list[dict]], list[Episode]],
+    play: Callable[[list[Episode]], Generator[dict, None, None]],
     record: dict | None = None,
     on_episode: Callable[[dict], None] | None = None,
-    play: Callable[[list[Episode]], Generator[dict, None, None]] | None = None,
 ) -> list[dict]:
     """The scoring loop of every eval: refuses an output that cannot be written or that holds
     another policy's episodes, reads the rows already there, asks ``plan(rows)`` for the episodes
-    still to play, and appends each row ``play(episodes)`` yields (default :func:`play_here`: one
-    after another in this process), flushed per episode. ``record`` (default: the policy on listed
-    seeds) is what the scoreboard is scored with; with the environment's config, action mode and
-    the package version added (:func:`scoring_record`) it is kept beside it. Returns every row of
-    the scoreboard (those there before, then the new ones as they came), as strings."""
+    still to play, and appends each row ``play(episodes)`` yields (:func:`play_here`: one after
+    another in this process; :mod:`aaai.distributed`: as Ray tasks), flushed per episode.
+    ``record`` (default: the policy on listed seeds) is what the scoreboard is scored with; with
+    the environment's config, action mode and the package version added (:func:`scoring_record`)
+    it is kept beside it. Returns every row of the scoreboard (those there before, then the new
+    ones as they came), as strings."""
     output = Path(output)
     check_writable(output, "--out")
     output.parent.mkdir(parents=True, exist_ok=True)
@@ -297,7 +296,7 @@ def score(
     check_record(output, record)
     rows = scored_episodes(output)
     episodes = plan(rows)
-    played = play(episodes) if play is not None else play_here(policy, config, episodes)
+    played = play(episodes)
     with Scoreboard(output, record, columns_of(output), rows, on_episode) as board, closing(played):
         for row in played:
             board.append(row)
@@ -341,9 +340,9 @@ def evaluate(
         output,
         config,
         lambda rows: episode_plan(cells, rows),
+        lambda episodes: play_here(policy, config, episodes, make_policy),
         record,
         on_episode,
-        lambda episodes: play_here(policy, config, episodes, make_policy),
     )
 
 
@@ -385,9 +384,9 @@ def evaluate_arenas(
         output,
         config,
         plan,
+        lambda episodes: play_here(policy, config, episodes, make_policy),
         record,
         on_episode,
-        lambda episodes: play_here(policy, config, episodes, make_policy),
     )
 
 

@@ -242,3 +242,100 @@ def test_a_policy_its_caller_makes_is_recorded_by_name_and_not_built_here():
     with pytest.raises(ConfigError, match="'human:ada' is made by its caller"):
         human.build(None)
     assert Policy("x", "random") == Policy("x", "random", record={"policy": "x"})  # the record is not its identity
+
+
+def test_the_policy_keeps_the_string_it_was_given_and_the_trust_it_was_given(run):
+    for text in ("random", str(run), str(run / "final" / "model.zip")):
+        assert resolve(text).name == text and resolve(text).trust is False
+        assert resolve(text, trust=True).trust is True
+    assert resolve(str(run / "final" / "model.zip")).record["policy"] == str(run / "final" / "model.zip")
+
+
+def test_a_model_that_does_not_fit_the_environment_is_refused_naming_both_spaces(run, tmp_path):
+    """A model file outside its run folder (nothing to compare its config with) is still checked
+    against the environment's spaces, whether loaded without or with code (--trust-model)."""
+    bare = tmp_path / "model.zip"
+    shutil.copy(run / "final" / "model.zip", bare)
+    env = AnimalAIEnv(config=load_config(SHORT))  # 8 rays a side, the model 4
+    try:
+        for trust in (False, True):
+            with pytest.raises(ConfigError) as caught:
+                resolve(str(bare), trust=trust).build(env)
+            message = str(caught.value)
+            assert message.startswith(
+                f"--policy: model file {str(bare)!r} does not fit this environment (action mode 'rotation'): "
+            )
+            assert "observation 'rays'" in message and "(9, " in message and "(17, " in message, message
+            assert message.endswith(". Score it with the config it was trained with (--config)")
+    finally:
+        env.close()
+
+
+def test_a_trusted_model_acts_as_the_one_read_without_code(run):
+    env = AnimalAIEnv(config=resolve(str(run)).config())
+    try:
+        safe, trusted = resolve(str(run)).build(env), resolve(str(run), trust=True).build(env)
+        assert trusted.model.__class__.__name__ == "PPO" and not trusted.recurrent
+        observation, _ = env.reset(seed=4)
+        for _ in range(5):
+            action = safe(observation)
+            assert np.array_equal(action, trusted(observation))
+            observation, *_ = env.step(action)
+    finally:
+        env.close()
+
+
+def test_a_recurrent_model_carries_its_memory_through_an_episode_and_forgets_it_at_reset(tmp_path):
+    """As RecurrentPPO itself plays: the state goes from one decision to the next, and a new
+    episode starts from none."""
+    pytest.importorskip("sb3_contrib", reason="needs the train extra")
+    from sb3_contrib import RecurrentPPO
+
+    config = load_config(SHORT)
+    env = AnimalAIEnv(config=env_part(config, shaping=0.0))
+    try:
+        model = RecurrentPPO(
+            "MultiInputLstmPolicy",
+            env,
+            n_steps=16,
+            batch_size=16,
+            seed=0,
+            device="cpu",
+            policy_kwargs={"net_arch": [8], "lstm_hidden_size": 8},
+        )
+        path = tmp_path / "lstm.zip"
+        model.save(path)
+        for trust in (False, True):
+            policy = resolve(str(path), trust=trust).build(env)
+            assert policy.recurrent
+            observation, _ = env.reset(seed=2)
+            policy.reset(2)
+            state, start = None, np.array([True])
+            for _ in range(4):
+                expected, state = model.predict(observation, state=state, episode_start=start, deterministic=True)
+                start = np.array([False])
+                assert np.allclose(policy(observation), expected)
+                observation, *_ = env.step(expected)
+            policy.reset(3)
+            assert policy.state is None and policy.start is True
+            observation, _ = env.reset(seed=3)
+            expected, _ = model.predict(observation, state=None, episode_start=np.array([True]), deterministic=True)
+            assert np.allclose(policy(observation), expected)
+    finally:
+        env.close()
+
+
+def test_a_model_ignores_the_observation_keys_its_caller_added(run):
+    """aaai show turns the camera on to draw it: the model, trained without it, never sees it."""
+    config = load_config({**SHORT, "sensors": {"rays_per_side": 4, "camera": True, "camera_resolution": 16}})
+    env = AnimalAIEnv(config=config)
+    try:
+        with pytest.raises(ConfigError, match="sensors.camera: model False, environment True"):
+            resolve(str(run)).build(env)
+        policy = resolve(str(run)).build(env, extra_keys=("camera",))
+        observation, _ = env.reset(seed=1)
+        assert "camera" in observation
+        plain = {k: v for k, v in observation.items() if k != "camera"}
+        assert np.array_equal(policy(observation), policy.model.predict(plain, deterministic=True)[0])
+    finally:
+        env.close()
