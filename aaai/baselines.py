@@ -22,9 +22,10 @@ import cv2
 import numpy as np
 
 from aaai.curriculum import heatmap_panel
-from aaai.evaluation import COLUMNS, cells_for, evaluate, policy_config, policy_record, scored_episodes
+from aaai.evaluation import COLUMNS, cells_for, evaluate, policy_record, scored_episodes
 from aaai.files import atomic_path, write_atomic
 from aaai.levels import all_levels, get_level
+from aaai.policies import Policy, resolve
 
 SHOWN_DIFFICULTIES = (0, 5, 10)
 
@@ -42,24 +43,27 @@ def one_thread() -> None:
 ORDER = ("random", "reference", "ppo_demo", "ppo_gait", "student")  # the table's columns, left to right
 
 
-def policies(demo_run: Path | None, learned: dict[str, Path] | None = None) -> dict[str, str]:
-    """Name in the table -> what ``--policy`` takes: random, the reference, the demo's run and any
-    other learned runs (``{"student": Path("runs/student"), …}``)."""
+def policies(
+    demo_run: Path | None, learned: dict[str, Path] | None = None, only: list[str] | None = None
+) -> dict[str, Policy]:
+    """Name in the table -> the policy, each read once here (a damaged model is refused before any
+    work): random, the reference, the demo's run and any other learned runs (``{"student":
+    Path("runs/student"), …}``); only the ``only`` ones if given."""
     named = {"random": "random", "reference": "reference"}
     if demo_run is not None:
         named["ppo_demo"] = str(demo_run)
     named.update({name: str(path) for name, path in (learned or {}).items()})
-    return named
+    return {name: resolve(policy) for name, policy in named.items() if only is None or name in only}
 
 
-def _score_part(policy: str, level: int, difficulties: list[int], count: int, part: Path) -> tuple[Path, float]:
+def _score_part(policy: Policy, level: int, difficulties: list[int], count: int, part: Path) -> tuple[Path, float]:
     one_thread()
     started = time.perf_counter()
     evaluate(
         policy,
         cells_for([level], difficulties, "reserved", count),
         part,
-        policy_config(policy),
+        policy.config(),
         record=policy_record(policy, "reserved"),
     )
     return part, time.perf_counter() - started
@@ -67,22 +71,17 @@ def _score_part(policy: str, level: int, difficulties: list[int], count: int, pa
 
 def run(
     out: Path,
-    demo_run: Path | None,
+    named: dict[str, Policy],
     levels: list[int] | None = None,
     difficulties: list[int] | None = None,
     count: int = 10,
     workers: int = 2,
     echo=print,
-    learned: dict[str, Path] | None = None,
-    only: list[str] | None = None,
 ) -> dict[str, Path]:
-    """Scores every policy (or the ``only`` ones) on ``count`` reserved seeds per cell; the table
-    and heatmap then show every scoreboard in ``out``. Returns the merged scoreboards."""
+    """Scores every policy of ``named`` (:func:`policies`) on ``count`` reserved seeds per cell;
+    the table and heatmap then show every scoreboard in ``out``. Returns the merged scoreboards."""
     levels = sorted(all_levels()) if levels is None else levels
     difficulties = list(range(11)) if difficulties is None else difficulties
-    named = policies(demo_run, learned)
-    if only is not None:
-        named = {name: named[name] for name in only}
     parts = out / "parts"
     parts.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()

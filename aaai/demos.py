@@ -25,6 +25,7 @@ import numpy as np
 
 from aaai.config import ConfigError, env_part
 from aaai.episodes import play
+from aaai.policies import Policy, as_policy
 
 DEFAULT_ID = "aaai/{policy}-v0"
 BATCH = 10  # episodes written to the dataset at a time: at most this many are lost to a crash
@@ -87,7 +88,7 @@ def record_episode(env, policy: Callable, level: int, difficulty: int, seed: int
 
 
 def record(
-    policy_name: str,
+    policy: Policy | str,
     episodes: list[tuple[int, int, int]],
     out: Path,
     config: dict,
@@ -99,14 +100,14 @@ def record(
     be the plan's). Returns the dataset id."""
     import minari
 
-    from aaai.evaluation import load_policy
-
+    policy = as_policy(policy)
+    policy_name = policy.name
     dataset_id = dataset_id or dataset_id_for(policy_name)
     env_config = env_part(config, shaping=0.0)  # the task's own reward
     env = gym.make("aaai/AnimalAI-v0", config=env_config, disable_env_checker=True)
     out.mkdir(parents=True, exist_ok=True)
     try:
-        policy = load_policy(policy_name, env.unwrapped)
+        acting = policy.build(env.unwrapped)
         with datasets_path(out):
             dataset = None
             done = 0
@@ -116,7 +117,7 @@ def record(
             buffer = []
             for index in range(done, len(episodes)):
                 level, difficulty, seed = episodes[index]
-                buffer.append(record_episode(env.unwrapped, policy, level, difficulty, seed, index))
+                buffer.append(record_episode(env.unwrapped, acting, level, difficulty, seed, index))
                 if on_episode:
                     on_episode(index)
                 if len(buffer) == BATCH or index + 1 == len(episodes):

@@ -29,6 +29,7 @@ from aaai.config import env_part
 from aaai.env import AnimalAIEnv
 from aaai.episodes import play
 from aaai.kinds import KIND_INDEX
+from aaai.policies import Policy, as_policy
 
 FOOD_CHANNELS = (KIND_INDEX["food_green"], KIND_INDEX["food_yellow"])
 RAY_WIDTH = 11  # the classic rays: nine kinds, nothing, distance
@@ -84,10 +85,11 @@ def replay_failure(env: AnimalAIEnv, policy, row: dict) -> Failure:
 
 
 def diagnose(
-    policy_name: str, scoreboard: Path, config: dict, levels: list[int] | None = None, limit: int | None = None
+    policy: Policy | str, scoreboard: Path, config: dict, levels: list[int] | None = None, limit: int | None = None
 ) -> list[Failure]:
-    """Replays the failed rows of ``scoreboard`` (of ``levels``; at most ``limit`` per level)."""
-    from aaai.evaluation import load_policy
+    """Replays the failed rows of ``scoreboard`` (of ``levels``; at most ``limit`` per level) with
+    ``policy`` (a Policy, or a --policy string)."""
+    policy = as_policy(policy)
 
     with open(scoreboard, newline="") as handle:
         rows = [
@@ -104,8 +106,8 @@ def diagnose(
         rows = kept
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))
     try:
-        policy = load_policy(policy_name, env)
-        return [replay_failure(env, policy, row) for row in rows]
+        acting = policy.build(env)
+        return [replay_failure(env, acting, row) for row in rows]
     finally:
         env.close()
 

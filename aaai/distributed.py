@@ -1,17 +1,17 @@
 """`aaai eval --backend ray`: the scoreboard's episodes played as Ray tasks, on this machine or a cluster.
 
-Scores exactly as :func:`aaai.evaluation.evaluate` does (the same ``run_episode`` on an environment
-without shaping, the same policies, the same CSV and the same record beside it), but each episode is
-a Ray task. A task builds its own environment and policy (kept for the next task in the same worker
-process) and returns the episode's row; the driver appends rows to the CSV as they arrive (flushed
-and fsynced per row) and, when all are in, rewrites the file atomically so that it reads as the
-local backend's would: the rows that were there before, then this run's rows in cell and seed
-order. An interrupted eval leaves every row that had arrived; running it again scores only the
-missing (level, difficulty, seed) episodes and puts the killed run's rows and its own in that order
-(a hidden ``.<out>.ray-unordered`` file beside the scoreboard says where they start), so the file
-equals an uninterrupted run's. A task whose worker process dies (killed, out of
-memory, its node lost) is run again (``max_retries``), so no episode is lost and none is written
-twice.
+Scores with :func:`aaai.evaluation.score`, the loop the local eval uses (the same plan, record,
+CSV and ``run_episode`` on an environment without shaping); only where the episodes run differs:
+each is a Ray task. A task builds the resolved :class:`aaai.policies.Policy` and an environment
+(kept for the next task in the same worker process) and returns the episode's row; the driver
+appends rows to the CSV as they arrive (flushed and fsynced per row) and, when all are in,
+rewrites the file atomically so that it reads as the local backend's would: the rows that were
+there before, then this run's rows in cell and seed order. An interrupted eval leaves every row
+that had arrived; running it again scores only the missing (level, difficulty, seed) episodes and
+puts the killed run's rows and its own in that order (a hidden ``.<out>.ray-unordered`` file
+beside the scoreboard says where they start), so the file equals an uninterrupted run's. A task
+whose worker process dies (killed, out of memory, its node lost) is run again (``max_retries``),
+so no episode is lost and none is written twice.
 
 A trained model is read once by the driver and shipped through Ray's object store, so the nodes of
 a cluster need no shared file system; every node needs ``aaai`` (and, for models, the ``train``
@@ -25,87 +25,31 @@ uses tokens, set ``RAY_AUTH_MODE=token`` yourself.
 from __future__ import annotations
 
 import csv
-import hashlib
 import io
 import json
 import os
 import tempfile
 from collections import deque
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Callable, Generator
 
 from aaai.config import ConfigError, env_part
-from aaai.evaluation import (
-    COLUMNS,
-    Cell,
-    Scoreboard,
-    check_record,
-    columns_of,
-    episode_plan,
-    load_policy,
-    policy_factory,
-    policy_record,
-    run_episode,
-    scored_episodes,
-    scoring_record,
-    write_error,
-)
+from aaai.evaluation import COLUMNS, Cell, columns_of, episode_plan, run_episode, score, write_error
 from aaai.files import write_atomic
+from aaai.policies import Policy, as_policy
 from aaai.ray_session import RaySession
-from aaai.rllib_learner import run_backend
-from aaai.runs import check_writable
 
 DEFAULT_RETRIES = 3
-BUILTIN_POLICIES = ("random", "reference", "gait")
 
 Key = tuple[int, int, int]  # (level, difficulty, seed)
-
-
-@dataclass(frozen=True)
-class PolicySpec:
-    """What a task needs to rebuild the policy: a name load_policy takes, or a model's bytes (by reference)."""
-
-    name: str  # 'random', 'reference', 'gait', 'module:callable'; or 'model' with ``model`` set
-    model_sha256: str | None = None
-    model: Any = None  # [ObjectRef] of the model file's bytes (in a list: Ray resolves bare refs)
-    trust: bool = False  # load the model with stable-baselines3's own loader (--trust-model)
-
-    @property
-    def key(self) -> str:
-        return self.model_sha256 or self.name
-
-
-def policy_spec(policy: str, put: Callable[[bytes], Any] | None = None, trust: bool = False) -> PolicySpec:
-    """Resolves a --policy as load_policy would, in the driver; a bad one fails here, before any task.
-
-    A model (a .zip or a run folder's newest model) is read once; ``put`` (ray.put) ships its bytes.
-    """
-    if policy in BUILTIN_POLICIES:
-        return PolicySpec(policy)
-    if Path(policy).is_dir() and run_backend(policy) == "rllib":
-        raise ConfigError(
-            f"--policy: {policy!r} is an RLlib run; --backend ray scores stable-baselines3 models, "
-            "the built-in policies and module:callable; score an RLlib run with --backend local"
-        )
-    model = policy_record(policy, "list").get("model")  # the model file; a missing or damaged one is refused
-    if model is not None:
-        data = Path(model).read_bytes()
-        return PolicySpec("model", hashlib.sha256(data).hexdigest(), [put(data) if put else data], trust)
-    if Path(policy).is_dir():
-        return PolicySpec("random")  # a run of the random agent (load_policy does the same)
-    policy_factory(policy)  # importable here (it must be on every worker too)
-    return PolicySpec(policy)
 
 
 # --- in the worker processes -----------------------------------------------------------------
 _WORKER: dict = {}  # the environment and policy of this worker process, kept between tasks
 
 
-def _worker_env_and_policy(spec: PolicySpec, config: dict):
-    import json
-
-    key = (spec.key, json.dumps(config, sort_keys=True, default=str))
+def _worker_env_and_policy(policy: Policy, model: list, config: dict):
+    key = (policy.key, json.dumps(config, sort_keys=True, default=str))
     if _WORKER.get("key") != key:
         from aaai.env import AnimalAIEnv
 
@@ -113,45 +57,46 @@ def _worker_env_and_policy(spec: PolicySpec, config: dict):
             _WORKER.pop("env").close()
         _WORKER.clear()
         env = AnimalAIEnv(config=env_part(config, shaping=0.0))  # scores count the task's own reward
-        if spec.name == "model":
+        if model:
             import ray
 
-            data = spec.model[0]
+            data = model[0]
             data = ray.get(data) if isinstance(data, ray.ObjectRef) else data
             with tempfile.TemporaryDirectory(prefix="aaai-model-") as folder:
                 path = Path(folder) / "model.zip"
                 path.write_bytes(data)
-                policy = load_policy(str(path), env, trust=spec.trust)  # read whole at load: the file may go
+                acting = policy.with_file(path).build(env)  # read whole at load: the file may go
         else:
-            policy = load_policy(spec.name, env)
-        _WORKER.update(key=key, env=env, policy=policy)
+            acting = policy.build(env)
+        _WORKER.update(key=key, env=env, policy=acting)
     return _WORKER["env"], _WORKER["policy"]
 
 
-def play_episodes(spec: PolicySpec, config: dict, episodes: list[Key]) -> tuple[list[dict], dict]:
-    """The body of a Ray task: plays ``episodes`` with the worker's environment and policy; returns
-    their rows and where they ran (node id, host, pid)."""
+def play_episodes(policy: Policy, model: list, config: dict, episodes: list[Key]) -> tuple[list[dict], dict]:
+    """The body of a Ray task: plays ``episodes`` with the worker's environment and policy (the
+    model's bytes, if any, come in ``model`` as [ObjectRef]: Ray resolves bare refs); returns their
+    rows and where they ran (node id, host, pid)."""
     import socket
 
     import ray
 
-    env, policy = _worker_env_and_policy(spec, config)
-    rows = [run_episode(env, policy, level, difficulty, seed) for level, difficulty, seed in episodes]
+    env, acting = _worker_env_and_policy(policy, model, config)
+    rows = [run_episode(env, acting, level, difficulty, seed) for level, difficulty, seed in episodes]
     where = {"node_id": ray.get_runtime_context().get_node_id(), "host": socket.gethostname(), "pid": os.getpid()}
     return rows, where
 
 
 # --- in the driver --------------------------------------------------------------------------
-def _check_policy(policy: str, config: dict, trust: bool) -> None:
+def _check_policy(policy: Policy, config: dict) -> None:
     """Loads a model policy once here, against the environment, so that a model that does not fit is
     refused before Ray starts and before any file is written."""
-    if policy in BUILTIN_POLICIES or (":" in policy and not Path(policy).exists()):
+    if policy.kind != "model":
         return
     from aaai.env import AnimalAIEnv
 
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))
     try:
-        load_policy(policy, env, trust=trust)
+        policy.build(env)
     finally:
         env.close()
 
@@ -166,7 +111,7 @@ def _format_rows(rows: list[dict], header: bool, columns: list[str] = COLUMNS) -
 
 
 def evaluate_on_ray(
-    policy_name: str,
+    policy: Policy | str,
     cells: list[Cell],
     output: Path,
     config: dict,
@@ -198,40 +143,44 @@ def evaluate_on_ray(
         if not isinstance(value, int) or value < least:
             raise ConfigError(f"{name}: got {value!r}; allowed: a whole number, {least} or more")
     output = Path(output)
-    check_writable(output, "--out")
-    output.parent.mkdir(parents=True, exist_ok=True)
-    record = scoring_record(policy_name, record, config)
-    check_record(output, record)
-    rows = scored_episodes(output)  # also cuts a torn last line
+    policy = as_policy(policy, trust)
+    if policy.kind == "rllib":
+        raise ConfigError(
+            f"--policy: {policy.name!r} is an RLlib run; --backend ray scores stable-baselines3 models, "
+            "the built-in policies and module:callable; score an RLlib run with --backend local"
+        )
     order: dict[Key, int] = {}  # every episode of the cells, in cell and seed order
     for cell in cells:
         for seed in cell.seeds:
             order.setdefault((int(cell.level), int(cell.difficulty), int(seed)), len(order))
-    plan: list[Key] = episode_plan(cells, rows)
-    settled = _settled_rows(output, len(rows))  # rows before them arrived in a Ray eval that was killed
-    if not plan:
-        return _put_in_order(output, rows, settled, order) if settled < len(rows) else rows
-    policy_spec(policy_name)  # a bad policy is refused before Ray starts (the model is read again below)
-    _check_policy(policy_name, config, trust)  # and a model that does not fit the environment, before any file
-    finished: dict[Key, dict] = {}
-    with RaySession(address, workers):
-        import ray
+    before, settled = [0], [0]  # rows there before; how many of them are in their final order (not a killed run's)
 
-        spec = policy_spec(policy_name, put=ray.put, trust=trust)
-        config_ref = ray.put(config)
-        task = ray.remote(play_episodes).options(
-            num_cpus=1, max_retries=max_retries, retry_exceptions=False, scheduling_strategy="SPREAD"
-        )
-        chunks = deque(plan[i : i + episodes_per_task] for i in range(0, len(plan), episodes_per_task))
-        window = 2 * max(1, int(ray.cluster_resources().get("CPU", workers)))
-        pending: dict = {}
-        write_atomic(_unordered_path(output), json.dumps({"settled_rows": settled}) + "\n")
-        with Scoreboard(output, record, columns_of(output), list(rows), on_episode) as board:
+    def plan(rows: list[dict]) -> list[Key]:
+        before[0], settled[0] = len(rows), _settled_rows(output, len(rows))
+        return episode_plan(cells, rows)
+
+    def play(episodes: list[Key]) -> Generator[dict, None, None]:
+        if not episodes:
+            return
+        _check_policy(policy, config)  # a model that does not fit the environment is refused before Ray starts
+        with RaySession(address, workers):
+            import ray
+
+            model = [ray.put(Path(str(policy.file)).read_bytes())] if policy.kind == "model" else []
+            config_ref = ray.put(config)
+            task = ray.remote(play_episodes).options(
+                num_cpus=1, max_retries=max_retries, retry_exceptions=False, scheduling_strategy="SPREAD"
+            )
+            chunks = deque(episodes[i : i + episodes_per_task] for i in range(0, len(episodes), episodes_per_task))
+            window = 2 * max(1, int(ray.cluster_resources().get("CPU", workers)))
+            pending: dict = {}
+            streamed = 0
+            write_atomic(_unordered_path(output), json.dumps({"settled_rows": settled[0]}) + "\n")
             try:
                 while chunks or pending:
                     while chunks and len(pending) < window:
                         chunk = chunks.popleft()
-                        pending[task.remote(spec, config_ref, chunk)] = chunk
+                        pending[task.remote(policy, model, config_ref, chunk)] = chunk
                     ready, _ = ray.wait(list(pending), num_returns=1)
                     pending.pop(ready[0])
                     try:
@@ -242,19 +191,20 @@ def evaluate_on_ray(
                             raise ConfigError(str(cause)) from None
                         raise
                     for row in new_rows:
-                        board.append(row)  # the record and header come with the first row
-                        finished[(row["level"], row["difficulty"], row["seed"])] = row
+                        yield row  # the scoreboard appends it (the record and header come with the first row)
+                        streamed += 1
                     if on_task:
                         on_task(new_rows, where)
             except BaseException:
-                if not finished and settled == len(rows):  # nothing streamed: leave nothing behind
+                if not streamed and settled[0] == before[0]:  # nothing streamed: leave nothing behind
                     _unordered_path(output).unlink(missing_ok=True)
                 raise
             finally:
                 for ref in pending:  # an error or an interrupt: nothing more is started for this eval
                     ray.cancel(ref, force=True)
-    new = [{k: str(v) for k, v in finished[key].items()} for key in plan]
-    return _put_in_order(output, rows + new, settled, order)
+
+    rows = score(policy, output, config, plan, play, record, on_episode)
+    return _put_in_order(output, rows, settled[0], order) if settled[0] < len(rows) else rows
 
 
 def _unordered_path(output: Path) -> Path:

@@ -9,25 +9,25 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import importlib
+import io
 import json
 import math
 import os
+from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Generator
 
 import numpy as np
 
 from aaai.arena import load_arena
-from aaai.config import ConfigError, env_part, load_config
+from aaai.config import ConfigError, env_part
 from aaai.env import AnimalAIEnv
 from aaai.episodes import play
 from aaai.files import write_atomic
-from aaai.gait import gait_policy
 from aaai.levels import all_levels, get_level
-from aaai.rllib_learner import rllib_checkpoint, run_backend
-from aaai.runs import RunFolder, check_writable, model_problem
+from aaai.policies import Policy, as_policy
+from aaai.runs import check_writable
 from aaai.seeds import TRAIN_SEEDS, key_record, reserved_seeds
 
 # "arena": the arena file's name (aaai.arena), empty for a generated level. A scoreboard written
@@ -82,280 +82,6 @@ def seeds_for(mode: str, level: int, difficulty: int, count: int, key: str | Non
         raise ConfigError(f"--seeds: got {mode!r}; allowed: reserved, train or a list like 1,2,3") from None
 
 
-# --- policies -------------------------------------------------------------------------
-class RandomPolicy:
-    """Uniform random actions, seeded per episode so that a scoreboard repeats exactly."""
-
-    def __init__(self, env: AnimalAIEnv):
-        self.space = env.action_space
-
-    def reset(self, seed: int) -> None:
-        self.space.seed(seed)
-
-    def __call__(self, observation):
-        return self.space.sample()
-
-
-class ModelPolicy:
-    """A stable-baselines3 model, acting deterministically.
-
-    By default the file is read without unpickling anything (aaai.model_io): its policy is rebuilt
-    from our registry and the environment's spaces, its weights read with weights_only. ``trust``
-    (--trust-model) uses stable-baselines3's own loader, which runs whatever the file's pickles hold.
-    Either way the model is checked against the environment first (:func:`check_model`)."""
-
-    def __init__(self, path: Path, env: AnimalAIEnv | None = None, trust: bool = False, extra_keys: tuple = ()):
-        from aaai import model_io
-
-        path = Path(path)
-        self.state, self.start, self.extra_keys = None, True, tuple(extra_keys)
-        if env is not None:
-            check_model(path, env, self.extra_keys)
-            env = _Seen(env, self.extra_keys)
-        if trust:
-            self.model = _trusted_load(path)
-            if env is not None:
-                problems = [
-                    f"{name}: model {model}, environment {live}"
-                    for name, model, live in _space_pairs(self.model.observation_space, self.model.action_space, env)
-                ]
-                if problems:
-                    raise ConfigError(_misfit(path, problems, env))
-            self.recurrent = hasattr(self.model, "_last_lstm_states")
-            return
-        archive = model_io.read_archive(path)
-        if env is None:
-            raise ConfigError(f"--policy: model file {str(path)!r}: an environment is needed to load it")
-        problems = model_io.space_problems(archive, env.observation_space, env.action_space)
-        if problems:
-            raise ConfigError(_misfit(path, problems, env))
-        self.model = model_io.load_policy_network(
-            path, env.observation_space, env.action_space, fallback_kwargs=_run_policy_kwargs(path), archive=archive
-        )
-        self.recurrent = self.model.recurrent
-
-    def reset(self, seed: int) -> None:
-        self.state, self.start = None, True
-
-    def __call__(self, observation):
-        if self.extra_keys:
-            observation = {k: v for k, v in observation.items() if k not in self.extra_keys}
-        if self.recurrent:
-            action, self.state = self.model.predict(
-                observation, state=self.state, episode_start=np.array([self.start]), deterministic=True
-            )
-            self.start = False
-            return action
-        action, _ = self.model.predict(observation, deterministic=True)
-        return action
-
-
-def _trusted_load(path: Path):
-    """stable-baselines3's own loader (it unpickles the file's fields): only with --trust-model."""
-    from stable_baselines3 import PPO
-
-    algorithm = PPO
-    try:
-        from aaai import model_io
-
-        if model_io.policy_class_name(model_io.read_archive(path)).startswith("Recurrent"):
-            from sb3_contrib import RecurrentPPO as algorithm
-    except ConfigError:
-        pass  # a class outside our registry: PPO's loader decides
-    try:
-        return algorithm.load(path, device="cpu")
-    except Exception as error:  # noqa: BLE001 - any failure inside the archive is the file's fault
-        raise ConfigError(
-            f"--policy: model file {str(path)!r} cannot be loaded by stable-baselines3: {type(error).__name__}: {error}"
-        ) from None
-
-
-class _Seen:
-    """An environment as a model sees it: without the observation keys its caller added for itself
-    (``aaai show`` turns the camera on to draw it)."""
-
-    def __init__(self, env: AnimalAIEnv, extra_keys: tuple):
-        from gymnasium import spaces
-
-        self.config, self.action_space = env.config, env.action_space
-        self.observation_space = env.observation_space
-        if extra_keys and isinstance(env.observation_space, spaces.Dict):
-            self.observation_space = spaces.Dict(
-                {k: v for k, v in env.observation_space.spaces.items() if k not in extra_keys}
-            )
-
-
-def _space_pairs(observation_space, action_space, env: AnimalAIEnv):
-    from aaai.model_io import describe_space
-
-    for name, model_space, live_space in (
-        ("observation", observation_space, env.observation_space),
-        ("action", action_space, env.action_space),
-    ):
-        model, live = describe_space(model_space), describe_space(live_space)
-        for key in sorted(set(model) | set(live)):
-            if model.get(key) != live.get(key):
-                yield (f"{name} {key!r}" if key else f"{name} space"), model.get(key, "absent"), live.get(key, "absent")
-
-
-# The config keys a model depends on beyond its spaces: compared with its run's config when the
-# model file lies in a run folder (final/model.zip, checkpoints/step_N/model.zip).
-MODEL_KEYS = ("agent.body", "agent.action_mode", "agent.decision_interval", "physics.action_repeat", "physics.timestep")
-
-
-def model_run_config(path: Path) -> dict | None:
-    """The config of the run a model file belongs to, or None for a file outside a run folder."""
-    path = Path(path).absolute()
-    for folder in (path.parent.parent, path.parent.parent.parent):
-        if (folder / "config.yaml").is_file() and path.parent.parent in (folder, folder / "checkpoints"):
-            try:
-                return load_config(RunFolder(folder).read_config())
-            except (ConfigError, OSError, ValueError):
-                return None
-    return None
-
-
-def _dotted(config: dict, key: str):
-    value = config
-    for part in key.split("."):
-        if not isinstance(value, dict) or part not in value:
-            return "absent"
-        value = value[part]
-    return value
-
-
-def check_model(path: Path, env: AnimalAIEnv, extra_keys: tuple = ()) -> None:
-    """Refuses, before any episode, a model whose run was trained with another action mode, body or
-    sensor config than ``env`` has (each differing key named with both values). The settings of a
-    sensor that is off on both sides, or that the caller added for itself (``extra_keys``), do not count."""
-    trained = model_run_config(path)
-    if trained is None:
-        return
-    sensors = sorted(set(trained.get("sensors", {})) | set(env.config.get("sensors", {})))
-    off = {
-        name
-        for name in ("camera", "rays")
-        if name in extra_keys
-        or not (_dotted(trained, f"sensors.{name}") is True or _dotted(env.config, f"sensors.{name}") is True)
-    }
-    keys = list(MODEL_KEYS) + [
-        f"sensors.{key}"
-        for key in sensors
-        if ("camera" if key.startswith("camera") else "rays" if key.startswith("ray") else key) not in off
-    ]
-    differing = [
-        f"{key}: model {_dotted(trained, key)!r}, environment {_dotted(env.config, key)!r}"
-        for key in keys
-        if _dotted(trained, key) != _dotted(env.config, key)
-    ]
-    if differing:
-        run = Path(path).absolute().parent.parent
-        run = run.parent if run.name == "checkpoints" else run
-        raise ConfigError(
-            f"--policy: model file {str(path)!r} was trained with another environment than this one: "
-            + "; ".join(differing)
-            + f". Score it with its run's config (--config {run / 'config.yaml'}, "
-            "or --policy with the run folder)"
-        )
-
-
-def _misfit(path: Path, problems: list[str], env: AnimalAIEnv) -> str:
-    mode = env.config.get("agent", {}).get("action_mode")
-    return (
-        f"--policy: model file {str(path)!r} does not fit this environment (action mode {mode!r}): "
-        + "; ".join(problems)
-        + ". Score it with the config it was trained with (--config)"
-    )
-
-
-def _run_policy_kwargs(path: Path) -> dict | None:
-    """policy_kwargs as our trainer builds them from its run's config (for a file that lacks them)."""
-    config = model_run_config(path)
-    if config is None:
-        return None
-    train = config["train"]
-    return {"net_arch": [train["net_width"], train["net_width"]], "log_std_init": train["log_std_init"]}
-
-
-def model_path(policy: str) -> Path | None:
-    """The model file a --policy names: a .zip, or a run folder's newest saved model (final/ when
-    it is the newest). A damaged model is refused, never swapped for an older one."""
-    path = Path(policy)
-    if path.suffix == ".zip":
-        if not path.is_file():
-            raise ConfigError(f"--policy: model file {policy!r} does not exist")
-        problem = model_problem(path)
-        if problem:
-            raise ConfigError(f"--policy: model file {policy!r} cannot be loaded: {problem}")
-        return path
-    if path.is_dir():
-        run = RunFolder(path)
-        if run.read_config()["train"]["agent"] == "random" or run_backend(path) == "rllib":
-            return None  # a run of the random agent (scored with the random policy), or an RLlib run
-        newest = run.latest_checkpoint()
-        if newest is None:
-            raise ConfigError(f"--policy: run folder {policy!r} holds no model (final/ or checkpoints/*/model.zip)")
-        problem = model_problem(newest / "model.zip")
-        if problem:
-            older = next((f for f in run.saved()[1:] if model_problem(f / "model.zip") is None), None)
-            hint = f"; to score an older one, pass --policy {older / 'model.zip'}" if older else ""
-            raise ConfigError(
-                f"--policy: the newest model of run {policy!r} ({newest.relative_to(path)}) cannot be "
-                f"loaded: {problem}{hint}"
-            )
-        return newest / "model.zip"
-    return None
-
-
-def load_policy(policy: str, env: AnimalAIEnv, trust: bool = False, extra_keys: tuple = ()) -> Callable:
-    """'random', 'reference', 'gait', a model .zip, a run folder, or 'module:callable' called with the
-    env to make the policy.
-
-    A model is loaded without running code from it unless ``trust`` (--trust-model), and checked
-    against ``env`` first. ``extra_keys``: observation keys the caller added for itself (not the model's)."""
-    if policy == "random":
-        return RandomPolicy(env)
-    if policy == "reference":
-        from aaai.reference import ReferenceController
-
-        return ReferenceController(env)
-    if policy == "gait":
-        return gait_policy(env)
-    if Path(policy).is_dir() and run_backend(policy) == "rllib":
-        from aaai.rllib_learner import RLlibPolicy
-
-        return RLlibPolicy(policy, env, trust=trust)
-    path = model_path(policy)
-    if path is not None:
-        return ModelPolicy(path, env, trust=trust, extra_keys=extra_keys)
-    if Path(policy).is_dir():
-        return RandomPolicy(env)
-    factory = policy_factory(policy)
-    try:
-        return factory(env)
-    except TypeError as error:  # a callable that does not take the env (os:system, a class of other arguments)
-        raise ConfigError(
-            f"--policy: {policy!r} could not be called with the environment ({error}); allowed: a "
-            "module:callable that takes the env and returns the policy"
-        ) from None
-
-
-def policy_factory(policy: str) -> Callable:
-    """The callable a 'module:callable' policy names (called with the env to make the policy)."""
-    module_name, _, attribute = policy.partition(":")
-    if not attribute:
-        raise ConfigError(
-            f"--policy: got {policy!r}; allowed: random, reference, gait, a model .zip, a run folder, module:callable"
-        )
-    try:
-        target: Any = importlib.import_module(module_name)
-        for part in attribute.split("."):
-            target = getattr(target, part)
-    except (ImportError, AttributeError) as error:
-        raise ConfigError(f"--policy: cannot load {policy!r}: {error}") from None
-    return target
-
-
 # --- running --------------------------------------------------------------------------
 @dataclass
 class Cell:
@@ -369,6 +95,7 @@ def run_episode(
 ) -> dict:
     """Plays one episode of the cell (or of the arena file, with the seed) to its end; its scoreboard row."""
     pass_mark = None
+    options: dict[str, Any]
     if arena is None:
         options = {"level": level, "difficulty": difficulty}
     else:
@@ -422,28 +149,29 @@ class Scoreboard:
             rows,
             on_episode,
         )
-        self.handle = self.writer = None
+        self.handle: io.TextIOWrapper[io.BufferedWriter] | None = None  # open from the first row on
 
-    def _open(self) -> None:
-        new = not self.output.exists() or self.output.stat().st_size == 0
-        if new or not record_path(self.output).exists():
-            write_atomic(record_path(self.output), json.dumps(self.record, indent=1, sort_keys=True) + "\n")
-        self.handle = open(self.output, "a", newline="")
-        self.writer = csv.DictWriter(self.handle, fieldnames=self.columns, extrasaction="ignore")
-        if new:
-            self.writer.writeheader()
+    def _opened(self) -> io.TextIOWrapper[io.BufferedWriter]:
+        """The file open for appending (opened, with the record beside it, at the first row)."""
+        if self.handle is None:
+            new = not self.output.exists() or self.output.stat().st_size == 0
+            if new or not record_path(self.output).exists():
+                write_atomic(record_path(self.output), json.dumps(self.record, indent=1, sort_keys=True) + "\n")
+            self.handle = io.TextIOWrapper(open(self.output, "ab"), newline="")  # its buffer dropped on a failed write
+            if new:
+                csv.writer(self.handle).writerow(self.columns)
+        return self.handle
 
     def append(self, row: dict) -> None:
         """Writes one episode's row and makes it durable before the next episode starts. A row
         that cannot be written whole is cut off again, so that the file ends with the last whole row."""
         durable = None
         try:
-            if self.handle is None:
-                self._open()
-            durable = os.fstat(self.handle.fileno()).st_size
-            self.writer.writerow(row)
-            self.handle.flush()
-            os.fsync(self.handle.fileno())
+            handle = self._opened()
+            durable = os.fstat(handle.fileno()).st_size
+            csv.DictWriter(handle, fieldnames=self.columns, extrasaction="ignore").writerow(row)
+            handle.flush()
+            os.fsync(handle.fileno())
         except OSError as error:
             self._abandon(durable)
             raise ConfigError(write_error(self.output, error, len(self.rows))) from None
@@ -467,7 +195,7 @@ class Scoreboard:
             self.handle.close()  # (a no-op once the file below is closed)
         except (OSError, ValueError):
             pass
-        self.handle = self.writer = None
+        self.handle = None
 
     def close(self) -> None:
         if self.handle is not None:
@@ -541,8 +269,60 @@ def episode_plan(cells: list[Cell], rows: list[dict]) -> list[tuple[int, int, in
     return plan
 
 
+Episode = tuple  # (level, difficulty, seed), or (level, difficulty, seed, arena file): run_episode's arguments
+
+
+def score(
+    policy: Policy,
+    output: Path,
+    config: dict,
+    plan: Callable[[list[dict]], list[Episode]],
+    play: Callable[[list[Episode]], Generator[dict, None, None]],
+    record: dict | None = None,
+    on_episode: Callable[[dict], None] | None = None,
+) -> list[dict]:
+    """The scoring loop of every eval: refuses an output that cannot be written or that holds
+    another policy's episodes, reads the rows already there, asks ``plan(rows)`` for the episodes
+    still to play, and appends each row ``play(episodes)`` yields (:func:`play_here`: one after
+    another in this process; :mod:`aaai.distributed`: as Ray tasks), flushed per episode.
+    ``record`` (default: the policy on listed seeds) is what the scoreboard is scored with; with
+    the environment's config, action mode and the package version added (:func:`scoring_record`)
+    it is kept beside it. Returns every row of the scoreboard (those there before, then the new
+    ones as they came), as strings."""
+    output = Path(output)
+    check_writable(output, "--out")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    record = scoring_record(policy, record, config)
+    check_record(output, record)
+    rows = scored_episodes(output)
+    episodes = plan(rows)
+    played = play(episodes)
+    with Scoreboard(output, record, columns_of(output), rows, on_episode) as board, closing(played):
+        for row in played:
+            board.append(row)
+    return rows
+
+
+def play_here(
+    policy: Policy,
+    config: dict,
+    episodes: list[Episode],
+    make_policy: Callable[[AnimalAIEnv], Callable] | None = None,
+) -> Generator[dict, None, None]:
+    """Plays ``episodes`` one after another in this process, on one environment without shaping
+    (scores count the task's own reward), yielding each one's row. ``make_policy(env)`` (default:
+    ``policy.build(env)``) makes the acting policy, e.g. a human's (aaai.play) or a recorder."""
+    env = AnimalAIEnv(config=env_part(config, shaping=0.0))
+    try:
+        acting = make_policy(env) if make_policy is not None else policy.build(env)
+        for episode in episodes:
+            yield run_episode(env, acting, *episode)
+    finally:
+        env.close()
+
+
 def evaluate(
-    policy_name: str,
+    policy: Policy | str,
     cells: list[Cell],
     output: Path,
     config: dict,
@@ -551,31 +331,23 @@ def evaluate(
     make_policy: Callable[[AnimalAIEnv], Callable] | None = None,
     trust: bool = False,
 ) -> list[dict]:
-    """Plays every (cell, seed) not yet in ``output`` and appends its row, flushed per episode.
-    ``record`` (default: the policy on listed seeds) is what the scoreboard is scored with; with
-    the environment's config, action mode and the package version added (:func:`scoring_record`)
-    it is kept beside it, and resuming with a different one is refused. ``trust``: load a model
-    with stable-baselines3's own loader (--trust-model). ``make_policy(env)`` (default:
-    ``load_policy(policy_name, env)``) makes the policy, e.g. a human's (aaai.play) or a recorder."""
-    check_writable(output, "--out")
-    output.parent.mkdir(parents=True, exist_ok=True)
-    record = scoring_record(policy_name, record, config)
-    check_record(output, record)
-    rows = scored_episodes(output)
-    plan = episode_plan(cells, rows)
-    env = AnimalAIEnv(config=env_part(config, shaping=0.0))  # scores count the task's own reward
-    try:
-        policy = make_policy(env) if make_policy is not None else load_policy(policy_name, env, trust=trust)
-        with Scoreboard(output, record, columns_of(output), rows, on_episode) as board:
-            for level, difficulty, seed in plan:
-                board.append(run_episode(env, policy, level, difficulty, seed))
-    finally:
-        env.close()
-    return rows
+    """Plays every (cell, seed) not yet in ``output`` (:func:`episode_plan`) and appends its row
+    (:func:`score`); resuming with another record is refused. ``policy``: a Policy, or a --policy
+    string (resolved with ``trust``, --trust-model). ``make_policy(env)``: see :func:`play_here`."""
+    policy = as_policy(policy, trust)
+    return score(
+        policy,
+        output,
+        config,
+        lambda rows: episode_plan(cells, rows),
+        lambda episodes: play_here(policy, config, episodes, make_policy),
+        record,
+        on_episode,
+    )
 
 
 def evaluate_arenas(
-    policy_name: str,
+    policy: Policy | str,
     arenas: list[Path],
     seeds: list[int],
     output: Path,
@@ -597,29 +369,25 @@ def evaluate_arenas(
             f"--arenas: two arena files share a name ({sorted(n for n in names if names.count(n) > 1)[0]}); "
             "allowed: distinct file names, which the scoreboard's arena column tells apart"
         )
-    check_writable(output, "--out")
-    output.parent.mkdir(parents=True, exist_ok=True)
-    record = scoring_record(policy_name, record, config)
-    check_record(output, record)
-    rows = scored_episodes(output)
-    if rows and columns_of(output) != COLUMNS:
-        raise ConfigError(
-            f"--out: {str(output)!r} is an older scoreboard without an arena column; choose another --out"
-        )
-    done = {(r["arena"], int(r["seed"])) for r in rows}
-    env = AnimalAIEnv(config=env_part(config, shaping=0.0))
-    try:
-        policy = make_policy(env) if make_policy is not None else load_policy(policy_name, env, trust=trust)
-        with Scoreboard(output, record, COLUMNS, rows, on_episode) as board:
-            for arena in arenas:
-                for seed in seeds:
-                    if (arena.name, seed) in done:
-                        continue
-                    row = run_episode(env, policy, 0, 0, seed, arena=arena)
-                    board.append(row)
-    finally:
-        env.close()
-    return rows
+    policy = as_policy(policy, trust)
+
+    def plan(rows: list[dict]) -> list[Episode]:
+        if rows and columns_of(output) != COLUMNS:
+            raise ConfigError(
+                f"--out: {str(output)!r} is an older scoreboard without an arena column; choose another --out"
+            )
+        done = {(r["arena"], int(r["seed"])) for r in rows}
+        return [(0, 0, seed, arena) for arena in arenas for seed in seeds if (arena.name, seed) not in done]
+
+    return score(
+        policy,
+        output,
+        config,
+        plan,
+        lambda episodes: play_here(policy, config, episodes, make_policy),
+        record,
+        on_episode,
+    )
 
 
 def summarise_arenas(rows: list[dict], categories: dict[str, str | None]) -> list[dict]:
@@ -691,48 +459,14 @@ def cells_for(levels: list[int], difficulties: list[int], seeds: str, count: int
     return [Cell(level, d, seeds_for(seeds, level, d, count, key)) for level in levels for d in difficulties]
 
 
-def policy_config(policy: str, config_path: str | None = None) -> dict:
-    """The config a policy is scored with: ``config_path`` if given, else a run's own (the senses
-    it was trained with), else the defaults."""
-    if config_path or not Path(policy).is_dir():
-        return load_config(config_path)
-    return load_config(RunFolder(Path(policy)).read_config())
-
-
-def policy_record(policy: str, seeds: str, key: str | None = None) -> dict:
-    """What a scoreboard was scored with: the policy (and its model file's hash), the seeds and the
-    seed key's record. An eval that resumes a scoreboard must match it."""
-    record = {"policy": policy, "seeds": seeds, "seed_key": key_record(key)}
-    path = None if policy in ("random", "reference", "gait") or ":" in policy else model_path(policy)
-    if path is None and ":" in policy:  # module:callable: the identity of its source file, where it has one
-        source = _module_file(policy.partition(":")[0])
-        if source is not None:
-            record["policy_source_sha256"] = hashlib.sha256(source.read_bytes()).hexdigest()
-    if path is not None:
-        record["model"] = str(path)
-        record["model_sha256"] = hashlib.sha256(path.read_bytes()).hexdigest()
-    elif Path(policy).is_dir() and run_backend(policy) == "rllib":
-        checkpoint = rllib_checkpoint(policy)
-        digest = hashlib.sha256()
-        for file in sorted(f for f in checkpoint.rglob("*") if f.is_file()):
-            digest.update(str(file.relative_to(checkpoint)).encode() + file.read_bytes())
-        record["model"], record["model_sha256"] = str(checkpoint), digest.hexdigest()
-    return record
+def policy_record(policy: Policy | str, seeds: str, key: str | None = None) -> dict:
+    """What a scoreboard was scored with: the policy's record (its model file and hash, or its
+    source's hash), the seeds and the seed key's record. An eval that resumes a scoreboard must match it."""
+    return {**as_policy(policy).record, "seeds": seeds, "seed_key": key_record(key)}
 
 
 def record_path(output: Path) -> Path:
     return output.with_name(output.stem + "_scored_with.json")
-
-
-def _module_file(name: str) -> Path | None:
-    import importlib.util
-
-    try:
-        spec = importlib.util.find_spec(name)
-    except (ImportError, ValueError):
-        return None
-    origin = getattr(spec, "origin", None)
-    return Path(origin) if origin and Path(origin).is_file() else None
 
 
 def env_record(config: dict) -> dict:
@@ -752,9 +486,9 @@ def env_record(config: dict) -> dict:
     }
 
 
-def scoring_record(policy_name: str, record: dict | None, config: dict) -> dict:
+def scoring_record(policy: Policy, record: dict | None, config: dict) -> dict:
     """The whole record of a scoreboard: the policy's (default: on listed seeds) and the environment's."""
-    return {**(record if record is not None else policy_record(policy_name, "list")), **env_record(config)}
+    return {**(record if record is not None else policy_record(policy, "list")), **env_record(config)}
 
 
 def _flat(tree: Any, prefix: str = "") -> dict[str, Any]:

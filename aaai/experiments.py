@@ -143,6 +143,7 @@ def trained_seeds(run: RunFolder, cells: list[tuple[int, int]], count: int) -> d
 def score_run(experiment: Experiment, run: RunFolder, echo: Callable[[str], None]) -> dict[str, Path]:
     """The run's two scoreboards (reserved seeds, seeds it trained on), each played only as far as missing."""
     from aaai.evaluation import Cell, cells_for, evaluate, policy_record, scored_episodes
+    from aaai.policies import resolve
 
     one_torch_thread()
     config = load_config(run.read_config())
@@ -161,7 +162,8 @@ def score_run(experiment: Experiment, run: RunFolder, echo: Callable[[str], None
             echo(f"{output}: scored ({wanted} episodes), skipped")
             continue
         echo(f"{output}: scoring {wanted} episodes")
-        evaluate(str(run.path), cells, output, config, record=policy_record(str(run.path), seeds_mode))
+        policy = resolve(str(run.path))
+        evaluate(policy, cells, output, config, record=policy_record(policy, seeds_mode))
     return {name: output for name, (_, output, _) in boards.items()}
 
 

@@ -21,7 +21,8 @@ RLlib checkpoints are pickles by RLlib's design (``class_and_ctor_args.pkl``, ``
 they are loaded only when trusted, or when their files carry this machine's signature, written when
 this machine's ``aaai train --backend rllib`` saved them (:func:`sign_checkpoint`): an HMAC-SHA256
 over the checkpoint's files with a key kept in ``~/.config/aaai/checkpoint.key`` (or the file named
-by ``AAAI_CHECKPOINT_KEY``), created on first use, readable by its owner only.
+by ``AAAI_CHECKPOINT_KEY``), created on first use, readable by its owner only. :class:`RLlibPolicy`
+loads such a checkpoint's policy for scoring.
 """
 
 from __future__ import annotations
@@ -41,7 +42,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from aaai.config import ConfigError
+from aaai.runs import MODULE_PATH, rllib_checkpoint
 
 TRUST_FLAG = "--trust-model"
 
@@ -543,3 +547,37 @@ def check_rllib_checkpoint(folder: str | Path, trust: bool | None = None) -> Non
         f"this machine's signature ({SIGNATURE}, written when aaai train --backend rllib saved it here); refused. "
         f"If you trust it, pass {TRUST_FLAG}"
     )
+
+
+class RLlibPolicy:
+    """A policy trained by ``aaai train --backend rllib``, acting deterministically (the mean
+    action), as the scoreboard's policies do: ``policy(observation) -> action`` for an environment
+    with the run's observations. The observation is flattened as RLlib's FlattenObservations
+    connector does it."""
+
+    def __init__(self, checkpoint: str | Path, env, trust: bool | None = None):
+        import torch
+        from ray.rllib.core.rl_module.rl_module import RLModule
+        from ray.rllib.utils.spaces.space_utils import get_base_struct_from_space
+
+        self.torch = torch
+        folder = rllib_checkpoint(checkpoint)
+        check_rllib_checkpoint(folder, trust)  # pickles: only trusted or signed on this machine
+        self.module = RLModule.from_checkpoint(str((folder / MODULE_PATH).absolute()))
+        if isinstance(self.module, torch.nn.Module):
+            self.module.eval()  # inference: as RLlib's own inference does
+        self.structure = get_base_struct_from_space(env.observation_space)
+        self.space = env.action_space
+
+    def reset(self, seed: int) -> None:
+        pass
+
+    def __call__(self, observation):
+        from ray.rllib.utils.numpy import flatten_inputs_to_1d_tensor
+
+        flat = flatten_inputs_to_1d_tensor(observation, spaces_struct=self.structure, batch_axis=False)
+        with self.torch.no_grad():
+            out = self.module.forward_inference({"obs": self.torch.as_tensor(np.asarray(flat, np.float32)[None])})
+        mean = out["action_dist_inputs"][0].numpy()[: self.space.shape[0]]  # a diagonal Gaussian: means, log stds
+        squashed = np.clip(mean, -1.0, 1.0)  # RLlib's unsquash_action: [-1, 1] onto the space's bounds
+        return (self.space.low + (squashed + 1.0) * (self.space.high - self.space.low) / 2.0).astype(self.space.dtype)

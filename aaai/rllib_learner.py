@@ -17,7 +17,6 @@ checkpoints fall on iteration boundaries. A resume continues from the newest rea
 
 from __future__ import annotations
 
-import json
 import math
 import shutil
 import tempfile
@@ -32,13 +31,12 @@ import numpy as np
 
 from aaai.config import ConfigError, env_part, load_config
 from aaai.curriculum import Curriculum
-from aaai.runs import RunFolder, check_writable
+from aaai.runs import CHECKPOINT_FOLDER, RunFolder, check_writable
 from aaai.training import Tracker, TrainResult, check_trainable, move_end, with_proprioception
 from aaai.vector import EPISODE_INFO_KEYS, Episode, worker_processes
 
 ENV_NAME = "aaai-curriculum"
 MAX_RUNNER_RESTARTS = 100  # replacements of failed EnvRunners over a run, before it gives up
-CHECKPOINT_FOLDER = "rllib"  # inside checkpoints/step_N/ and final/, beside state.json
 
 
 # --- the sampler actor ----------------------------------------------------------------------
@@ -169,60 +167,6 @@ def flatten_observations(env, spaces, device):
     return FlattenObservations()
 
 
-# --- a trained policy, for scoring ---------------------------------------------------------
-def rllib_checkpoint(path: str | Path) -> Path:
-    """The Algorithm checkpoint a path names: a run folder (its newest saved point), a saved point
-    (final/, checkpoints/step_N/) or the rllib/ folder itself."""
-    path = Path(path)
-    if (path / "config.yaml").is_file() and not (path / CHECKPOINT_FOLDER).is_dir():
-        saved = [folder for folder in RunFolder(path).saved() if (folder / CHECKPOINT_FOLDER).is_dir()]
-        if not saved:
-            raise ConfigError(f"--policy: run folder {str(path)!r} holds no RLlib checkpoint")
-        path = saved[0]
-    if (path / CHECKPOINT_FOLDER).is_dir():
-        path = path / CHECKPOINT_FOLDER
-    if not (path / MODULE_PATH).is_dir():
-        raise ConfigError(f"--policy: {str(path)!r} is not an RLlib checkpoint of aaai (no {MODULE_PATH})")
-    return path
-
-
-MODULE_PATH = Path("learner_group", "learner", "rl_module", "default_policy")
-
-
-class RLlibPolicy:
-    """A policy trained by :func:`train_rllib`, acting deterministically (the mean action), as the
-    scoreboard's policies do: ``policy(observation) -> action`` for an environment with the run's
-    observations. The observation is flattened as RLlib's FlattenObservations connector does it."""
-
-    def __init__(self, checkpoint: str | Path, env, trust: bool | None = None):
-        import torch
-        from ray.rllib.core.rl_module.rl_module import RLModule
-        from ray.rllib.utils.spaces.space_utils import get_base_struct_from_space
-
-        from aaai.model_io import check_rllib_checkpoint
-
-        self.torch = torch
-        folder = rllib_checkpoint(checkpoint)
-        check_rllib_checkpoint(folder, trust)  # pickles: only trusted or signed on this machine
-        self.module = RLModule.from_checkpoint(str((folder / MODULE_PATH).absolute()))
-        self.module.eval()
-        self.structure = get_base_struct_from_space(env.observation_space)
-        self.space = env.action_space
-
-    def reset(self, seed: int) -> None:
-        pass
-
-    def __call__(self, observation):
-        from ray.rllib.utils.numpy import flatten_inputs_to_1d_tensor
-
-        flat = flatten_inputs_to_1d_tensor(observation, spaces_struct=self.structure, batch_axis=False)
-        with self.torch.no_grad():
-            out = self.module.forward_inference({"obs": self.torch.as_tensor(np.asarray(flat, np.float32)[None])})
-        mean = out["action_dist_inputs"][0].numpy()[: self.space.shape[0]]  # a diagonal Gaussian: means, log stds
-        squashed = np.clip(mean, -1.0, 1.0)  # RLlib's unsquash_action: [-1, 1] onto the space's bounds
-        return (self.space.low + (squashed + 1.0) * (self.space.high - self.space.low) / 2.0).astype(self.space.dtype)
-
-
 # --- the algorithm --------------------------------------------------------------------------
 def ppo_config(config: dict, sampler: str, env_runners: int):
     """RLlib's PPOConfig from the run's train section (the stable-baselines3 learner's settings where
@@ -265,20 +209,6 @@ def ppo_config(config: dict, sampler: str, env_runners: int):
         .fault_tolerance(restart_failed_env_runners=True, max_num_env_runner_restarts=MAX_RUNNER_RESTARTS)
         .debugging(seed=train["seed"])
     )
-
-
-def run_backend(run_dir: str | Path) -> str:
-    """'rllib' for a run folder written by :func:`train_rllib`, else 'sb3' (what --resume should use)."""
-    run = RunFolder(run_dir)
-    for folder in run.saved():
-        if (folder / CHECKPOINT_FOLDER).is_dir():
-            return "rllib"
-        try:
-            if json.loads((folder / "state.json").read_text()).get("agent", {}).get("backend") == "rllib":
-                return "rllib"
-        except (OSError, ValueError, AttributeError):
-            continue
-    return "sb3"
 
 
 @contextmanager

@@ -21,7 +21,7 @@ import platform
 import shutil
 import tempfile
 import zipfile
-from dataclasses import asdict, fields
+from dataclasses import asdict, dataclass, fields
 from importlib import metadata
 from pathlib import Path
 
@@ -29,9 +29,30 @@ import yaml
 
 from aaai.config import ConfigError, read_yaml
 from aaai.files import write_atomic  # also re-exported: some modules import it from here
-from aaai.vector import Episode
 
 PACKAGES = ("aaai", "pybullet", "numpy", "gymnasium", "stable-baselines3", "torch", "opencv-python-headless")
+CHECKPOINT_FOLDER = "rllib"  # an RLlib run's Algorithm checkpoint, inside checkpoints/step_N/ and final/
+MODULE_PATH = Path("learner_group", "learner", "rl_module", "default_policy")  # its policy, inside that
+
+
+@dataclass
+class Episode:
+    """A finished training episode (a row of episodes.csv)."""
+
+    worker: int
+    level: int
+    difficulty: int
+    seed: int
+    episode_return: float  # what the learner got, shaping included
+    task_return: float  # the task's own reward: what the curriculum and the scoreboard count
+    length: int
+    food_eaten: int
+    wall_hits: int
+    fell: bool
+    blew_up: bool
+    max_reward: float
+
+
 EPISODE_COLUMNS = ["step"] + [f.name for f in fields(Episode)]
 
 
@@ -208,3 +229,34 @@ def model_problem(path: Path) -> str | None:
     if not {"data", "policy.pth"} <= names:
         return f"{path.name} is not a stable-baselines3 model (it lacks data and policy.pth)"
     return None
+
+
+def run_backend(run_dir: str | Path) -> str:
+    """'rllib' for a run folder written by ``aaai train --backend rllib``, else 'sb3' (what
+    --resume should use, and how a run's policy is loaded)."""
+    run = RunFolder(run_dir)
+    for folder in run.saved():
+        if (folder / CHECKPOINT_FOLDER).is_dir():
+            return "rllib"
+        try:
+            if json.loads((folder / "state.json").read_text()).get("agent", {}).get("backend") == "rllib":
+                return "rllib"
+        except (OSError, ValueError, AttributeError):
+            continue
+    return "sb3"
+
+
+def rllib_checkpoint(path: str | Path) -> Path:
+    """The Algorithm checkpoint a path names: a run folder (its newest saved point), a saved point
+    (final/, checkpoints/step_N/) or the rllib/ folder itself."""
+    path = Path(path)
+    if (path / "config.yaml").is_file() and not (path / CHECKPOINT_FOLDER).is_dir():
+        saved = [folder for folder in RunFolder(path).saved() if (folder / CHECKPOINT_FOLDER).is_dir()]
+        if not saved:
+            raise ConfigError(f"--policy: run folder {str(path)!r} holds no RLlib checkpoint")
+        path = saved[0]
+    if (path / CHECKPOINT_FOLDER).is_dir():
+        path = path / CHECKPOINT_FOLDER
+    if not (path / MODULE_PATH).is_dir():
+        raise ConfigError(f"--policy: {str(path)!r} is not an RLlib checkpoint of aaai (no {MODULE_PATH})")
+    return path

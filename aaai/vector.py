@@ -11,7 +11,6 @@ Each step a worker sends back only its observation, reward and flags; the info t
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
 from functools import partial
 
 import gymnasium as gym
@@ -20,6 +19,7 @@ from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv
 
 from aaai.config import env_part
 from aaai.curriculum import Curriculum
+from aaai.runs import Episode
 
 EPISODE_INFO_KEYS = ("food_eaten", "wall_hits", "fell", "blew_up", "max_reward")
 VECTOR_MODES = ("auto", "sync", "async")
@@ -57,24 +57,6 @@ def worker_processes(train: dict, cores: int | None = None) -> int:
     if asked > 0:
         return asked
     return max(1, min(int(train["num_envs"]), usable_cores() if cores is None else cores))
-
-
-@dataclass
-class Episode:
-    """A finished training episode."""
-
-    worker: int
-    level: int
-    difficulty: int
-    seed: int
-    episode_return: float  # what the learner got, shaping included
-    task_return: float  # the task's own reward: what the curriculum and the scoreboard count
-    length: int
-    food_eaten: int
-    wall_hits: int
-    fell: bool
-    blew_up: bool
-    max_reward: float
 
 
 class AssignedCell(gym.Wrapper):

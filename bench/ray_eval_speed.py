@@ -18,9 +18,11 @@ from pathlib import Path
 
 def main(episodes: int = 20, workers: int = 2, policy: str = "random", level: int = 0, difficulty: int = 0) -> dict:
     from aaai.distributed import RaySession, evaluate_on_ray
-    from aaai.evaluation import Cell, evaluate, policy_config
+    from aaai.evaluation import Cell, evaluate
+    from aaai.policies import resolve
 
-    config = policy_config(policy)  # a run's own senses, else the defaults
+    name, policy = policy, resolve(policy)
+    config = policy.config()  # a run's own senses, else the defaults
     cells = [Cell(level, difficulty, list(range(1000, 1000 + episodes)))]
     with tempfile.TemporaryDirectory() as folder:
         folder = Path(folder)
@@ -44,7 +46,7 @@ def main(episodes: int = 20, workers: int = 2, policy: str = "random", level: in
         "episodes": episodes,
         "steps": steps,
         "workers": workers,
-        "policy": policy,
+        "policy": name,
         "local_s": local,
         "ray_total_s": ray_total,
         "ray_episodes_s": ray_episodes,

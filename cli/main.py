@@ -13,8 +13,8 @@ import numpy as np
 from aaai.config import ConfigError, load_config, parse_int_set
 from aaai.env import AnimalAIEnv
 from aaai.episodes import play
-from aaai.evaluation import load_policy
 from aaai.levels import all_levels, generate, get_level, level_ids
+from aaai.policies import resolve
 from aaai.registration import level_env_id
 from aaai.runs import RunFolder
 
@@ -166,9 +166,10 @@ def run_command(
     try:
         for level in levels:
             get_level(level)
+        chosen = resolve(policy, trust_model)
         env = AnimalAIEnv(level=levels[0], config=config_path, arena=arena, **overrides)
-        actor = load_policy(policy, env, trust=trust_model)
-    except ConfigError as error:
+        actor = chosen.build(env)
+    except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     click.echo(
         f"{'level':<20} {'diff':>4} {'seed':>6} {'return':>8} {'max':>6} {'steps':>6} "
@@ -384,7 +385,8 @@ def train_command(
     progress_every,
 ):
     """Train on a curriculum of (level, difficulty) cells; checkpoints and logs go to the run folder."""
-    from aaai.rllib_learner import run_backend, train_rllib
+    from aaai.rllib_learner import train_rllib
+    from aaai.runs import run_backend
     from aaai.training import Progress, train
 
     ignored = {
@@ -605,15 +607,7 @@ def eval_command(
         )
     if save_replays is not None and backend != "local":
         raise click.UsageError("--save-replays: only with --backend local")
-    from aaai.evaluation import (
-        cells_for,
-        evaluate,
-        policy_config,
-        policy_record,
-        summarise,
-        summary_markdown,
-        write_summary,
-    )
+    from aaai.evaluation import cells_for, evaluate, policy_record, summarise, summary_markdown, write_summary
     from aaai.seeds import read_seed_key
 
     try:
@@ -621,9 +615,10 @@ def eval_command(
     except ValueError as error:
         raise click.UsageError(str(error)) from None
 
-    run_folder = Path(policy) if Path(policy).is_dir() else None
     try:
-        config = with_action_mode(policy_config(policy, config_path), action_mode)
+        policy = resolve(policy, trust_model)
+        run_folder = Path(policy.run) if policy.run else None
+        config = with_action_mode(policy.config(config_path), action_mode)
         level_list = parse_levels(levels) if levels else config["curriculum"]["levels"]
         difficulty_list = (
             parse_range(difficulty, "--difficulty", 0, 10) if difficulty else config["curriculum"]["difficulties"]
@@ -655,17 +650,10 @@ def eval_command(
                     workers=workers,
                     on_episode=on_episode,
                     record=record,
-                    trust=trust_model,
                 )
             else:
                 rows = evaluate(
-                    policy,
-                    cells,
-                    output,
-                    config,
-                    record=record,
-                    trust=trust_model,
-                    **replay_hooks(save_replays, policy, trust_model, on_episode),
+                    policy, cells, output, config, record=record, **replay_hooks(save_replays, policy, on_episode)
                 )
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
@@ -700,14 +688,7 @@ def eval_arenas(
 ):
     """``aaai eval --arenas``: every arena file of the battery on seeds 0..K-1 (or a --seeds list)."""
     from aaai.arena import arena_files, arena_meta
-    from aaai.evaluation import (
-        evaluate_arenas,
-        policy_config,
-        policy_record,
-        summarise_arenas,
-        summary_markdown,
-        write_summary,
-    )
+    from aaai.evaluation import evaluate_arenas, policy_record, summarise_arenas, summary_markdown, write_summary
 
     clashes = [
         name
@@ -720,9 +701,10 @@ def eval_arenas(
         raise click.UsageError(
             f"--arenas: {', '.join(clashes)} cannot be used with it (an arena file is its own level)"
         )
-    run_folder = Path(policy) if Path(policy).is_dir() else None
     try:
-        config = with_action_mode(policy_config(policy, config_path), action_mode)
+        policy = resolve(policy, trust_model)
+        run_folder = Path(policy.run) if policy.run else None
+        config = with_action_mode(policy.config(config_path), action_mode)
         count = seeds_per_cell or config["eval"]["seeds_per_cell"]
         if seeds_mode == "reserved":  # the default: an arena's seeds are 0..K-1
             seeds, label = list(range(count)), f"0-{count - 1}"
@@ -754,8 +736,7 @@ def eval_arenas(
                 output,
                 config,
                 record=record,
-                trust=trust_model,
-                **replay_hooks(save_replays, policy, trust_model, on_episode, files),
+                **replay_hooks(save_replays, policy, on_episode, files),
             )
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
@@ -817,14 +798,15 @@ def summary_markdown_of(summary: list[dict]) -> str:
 def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, config_path, out, dataset_id):
     """Record a policy's episodes as a Minari dataset (the demos extra): the agent's own observations,
     the actions, rewards and ends, and each episode's seed, level and difficulty."""
-    from aaai.evaluation import policy_config, seeds_for
+    from aaai.evaluation import seeds_for
 
     try:
         from aaai.demos import dataset_id_for, record
     except ImportError as error:
         raise click.UsageError(f"{error}. aaai demos needs the demos extra: pip install -e '.[demos]'") from None
     try:
-        config = with_action_mode(policy_config(policy, config_path), action_mode)
+        chosen = resolve(policy)
+        config = with_action_mode(chosen.config(config_path), action_mode)
         plan = [
             (level, d, seed)
             for level in parse_levels(levels)
@@ -833,7 +815,7 @@ def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, co
         ]
         dataset_id = dataset_id or dataset_id_for(policy)
         with click.progressbar(length=len(plan), label=f"recording {len(plan)} episodes", show_pos=True) as bar:
-            record(policy, plan, Path(out), config, dataset_id, on_episode=lambda index: bar.update(1))
+            record(chosen, plan, Path(out), config, dataset_id, on_episode=lambda index: bar.update(1))
     except (ConfigError, FileNotFoundError, ImportError) as error:
         raise click.UsageError(str(error)) from None
     click.echo(
@@ -857,13 +839,13 @@ def diagnose_command(policy, scoreboard, levels, limit, config_path):
     """Why a policy fails: its failed episodes replayed, each sorted into a first cause (fell, never
     saw food, lost sight of it, saw it but did not reach it, ate the wrong food)."""
     from aaai.diagnose import diagnose, table_markdown
-    from aaai.evaluation import policy_config
 
     try:
+        chosen = resolve(policy)
         failures = diagnose(
-            policy,
+            chosen,
             Path(scoreboard),
-            policy_config(policy, config_path),
+            chosen.config(config_path),
             parse_levels(levels) if levels else None,
             limit,
         )
@@ -899,12 +881,10 @@ def diagnose_command(policy, scoreboard, levels, limit, config_path):
 def baselines_command(demo_run, folder, levels, difficulty, count, workers, student_run, ppo_gait_run, only):
     """Score random actions, the reference controller and trained runs on the reserved seeds of
     every cell: a scoreboard each, a pass-rate table and a heatmap (make baselines)."""
-    from aaai.baselines import run
-    from aaai.evaluation import model_path
+    from aaai.baselines import policies, run
     from aaai.runs import check_writable
 
     try:
-        model_path(demo_run) if Path(demo_run).is_dir() else None
         check_writable(Path(folder), "--out", folder=True)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
@@ -919,17 +899,12 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers, stud
     known = ["random", "reference", "ppo_demo", *learned]
     if chosen is not None and (not chosen or any(name not in known for name in chosen)):
         raise click.UsageError(f"--only: got {only!r}; allowed: a list of {', '.join(known)}")
-    run(
-        Path(folder),
-        Path(demo_run) if needs_demo else None,
-        parse_levels(levels),
-        parse_range(difficulty, "--difficulty", 0, 10),
-        count,
-        workers,
-        echo=click.echo,
-        learned=learned,
-        only=chosen,
-    )
+    level_list, difficulties = parse_levels(levels), parse_range(difficulty, "--difficulty", 0, 10)
+    try:  # each policy read once, here: a damaged model is refused before any work
+        named = policies(Path(demo_run) if needs_demo else None, learned, chosen)
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    run(Path(folder), named, level_list, difficulties, count, workers, echo=click.echo)
 
 
 @cli.command("seeds")

@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from aaai.config import ConfigError, load_config
+from aaai.policies import Policy
 
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
 
@@ -222,20 +223,19 @@ def run_replay_file(path: str, arena: str | None = None) -> None:
     click.echo("reproduced bit for bit: the same steps, return and final pose as recorded")
 
 
-def replay_hooks(folder: str | None, policy: str, trust: bool, on_episode, arenas=()) -> dict:
+def replay_hooks(folder: str | None, policy: Policy, on_episode, arenas=()) -> dict:
     """``aaai eval --save-replays``: the keywords that make ``evaluate`` record the policy and
     write each scored episode's replay into ``folder`` (just ``on_episode`` without a folder)."""
     if folder is None:
         return {"on_episode": on_episode}
-    from aaai.evaluation import load_policy
     from aaai.replays import ReplaySaver
     from aaai.runs import check_writable
 
     check_writable(Path(folder), "--save-replays", folder=True)
     saver = ReplaySaver(
         folder,
-        policy,
-        lambda env: load_policy(policy, env, trust=trust),
+        policy.name,
+        policy.build,
         arenas={Path(a).name: Path(a) for a in arenas},
         on_episode=on_episode,
     )

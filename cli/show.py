@@ -130,7 +130,7 @@ def show(
 
     from aaai.config import load_config
     from aaai.env import AnimalAIEnv  # after the checks: bad input fails fast
-    from aaai.evaluation import load_policy
+    from aaai.policies import resolve
 
     try:
         env = AnimalAIEnv(
@@ -144,7 +144,7 @@ def show(
         )
         # the camera is turned on here to draw it: a model that was not trained with it does not see it
         extra = () if load_config(config_path)["sensors"]["camera"] else ("camera",)
-        actor = load_policy(policy, env, trust=trust_model, extra_keys=extra) if video is not None else None
+        actor = resolve(policy, trust_model).build(env, extra_keys=extra) if video is not None else None
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
 

@@ -3,7 +3,8 @@
 import numpy as np
 
 from aaai.episodes import play
-from aaai.evaluation import RandomPolicy, run_episode
+from aaai.evaluation import run_episode
+from aaai.policies import RandomPolicy
 
 
 class Recorder:

@@ -180,18 +180,18 @@ def test_out_of_range_commands_are_clipped_to_the_box():
 
 def test_every_built_in_policy_acts_in_gait_mode():
     from aaai.episodes import play
-    from aaai.evaluation import load_policy
+    from aaai.policies import resolve
 
     env = AnimalAIEnv(level=0, difficulty=0, action_mode="gait", max_steps=100)
     try:
         for name in ("random", "gait", "reference"):
-            policy = load_policy(name, env)
+            policy = resolve(name).build(env)
             result = play(env, policy, seed=3)
             assert result.info["steps"] == 100 or result.terminated, name
         start, yaw = None, None
         env.reset(seed=5, options={"spec": open_floor(env)})
         start, yaw = pose(env)
-        walker = load_policy("gait", env)
+        walker = resolve("gait").build(env)
         for _ in range(20):
             env.step(walker(None))
         end, _ = pose(env)

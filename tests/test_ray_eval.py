@@ -35,7 +35,7 @@ KILL_POLICY = """
 import os, signal
 from pathlib import Path
 
-from aaai.evaluation import RandomPolicy
+from aaai.policies import RandomPolicy
 
 
 class KillOnce(RandomPolicy):

@@ -11,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from aaai.config import ConfigError, load_config
-from aaai.evaluation import load_policy, model_path
+from aaai.policies import ModelPolicy, resolve
 from aaai.runs import RunFolder, model_problem
 from aaai.training import train
 from aaai_cli.main import cli
@@ -141,7 +141,7 @@ def test_eval_refuses_a_damaged_model_naming_it(ppo_run, tmp_path, damage, probl
     with pytest.raises(
         ConfigError, match=rf"newest model of run .*final.*{problem}.*checkpoints/step_000000000800/model.zip"
     ):
-        model_path(str(run))
+        resolve(str(run))
     bare = tmp_path / "model.zip"
     damage_copy = (run / "final" / "model.zip").read_bytes()
     bare.write_bytes(damage_copy)
@@ -166,7 +166,7 @@ def test_eval_refuses_a_damaged_model_naming_it(ppo_run, tmp_path, damage, probl
 
 
 def test_a_model_that_loads_is_scored_from_the_newest_point(ppo_run):
-    assert model_path(str(ppo_run)) == ppo_run / "final" / "model.zip"
+    assert resolve(str(ppo_run)).file == str(ppo_run / "final" / "model.zip")
 
 
 def test_a_model_stable_baselines3_cannot_read_is_a_clear_error(ppo_run, tmp_path):
@@ -175,4 +175,4 @@ def test_a_model_stable_baselines3_cannot_read_is_a_clear_error(ppo_run, tmp_pat
         archive.writestr("data", "{not json")
         archive.writestr("policy.pth", b"nothing")
     with pytest.raises(ConfigError, match="cannot be loaded by stable-baselines3"):
-        load_policy(str(path), env=None)
+        ModelPolicy(resolve(str(path)).file, env=None)

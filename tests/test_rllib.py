@@ -30,7 +30,8 @@ import json, shutil, sys
 from pathlib import Path
 import ray
 from aaai.config import load_config
-from aaai.rllib_learner import run_backend, train_rllib
+from aaai.rllib_learner import train_rllib
+from aaai.runs import run_backend
 
 run = Path(sys.argv[1])
 config = load_config(None, max_steps=100, levels=[0], difficulties=[0, 1], total_steps=2048, num_envs=2,
@@ -45,7 +46,7 @@ resumed = train_rllib(run, resume=True, total_steps=3072, env_runners=1, say=pri
 from aaai.config import env_part
 from aaai.env import AnimalAIEnv
 from aaai.evaluation import run_episode
-from aaai.rllib_learner import RLlibPolicy
+from aaai.model_io import RLlibPolicy
 from aaai.runs import RunFolder
 env = AnimalAIEnv(config=env_part(RunFolder(run).read_config(), shaping=0.0))
 policy = RLlibPolicy(run, env)

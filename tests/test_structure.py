@@ -77,3 +77,46 @@ def test_each_module_opens_by_naming_its_job(name):
     docstring = ast.get_docstring(ast.parse(MODULES[name].read_text()))
     assert docstring, f"{name} has no module docstring"
     assert len(docstring.splitlines()[0]) <= 110, f"{name}: keep the opening line to one line"
+
+
+SCORING = ("aaai.evaluation", "aaai.distributed", "aaai.policies", "aaai.model_io", "aaai.runs", "aaai.episodes")
+TRAINING = (
+    "aaai.training",
+    "aaai.learner",
+    "aaai.rllib_learner",
+    "aaai.vector",
+    "aaai.curriculum",
+    "aaai.student",
+    "aaai.experiments",
+    "aaai.competence",
+)
+
+
+def reached(start: str, graph: dict[str, set[str]]) -> dict[str, str]:
+    """Every module ``start`` imports, directly or through others: each with the module importing it."""
+    via, todo = {start: ""}, [start]
+    while todo:
+        name = todo.pop()
+        for target in sorted(graph.get(name, ())):
+            if target not in via:
+                via[target] = name
+                todo.append(target)
+    return via
+
+
+def chain(name: str, via: dict[str, str]) -> str:
+    links = [name]
+    while via[links[-1]]:
+        links.append(via[links[-1]])
+    return " -> ".join(reversed(links))
+
+
+@pytest.mark.parametrize("module", SCORING)
+def test_scoring_imports_nothing_from_training(module):
+    """Scoring a policy needs neither a learner nor the curriculum: a scoring module that imports a
+    training module (here or through another, lazily or not) is named with the chain that reaches it."""
+    assert set(TRAINING) <= set(MODULES) and module in MODULES
+    graph = {name: imported(name, path) for name, path in MODULES.items() if name != "aaai"}
+    via = reached(module, graph)
+    found = [chain(name, via) for name in TRAINING if name in via]
+    assert not found, "scoring imports training: " + "; ".join(found)

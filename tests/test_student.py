@@ -213,13 +213,13 @@ def test_the_committed_student_fails_l8_for_want_of_object_permanence(tmp_path):
     ray shows it again, and the rays' memory of it (6.4 s at most) runs out before the student goes
     behind. The reference passes it."""
     from aaai.diagnose import replay_failure
-    from aaai.evaluation import load_policy
+    from aaai.policies import resolve
 
     config = load_config(str(MODELS / "student.yaml"))
     env = AnimalAIEnv(config={k: v for k, v in config.items() if k not in ("curriculum", "train", "eval")})
     try:
         row = {"level": "8", "difficulty": "0", "seed": "1429051819"}
-        failure = replay_failure(env, load_policy(str(MODELS / "student.zip"), env), row)
+        failure = replay_failure(env, resolve(str(MODELS / "student.zip")).build(env), row)
         assert failure.cause == "lost sight" and failure.food_eaten == 0
         assert 0.0 < failure.seen_share < 0.01  # in view for a moment at the start, then never again
     finally:

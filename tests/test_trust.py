@@ -20,7 +20,8 @@ pytest.importorskip("stable_baselines3", reason="needs the train extra")
 from aaai import model_io  # noqa: E402
 from aaai.config import ConfigError, load_config  # noqa: E402
 from aaai.env import AnimalAIEnv  # noqa: E402
-from aaai.evaluation import ModelPolicy, record_path  # noqa: E402
+from aaai.evaluation import record_path  # noqa: E402
+from aaai.policies import ModelPolicy  # noqa: E402
 from aaai.runs import RunFolder  # noqa: E402
 from aaai_cli.main import cli  # noqa: E402
 

@@ -32,6 +32,7 @@ from aaai.config import ConfigError
 from aaai.evaluation import Cell, evaluate, evaluate_arenas, policy_record, scored_episodes
 from aaai.files import append_row
 from aaai.levels import get_level
+from aaai.policies import external
 from aaai.viewer import camera_image, draw_snapshot
 
 # event.key values (letters lower-cased) -> the control they hold down.
@@ -150,7 +151,7 @@ class PlaySettings:
         return Path(self.output.replace("{player}", player))
 
     def record(self, player: str) -> dict:
-        record = policy_record(f"human:{player}", self.seeds_label, self.seed_key)
+        record = policy_record(external(f"human:{player}"), self.seeds_label, self.seed_key)
         if self.arenas:
             record["arenas"] = ", ".join(str(a) for a in self.arenas)
         return record
@@ -302,7 +303,7 @@ class Session:
             record = settings.record(self.player)
             if settings.arenas:
                 evaluate_arenas(
-                    f"human:{self.player}",
+                    external(f"human:{self.player}"),
                     settings.arenas,
                     settings.arena_seeds,
                     self.output,
@@ -313,7 +314,7 @@ class Session:
                 )
             else:
                 evaluate(
-                    f"human:{self.player}",
+                    external(f"human:{self.player}"),
                     settings.cells,
                     self.output,
                     settings.config,
