@@ -15,11 +15,7 @@ from typing import Any, Callable, Mapping
 import yaml
 
 from aaai.agent.urdf_writer import BODIES
-
-
-class ConfigError(ValueError):
-    """A configuration key or value that is not allowed."""
-
+from aaai.errors import ConfigError as ConfigError  # where users and modules import it from
 
 _level_ids: Callable[[], list[int]] | None = None  # the level registry's ids, once aaai.levels is imported
 

@@ -8,7 +8,7 @@ import numpy as np
 import pybullet as p
 
 from aaai.agent.urdf_writer import BODIES, LEGS, SEGMENT_TIP, file_name
-from aaai.config import ConfigError
+from aaai.errors import ConfigError
 
 URDF_DIR = Path(__file__).resolve().parent.parent / "urdf"
 SPAWN_HEIGHT = 1.5
