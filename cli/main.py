@@ -451,6 +451,11 @@ def train_command(
         if (config or RunFolder(run_dir).read_config())["train"].get("teacher", "none") != "none":
             if use_rllib:
                 raise click.UsageError("--teacher: a student is trained with stable-baselines3 (--backend sb3)")
+            if total_steps is not None:
+                raise click.UsageError(
+                    f"--steps: got {total_steps} for a student of a teacher, whose budget is rounds of DAgger, "
+                    "not steps; allowed: no --steps (set train.dagger_iterations and train.dagger_episodes)"
+                )
             from aaai.student import train_student
 
             result = train_student(run_dir, config, resume=bool(resume_dir), say=say)

@@ -278,3 +278,13 @@ def test_a_teacher_does_not_take_the_students_standing_still_for_its_own_lack_of
 
     assert not any(forward < 0 for forward, _, _ in labels(held=True))
     assert any(forward < 0 for forward, _, _ in labels(held=False))  # the clock running: it backs off
+
+
+def test_steps_for_a_student_are_refused_not_ignored(tmp_path):
+    """A student's budget is rounds of DAgger; --steps would be silently ignored, so it is refused."""
+    refused = CliRunner().invoke(
+        cli, ["train", "--teacher", "reference", "--levels", "0", "--steps", "5000", "--run", str(tmp_path / "s")]
+    )
+    assert refused.exit_code == 2
+    assert "--steps: got 5000 for a student" in refused.output and "train.dagger_iterations" in refused.output
+    assert not (tmp_path / "s").exists()
