@@ -58,6 +58,7 @@ def test_a_built_in_name_is_its_own_kind_and_record():
     try:
         assert isinstance(resolve("random").build(env), RandomPolicy)
         assert type(resolve("reference").build(env)).__name__ == "ReferenceController"
+        assert type(resolve("gait").build(env)).__name__ == "SineGait"
     finally:
         env.close()
 
@@ -228,7 +229,11 @@ def test_module_callable_is_recorded_by_its_source_and_called_with_the_env(tmp_p
     env = AnimalAIEnv(config=load_config(SHORT))
     try:
         assert not policy.build(env)(None).any()
-        with pytest.raises(ConfigError, match=r"'my_agent:wrong' could not be called with the environment"):
+        with pytest.raises(
+            ConfigError,
+            match=r"'my_agent:wrong' could not be called with the environment \(.*\); allowed: a module:callable "
+            "that takes the env and returns the policy",
+        ):
             resolve("my_agent:wrong").build(env)
     finally:
         env.close()
@@ -308,8 +313,7 @@ def test_a_recurrent_model_carries_its_memory_through_an_episode_and_forgets_it_
         for trust in (False, True):
             policy = resolve(str(path), trust=trust).build(env)
             assert policy.recurrent
-            observation, _ = env.reset(seed=2)
-            policy.reset(2)
+            observation, _ = env.reset(seed=2)  # a fresh policy starts without memory, reset or not
             state, start = None, np.array([True])
             for _ in range(4):
                 expected, state = model.predict(observation, state=state, episode_start=start, deterministic=True)
@@ -339,3 +343,128 @@ def test_a_model_ignores_the_observation_keys_its_caller_added(run):
         assert np.array_equal(policy(observation), policy.model.predict(plain, deterministic=True)[0])
     finally:
         env.close()
+
+
+def _rllib_run(folder: Path) -> Path:
+    """A run folder as ``aaai train --backend rllib`` leaves it (the checkpoint's files stand-ins)."""
+    RunFolder(folder).create(load_config(SHORT))
+    module = folder / "final" / "rllib" / "learner_group" / "learner" / "rl_module" / "default_policy"
+    module.mkdir(parents=True)
+    (module / "module_state.pkl").write_bytes(b"weights")
+    (folder / "final" / "rllib" / "algorithm_state.pkl").write_bytes(b"state")
+    (folder / "final" / "state.json").write_text(json.dumps({"step": 10, "curriculum": {}}))
+    return folder / "final" / "rllib"
+
+
+def test_an_rllib_run_is_named_by_its_checkpoint_and_the_hash_of_its_files(tmp_path):
+    checkpoint = _rllib_run(tmp_path / "run")
+    policy = resolve(str(tmp_path / "run"))
+    assert (policy.name, policy.kind, policy.file, policy.run) == (
+        str(tmp_path / "run"),
+        "rllib",
+        str(checkpoint),
+        str(tmp_path / "run"),
+    )
+    assert policy.config()["episode"]["max_steps"] == 20
+    digest = hashlib.sha256()
+    for name in ("algorithm_state.pkl", "learner_group/learner/rl_module/default_policy/module_state.pkl"):
+        digest.update(name.encode() + (checkpoint / name).read_bytes())
+    assert policy.record == {
+        "policy": str(tmp_path / "run"),
+        "model": str(checkpoint),
+        "model_sha256": digest.hexdigest(),
+    }
+    assert resolve(str(tmp_path / "run"), trust=True).trust is True
+    (checkpoint / "algorithm_state.pkl").write_bytes(b"changed")
+    assert resolve(str(tmp_path / "run")).record["model_sha256"] != digest.hexdigest()
+
+
+def test_an_rllib_checkpoint_from_elsewhere_is_refused_before_it_loads(tmp_path):
+    pytest.importorskip("ray.rllib", reason="needs the ray extra")
+    _rllib_run(tmp_path / "run")
+    env = AnimalAIEnv(config=load_config(SHORT))
+    try:
+        with pytest.raises(ConfigError, match=r"RLlib checkpoint '.*final/rllib' is made of pickles"):
+            resolve(str(tmp_path / "run")).build(env)
+    finally:
+        env.close()
+
+
+def test_the_trust_given_with_a_string_reaches_every_kind_of_policy(tmp_path, monkeypatch):
+    from aaai.policies import as_policy, factory
+
+    source = tmp_path / "trusting_agent.py"
+    source.write_text("def make(env):\n    return None\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        for text in ("random", "trusting_agent:make"):
+            assert as_policy(text, trust=True).trust is True and as_policy(text).trust is False
+        assert resolve("trusting_agent:make").record["policy_source_sha256"]
+    finally:
+        sys.modules.pop("trusting_agent", None)
+    folder = tmp_path / "random_run"
+    RunFolder(folder).create(load_config({**SHORT, "train": {"agent": "random"}}))
+    assert resolve(str(folder), trust=True).trust is True and resolve(str(folder)).name == str(folder)
+    assert as_policy(resolve("gait")) == resolve("gait")
+    import os.path
+
+    assert factory("os:path.join") is os.path.join  # a dotted attribute path
+
+
+def test_a_model_missing_a_part_of_the_environment_is_refused_naming_both_sides(run, tmp_path):
+    bare = tmp_path / "model.zip"
+    shutil.copy(run / "final" / "model.zip", bare)
+    camera = AnimalAIEnv(config=load_config({"sensors": {"rays_per_side": 4, "camera": True, "camera_resolution": 16}}))
+    gait = AnimalAIEnv(config=load_config({"sensors": {"rays_per_side": 4}, "agent": {"action_mode": "gait"}}))
+    try:
+        for trust in (False, True):
+            with pytest.raises(ConfigError) as caught:
+                resolve(str(bare), trust=trust).build(camera)
+            assert "observation 'camera': model absent, environment Box(" in str(caught.value)
+            with pytest.raises(ConfigError) as caught:
+                resolve(str(bare), trust=trust).build(gait)
+            assert "(action mode 'gait')" in str(caught.value) and "action space: model Box(" in str(caught.value)
+    finally:
+        camera.close()
+        gait.close()
+
+
+def test_a_model_stable_baselines3_cannot_read_is_named_when_trusted(tmp_path):
+    import zipfile
+
+    path = tmp_path / "odd.zip"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("data", "{not json")
+        archive.writestr("policy.pth", b"nothing")
+    env = AnimalAIEnv(config=load_config(SHORT))
+    try:
+        message = rf"model file '{path}' cannot be loaded by stable-baselines3: \w+Error: "
+        with pytest.raises(ConfigError, match=message):
+            resolve(str(path), trust=True).build(env)
+    finally:
+        env.close()
+
+
+def test_sensor_settings_count_only_for_senses_that_are_on():
+    """The ray settings of a model are compared only when the rays are on on one side; a setting
+    one side does not have at all is named as absent."""
+    rays_off = {"sensors": {"rays": False, "camera": False}}
+    env = AnimalAIEnv(config=load_config(rays_off))
+    try:
+        trained = load_config({"sensors": {"rays": False, "camera": False, "ray_length": 3.0}})
+        check_model(Path("m.zip"), env, (), trained)  # the rays are off on both sides
+        check_model(Path("m.zip"), env, ("rays",), load_config({"sensors": {"rays": True, "camera": False}}))
+        with pytest.raises(ConfigError, match="sensors.rays: model True, environment False"):
+            check_model(Path("m.zip"), env, (), load_config({"sensors": {"rays": True, "camera": False}}))
+        older = json.loads(json.dumps(load_config(rays_off)))
+        older["sensors"]["retired_sense"] = 1
+        with pytest.raises(ConfigError, match=r"sensors.retired_sense: model 1, environment 'absent'"):
+            check_model(Path("m.zip"), env, (), older)
+    finally:
+        env.close()
+    on = AnimalAIEnv(config=load_config({"sensors": {"rays_per_side": 4}}))
+    try:
+        with pytest.raises(ConfigError, match=r"sensors.ray_length: model 3.0, environment "):
+            check_model(Path("m.zip"), on, (), load_config({"sensors": {"rays_per_side": 4, "ray_length": 3.0}}))
+    finally:
+        on.close()

@@ -4,12 +4,11 @@ and the episode plan both backends play. Each test says what it guards."""
 from __future__ import annotations
 
 import csv
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from aaai.config import ConfigError, load_config
+from aaai.config import ConfigError, config_dir, load_config
 from aaai.evaluation import Cell, episode_plan, evaluate, outcome, summarise
 from aaai.seeds import RESERVED_SEEDS, TRAIN_SEEDS, reserved_seeds, seed_range, training_seed
 
@@ -318,7 +317,7 @@ def test_the_summary_per_level_per_arena_and_per_category(tmp_path):
 
 
 # --- the one scoring loop: levels, arenas, hooks ---------------------------------------------
-ARENAS = Path(__file__).resolve().parent.parent / "configs" / "arenas"
+ARENAS = config_dir() / "arenas"  # the shipped battery (found from a copy of the tests too)
 SHORT = load_config(None, max_steps=10)
 
 
@@ -397,3 +396,61 @@ def test_the_loop_plays_what_the_hooks_make_and_reports_each_row(tmp_path):
     out = evaluate("random", [Cell(0, 0, [2, 1])], tmp_path / "b.csv", config, rows.append, make_policy=make_policy)
     assert shapings == [0.0] and len(steps) == sum(int(r["steps"]) for r in out) == 20
     assert [r["seed"] for r in rows] == [2, 1] and [r["seed"] for r in out] == ["2", "1"]
+
+
+@pytest.mark.parametrize(
+    "ratio, episode_return, pass_mark, expected",
+    [
+        (0.1, 2.0, 2.0, "passed"),  # at the arena's own mark: passes whatever the ratio
+        (0.1, 1.999, 2.0, "failed"),
+        (0.95, 1.999, 2.0, "failed"),  # below it: fails whatever the ratio
+        (1.0, 2.0, 2.0, "succeeded"),
+        (0.999, 3.0, 2.0, "passed"),
+        (0.5, None, 2.0, "failed"),  # no return given: the ratio decides
+        (0.85, None, 2.0, "passed"),
+    ],
+)
+def test_an_arenas_own_pass_mark_decides_at_its_boundary(ratio, episode_return, pass_mark, expected):
+    assert outcome(ratio, episode_return, pass_mark) == expected
+
+
+def test_a_row_is_the_episode_of_its_cell_scored_against_its_best_reward(tmp_path):
+    """Guards the row: the episode is the cell's (level, difficulty, seed), as the environment plays
+    it, and its ratio is the return over the level instance's best reward."""
+    from aaai.env import AnimalAIEnv
+    from aaai.episodes import play
+    from aaai.evaluation import evaluate
+    from aaai.policies import RandomPolicy
+
+    config = load_config(None, max_steps=30)
+    row = evaluate("random", [Cell(4, 2, [11])], tmp_path / "b.csv", config)[0]
+    env = AnimalAIEnv(config={**config, "episode": {**config["episode"], "shaping": 0.0}})
+    try:
+        result = play(env, RandomPolicy(env), 11, options={"level": 4, "difficulty": 2})
+    finally:
+        env.close()
+    best = result.info["max_reward"]
+    assert (row["level"], row["level_name"], row["difficulty"], row["seed"]) == ("4", "avoidance", "2", "11")
+    assert float(row["return"]) == round(result.episode_return, 6) and float(row["max_reward"]) == round(best, 6)
+    assert float(row["ratio"]) == round(result.episode_return / best, 6)
+    assert row["outcome"] == outcome(result.episode_return / best)
+    assert int(row["steps"]) == result.info["steps"] and row["max_steps"] == "30" and row["arena"] == ""
+
+
+def test_an_arena_row_is_its_files_level_and_its_own_pass_mark_decides(tmp_path):
+    from aaai.arena import load_arena
+    from aaai.evaluation import evaluate_arenas
+
+    source = next(p for p in sorted(ARENAS.glob("*.yaml")) if load_arena(p, 0).level != 0)
+    battery = []
+    for name, mark in (("easy.yaml", "-1000"), ("hard.yaml", "1000"), ("plain.yaml", None)):
+        battery.append(tmp_path / name)
+        battery[-1].write_text(source.read_text() + (f"\npass_mark: {mark}\n" if mark else ""))
+    rows = evaluate_arenas("random", battery, [0], tmp_path / "b.csv", SHORT)
+    spec = load_arena(source, 0)
+    assert {(r["level"], r["difficulty"]) for r in rows} == {(str(spec.level), str(spec.difficulty))}
+    assert {r["arena"]: r["outcome"] for r in rows} == {
+        "easy.yaml": "passed",
+        "hard.yaml": "failed",
+        "plain.yaml": "failed",
+    }
