@@ -111,11 +111,11 @@ curricula: install-train
 
 # The gait: measure its speeds (docs: Environment, "The body"), or tune it again (CMA-ES, the tune extra).
 gait: install
-	$(BIN)/python -m aaai.gait_tuning --measure
+	$(BIN)/python -m aaai.tools.gait_tuning --measure
 
 tune-gait: install
 	$(BIN)/python -m pip install --quiet -e ".[dev,tune]"
-	$(BIN)/python -m aaai.gait_tuning --drive --write
+	$(BIN)/python -m aaai.tools.gait_tuning --drive --write
 
 bench: install
 	$(BIN)/python -m pip install --quiet -e ".[dev,bench]"

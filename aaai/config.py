@@ -134,16 +134,16 @@ RULES: dict[str, Rule] = {
     "sensors.rays": Rule("bool"),
     "sensors.rays_per_side": Rule("int", 1, 20),
     "sensors.rays_flat": Rule("bool"),
-    "sensors.ray_kinds": Rule("choice", choices=("classic", "all")),  # aaai.kinds.ray_channels
+    "sensors.ray_kinds": Rule("choice", choices=("classic", "all")),  # aaai.sim.kinds.ray_channels
     "sensors.ray_max_angle": Rule("float", 5, 180),
     "sensors.ray_length": Rule("float", 1, 100),
     "sensors.ray_memory": Rule("int", 0, 10),  # earlier food sightings 1, 2, 4 .. 2^(n-1) steps back (0: none)
     "sensors.ray_down_fan": Rule("float", 0, 45),  # degrees: a second fan pitched down (0: none)
-    "sensors.ray_width": Rule("float", 0, 5),  # aaai.sensors.Rays: 0 thin lines; w: two more rays +-w/2 aside
+    "sensors.ray_width": Rule("float", 0, 5),  # aaai.sim.sensors.Rays: 0 thin lines; w: two more rays +-w/2 aside
     "sensors.camera": Rule("bool"),
     "sensors.camera_resolution": Rule("int", 8, 512),
     "sensors.camera_grayscale": Rule("bool"),
-    "sensors.camera_look": Rule("choice", choices=("classic", "task")),  # aaai.kinds.CAMERA_HIDDEN
+    "sensors.camera_look": Rule("choice", choices=("classic", "task")),  # aaai.sim.kinds.CAMERA_HIDDEN
     "sensors.joint_velocities": Rule("bool"),
     "sensors.head_orientation": Rule("bool"),
     "sensors.foot_contacts": Rule("bool"),
@@ -169,8 +169,8 @@ RULES: dict[str, Rule] = {
     "train.agent": Rule("choice", choices=("ppo", "random")),
     "train.total_steps": Rule("int", 1, 10**10),
     "train.num_envs": Rule("int", 1, 256),
-    "train.vector": Rule("choice", choices=("auto", "sync", "async")),  # aaai.vector.runs_in_process
-    "train.processes": Rule("int", 0, 256),  # aaai.vector.worker_processes; 0 = auto
+    "train.vector": Rule("choice", choices=("auto", "sync", "async")),  # aaai.train.vector.runs_in_process
+    "train.processes": Rule("int", 0, 256),  # aaai.train.vector.worker_processes; 0 = auto
     "train.seed": Rule("int", 0, 2**32 - 1),
     "train.checkpoint_every": Rule("int", 1, 10**10),
     "train.heatmap_every": Rule("int", 1, 10**10),

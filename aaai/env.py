@@ -1,8 +1,8 @@
 """AnimalAIEnv: the quadruped in one level of the test bench, as a Gymnasium environment.
 
-The class wires small parts together, one job each: a PyBullet client (aaai.simulation), the
-body (aaai.agent.body), the level's bodies (aaai.world), the senses (aaai.sensors) and the task,
-which turns contacts into rewards and ends episodes (aaai.rewards).
+The class wires small parts together, one job each: a PyBullet client (aaai.sim.simulation), the
+body (aaai.agent.body), the level's bodies (aaai.sim.world), the senses (aaai.sim.sensors) and the task,
+which turns contacts into rewards and ends episodes (aaai.task.rewards).
 """
 
 from __future__ import annotations
@@ -16,19 +16,19 @@ import numpy as np
 import pybullet as p
 from gymnasium import spaces
 
-from aaai import validate
 from aaai.agent.body import Quadruped
-from aaai.arena import load_arena
 from aaai.config import ConfigError, env_keywords, load_config
-from aaai.gait import SineGait
 from aaai.levels import check_difficulty, episode_rngs, generate, get_level
-from aaai.rewards import TERMS, FoodTask
-from aaai.seeds import TRAIN_SEEDS
-from aaai.sensors import Senses, render_rgb
-from aaai.simulation import Simulation, display_available
-from aaai.snapshot import Leg, Pose, Snapshot
+from aaai.sim.gait import SineGait
+from aaai.sim.sensors import Senses, render_rgb
+from aaai.sim.simulation import Simulation, display_available
+from aaai.sim.snapshot import Leg, Pose, Snapshot
+from aaai.sim.world import World
 from aaai.spec import LevelSpec
-from aaai.world import World
+from aaai.task import validate
+from aaai.task.arena import load_arena
+from aaai.task.rewards import TERMS, FoodTask
+from aaai.task.seeds import TRAIN_SEEDS
 
 RESET_OPTIONS = ("level", "difficulty", "spec", "check")
 RENDER_SIZE = (320, 240)
@@ -57,7 +57,7 @@ class AnimalAIEnv(gym.Env):
     Actions: Box(-1, 1, (8,)): a target angle (``action_mode: rotation``, the default) or speed
     (``velocity``) for each of the eight joints, scaled to the joint's range, one per control step
     (0.02 s). With ``action_mode: gait``, Box([-1, -1, 0], [1, 1, 1]): the forward, turn and
-    crouch commands of the tuned steerable gait (aaai.gait), each held for ``decision_interval``
+    crouch commands of the tuned steerable gait (aaai.sim.gait), each held for ``decision_interval``
     seconds (default 0.1 s, 5 control steps); reward and reward terms are summed over the held
     steps and ``info["steps"]`` still counts control steps.
 
@@ -66,7 +66,7 @@ class AnimalAIEnv(gym.Env):
     "Observations").
 
     Rewards: the sum of the terms in ``info["reward_terms"]`` (step, ground, food, wall, fall,
-    shaping); see aaai.rewards.
+    shaping); see aaai.task.rewards.
 
     Episode end: terminated when the green food is eaten, the agent falls, or no food it can reach
     is left; truncated at T steps (``max_steps``; "auto": the level's time limit) or on a physics
@@ -75,7 +75,7 @@ class AnimalAIEnv(gym.Env):
     Args:
         level: level id 0..12, label ("L1", "L2b") or name ("food_retrieval").
         difficulty: 0..10.
-        arena: an arena file (aaai.arena, docs/writing-levels.md): every reset loads it with
+        arena: an arena file (aaai.task.arena, docs/writing-levels.md): every reset loads it with
             the episode's seed instead of generating ``level`` (a reset with ``options={"spec": …}``
             still runs that spec).
         config: a YAML path or nested mapping overriding configs/default.yaml.
@@ -123,7 +123,7 @@ class AnimalAIEnv(gym.Env):
         self.client, self.control_dt = self.sim.client, self.sim.control_dt  # simulated s per step
         agent = cfg["agent"]
         self.action_mode = agent["action_mode"]
-        # visual shapes only if anything draws ("": none), and the camera's look (aaai.world.World)
+        # visual shapes only if anything draws ("": none), and the camera's look (aaai.sim.world.World)
         self.visuals = cfg["sensors"]["camera_look"] if cfg["sensors"]["camera"] or render_mode is not None else ""
         drive = "rotation" if self.action_mode == "gait" else self.action_mode  # the gait sends joint angles
         self.body = Quadruped(
@@ -312,7 +312,7 @@ class AnimalAIEnv(gym.Env):
         return render_rgb(self.client, width, height, view, projection)
 
     def snapshot(self) -> Snapshot:
-        """The episode as it is now, as plain data (aaai.snapshot) to draw with ``level_spec``: the
+        """The episode as it is now, as plain data (aaai.sim.snapshot) to draw with ``level_spec``: the
         simulated time, the head's pose, each leg's hip, knee and foot, where every object of the
         spec is (None once eaten) and which doors have risen."""
         self._check_open()

@@ -2,7 +2,7 @@
 
 Every file the package writes whole (configs, states, scoreboard summaries, pictures, videos) goes
 through ``atomic_path``: it is written to a temporary file beside its place and renamed onto it
-when complete. Folders that must appear whole (a checkpoint) are staged by aaai.runs.
+when complete. Folders that must appear whole (a checkpoint) are staged by aaai.scoring.runs.
 """
 
 from __future__ import annotations

@@ -17,9 +17,9 @@ from pathlib import Path
 
 
 def main(episodes: int = 20, workers: int = 2, policy: str = "random", level: int = 0, difficulty: int = 0) -> dict:
-    from aaai.distributed import RaySession, evaluate_on_ray
-    from aaai.evaluation import Cell, evaluate
-    from aaai.policies import resolve
+    from aaai.scoring.distributed import RaySession, evaluate_on_ray
+    from aaai.scoring.evaluation import Cell, evaluate
+    from aaai.scoring.policies import resolve
 
     name, policy = policy, resolve(policy)
     config = policy.config()  # a run's own senses, else the defaults

@@ -12,11 +12,11 @@ import numpy as np
 
 from aaai.config import ConfigError, load_config, parse_int_set
 from aaai.env import AnimalAIEnv
-from aaai.episodes import play
 from aaai.levels import all_levels, generate, get_level, level_ids
-from aaai.policies import resolve
 from aaai.registration import level_env_id
-from aaai.runs import RunFolder
+from aaai.scoring.episodes import play
+from aaai.scoring.policies import resolve
+from aaai.scoring.runs import RunFolder
 
 POLICY_HELP = (
     "random, reference (the privileged reference controller), gait (the example trot), "
@@ -75,7 +75,7 @@ def levels_command():
     "--yaml",
     "as_yaml",
     is_flag=True,
-    help="Print the spec as an arena file (aaai.arena), to edit into a test of your own. The file is "
+    help="Print the spec as an arena file (aaai.task.arena), to edit into a test of your own. The file is "
     "fixed (every episode of it starts alike) until you put randomisation forms in it.",
 )
 def spec_command(level, difficulty, seed, as_json, as_yaml):
@@ -87,7 +87,7 @@ def spec_command(level, difficulty, seed, as_json, as_yaml):
     if as_json and as_yaml:
         raise click.UsageError("--json and --yaml: choose one")
     if as_yaml:
-        from aaai.arena import spec_to_arena
+        from aaai.task.arena import spec_to_arena
 
         click.echo(spec_to_arena(spec), nl=False)
         return
@@ -176,7 +176,7 @@ def run_command(
         f"{'food':>4} {'walls':>5} {'end':<10} {'steps/s':>8}"
     )
     if arena is not None:
-        from aaai.arena import load_arena
+        from aaai.task.arena import load_arena
 
         try:  # every episode's instance is checked before any runs
             for episode in range(episodes):
@@ -263,10 +263,10 @@ REDRAW = 0.25  # seconds between redraws of a terminal's progress bar
 
 @contextlib.contextmanager
 def progress_output(report):
-    """Yields the function to advance ``report`` (an aaai.training.Progress) with: a progress bar
+    """Yields the function to advance ``report`` (an aaai.train.training.Progress) with: a progress bar
     showing its rate, episodes, pass rate and ETA in a terminal; elsewhere (piped, nohup) its line
     every ``report.every`` seconds, and once more at the end."""
-    from aaai.training import print_lines
+    from aaai.train.training import print_lines
 
     if sys.stdout.isatty():
         with click.progressbar(
@@ -385,9 +385,9 @@ def train_command(
     progress_every,
 ):
     """Train on a curriculum of (level, difficulty) cells; checkpoints and logs go to the run folder."""
-    from aaai.rllib_learner import train_rllib
-    from aaai.runs import run_backend
-    from aaai.training import Progress, train
+    from aaai.scoring.runs import run_backend
+    from aaai.train.rllib_learner import train_rllib
+    from aaai.train.training import Progress, train
 
     ignored = {
         name: value
@@ -456,7 +456,7 @@ def train_command(
                     f"--steps: got {total_steps} for a student of a teacher, whose budget is rounds of DAgger, "
                     "not steps; allowed: no --steps (set train.dagger_iterations and train.dagger_episodes)"
                 )
-            from aaai.student import train_student
+            from aaai.train.student import train_student
 
             result = train_student(run_dir, config, resume=bool(resume_dir), say=say)
             click.echo(
@@ -465,7 +465,7 @@ def train_command(
                 + f"; score it with: aaai eval --policy {result.run.path}"
             )
             return
-        from aaai.model_io import trusting
+        from aaai.scoring.model_io import trusting
 
         unit_config = load_config(config or RunFolder(run_dir).read_config())
         report = Progress(
@@ -590,7 +590,7 @@ def eval_command(
     save_replays,
 ):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
-    from aaai.baselines import one_thread
+    from aaai.tools.baselines import one_thread
 
     one_thread()  # one episode at a time: a small network gains nothing from more torch threads
     if arenas is not None:
@@ -612,8 +612,8 @@ def eval_command(
         )
     if save_replays is not None and backend != "local":
         raise click.UsageError("--save-replays: only with --backend local")
-    from aaai.evaluation import cells_for, evaluate, policy_record, summarise, summary_markdown, write_summary
-    from aaai.seeds import read_seed_key
+    from aaai.scoring.evaluation import cells_for, evaluate, policy_record, summarise, summary_markdown, write_summary
+    from aaai.task.seeds import read_seed_key
 
     try:
         key = read_seed_key(seed_key_file)
@@ -634,7 +634,7 @@ def eval_command(
         output = Path(output) if output else (run_folder or Path(".")) / f"scoreboard_{label}.csv"
         record = policy_record(policy, seeds_mode, key)
         episodes = sum(len(cell.seeds) for cell in cells)
-        from aaai.training import Progress
+        from aaai.train.training import Progress
 
         report = Progress(episodes, label="scoring", unit="episodes", every=progress_every)
         with progress_output(report) as update:
@@ -644,7 +644,7 @@ def eval_command(
                 update(1)
 
             if backend == "ray":
-                from aaai.distributed import evaluate_on_ray
+                from aaai.scoring.distributed import evaluate_on_ray
 
                 rows = evaluate_on_ray(
                     policy,
@@ -692,8 +692,14 @@ def eval_arenas(
     progress_every=30.0,
 ):
     """``aaai eval --arenas``: every arena file of the battery on seeds 0..K-1 (or a --seeds list)."""
-    from aaai.arena import arena_files, arena_meta
-    from aaai.evaluation import evaluate_arenas, policy_record, summarise_arenas, summary_markdown, write_summary
+    from aaai.scoring.evaluation import (
+        evaluate_arenas,
+        policy_record,
+        summarise_arenas,
+        summary_markdown,
+        write_summary,
+    )
+    from aaai.task.arena import arena_files, arena_meta
 
     clashes = [
         name
@@ -725,7 +731,7 @@ def eval_arenas(
         output = Path(output) if output else (run_folder or Path(".")) / "scoreboard_arenas.csv"
         record = {**policy_record(policy, "list"), "seeds": label, "arenas": str(arenas)}
         episodes = len(files) * len(seeds)
-        from aaai.training import Progress
+        from aaai.train.training import Progress
 
         report = Progress(episodes, label="scoring", unit="episodes", every=progress_every)
         with progress_output(report) as update:
@@ -769,7 +775,7 @@ def _write_summary(write_summary, summary: list[dict], output: Path) -> Path:
 
 
 def summary_markdown_of(summary: list[dict]) -> str:
-    from aaai.evaluation import summary_markdown
+    from aaai.scoring.evaluation import summary_markdown
 
     return summary_markdown(summary)
 
@@ -803,10 +809,10 @@ def summary_markdown_of(summary: list[dict]) -> str:
 def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, config_path, out, dataset_id):
     """Record a policy's episodes as a Minari dataset (the demos extra): the agent's own observations,
     the actions, rewards and ends, and each episode's seed, level and difficulty."""
-    from aaai.evaluation import seeds_for
+    from aaai.scoring.evaluation import seeds_for
 
     try:
-        from aaai.demos import dataset_id_for, record
+        from aaai.scoring.demos import dataset_id_for, record
     except ImportError as error:
         raise click.UsageError(f"{error}. aaai demos needs the demos extra: pip install -e '.[demos]'") from None
     try:
@@ -843,7 +849,7 @@ def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, co
 def diagnose_command(policy, scoreboard, levels, limit, config_path):
     """Why a policy fails: its failed episodes replayed, each sorted into a first cause (fell, never
     saw food, lost sight of it, saw it but did not reach it, ate the wrong food)."""
-    from aaai.diagnose import diagnose, table_markdown
+    from aaai.scoring.diagnose import diagnose, table_markdown
 
     try:
         chosen = resolve(policy)
@@ -886,8 +892,8 @@ def diagnose_command(policy, scoreboard, levels, limit, config_path):
 def baselines_command(demo_run, folder, levels, difficulty, count, workers, student_run, ppo_gait_run, only):
     """Score random actions, the reference controller and trained runs on the reserved seeds of
     every cell: a scoreboard each, a pass-rate table and a heatmap (make baselines)."""
-    from aaai.baselines import policies, run
-    from aaai.runs import check_writable
+    from aaai.scoring.runs import check_writable
+    from aaai.tools.baselines import policies, run
 
     try:
         check_writable(Path(folder), "--out", folder=True)
@@ -923,7 +929,7 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers, stud
 )
 def seeds_command(levels, difficulty, count, seed_key_file):
     """Print the reserved evaluation seeds of each (level, difficulty) cell."""
-    from aaai.seeds import key_record, read_seed_key, reserved_seeds
+    from aaai.task.seeds import key_record, read_seed_key, reserved_seeds
 
     try:
         key = read_seed_key(seed_key_file)
@@ -969,7 +975,7 @@ def seeds_command(levels, difficulty, count, seed_key_file):
 def bench_command(levels, rounds, steps, resets, worker_steps, train_steps, train_envs, memory_steps, folder):
     """Measure steps/s against a bare PyBullet loop and MuJoCo Ant-v5, training against the
     environment alone, resets, workers and memory; alternated rounds, medians and spreads."""
-    from aaai import bench
+    from aaai.tools import bench
 
     level_list = parse_levels(levels) if levels else None
     results = bench.run(
@@ -1004,7 +1010,7 @@ def bench_command(levels, rounds, steps, resets, worker_steps, train_steps, trai
 )
 def plot_command(runs, output, smooth):
     """Draw the learning curves of RUN folders on one figure: task return and pass rate against steps."""
-    from aaai.experiments import plot_runs
+    from aaai.train.experiments import plot_runs
 
     try:
         path = plot_runs(list(runs), output, smooth=smooth)
@@ -1092,8 +1098,8 @@ def curricula_command(
     """Train every sampler on one budget, config and cells, several seeds each; score each run on
     reserved and on trained seeds; write a table and a learning-curve plot (make curricula).
     Re-running continues where it stopped."""
-    from aaai.experiments import plan, run_experiment
-    from aaai.runs import check_writable
+    from aaai.scoring.runs import check_writable
+    from aaai.train.experiments import plan, run_experiment
 
     seeds = parse_range(seeds_text, "--seeds", 0, 2**32 - 1)
     try:
@@ -1142,7 +1148,7 @@ def curricula_command(
 def competence_command(folder, gait_steps, rotation_steps):
     """Time to competence: PPO on the default config (L0 d0-2) in gait and in rotation mode, every
     checkpoint scored on the 30 reserved episodes; the first to pass 90 % (make competence)."""
-    from aaai.competence import CompetenceSettings, run_experiment
+    from aaai.train.competence import CompetenceSettings, run_experiment
 
     settings = CompetenceSettings(
         budgets={"gait": gait_steps, "rotation": rotation_steps},
@@ -1167,7 +1173,7 @@ def competence_command(folder, gait_steps, rotation_steps):
 )
 def import_animalai_command(source, out, scale):
     """Convert Animal-AI arena files (!ArenaConfig; a FILE or a DIR of them) into aaai arena files."""
-    from aaai.animalai import import_animalai
+    from aaai.tools.animalai import import_animalai
 
     try:
         results = import_animalai(Path(source), Path(out), scale, echo=click.echo)

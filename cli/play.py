@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from aaai.config import ConfigError, load_config
-from aaai.policies import Policy
+from aaai.scoring.policies import Policy
 
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
 
@@ -107,8 +107,8 @@ def play(
     of the policy human:NAME (as `aaai eval` writes them); a closed tab's episode is logged in
     <out>_abandoned.csv, not scored. --seeds runs a battery, one episode after another.
     """
-    from aaai.evaluation import Cell, cells_for
-    from aaai.play.session import InputError, PlaySettings, check_player
+    from aaai.scoring.evaluation import Cell, cells_for
+    from aaai.tools.play.session import InputError, PlaySettings, check_player
     from aaai_cli.main import parse_levels, parse_range
 
     battery = seeds_mode is not None or levels is not None or difficulties is not None
@@ -145,7 +145,7 @@ def play(
             replays=Path(replays) if replays else None,
         )
         if arena is not None:
-            from aaai.arena import arena_files, load_arena
+            from aaai.task.arena import arena_files, load_arena
 
             settings.arenas = arena_files(arena)
             if seeds_mode is not None:
@@ -160,7 +160,7 @@ def play(
                     load_arena(path, arena_seed)
             settings.seeds_label = ",".join(map(str, settings.arena_seeds))
         elif battery:
-            from aaai.seeds import read_seed_key
+            from aaai.task.seeds import read_seed_key
 
             key = read_seed_key(seed_key_file)
             level_list = parse_levels(levels)
@@ -177,7 +177,7 @@ def play(
         raise click.UsageError(str(error)) from None
 
     try:
-        from aaai.play.server import Server
+        from aaai.tools.play.server import Server
     except ImportError as error:
         raise click.UsageError(f"{error}. aaai play needs the play extra: pip install -e '.[play]'") from None
     try:
@@ -200,7 +200,7 @@ def play(
 def run_replay_file(path: str, arena: str | None = None) -> None:
     """``aaai run --replay FILE``: the recorded episode again, its line of the run table, and
     whether it ended exactly as recorded (exit status 1 if not)."""
-    from aaai.replays import load_replay, run_replay
+    from aaai.scoring.replays import load_replay, run_replay
 
     try:
         replay = load_replay(path)
@@ -228,8 +228,8 @@ def replay_hooks(folder: str | None, policy: Policy, on_episode, arenas=()) -> d
     write each scored episode's replay into ``folder`` (just ``on_episode`` without a folder)."""
     if folder is None:
         return {"on_episode": on_episode}
-    from aaai.replays import ReplaySaver
-    from aaai.runs import check_writable
+    from aaai.scoring.replays import ReplaySaver
+    from aaai.scoring.runs import check_writable
 
     check_writable(Path(folder), "--save-replays", folder=True)
     saver = ReplaySaver(

@@ -7,9 +7,17 @@ from pathlib import Path
 import click
 
 from aaai.config import ConfigError
-from aaai.episodes import play
 from aaai.levels import check_difficulty, check_seed, get_level
-from aaai.viewer import VIDEO_CODECS, VideoWriter, compose, draw_top_down, draw_world, save_png, video_extension_error
+from aaai.scoring.episodes import play
+from aaai.tools.viewer import (
+    VIDEO_CODECS,
+    VideoWriter,
+    compose,
+    draw_top_down,
+    draw_world,
+    save_png,
+    video_extension_error,
+)
 
 CAMERA_RESOLUTION = 128
 STEP_CAP = 10000  # the longest episode a config allows (episode.max_steps): --video's default cap
@@ -109,7 +117,7 @@ def show(
         raise click.UsageError("name a LEVEL or an --arena file (one of the two)")
     try:
         if arena is not None:
-            from aaai.arena import load_arena
+            from aaai.task.arena import load_arena
 
             load_arena(arena, check_seed(seed))  # an invalid file fails here, before anything runs
             lvl = None
@@ -130,7 +138,7 @@ def show(
 
     from aaai.config import load_config
     from aaai.env import AnimalAIEnv  # after the checks: bad input fails fast
-    from aaai.policies import resolve
+    from aaai.scoring.policies import resolve
 
     try:
         env = AnimalAIEnv(
@@ -221,7 +229,7 @@ def show_replay(
 ) -> None:
     """``aaai show --video FILE --replay REPLAY``: the recorded episode filmed (its own level,
     config and actions; the camera turned on to draw it, which changes nothing the body does)."""
-    from aaai.replays import ReplayPolicy, load_replay, make_env, replay_options
+    from aaai.scoring.replays import ReplayPolicy, load_replay, make_env, replay_options
 
     if video is None:
         raise click.UsageError("--replay: give --video FILE to film it (and -o for a picture of its start)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from aaai.levels import InvalidLevelError, all_levels, generate
-from aaai.validate import check
+from aaai.task.validate import check
 
 ARENA_SEEDS = 10  # seeds an arena file is checked with unless --seeds says otherwise
 
@@ -65,8 +65,8 @@ def validate(ctx, levels_text, difficulty_text, seeds, first_seed, arena):
 
 def validate_arenas(path: str, seeds) -> None:
     """``aaai validate --arena``: one line per file (seeds checked, failed); exits 1 on any failure."""
-    from aaai.arena import arena_files, check_arena, parse_arena
     from aaai.config import ConfigError
+    from aaai.task.arena import arena_files, check_arena, parse_arena
 
     try:
         files = arena_files(path)

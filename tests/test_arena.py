@@ -1,4 +1,4 @@
-"""Arena files (aaai.arena): the round trip, errors naming file and line, and loading everywhere."""
+"""Arena files (aaai.task.arena): the round trip, errors naming file and line, and loading everywhere."""
 
 import csv
 from pathlib import Path
@@ -9,10 +9,10 @@ import pytest
 from click.testing import CliRunner
 
 import aaai  # noqa: F401 - registers the environments
-from aaai.arena import load_arena, parse_arena, spec_to_arena
 from aaai.config import ConfigError
-from aaai.evaluation import COLUMNS, LEGACY_COLUMNS, scored_episodes
 from aaai.levels import generate, level_ids
+from aaai.scoring.evaluation import COLUMNS, LEGACY_COLUMNS, scored_episodes
+from aaai.task.arena import load_arena, parse_arena, spec_to_arena
 from aaai_cli.main import cli
 
 ARENAS = Path(__file__).resolve().parent.parent / "configs" / "arenas"

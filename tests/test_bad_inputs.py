@@ -18,7 +18,7 @@ pytest.importorskip("stable_baselines3", reason="needs the train extra")
 from aaai.config import ConfigError, load_config  # noqa: E402
 from aaai.env import AnimalAIEnv  # noqa: E402
 from aaai.levels import generate  # noqa: E402
-from aaai.policies import ModelPolicy  # noqa: E402
+from aaai.scoring.policies import ModelPolicy  # noqa: E402
 from aaai.spec import AgentPose  # noqa: E402
 from aaai_cli.main import cli  # noqa: E402
 

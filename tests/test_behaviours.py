@@ -9,11 +9,11 @@ import pybullet as p
 import pytest
 from test_env import assert_identical, run_random
 
-from aaai.gait import SineGait
 from aaai.levels import generate
-from aaai.sensors import EYE_OFFSET
+from aaai.sim.gait import SineGait
+from aaai.sim.sensors import EYE_OFFSET
+from aaai.sim.world import HIDDEN_Z
 from aaai.spec import AgentPose, Blackout
-from aaai.world import HIDDEN_Z
 
 
 def bodies_of(env, kind):
@@ -259,7 +259,7 @@ def first_hole_sighting(env, lane_x, gap_y, steps=2500):
     """Walks the body north on a lane toward missing floor that begins at gap_y; returns how far
     the head still was from the gap when the forward ray first reported a hole, and how far the
     ray said it was (None: never)."""
-    from aaai.kinds import KIND_INDEX
+    from aaai.sim.kinds import KIND_INDEX
 
     gait, observation = SineGait.for_env(env, "forward"), None
     forward = env.unwrapped.rays.n_rays // 2

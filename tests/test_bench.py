@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from aaai import bench
+from aaai.tools import bench
 
 
 def test_each_round_runs_everything_once_in_an_order_rotated_by_one():

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import heading, open_arena
 
-from aaai.gait import SineGait
+from aaai.sim.gait import SineGait
 
 
 @pytest.mark.parametrize("body, n_axes", [("quadruped", 8), ("quadruped16", 16)])

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from aaai.config import load_config
-from aaai.curriculum import Curriculum
 from aaai.env import AnimalAIEnv
-from aaai.seeds import RESERVED_SEEDS, TRAIN_SEEDS, reserved_seeds
+from aaai.task.seeds import RESERVED_SEEDS, TRAIN_SEEDS, reserved_seeds
+from aaai.train.curriculum import Curriculum
 
 
 def test_z_and_p_match_hand_computed_values():
@@ -98,7 +98,7 @@ def test_reserved_seeds_are_fixed_distinct_and_in_range():
     assert len(set(seeds)) == 50 and all(s in RESERVED_SEEDS for s in seeds)
     assert reserved_seeds(3, 7, 10) == seeds[:10]  # a longer list extends a shorter one
     assert reserved_seeds(3, 6, 10) != seeds[:10]
-    code = "from aaai.seeds import reserved_seeds; print(reserved_seeds(3, 7, 10))"
+    code = "from aaai.task.seeds import reserved_seeds; print(reserved_seeds(3, 7, 10))"
     other = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert other.stdout.strip() == str(seeds[:10])
 
@@ -118,7 +118,7 @@ def test_curriculum_config_is_validated():
 def test_heatmap_colours_each_cell_by_its_mean_return(tmp_path):
     import cv2
 
-    from aaai.curriculum import CELL_PX, MARGIN_PX
+    from aaai.train.curriculum import CELL_PX, MARGIN_PX
 
     def picture(returns: dict) -> np.ndarray:
         curriculum = Curriculum([0, 1], [0, 1])
@@ -168,7 +168,7 @@ def test_paper_sampler_without_warmup_draws_exactly_as_the_z_score_formula():
     curriculum.record(1, 0, 3.0)
     reference = np.random.default_rng(11)  # the paper's sampler: p = (z + c) / sum, z = std / |mean|
     weights = np.array([0.0, 2.0 / 2.0, 0.0, 0.0]) + 0.05
-    from aaai.seeds import training_seed
+    from aaai.task.seeds import training_seed
 
     for _ in range(50):
         index = int(reference.choice(4, p=weights / weights.sum()))
@@ -239,8 +239,8 @@ def test_a_state_saved_before_the_samplers_still_resumes():
 
 
 def test_pass_rule_is_the_scoreboards_a_hair_either_side():
-    from aaai import evaluation
-    from aaai.curriculum import PASS_RATIO, episode_passed
+    from aaai.scoring import evaluation
+    from aaai.train.curriculum import PASS_RATIO, episode_passed
 
     assert PASS_RATIO == evaluation.PASS_RATIO
     assert episode_passed(1.6, 2.0) and episode_passed(1.6 + 1e-9, 2.0)
@@ -319,7 +319,7 @@ def test_sampler_keys_in_the_config():
 def test_heatmap_shows_the_samplers_weights(tmp_path, sampler):
     import cv2
 
-    from aaai.curriculum import CELL_PX, MARGIN_PX
+    from aaai.train.curriculum import CELL_PX, MARGIN_PX
 
     curriculum = Curriculum([0], [0, 1], sampler=sampler, warmup=0, plr_staleness=0.0)
     for value in (0.0, 2.0):
@@ -338,7 +338,7 @@ def test_heatmap_shows_the_samplers_weights(tmp_path, sampler):
 
 
 def test_the_training_workers_tell_the_curriculum_whether_each_episode_passed():
-    from aaai.vector import CurriculumVecEnv
+    from aaai.train.vector import CurriculumVecEnv
 
     config = load_config(rays=False, max_steps=20, levels="0", difficulties="0")
     curriculum = Curriculum.from_config(load_config(config, sampler="learnability"))
@@ -349,6 +349,6 @@ def test_the_training_workers_tell_the_curriculum_whether_each_episode_passed():
         finished += vec.step(np.zeros((1, *vec.single_action_space.shape), np.float32))[4]
     vec.close()
     assert curriculum.episodes[(0, 0)] == 2
-    from aaai.curriculum import episode_passed
+    from aaai.train.curriculum import episode_passed
 
     assert list(curriculum.passes[(0, 0)]) == [episode_passed(e.task_return, e.max_reward) for e in finished]

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from aaai.config import load_config
-from aaai.curriculum import CELL_PX, MARGIN_PX, Curriculum, heatmap_panel, positive_value_loss, rank_weights
+from aaai.train.curriculum import CELL_PX, MARGIN_PX, Curriculum, heatmap_panel, positive_value_loss, rank_weights
 
 FIXTURE = Path(__file__).parent / "fixtures" / "curriculum_heatmap.png"
 

@@ -1,10 +1,10 @@
-"""The shared episode loop (aaai.episodes.play): resets, callbacks, step limit and the result."""
+"""The shared episode loop (aaai.scoring.episodes.play): resets, callbacks, step limit and the result."""
 
 import numpy as np
 
-from aaai.episodes import play
-from aaai.evaluation import run_episode
-from aaai.policies import RandomPolicy
+from aaai.scoring.episodes import play
+from aaai.scoring.evaluation import run_episode
+from aaai.scoring.policies import RandomPolicy
 
 
 class Recorder:

@@ -5,8 +5,8 @@ import stat
 
 import pytest
 
-from aaai import runs
 from aaai.files import atomic_path, write_atomic
+from aaai.scoring import runs
 
 
 @pytest.fixture
@@ -27,7 +27,7 @@ def test_write_atomic_replaces_whole_with_open_s_mode(tmp_path, umask_027):
     assert path.read_text() == "a: 2\n"
     assert mode(path) == 0o640  # 0o666 under the umask, not mkstemp's 0600
     assert sorted(p.name for p in path.parent.iterdir()) == ["config.yaml"]
-    assert runs.write_atomic is write_atomic  # still importable from aaai.runs
+    assert runs.write_atomic is write_atomic  # still importable from aaai.scoring.runs
 
 
 def test_atomic_path_keeps_the_suffix_and_the_old_file_on_error(tmp_path):

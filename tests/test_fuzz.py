@@ -6,10 +6,10 @@ import math
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from aaai import validate
 from aaai.config import RULES, ConfigError, load_config, parse_int_set
-from aaai.kinds import OBJECT_KINDS
+from aaai.sim.kinds import OBJECT_KINDS
 from aaai.spec import SHAPES, AgentPose, LevelSpec, ObjectSpec
+from aaai.task import validate
 
 FUZZ = settings(max_examples=150, derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 numbers = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-(10**30), 10**30))

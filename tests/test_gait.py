@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import heading, open_arena
 
-from aaai.gait import SineGait, approach, load_parameters, steer
+from aaai.sim.gait import SineGait, approach, load_parameters, steer
 
 OPEN = 200.0  # an arena this big: 10 s of walking never reaches a wall
 
@@ -127,7 +127,7 @@ def test_a_bad_gait_file_fails_with_one_clear_message(tmp_path, text, words):
 
 @pytest.mark.long
 def test_the_tuner_writes_parameters_the_gait_loads(tmp_path):
-    from aaai.gait_tuning import main
+    from aaai.tools.gait_tuning import main
 
     path = tmp_path / "gait.yaml"
     assert main(["--evaluations", "12", "--write", str(path)]) == 0

@@ -13,9 +13,9 @@ from gymnasium.utils.env_checker import check_env
 import aaai  # noqa: F401 - registers the ids
 from aaai.config import ConfigError
 from aaai.env import AnimalAIEnv
-from aaai.gait import SineGait
 from aaai.levels import get_level, level_ids
 from aaai.registration import level_env_id
+from aaai.sim.gait import SineGait
 
 IDS = ["aaai/AnimalAI-v0"] + [level_env_id(get_level(level)) for level in level_ids()]
 
@@ -179,8 +179,8 @@ def test_out_of_range_commands_are_clipped_to_the_box():
 
 
 def test_every_built_in_policy_acts_in_gait_mode():
-    from aaai.episodes import play
-    from aaai.policies import resolve
+    from aaai.scoring.episodes import play
+    from aaai.scoring.policies import resolve
 
     env = AnimalAIEnv(level=0, difficulty=0, action_mode="gait", max_steps=100)
     try:

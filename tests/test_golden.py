@@ -47,7 +47,7 @@ def trajectory_digest(level: int, difficulty: int, seed: int, policy: str, steps
     try:
         observation, info = env.reset(seed=seed)
         if policy == "reference":
-            from aaai.reference import ReferenceController
+            from aaai.task.reference import ReferenceController
 
             act = ReferenceController(env)
             act.reset(seed)

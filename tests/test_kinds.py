@@ -1,4 +1,4 @@
-"""The newer object kinds (aaai.kinds): their rules in the rewards, the rays, the camera, the viewer,
+"""The newer object kinds (aaai.sim.kinds): their rules in the rewards, the rays, the camera, the viewer,
 validation and the reference controller; and the camera that agrees with the task."""
 
 import math
@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from conftest import open_arena, sphere
 
-from aaai import validate
-from aaai.arena import load_arena
 from aaai.config import ConfigError
 from aaai.env import AnimalAIEnv
-from aaai.kinds import ALL_KINDS, COLOURS, HOT_ZONE_FACTOR, KINDS, REGISTRY, ZONE_THICKNESS, ray_channels
+from aaai.sim.kinds import ALL_KINDS, COLOURS, HOT_ZONE_FACTOR, KINDS, REGISTRY, ZONE_THICKNESS, ray_channels
 from aaai.spec import ObjectSpec
-from aaai.viewer import draw_top_down, mapping_for
+from aaai.task import validate
+from aaai.task.arena import load_arena
+from aaai.tools.viewer import draw_top_down, mapping_for
 
 ARENAS = Path(__file__).resolve().parents[1] / "configs" / "arenas"
 STILL = np.zeros(8, np.float32)
@@ -253,7 +253,7 @@ def test_validation_keeps_the_body_clear_of_bad_food_and_death_zones_and_goes_th
 
 
 def test_reference_goes_through_the_tunnel_to_the_food(make_env):
-    from aaai.reference import ReferenceController
+    from aaai.task.reference import ReferenceController
 
     env = make_env(action_mode="gait")
     spec = load_arena(ARENAS / "animalai" / "tunnel.yaml", 0)
@@ -273,8 +273,8 @@ def test_reference_goes_through_the_tunnel_to_the_food(make_env):
 @pytest.mark.long
 @pytest.mark.parametrize("path", sorted((ARENAS / "animalai").glob("*.yaml")), ids=lambda p: p.stem)
 def test_reference_passes_the_animal_ai_style_arenas(make_env, path):
-    from aaai.animalai import passed
-    from aaai.reference import ReferenceController
+    from aaai.task.reference import ReferenceController
+    from aaai.tools.animalai import passed
 
     env = make_env(action_mode="gait")
     for seed in (0, 1, 2):

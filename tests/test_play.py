@@ -16,16 +16,16 @@ import pytest
 from click.testing import CliRunner
 
 from aaai.config import ConfigError, load_config
-from aaai.evaluation import Cell
+from aaai.scoring.evaluation import Cell
 from aaai_cli.main import cli
 
 if not os.environ.get("CI"):  # on CI (make test installs the play extra) a missing library fails, never skips
     pytest.importorskip("fastapi", reason="aaai play needs the play extra (make test installs it)")
 from websockets.sync.client import connect  # noqa: E402  (the play extra)
 
-from aaai.play.server import Server  # noqa: E402
-from aaai.play.session import InputError, PlaySettings, abandoned_path, command_of, control_of  # noqa: E402
-from aaai.replays import load_replay, run_replay  # noqa: E402
+from aaai.scoring.replays import load_replay, run_replay  # noqa: E402
+from aaai.tools.play.server import Server  # noqa: E402
+from aaai.tools.play.session import InputError, PlaySettings, abandoned_path, command_of, control_of  # noqa: E402
 
 CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver")
 ROOT_ARENAS = Path(__file__).resolve().parent.parent / "configs" / "arenas"

@@ -12,11 +12,11 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from aaai import validate
 from aaai.config import ConfigError, load_config
 from aaai.env import AnimalAIEnv
 from aaai.levels import all_levels, generate, get_level
 from aaai.registration import register_envs
+from aaai.task import validate
 
 GENERATOR = '''
 """A test level: the food straight ahead of the agent, farther with the difficulty."""

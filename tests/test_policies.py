@@ -1,4 +1,4 @@
-"""What a --policy string names (aaai.policies): read once into plain data, refused with a clear
+"""What a --policy string names (aaai.scoring.policies): read once into plain data, refused with a clear
 message when it names nothing usable, and built into the same acting policy wherever it goes."""
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ import pytest
 
 from aaai.config import ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
-from aaai.evaluation import policy_record
-from aaai.policies import ModelPolicy, Policy, RandomPolicy, check_model, external, resolve
-from aaai.runs import RunFolder
+from aaai.scoring.evaluation import policy_record
+from aaai.scoring.policies import ModelPolicy, Policy, RandomPolicy, check_model, external, resolve
+from aaai.scoring.runs import RunFolder
 
 SHORT = {"episode": {"max_steps": 20}}
 
@@ -391,7 +391,7 @@ def test_an_rllib_checkpoint_from_elsewhere_is_refused_before_it_loads(tmp_path)
 
 
 def test_the_trust_given_with_a_string_reaches_every_kind_of_policy(tmp_path, monkeypatch):
-    from aaai.policies import as_policy, factory
+    from aaai.scoring.policies import as_policy, factory
 
     source = tmp_path / "trusting_agent.py"
     source.write_text("def make(env):\n    return None\n")

@@ -1,4 +1,4 @@
-"""The Ray eval backend (aaai/distributed.py) against the local one (aaai.evaluation.evaluate).
+"""The Ray eval backend (aaai/scoring/distributed.py) against the local one (aaai.scoring.evaluation.evaluate).
 
 Most tests share one two-node Ray cluster on this machine (``ray.cluster_utils.Cluster``, two nodes of
 one CPU each), started once for the module in a private Ray temp folder (so that no other
@@ -24,8 +24,8 @@ from conftest import processes_holding
 pytest.importorskip("ray", reason="needs the ray extra, which make test installs")
 
 from aaai.config import ConfigError, load_config  # noqa: E402
-from aaai.distributed import evaluate_on_ray  # noqa: E402
-from aaai.evaluation import Cell, evaluate  # noqa: E402
+from aaai.scoring.distributed import evaluate_on_ray  # noqa: E402
+from aaai.scoring.evaluation import Cell, evaluate  # noqa: E402
 
 # Random actions like the random policy, but the worker process running the episode of KILL_SEED
 # kills itself (SIGKILL: no clean-up, as the OOM killer) at step KILL_STEP, once: the first attempt
@@ -35,7 +35,7 @@ KILL_POLICY = """
 import os, signal
 from pathlib import Path
 
-from aaai.policies import RandomPolicy
+from aaai.scoring.policies import RandomPolicy
 
 
 class KillOnce(RandomPolicy):

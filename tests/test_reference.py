@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from aaai.env import AnimalAIEnv
-from aaai.evaluation import run_episode
 from aaai.levels import all_levels
-from aaai.reference import ReferenceController
-from aaai.seeds import reserved_seeds
+from aaai.scoring.evaluation import run_episode
+from aaai.task.reference import ReferenceController
+from aaai.task.seeds import reserved_seeds
 
 
 @pytest.fixture(scope="module")

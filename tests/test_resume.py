@@ -11,9 +11,9 @@ import pytest
 from click.testing import CliRunner
 
 from aaai.config import ConfigError, load_config
-from aaai.policies import ModelPolicy, resolve
-from aaai.runs import RunFolder, model_problem
-from aaai.training import train
+from aaai.scoring.policies import ModelPolicy, resolve
+from aaai.scoring.runs import RunFolder, model_problem
+from aaai.train.training import train
 from aaai_cli.main import cli
 
 SMALL = {

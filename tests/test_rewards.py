@@ -7,7 +7,7 @@ import pybullet as p
 import pytest
 from conftest import open_arena, sphere
 
-from aaai.gait import SineGait
+from aaai.sim.gait import SineGait
 from aaai.spec import ObjectSpec
 
 

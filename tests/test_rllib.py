@@ -1,4 +1,4 @@
-"""RLlib PPO training with the curriculum sampler as one Ray actor (aaai/rllib_learner.py).
+"""RLlib PPO training with the curriculum sampler as one Ray actor (aaai/train/rllib_learner.py).
 
 Ray runs in a child process (its global state stays out of the test session) with a private Ray
 temp folder, whose path every Ray process inherits in its environment: after the child exits, no
@@ -30,8 +30,8 @@ import json, shutil, sys
 from pathlib import Path
 import ray
 from aaai.config import load_config
-from aaai.rllib_learner import train_rllib
-from aaai.runs import run_backend
+from aaai.train.rllib_learner import train_rllib
+from aaai.scoring.runs import run_backend
 
 run = Path(sys.argv[1])
 config = load_config(None, max_steps=100, levels=[0], difficulties=[0, 1], total_steps=2048, num_envs=2,
@@ -45,9 +45,9 @@ resumed = train_rllib(run, resume=True, total_steps=3072, env_runners=1, say=pri
 # The trained policy, as the scoreboard would play it: deterministic, actions in the space.
 from aaai.config import env_part
 from aaai.env import AnimalAIEnv
-from aaai.evaluation import run_episode
-from aaai.model_io import RLlibPolicy
-from aaai.runs import RunFolder
+from aaai.scoring.evaluation import run_episode
+from aaai.scoring.model_io import RLlibPolicy
+from aaai.scoring.runs import RunFolder
 env = AnimalAIEnv(config=env_part(RunFolder(run).read_config(), shaping=0.0))
 policy = RLlibPolicy(run, env)
 observation, _ = env.reset(seed=3)
@@ -148,7 +148,7 @@ KILL_CHILD = """
 import json, os, signal, sys
 from pathlib import Path
 from aaai.config import load_config
-from aaai.rllib_learner import train_rllib
+from aaai.train.rllib_learner import train_rllib
 
 run, ray_tmp = Path(sys.argv[1]), sys.argv[2]
 config = load_config(None, max_steps=100, levels=[0], difficulties=[0], total_steps=2560, num_envs=2,

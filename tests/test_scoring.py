@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from aaai.config import ConfigError, config_dir, load_config
-from aaai.evaluation import Cell, episode_plan, evaluate, outcome, summarise
-from aaai.seeds import RESERVED_SEEDS, TRAIN_SEEDS, reserved_seeds, seed_range, training_seed
+from aaai.scoring.evaluation import Cell, episode_plan, evaluate, outcome, summarise
+from aaai.task.seeds import RESERVED_SEEDS, TRAIN_SEEDS, reserved_seeds, seed_range, training_seed
 
 
 def test_training_and_reserved_seeds_meet_without_overlap():
@@ -94,7 +94,7 @@ def test_local_eval_of_repeated_seeds_gives_one_row_each(tmp_path):
 
 # --- the scoreboard file: rows, records, resume ----------------------------------------------
 def _board(path, rows, columns=None):
-    from aaai.evaluation import COLUMNS
+    from aaai.scoring.evaluation import COLUMNS
 
     columns = columns or COLUMNS
     path.write_text(
@@ -105,7 +105,7 @@ def _board(path, rows, columns=None):
 def test_a_torn_last_line_is_cut_and_a_line_torn_mid_file_is_played_again(tmp_path):
     """Guards resume after a crash: a last line cut short is removed from the file (so the next row
     starts on a line of its own), and a short line inside the file is dropped, its episode played again."""
-    from aaai.evaluation import scored_episodes
+    from aaai.scoring.evaluation import scored_episodes
 
     board = tmp_path / "board.csv"
     _board(board, [{"seed": "1"}, {"seed": "2"}])
@@ -121,7 +121,7 @@ def test_a_torn_last_line_is_cut_and_a_line_torn_mid_file_is_played_again(tmp_pa
 
 
 def test_an_older_scoreboard_is_read_and_added_to_in_its_own_columns_and_a_foreign_file_refused(tmp_path):
-    from aaai.evaluation import COLUMNS, LEGACY_COLUMNS, columns_of, scored_episodes
+    from aaai.scoring.evaluation import COLUMNS, LEGACY_COLUMNS, columns_of, scored_episodes
 
     old = tmp_path / "old.csv"
     _board(old, [{"seed": "4"}], LEGACY_COLUMNS)
@@ -144,7 +144,7 @@ def test_rows_are_durable_the_record_comes_with_the_first_and_a_failed_write_is_
     a row that cannot be made durable is cut off again, named with the file and the rows kept."""
     import json
 
-    from aaai.evaluation import COLUMNS, Scoreboard, record_path
+    from aaai.scoring.evaluation import COLUMNS, Scoreboard, record_path
 
     board, written = tmp_path / "board.csv", []
     row = {c: "1" for c in COLUMNS}
@@ -162,7 +162,7 @@ def test_rows_are_durable_the_record_comes_with_the_first_and_a_failed_write_is_
         def full(descriptor):
             raise OSError(28, "No space left on device")
 
-        monkeypatch.setattr("aaai.evaluation.os.fsync", full)
+        monkeypatch.setattr("aaai.scoring.evaluation.os.fsync", full)
         with pytest.raises(ConfigError) as caught:
             scores.append({**row, "seed": 3})
         monkeypatch.undo()
@@ -180,7 +180,7 @@ def test_rows_are_durable_the_record_comes_with_the_first_and_a_failed_write_is_
 
 
 def test_a_write_error_names_the_rename_target_when_there_is_one(tmp_path):
-    from aaai.evaluation import write_error
+    from aaai.scoring.evaluation import write_error
 
     error = OSError(13, "Permission denied", "from.tmp", None, "to.csv")
     assert write_error(tmp_path / "b.csv", error, 0).startswith(
@@ -200,7 +200,7 @@ def test_the_record_holds_the_whole_environment_and_names_each_difference(tmp_pa
     import json
 
     from aaai import __version__
-    from aaai.evaluation import check_record, env_record, record_differences, record_path
+    from aaai.scoring.evaluation import check_record, env_record, record_differences, record_path
 
     config = load_config({"sensors": {"ray_length": 10.0}}, level=3)
     record = env_record(config)
@@ -247,7 +247,7 @@ def test_the_record_holds_the_whole_environment_and_names_each_difference(tmp_pa
 
 @pytest.mark.parametrize("mode", ["train", "1,2"])
 def test_a_seed_key_goes_only_with_the_reserved_seeds(mode):
-    from aaai.evaluation import seeds_for
+    from aaai.scoring.evaluation import seeds_for
 
     with pytest.raises(ConfigError, match=rf"--seeds: got '{mode}' with a seed key; allowed: a seed key only with"):
         seeds_for(mode, 0, 0, 3, key="secret")
@@ -257,7 +257,7 @@ def test_a_seed_key_goes_only_with_the_reserved_seeds(mode):
 def test_the_seed_lists_each_mode_gives():
     """Guards `--seeds`: train gives fixed, distinct draws from the training range per cell; a list
     is taken as written; anything else is refused naming what is allowed."""
-    from aaai.evaluation import seeds_for
+    from aaai.scoring.evaluation import seeds_for
 
     train = seeds_for("train", 2, 1, 50)
     assert len(train) == 50 == len(set(train)) and all(seed_range(s) is TRAIN_SEEDS for s in train)
@@ -277,7 +277,7 @@ def test_the_summary_per_level_per_arena_and_per_category(tmp_path):
     per category (in level order, the uncategorised last) then overall; and its markdown table."""
     import math
 
-    from aaai.evaluation import summarise, summarise_arenas, summary_markdown, write_summary
+    from aaai.scoring.evaluation import summarise, summarise_arenas, summary_markdown, write_summary
 
     rows = [_row(3, "failed", 0.1, 0.2), _row(0, "succeeded", 1.0, 1.0), _row(3, "passed", 0.9, 0.8)]
     summary = summarise(rows)
@@ -324,7 +324,7 @@ SHORT = load_config(None, max_steps=10)
 def test_an_arena_battery_is_scored_file_by_seed_and_resumed(tmp_path):
     """Guards `aaai eval --arenas`: one row per (arena, seed) in file then seed order, its arena
     column the file's name; a re-run plays only what is missing."""
-    from aaai.evaluation import evaluate_arenas, scored_episodes
+    from aaai.scoring.evaluation import evaluate_arenas, scored_episodes
 
     first, second = sorted(ARENAS.glob("*.yaml"))[:2]
     out = tmp_path / "board.csv"
@@ -355,7 +355,7 @@ def test_an_arena_battery_is_scored_file_by_seed_and_resumed(tmp_path):
 def test_an_arena_battery_is_refused_before_any_episode(tmp_path):
     import json
 
-    from aaai.evaluation import LEGACY_COLUMNS, env_record, evaluate_arenas, record_path
+    from aaai.scoring.evaluation import LEGACY_COLUMNS, env_record, evaluate_arenas, record_path
 
     arena = sorted(ARENAS.glob("*.yaml"))[0]
     twin = tmp_path / "twin" / arena.name
@@ -378,7 +378,7 @@ def test_an_arena_battery_is_refused_before_any_episode(tmp_path):
 def test_the_loop_plays_what_the_hooks_make_and_reports_each_row(tmp_path):
     """Guards evaluate's hooks (a human's policy in aaai play, a recorder for --save-replays): the
     policy make_policy builds, once, on the scoring environment, which has no reward shaping."""
-    from aaai.evaluation import evaluate
+    from aaai.scoring.evaluation import evaluate
 
     shapings, steps, rows = [], [], []
 
@@ -418,9 +418,9 @@ def test_a_row_is_the_episode_of_its_cell_scored_against_its_best_reward(tmp_pat
     """Guards the row: the episode is the cell's (level, difficulty, seed), as the environment plays
     it, and its ratio is the return over the level instance's best reward."""
     from aaai.env import AnimalAIEnv
-    from aaai.episodes import play
-    from aaai.evaluation import evaluate
-    from aaai.policies import RandomPolicy
+    from aaai.scoring.episodes import play
+    from aaai.scoring.evaluation import evaluate
+    from aaai.scoring.policies import RandomPolicy
 
     config = load_config(None, max_steps=30)
     row = evaluate("random", [Cell(4, 2, [11])], tmp_path / "b.csv", config)[0]
@@ -438,8 +438,8 @@ def test_a_row_is_the_episode_of_its_cell_scored_against_its_best_reward(tmp_pat
 
 
 def test_an_arena_row_is_its_files_level_and_its_own_pass_mark_decides(tmp_path):
-    from aaai.arena import load_arena
-    from aaai.evaluation import evaluate_arenas
+    from aaai.scoring.evaluation import evaluate_arenas
+    from aaai.task.arena import load_arena
 
     source = next(p for p in sorted(ARENAS.glob("*.yaml")) if load_arena(p, 0).level != 0)
     battery = []

@@ -4,8 +4,8 @@ score printed so far depends on."""
 import numpy as np
 import pytest
 
-from aaai import seeds
-from aaai.seeds import (
+from aaai.task import seeds
+from aaai.task.seeds import (
     OTHER_SEEDS,
     RESERVED_SEEDS,
     TRAIN_SEEDS,

@@ -9,8 +9,8 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from aaai.kinds import KIND_INDEX
-from aaai.sensors import EYE_OFFSET, Blackout, Camera, RayMemory, Rays, Senses
+from aaai.sim.kinds import KIND_INDEX
+from aaai.sim.sensors import EYE_OFFSET, Blackout, Camera, RayMemory, Rays, Senses
 from aaai.spec import Blackout as Schedule
 
 GREEN, YELLOW, WALL = KIND_INDEX["food_green"], KIND_INDEX["food_yellow"], KIND_INDEX["wall"]

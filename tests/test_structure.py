@@ -65,11 +65,11 @@ def test_lazy_and_submodule_imports_are_dependencies(tmp_path):
     inside a function, and a submodule import that runs its package first."""
     lazy = tmp_path / "lazy.py"
     lazy.write_text("def f():\n    from aaai.levels import generate\n")
-    assert imported("aaai.validate", lazy) == {"aaai.levels"}
+    assert imported("aaai.task.validate", lazy) == {"aaai.levels"}
     deep = tmp_path / "deep.py"
     deep.write_text("from aaai.levels.common import sphere\n")
-    assert imported("aaai.validate", deep) == {"aaai.levels", "aaai.levels.common"}
-    assert "aaai.validate" in imported("aaai.levels", MODULES["aaai.levels"])
+    assert imported("aaai.task.validate", deep) == {"aaai.levels", "aaai.levels.common"}
+    assert "aaai.task.validate" in imported("aaai.levels", MODULES["aaai.levels"])
 
 
 @pytest.mark.parametrize("name", sorted(MODULES))
@@ -79,16 +79,23 @@ def test_each_module_opens_by_naming_its_job(name):
     assert len(docstring.splitlines()[0]) <= 110, f"{name}: keep the opening line to one line"
 
 
-SCORING = ("aaai.evaluation", "aaai.distributed", "aaai.policies", "aaai.model_io", "aaai.runs", "aaai.episodes")
+SCORING = (
+    "aaai.scoring.evaluation",
+    "aaai.scoring.distributed",
+    "aaai.scoring.policies",
+    "aaai.scoring.model_io",
+    "aaai.scoring.runs",
+    "aaai.scoring.episodes",
+)
 TRAINING = (
-    "aaai.training",
-    "aaai.learner",
-    "aaai.rllib_learner",
-    "aaai.vector",
-    "aaai.curriculum",
-    "aaai.student",
-    "aaai.experiments",
-    "aaai.competence",
+    "aaai.train.training",
+    "aaai.train.learner",
+    "aaai.train.rllib_learner",
+    "aaai.train.vector",
+    "aaai.train.curriculum",
+    "aaai.train.student",
+    "aaai.train.experiments",
+    "aaai.train.competence",
 )
 
 

@@ -13,10 +13,10 @@ pytest.importorskip("stable_baselines3", reason="needs the train extra")
 
 from aaai.config import ConfigError, load_config  # noqa: E402
 from aaai.env import AnimalAIEnv  # noqa: E402
-from aaai.reference import ReferenceController  # noqa: E402
-from aaai.runs import RunFolder  # noqa: E402
-from aaai.seeds import TRAIN_SEEDS  # noqa: E402
-from aaai.student import Job, plan_episodes, play_job, train_student  # noqa: E402
+from aaai.scoring.runs import RunFolder  # noqa: E402
+from aaai.task.reference import ReferenceController  # noqa: E402
+from aaai.task.seeds import TRAIN_SEEDS  # noqa: E402
+from aaai.train.student import Job, plan_episodes, play_job, train_student  # noqa: E402
 from aaai_cli.main import cli  # noqa: E402
 
 TINY = {
@@ -145,7 +145,7 @@ def _write(folder, data) -> str:
 
 def test_demos_are_a_minari_dataset_that_loads_and_replays_bit_for_bit(tmp_path):
     minari = pytest.importorskip("minari", reason="needs the demos extra")
-    from aaai.demos import datasets_path, replay
+    from aaai.scoring.demos import datasets_path, replay
 
     out = tmp_path / "demos"
     command = ["demos", "--policy", "reference", "--levels", "0,1", "--difficulty", "0", "-k", "1"]
@@ -153,7 +153,7 @@ def test_demos_are_a_minari_dataset_that_loads_and_replays_bit_for_bit(tmp_path)
     result = CliRunner().invoke(cli, command)
     assert result.exit_code == 0, result.output
     with datasets_path(out):
-        dataset = minari.load_dataset("aaai/reference-v0")
+        dataset = minari.load_dataset("aaai/task/reference-v0")
         assert dataset.total_episodes == 2
         metadata = list(dataset.storage.get_episode_metadata(range(2)))
         assert [m["options"]["level"] for m in metadata] == [0, 1]
@@ -169,11 +169,11 @@ def test_demos_are_a_minari_dataset_that_loads_and_replays_bit_for_bit(tmp_path)
     again = CliRunner().invoke(cli, command)
     assert again.exit_code == 0, again.output
     with datasets_path(out):
-        assert minari.load_dataset("aaai/reference-v0").total_episodes == 2
+        assert minari.load_dataset("aaai/task/reference-v0").total_episodes == 2
 
 
 def test_diagnose_replays_each_failed_episode_into_one_first_cause(tmp_path):
-    from aaai.diagnose import CAUSES, diagnose, food_in_view
+    from aaai.scoring.diagnose import CAUSES, diagnose, food_in_view
 
     out = tmp_path / "random.csv"
     scored = CliRunner().invoke(
@@ -212,8 +212,8 @@ def test_the_committed_student_fails_l8_for_want_of_object_permanence(tmp_path):
     the student sees the food at the start (2 decisions of 600); it slides behind the occluder, no
     ray shows it again, and the rays' memory of it (6.4 s at most) runs out before the student goes
     behind. The reference passes it."""
-    from aaai.diagnose import replay_failure
-    from aaai.policies import resolve
+    from aaai.scoring.diagnose import replay_failure
+    from aaai.scoring.policies import resolve
 
     config = load_config(str(MODELS / "student.yaml"))
     env = AnimalAIEnv(config={k: v for k, v in config.items() if k not in ("curriculum", "train", "eval")})

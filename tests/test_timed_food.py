@@ -1,4 +1,4 @@
-"""Food that ripens, decays, grows or shrinks (aaai.kinds.TimedFood): its reward is its value at the
+"""Food that ripens, decays, grows or shrinks (aaai.sim.kinds.TimedFood): its reward is its value at the
 time it is eaten, and ripening and decaying food leave the episode running, growing and shrinking
 food end it."""
 
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from conftest import open_arena, sphere
 
-from aaai import validate
-from aaai.arena import ArenaProblems, load_arena
-from aaai.kinds import REGISTRY
+from aaai.sim.kinds import REGISTRY
 from aaai.spec import ObjectSpec
+from aaai.task import validate
+from aaai.task.arena import ArenaProblems, load_arena
 
 STILL = np.zeros(8, np.float32)
 TIMED = ("ripening_food", "decaying_food", "growing_food", "shrinking_food")
@@ -113,8 +113,8 @@ def test_a_spec_without_timed_food_keeps_its_digest_keys():
 def test_animal_ai_goals_that_ripen_decay_grow_and_shrink_are_imported_with_their_timing(tmp_path):
     from pathlib import Path
 
-    from aaai.animalai import DEFAULT_SCALE as S
-    from aaai.animalai import SECONDS_PER_STEP, import_animalai
+    from aaai.tools.animalai import DEFAULT_SCALE as S
+    from aaai.tools.animalai import SECONDS_PER_STEP, import_animalai
 
     fixtures = Path(__file__).with_name("fixtures") / "animalai_timed"
     lines = []
@@ -147,8 +147,8 @@ def test_animal_ai_goals_that_ripen_decay_grow_and_shrink_are_imported_with_thei
 def test_the_reference_eats_the_timed_food_of_its_animal_ai_style_arena_and_passes(make_env):
     from pathlib import Path
 
-    from aaai.animalai import passed
-    from aaai.reference import ReferenceController
+    from aaai.task.reference import ReferenceController
+    from aaai.tools.animalai import passed
 
     path = Path(__file__).resolve().parents[1] / "configs" / "arenas" / "animalai" / "timed_food.yaml"
     env = make_env(action_mode="gait")

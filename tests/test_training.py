@@ -12,7 +12,7 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from aaai.evaluation import COLUMNS
+from aaai.scoring.evaluation import COLUMNS
 from aaai_cli.main import cli
 
 AAAI = [sys.executable, "-m", "aaai_cli.main"]
@@ -72,17 +72,17 @@ def test_random_agent_run_writes_its_folder(tmp_path):
 KILL_AT = 1400
 KILLED_TRAIN = f"""
 import os, signal, sys
-import aaai.training
+import aaai.train.training
 from aaai_cli.main import cli
 
-update = aaai.training.Tracker.update
+update = aaai.train.training.Tracker.update
 
 def update_then_die(self, step, *args, **kwargs):
     update(self, step, *args, **kwargs)  # episodes logged, heatmap and checkpoint written as due
     if step >= {KILL_AT}:
         os.kill(os.getpid(), signal.SIGKILL)
 
-aaai.training.Tracker.update = update_then_die
+aaai.train.training.Tracker.update = update_then_die
 cli(sys.argv[1:], prog_name="aaai")
 """
 
@@ -225,7 +225,7 @@ def test_eval_on_training_seeds_and_on_a_seed_list(tmp_path):
 
 
 def test_a_secret_seed_key_gives_a_hidden_reproducible_list_and_is_recorded_not_revealed(tmp_path, monkeypatch):
-    from aaai.seeds import RESERVED_SEEDS, reserved_seeds
+    from aaai.task.seeds import RESERVED_SEEDS, reserved_seeds
 
     key_file = tmp_path / "key.txt"
     key_file.write_text("a secret only the organisers hold\n")
@@ -290,7 +290,7 @@ def test_outputs_that_cannot_be_written_are_refused_before_any_work(tmp_path, mo
     # a folder without write permission (as root, which writes anywhere, the permission is denied here)
     real_access = os.access
     monkeypatch.setattr(
-        "aaai.runs.os.access",
+        "aaai.scoring.runs.os.access",
         lambda path, mode: False if str(path).startswith(str(locked)) else real_access(path, mode),
     )
     result = CliRunner().invoke(
@@ -323,7 +323,7 @@ PROGRESS_LINE = (
 
 
 def test_progress_rate_and_eta_leave_out_the_startup():
-    from aaai.training import Progress
+    from aaai.train.training import Progress
 
     now, lines = [0.0], []
     report = Progress(100_000, clock=lambda: now[0], every=10.0, write=lines.append)
@@ -390,7 +390,7 @@ def test_a_non_terminal_train_and_eval_print_progress_lines(tmp_path):
         last,
     ), last
 
-    from aaai.experiments import plot_runs
+    from aaai.train.experiments import plot_runs
 
     picture = plot_runs([run], tmp_path / "curves.png", smooth=5)
     import cv2
@@ -405,7 +405,7 @@ def test_tensorboard_gets_the_task_return_without_shaping(tmp_path):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
     from aaai.config import load_config
-    from aaai.training import train
+    from aaai.train.training import train
 
     config = load_config(
         {

@@ -17,12 +17,12 @@ from click.testing import CliRunner
 
 pytest.importorskip("stable_baselines3", reason="needs the train extra")
 
-from aaai import model_io  # noqa: E402
 from aaai.config import ConfigError, load_config  # noqa: E402
 from aaai.env import AnimalAIEnv  # noqa: E402
-from aaai.evaluation import record_path  # noqa: E402
-from aaai.policies import ModelPolicy  # noqa: E402
-from aaai.runs import RunFolder  # noqa: E402
+from aaai.scoring import model_io  # noqa: E402
+from aaai.scoring.evaluation import record_path  # noqa: E402
+from aaai.scoring.policies import ModelPolicy  # noqa: E402
+from aaai.scoring.runs import RunFolder  # noqa: E402
 from aaai_cli.main import cli  # noqa: E402
 
 SHORT = {"episode": {"max_steps": 15}}
@@ -300,7 +300,7 @@ def test_a_full_disk_names_the_file_keeps_the_rows_and_a_rerun_resumes(tmp_path,
             raise OSError(errno.ENOSPC, "No space left on device", str(out))
         return real_fsync(descriptor)
 
-    monkeypatch.setattr("aaai.evaluation.os.fsync", fsync)
+    monkeypatch.setattr("aaai.scoring.evaluation.os.fsync", fsync)
     full = _eval("--policy", "random", "--config", config, "-k", "4", "--out", out)
     assert full.exit_code != 0 and "Traceback" not in full.output
     message = " ".join(full.output.split())
@@ -363,7 +363,7 @@ def test_validate_reports_every_problem_of_an_arena_file_each_with_its_line(tmp_
 
 
 def test_objects_that_overlap_exactly_and_numbers_far_out_are_clear_errors(tmp_path):
-    from aaai.arena import load_arena
+    from aaai.task.arena import load_arena
 
     food = "{kind: food_green, position: [-10, -10, 0.5], size: [1, 1, 1]}"
     twice = tmp_path / "twice.yaml"
@@ -402,7 +402,7 @@ def test_a_write_refused_midway_names_the_file_and_a_rerun_resumes(tmp_path, mon
                 raise PermissionError(errno.EACCES, "Permission denied", str(out))
             return real_open(file, *args, **kwargs)
 
-        monkeypatch.setattr("aaai.evaluation.open", refusing, raising=False)
+        monkeypatch.setattr("aaai.scoring.evaluation.open", refusing, raising=False)
     failed = _eval("--policy", "random", "--config", config, "-k", "2", "--out", out)
     message = " ".join(failed.output.split())
     assert failed.exit_code != 0 and "Traceback" not in failed.output
@@ -447,7 +447,7 @@ def test_more_extreme_values_for_every_config_key():
 
 
 def test_extreme_numbers_anywhere_in_an_arena_file_are_clear_errors(tmp_path):
-    from aaai.arena import load_arena
+    from aaai.task.arena import load_arena
 
     source = Path(__file__).parents[1] / "configs" / "arenas" / "l0_food_ahead.yaml"
     data = yaml.safe_load(source.read_text())
@@ -487,7 +487,7 @@ def test_extreme_numbers_anywhere_in_an_arena_file_are_clear_errors(tmp_path):
 from hypothesis import HealthCheck, example, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from aaai.kinds import OBJECT_KINDS  # noqa: E402
+from aaai.sim.kinds import OBJECT_KINDS  # noqa: E402
 
 FUZZ_FAST, FUZZ_LONG = 40, 3400
 _fuzz = dict(derandomize=True, deadline=None, suppress_health_check=list(HealthCheck))
@@ -533,7 +533,7 @@ arenas = st.fixed_dictionaries(
 
 
 def _arena_ends_cleanly(tmp_path: Path, data: dict, seed: int) -> None:
-    from aaai.arena import load_arena
+    from aaai.task.arena import load_arena
 
     path = tmp_path / "fuzzed.yaml"
     path.write_text(yaml.safe_dump(data))

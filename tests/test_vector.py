@@ -1,12 +1,12 @@
-"""The training workers (aaai.vector): what a finished episode reports, and what the curriculum counts."""
+"""The training workers (aaai.train.vector): what a finished episode reports, and what the curriculum counts."""
 
 import numpy as np
 import pytest
 
 from aaai.config import env_part, load_config
-from aaai.curriculum import Curriculum
 from aaai.env import AnimalAIEnv
-from aaai.vector import EPISODE_INFO_KEYS, CurriculumVecEnv
+from aaai.train.curriculum import Curriculum
+from aaai.train.vector import EPISODE_INFO_KEYS, CurriculumVecEnv
 
 
 def replay(config: dict, shaping: float, episode, actions) -> float:
@@ -49,7 +49,7 @@ def test_the_task_return_leaves_out_the_shaping_the_learner_gets():
 
 
 def test_auto_steps_in_process_when_workers_would_outnumber_the_free_cores():
-    from aaai.vector import runs_in_process
+    from aaai.train.vector import runs_in_process
 
     assert runs_in_process("auto", 2, cores=2)  # 2 workers, 1 core beside the learner's
     assert runs_in_process("auto", 4, cores=4)
@@ -88,7 +88,7 @@ def _weights(run) -> dict:
 
 def test_ppo_learns_the_same_weights_in_process_and_in_worker_processes(tmp_path):
     pytest.importorskip("stable_baselines3", reason="needs the train extra")
-    from aaai.training import train
+    from aaai.train.training import train
 
     config = load_config(
         levels="0-1",
@@ -140,8 +140,8 @@ def test_processes_are_apart_from_num_envs():
     """16 environments stepping in this process do not make the rllib backend or the student start 16
     processes: train.processes (0: num_envs up to the usable cores) sets those."""
     from aaai.config import ConfigError
-    from aaai.student import DaggerSettings
-    from aaai.vector import worker_processes
+    from aaai.train.student import DaggerSettings
+    from aaai.train.vector import worker_processes
 
     many = load_config(num_envs=16, vector="sync")
     assert worker_processes(many["train"], cores=2) == 2
@@ -156,8 +156,8 @@ def test_rllib_env_runners_follow_processes():
     """The rllib backend's EnvRunners come from train.processes; the num_envs environments are shared
     out over them and a rollout is still n_steps x num_envs steps."""
     pytest.importorskip("ray.rllib", reason="needs the ray extra, which make test installs")
-    from aaai.rllib_learner import ppo_config
-    from aaai.vector import worker_processes
+    from aaai.train.rllib_learner import ppo_config
+    from aaai.train.vector import worker_processes
 
     config = load_config(num_envs=16, processes=2, n_steps=128)
     runners = worker_processes(config["train"])

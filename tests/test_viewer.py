@@ -10,11 +10,11 @@ import pytest
 from click.testing import CliRunner
 from conftest import open_arena, sphere
 
-from aaai.kinds import COLOURS
 from aaai.levels import generate
 from aaai.levels.common import arena_walls
+from aaai.sim.kinds import COLOURS
 from aaai.spec import AgentPose, LevelSpec, ObjectSpec
-from aaai.viewer import (
+from aaai.tools.viewer import (
     HEAD_COLOUR,
     HEADING_COLOUR,
     LEG_COLOUR,

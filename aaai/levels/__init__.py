@@ -1,7 +1,7 @@
 """The level registry: level files (configs/levels/L*.yaml) joined to their generators.
 
 A level is a pure function of (difficulty, seed, parameters) that returns a LevelSpec. Every
-generated spec is checked (aaai.validate); one that fails is generated again from a generator
+generated spec is checked (aaai.task.validate); one that fails is generated again from a generator
 derived from the same (seed, level, difficulty) and the attempt number, so the result is still a
 pure function of the inputs.
 
@@ -25,12 +25,12 @@ from typing import Any
 
 import numpy as np
 
-from aaai import validate
 from aaai.config import ConfigError, config_dir, read_yaml, use_level_ids
 from aaai.levels.common import PlacementError
 from aaai.levels.params import DIFFICULTIES, resolve
-from aaai.seeds import seed_range
 from aaai.spec import AgentPose, LevelSpec
+from aaai.task import validate
+from aaai.task.seeds import seed_range
 
 LEVEL_FILE_KEYS = ("id", "name", "title", "generator", "params", "time_limit", "label")
 OPTIONAL_KEYS = ("label",)  # label: how the level is shown, default "L<id>" (L2b has id 12)
@@ -186,7 +186,7 @@ def attempt_rng(level_id: int, difficulty: int, seed: int, attempt: int) -> np.r
 def generate(level: int | str, difficulty: int, seed: int) -> LevelSpec:
     """The level spec for (level, difficulty, seed): the same inputs always give an equal spec.
 
-    A spec that fails aaai.validate.check is generated again (its ``regenerated`` counts the
+    A spec that fails aaai.task.validate.check is generated again (its ``regenerated`` counts the
     failed attempts); after MAX_ATTEMPTS it is an InvalidLevelError.
     """
     lvl = get_level(level)
@@ -237,7 +237,7 @@ def other_level(rng: np.random.Generator, seeds: range) -> LevelSpec:
     """A random level that wraps no other, and cell (for L6, L7): the spec of an rng-drawn
     (level, difficulty, seed).
 
-    The inner seed comes from rng, within ``seeds`` (the outer seed's range: aaai.seeds.seed_range),
+    The inner seed comes from rng, within ``seeds`` (the outer seed's range: aaai.task.seeds.seed_range),
     so the result is a pure function of the outer level's seed and a reserved seed builds only
     from reserved seeds.
     """

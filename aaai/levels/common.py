@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from aaai.geometry import TOLERANCE, Quad, corners, distance_to_footprint, footprints_overlap  # noqa: F401
+from aaai.sim.geometry import TOLERANCE, Quad, corners, distance_to_footprint, footprints_overlap  # noqa: F401
 from aaai.spec import ObjectSpec
 
 WALL_THICKNESS = 1.0

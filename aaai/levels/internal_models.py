@@ -15,6 +15,6 @@ WRAPS_OTHER_LEVELS = True  # the registry hands generate() an ``inner`` level ma
 
 def generate(p: dict, rng: np.random.Generator, inner: Callable[[np.random.Generator], LevelSpec]) -> dict:
     fields = generator_fields(inner(rng))
-    # the camera goes dark on this schedule (aaai.sensors.Blackout), in simulated time
+    # the camera goes dark on this schedule (aaai.sim.sensors.Blackout), in simulated time
     fields["blackout"] = Blackout(float(p["light_seconds"]), float(p["dark_seconds"]))
     return fields

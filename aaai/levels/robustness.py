@@ -8,7 +8,7 @@ from typing import Callable
 
 import numpy as np
 
-from aaai.kinds import COLOURS, OBJECT_KINDS
+from aaai.sim.kinds import COLOURS, OBJECT_KINDS
 from aaai.spec import LevelSpec, generator_fields
 
 PARAMETERS = ("colours", "wall_height")

@@ -8,8 +8,8 @@ from collections import deque
 
 import numpy as np
 
-from aaai.geometry import merge_tiles
 from aaai.levels.common import AGENT_RADIUS, arena_walls, place_slabs, sphere
+from aaai.sim.geometry import merge_tiles
 from aaai.spec import ObjectSpec
 
 PARAMETERS = (

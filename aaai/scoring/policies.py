@@ -1,0 +1,397 @@
+"""What a ``--policy`` string names, resolved once into a :class:`Policy` that builds it on any worker.
+
+A ``--policy`` is ``random``, ``reference`` (the privileged reference controller), ``gait`` (the
+example trot), a stable-baselines3 model ``.zip``, a run folder (its newest saved model, its RLlib
+checkpoint, or random actions for a run of the random agent) or ``module:callable`` (called with the
+environment to make the policy). :func:`resolve` looks at the disk once and returns a frozen, plain
+:class:`Policy`: its kind, its files, the config of the run it comes from, its record (what a
+scoreboard is scored with) and :meth:`Policy.build`, which makes the acting policy for an
+environment. Being plain data it pickles, so a Ray task gets it and builds the policy there.
+
+A model file is read without unpickling anything (:mod:`aaai.scoring.model_io`) unless ``trust``
+(``--trust-model``); an RLlib checkpoint loads only if signed on this machine or trusted.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib
+import importlib.util
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from aaai.config import ConfigError, load_config
+from aaai.env import AnimalAIEnv
+from aaai.scoring.runs import RunFolder, model_problem, rllib_checkpoint, run_backend
+from aaai.sim.gait import gait_policy
+
+BUILT_IN = ("random", "reference", "gait")
+KINDS = (*BUILT_IN, "model", "rllib", "callable", "external")
+ALLOWED = "random, reference, gait, a model .zip, a run folder, module:callable"
+
+
+@dataclass(frozen=True)
+class Policy:
+    """A resolved ``--policy``: plain data (it pickles), built into an acting policy by :meth:`build`.
+
+    ``kind``: random, reference, gait, model (a stable-baselines3 .zip), rllib (an RLlib checkpoint
+    folder), callable (module:callable) or external (a policy its caller makes, e.g. a human's).
+    ``file``: the model file or checkpoint folder. ``run``: the run folder named, whose config is
+    the one the policy is scored with by default. ``run_config``: the config of the run the model
+    comes from (its model is checked against it), None outside a run folder. ``record``: the
+    policy's part of a scoreboard's record. ``trust``: load with code from the file (--trust-model).
+    """
+
+    name: str
+    kind: str
+    file: str | None = None
+    run: str | None = None
+    run_config: dict | None = field(default=None, compare=False, repr=False)
+    record: dict = field(default_factory=dict, compare=False)
+    trust: bool = False
+
+    def config(self, config_path: str | None = None) -> dict:
+        """The config the policy is scored with: ``config_path`` if given, else its run's own
+        (the senses it was trained with), else the defaults."""
+        if config_path or self.run is None or self.run_config is None:
+            return load_config(config_path)
+        return self.run_config
+
+    @property
+    def key(self) -> str:
+        """Tells policies apart within a worker: the model's digest, else the name."""
+        return self.record.get("model_sha256") or self.name
+
+    def with_file(self, file: str | Path) -> "Policy":
+        """The same policy with its model read from ``file`` (a worker's copy of the bytes)."""
+        return dataclasses.replace(self, file=str(file))
+
+    def build(self, env: Any, extra_keys: tuple = ()) -> Callable:
+        """The acting policy for ``env``: ``policy(observation) -> action``. A model is checked
+        against ``env`` first; ``extra_keys``: observation keys the caller added for itself."""
+        if self.kind == "random":
+            return RandomPolicy(env)
+        if self.kind == "reference":
+            from aaai.task.reference import ReferenceController
+
+            return ReferenceController(env)
+        if self.kind == "gait":
+            return gait_policy(env)
+        if self.kind == "model":
+            return ModelPolicy(Path(str(self.file)), env, self.trust, extra_keys, self.run_config)
+        if self.kind == "rllib":
+            from aaai.scoring.model_io import RLlibPolicy
+
+            return RLlibPolicy(str(self.file), env, trust=self.trust)
+        if self.kind == "callable":
+            try:
+                return factory(self.name)(env)
+            except TypeError as error:  # a callable that does not take the env (os:system, a class of other arguments)
+                raise ConfigError(
+                    f"--policy: {self.name!r} could not be called with the environment ({error}); allowed: a "
+                    "module:callable that takes the env and returns the policy"
+                ) from None
+        raise ConfigError(f"--policy: {self.name!r} is made by its caller and cannot be built here")
+
+
+def external(name: str) -> Policy:
+    """A policy its caller makes (a human at the keys): recorded by name only."""
+    return Policy(name, "external", record={"policy": name})
+
+
+def as_policy(policy: Policy | str, trust: bool = False) -> Policy:
+    """``policy`` itself, or the Policy a --policy string names (:func:`resolve`)."""
+    return policy if isinstance(policy, Policy) else resolve(policy, trust)
+
+
+def resolve(policy: str, trust: bool = False) -> Policy:
+    """The one place a --policy string is read: a missing, damaged or unknown policy is refused
+    here, naming it, before any episode."""
+    if policy in BUILT_IN:
+        return Policy(policy, policy, record={"policy": policy}, trust=trust)
+    path = Path(policy)
+    if path.suffix == ".zip":
+        if not path.is_file():
+            raise ConfigError(f"--policy: model file {policy!r} does not exist")
+        problem = model_problem(path)
+        if problem:
+            raise ConfigError(f"--policy: model file {policy!r} cannot be loaded: {problem}")
+        return _model(policy, path, None, model_run_config(path), trust)
+    if path.is_dir():
+        run = RunFolder(path)
+        config = load_config(run.read_config())
+        if run_backend(path) == "rllib":
+            checkpoint = rllib_checkpoint(path)
+            digest = hashlib.sha256()
+            for file in sorted(f for f in checkpoint.rglob("*") if f.is_file()):
+                digest.update(str(file.relative_to(checkpoint)).encode() + file.read_bytes())
+            identity = {"policy": policy, "model": str(checkpoint), "model_sha256": digest.hexdigest()}
+            return Policy(policy, "rllib", str(checkpoint), policy, config, identity, trust)
+        if config["train"]["agent"] == "random":  # a run of the random agent: scored with random actions
+            return Policy(policy, "random", None, policy, config, {"policy": policy}, trust)
+        return _model(policy, _newest_model(run, policy), policy, config, trust)
+    factory(policy)  # importable here (and so, with the same packages, on every worker)
+    record: dict[str, Any] = {"policy": policy}
+    source = _module_file(policy.partition(":")[0])
+    if source is not None:  # the identity of its source file, where it has one
+        record["policy_source_sha256"] = hashlib.sha256(source.read_bytes()).hexdigest()
+    return Policy(policy, "callable", record=record, trust=trust)
+
+
+def _model(policy: str, path: Path, run: str | None, run_config: dict | None, trust: bool) -> Policy:
+    record = {"policy": policy, "model": str(path), "model_sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
+    return Policy(policy, "model", str(path), run, run_config, record, trust)
+
+
+def _newest_model(run: RunFolder, policy: str) -> Path:
+    """A run folder's newest saved model (final/ when it is the newest). A damaged model is
+    refused, never swapped for an older one."""
+    newest = run.latest_checkpoint()
+    if newest is None:
+        raise ConfigError(f"--policy: run folder {policy!r} holds no model (final/ or checkpoints/*/model.zip)")
+    problem = model_problem(newest / "model.zip")
+    if problem:
+        older = next((f for f in run.saved()[1:] if model_problem(f / "model.zip") is None), None)
+        hint = f"; to score an older one, pass --policy {older / 'model.zip'}" if older else ""
+        raise ConfigError(
+            f"--policy: the newest model of run {policy!r} ({newest.relative_to(run.path)}) cannot be "
+            f"loaded: {problem}{hint}"
+        )
+    return newest / "model.zip"
+
+
+def factory(policy: str) -> Callable:
+    """The callable a 'module:callable' policy names (called with the env to make the policy)."""
+    module_name, _, attribute = policy.partition(":")
+    if not attribute:
+        raise ConfigError(f"--policy: got {policy!r}; allowed: {ALLOWED}")
+    try:
+        target: Any = importlib.import_module(module_name)
+        for part in attribute.split("."):
+            target = getattr(target, part)
+    except (ImportError, AttributeError) as error:
+        raise ConfigError(f"--policy: cannot load {policy!r}: {error}") from None
+    return target
+
+
+def _module_file(name: str) -> Path | None:
+    try:
+        spec = importlib.util.find_spec(name)
+    except (ImportError, ValueError):
+        return None
+    origin = getattr(spec, "origin", None)
+    return Path(origin) if origin and Path(origin).is_file() else None
+
+
+# --- the acting policies ----------------------------------------------------------------
+class RandomPolicy:
+    """Uniform random actions, seeded per episode so that a scoreboard repeats exactly."""
+
+    def __init__(self, env: AnimalAIEnv):
+        self.space = env.action_space
+
+    def reset(self, seed: int) -> None:
+        self.space.seed(seed)
+
+    def __call__(self, observation):
+        return self.space.sample()
+
+
+class ModelPolicy:
+    """A stable-baselines3 model, acting deterministically.
+
+    By default the file is read without unpickling anything (aaai.scoring.model_io): its policy is rebuilt
+    from our registry and the environment's spaces, its weights read with weights_only. ``trust``
+    (--trust-model) uses stable-baselines3's own loader, which runs whatever the file's pickles hold.
+    Either way the model is checked against the environment first, and against ``run_config``,
+    the config of the run it was trained in (:func:`check_model`)."""
+
+    def __init__(
+        self,
+        path: Path,
+        env: AnimalAIEnv | None = None,
+        trust: bool = False,
+        extra_keys: tuple = (),
+        run_config: dict | None = None,
+    ):
+        from aaai.scoring import model_io
+
+        path = Path(path)
+        self.state: Any = None
+        self.start, self.extra_keys = True, tuple(extra_keys)
+        seen: _Seen | None = None
+        if env is not None:
+            check_model(path, env, self.extra_keys, run_config)
+            seen = _Seen(env, self.extra_keys)
+        if trust:
+            self.model: Any = _trusted_load(path)
+            if seen is not None:
+                problems = [
+                    f"{name}: model {model}, environment {live}"
+                    for name, model, live in _space_pairs(self.model.observation_space, self.model.action_space, seen)
+                ]
+                if problems:
+                    raise ConfigError(_misfit(path, problems, seen))
+            self.recurrent = hasattr(self.model, "_last_lstm_states")
+            return
+        archive = model_io.read_archive(path)
+        if seen is None:
+            raise ConfigError(f"--policy: model file {str(path)!r}: an environment is needed to load it")
+        problems = model_io.space_problems(archive, seen.observation_space, seen.action_space)
+        if problems:
+            raise ConfigError(_misfit(path, problems, seen))
+        self.model = model_io.load_policy_network(
+            path,
+            seen.observation_space,
+            seen.action_space,
+            fallback_kwargs=_run_policy_kwargs(run_config),
+            archive=archive,
+        )
+        self.recurrent = self.model.recurrent
+
+    def reset(self, seed: int) -> None:
+        self.state, self.start = None, True
+
+    def __call__(self, observation):
+        if self.extra_keys:
+            observation = {k: v for k, v in observation.items() if k not in self.extra_keys}
+        if self.recurrent:
+            action, self.state = self.model.predict(
+                observation, state=self.state, episode_start=np.array([self.start]), deterministic=True
+            )
+            self.start = False
+            return action
+        action, _ = self.model.predict(observation, deterministic=True)
+        return action
+
+
+def _trusted_load(path: Path):
+    """stable-baselines3's own loader (it unpickles the file's fields): only with --trust-model."""
+    from stable_baselines3 import PPO
+
+    from aaai.scoring import model_io
+
+    algorithm: Any = PPO
+    try:
+        if model_io.policy_class_name(model_io.read_archive(path)).startswith("Recurrent"):
+            from sb3_contrib import RecurrentPPO
+
+            algorithm = RecurrentPPO
+    except ConfigError:
+        pass  # a class outside our registry: PPO's loader decides
+    try:
+        return algorithm.load(path, device="cpu")
+    except Exception as error:  # noqa: BLE001 - any failure inside the archive is the file's fault
+        raise ConfigError(
+            f"--policy: model file {str(path)!r} cannot be loaded by stable-baselines3: {type(error).__name__}: {error}"
+        ) from None
+
+
+class _Seen:
+    """An environment as a model sees it: without the observation keys its caller added for itself
+    (``aaai show`` turns the camera on to draw it)."""
+
+    def __init__(self, env: AnimalAIEnv, extra_keys: tuple):
+        from gymnasium import spaces
+
+        self.config, self.action_space = env.config, env.action_space
+        self.observation_space: Any = env.observation_space
+        if extra_keys and isinstance(env.observation_space, spaces.Dict):
+            self.observation_space = spaces.Dict(
+                {k: v for k, v in env.observation_space.spaces.items() if k not in extra_keys}
+            )
+
+
+def _space_pairs(observation_space, action_space, env: _Seen):
+    from aaai.scoring.model_io import describe_space
+
+    for name, model_space, live_space in (
+        ("observation", observation_space, env.observation_space),
+        ("action", action_space, env.action_space),
+    ):
+        model, live = describe_space(model_space), describe_space(live_space)
+        for key in sorted(set(model) | set(live)):
+            if model.get(key) != live.get(key):
+                yield (f"{name} {key!r}" if key else f"{name} space"), model.get(key, "absent"), live.get(key, "absent")
+
+
+# The config keys a model depends on beyond its spaces: compared with its run's config when the
+# model file lies in a run folder (final/model.zip, checkpoints/step_N/model.zip).
+MODEL_KEYS = ("agent.body", "agent.action_mode", "agent.decision_interval", "physics.action_repeat", "physics.timestep")
+
+
+def model_run_config(path: Path) -> dict | None:
+    """The config of the run a model file belongs to, or None for a file outside a run folder."""
+    path = Path(path).absolute()
+    for folder in (path.parent.parent, path.parent.parent.parent):
+        if (folder / "config.yaml").is_file() and path.parent.parent in (folder, folder / "checkpoints"):
+            try:
+                return load_config(RunFolder(folder).read_config())
+            except (ConfigError, OSError, ValueError):
+                return None
+    return None
+
+
+def _dotted(config: dict, key: str):
+    value: Any = config
+    for part in key.split("."):
+        if not isinstance(value, dict) or part not in value:
+            return "absent"
+        value = value[part]
+    return value
+
+
+def check_model(path: Path, env: AnimalAIEnv, extra_keys: tuple = (), trained: dict | None = None) -> None:
+    """Refuses, before any episode, a model whose run (config ``trained``) was trained with another
+    action mode, body or sensor config than ``env`` has (each differing key named with both values).
+    The settings of a sensor that is off on both sides, or that the caller added for itself
+    (``extra_keys``), do not count."""
+    if trained is None:
+        return
+    sensors = sorted(set(trained.get("sensors", {})) | set(env.config.get("sensors", {})))
+    off = {
+        name
+        for name in ("camera", "rays")
+        if name in extra_keys
+        or not (_dotted(trained, f"sensors.{name}") is True or _dotted(env.config, f"sensors.{name}") is True)
+    }
+    keys = list(MODEL_KEYS) + [
+        f"sensors.{key}"
+        for key in sensors
+        if ("camera" if key.startswith("camera") else "rays" if key.startswith("ray") else key) not in off
+    ]
+    differing = [
+        f"{key}: model {_dotted(trained, key)!r}, environment {_dotted(env.config, key)!r}"
+        for key in keys
+        if _dotted(trained, key) != _dotted(env.config, key)
+    ]
+    if differing:
+        run = Path(path).absolute().parent.parent
+        run = run.parent if run.name == "checkpoints" else run
+        raise ConfigError(
+            f"--policy: model file {str(path)!r} was trained with another environment than this one: "
+            + "; ".join(differing)
+            + f". Score it with its run's config (--config {run / 'config.yaml'}, "
+            "or --policy with the run folder)"
+        )
+
+
+def _misfit(path: Path, problems: list[str], env: _Seen) -> str:
+    mode = env.config.get("agent", {}).get("action_mode")
+    return (
+        f"--policy: model file {str(path)!r} does not fit this environment (action mode {mode!r}): "
+        + "; ".join(problems)
+        + ". Score it with the config it was trained with (--config)"
+    )
+
+
+def _run_policy_kwargs(config: dict | None) -> dict | None:
+    """policy_kwargs as our trainer builds them from its run's config (for a file that lacks them)."""
+    if config is None:
+        return None
+    train = config["train"]
+    return {"net_arch": [train["net_width"], train["net_width"]], "log_std_init": train["log_std_init"]}

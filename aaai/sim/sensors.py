@@ -1,0 +1,376 @@
+"""What the agent senses: rays (one rayTestBatch per step) and a camera in its head, its joints,
+feet and tilt; gathered each step into one Dict observation."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pybullet as p
+from gymnasium import spaces
+
+from aaai.agent.body import RAY_MASK, Quadruped
+from aaai.agent.urdf_writer import HEAD_RADIUS
+from aaai.sim.geometry import missing_floor
+from aaai.sim.kinds import KIND_INDEX, kind_class, ray_channels
+from aaai.spec import Blackout as SpecBlackout
+from aaai.spec import LevelSpec
+
+HOLE = KIND_INDEX["hole"]
+
+CAMERA_FOV = 60.0
+CAMERA_NEAR, CAMERA_FAR = 0.05, 120.0
+EYE_OFFSET = HEAD_RADIUS + 0.05  # eye and ray origins sit just outside the head
+
+
+class Rays:
+    """2n+1 rays in the head's horizontal plane, from -max_angle (right) to +max_angle (left); with
+    ``down_fan`` > 0 degrees, the same 2n+1 again pitched that far below the plane (rows 2n+1 on),
+    for food lower than the head (the level rays pass over it).
+
+    Each ray reports a one-hot of the kind hit (aaai.sim.kinds.KINDS order), a hit-nothing flag,
+    and the hit distance over the ray length (1 when nothing is hit).
+
+    Holes: rays in the head's plane pass over missing floor, so the level's holes, pits and
+    trenches (``set_holes``: rectangles of missing tiles) are cast against analytically, in the
+    floor plane: a ray whose ground track enters missing floor before anything stops it reports
+    the kind ``hole`` at that distance (0 once the head is over the gap). Rays are lines, not the
+    original's sphere casts of radius 0.5: an object narrower than the gap between two rays at its
+    distance can lie unseen between them.
+
+    Kinds (``ray_kinds``, aaai.sim.kinds.ray_channels): ``classic`` has the nine classic channels, a
+    newer kind seen on its nearest classic one; ``all`` adds a channel per newer kind a policy
+    must tell apart. Floor areas (hot and death zones, ``set_zones``) are seen along the ground
+    track as holes are.
+    """
+
+    def __init__(
+        self,
+        client: int,
+        rays_per_side: int,
+        max_angle: float,
+        length: float,
+        flat: bool = False,
+        ray_kinds: str = "classic",
+        down_fan: float = 0.0,
+        width: float = 0.0,
+    ):
+        self.client = client
+        self.flat = flat
+        self.length = length
+        angles = np.radians(np.linspace(-max_angle, max_angle, 2 * rays_per_side + 1))
+        self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
+        if down_fan > 0:  # the same fan again, pitched down_fan degrees below the head's plane
+            pitch = np.radians(down_fan)
+            lower = np.stack(
+                [np.cos(angles) * np.cos(pitch), np.sin(angles) * np.cos(pitch), np.full_like(angles, -np.sin(pitch))],
+                axis=1,
+            )
+            self.local_dirs = np.concatenate([self.local_dirs, lower])
+        self.n_rays = len(self.local_dirs)
+        # ray_width > 0: two more rays beside each, width / 2 to its left and right (level, across
+        # it), in the same batch; the nearest of the three hits is the ray's (a sphere cast, roughly)
+        self.width = width
+        across = np.stack([-self.local_dirs[:, 1], self.local_dirs[:, 0], np.zeros(self.n_rays)], axis=1)
+        self.local_sides = across / np.linalg.norm(across, axis=1, keepdims=True) * width / 2
+        self.channels, self.column = ray_channels(ray_kinds)  # channel names; kind index -> column
+        self.n_kinds = len(self.channels)
+        self.grid_shape = (self.n_rays, self.n_kinds + 2)
+        shape = (self.n_rays * (self.n_kinds + 2),) if flat else self.grid_shape
+        self.space = spaces.Box(0.0, 1.0, shape, np.float32)
+        self._nothing = self.n_kinds
+        self._holes: np.ndarray | None = None  # (m, 4) rectangles x0, y0, x1, y1 of missing floor, or None
+        self._zones: np.ndarray | None = None  # (m, 7) floor areas: centre x y, cos, sin of yaw, half x y, column
+        self.threads = 1  # rayTestBatch's numThreads (0: all cores); the hits are the same for any
+
+    def set_holes(self, rectangles) -> None:
+        """The level's missing floor as world rectangles (x0, y0, x1, y1); empty for none."""
+        rectangles = np.asarray(rectangles, dtype=np.float64).reshape(-1, 4)
+        self._holes = rectangles if len(rectangles) else None
+
+    def set_zones(self, zones) -> None:
+        """The level's floor areas as rows (centre x, y, yaw, half x, half y, kind index); empty for none."""
+        zones = np.asarray(zones, dtype=np.float64).reshape(-1, 6)
+        if not len(zones):
+            self._zones = None
+            return
+        columns = [self.column[int(kind)] for kind in zones[:, 5]]
+        self._zones = np.column_stack([zones[:, :2], np.cos(zones[:, 2]), np.sin(zones[:, 2]), zones[:, 3:5], columns])
+
+    def observe(self, head_pos: np.ndarray, head_rot: np.ndarray, kind_index: np.ndarray) -> np.ndarray:
+        dirs = self.local_dirs @ head_rot.T
+        starts = head_pos + dirs * EYE_OFFSET
+        ends = starts + dirs * self.length
+        if self.width:
+            sides = self.local_sides @ head_rot.T
+            batch_starts = np.concatenate([starts, starts + sides, starts - sides])
+            batch_ends = np.concatenate([ends, ends + sides, ends - sides])
+        else:
+            batch_starts, batch_ends = starts, ends
+        hits = p.rayTestBatch(
+            batch_starts.tolist(),
+            batch_ends.tolist(),
+            numThreads=self.threads,
+            collisionFilterMask=RAY_MASK,
+            physicsClientId=self.client,
+        )
+        if self.width:
+            hits = self._nearest(hits, kind_index)
+        # A plain loop: for a few dozen rays it is several times faster than numpy's fancy indexing.
+        obs = np.zeros(self.grid_shape, np.float32)
+        known = len(kind_index)
+        column = self.column
+        for row, hit in enumerate(hits):
+            body = hit[0]
+            kind = kind_index[body] if 0 <= body < known else -1
+            if kind >= 0:
+                obs[row, column[kind]] = 1.0
+                obs[row, -1] = hit[2]
+            else:
+                obs[row, self._nothing] = 1.0
+                obs[row, -1] = 1.0
+        if self._holes is not None:
+            self._see_holes(obs, starts, dirs)
+        if self._zones is not None:
+            self._see_zones(obs, starts, dirs)
+        return obs.reshape(-1) if self.flat else obs
+
+    def _nearest(self, hits, kind_index) -> list:
+        """Of each ray's three hits (centre, left, right), the nearest of a known kind."""
+        n, known = self.n_rays, len(kind_index)
+        nearest = []
+        for row in range(n):
+            best = hits[row]
+            for hit in (hits[row + n], hits[row + 2 * n]):
+                if (
+                    0 <= hit[0] < known
+                    and kind_index[hit[0]] >= 0
+                    and (not (0 <= best[0] < known and kind_index[best[0]] >= 0) or hit[2] < best[2])
+                ):
+                    best = hit
+            nearest.append(best)
+        return nearest
+
+    def _see_zones(self, obs: np.ndarray, starts: np.ndarray, dirs: np.ndarray) -> None:
+        """Marks each ray whose ground track enters a floor area before its hit as seeing that area's
+        kind: the slab method in each area's own frame."""
+        assert self._zones is not None  # observe calls it only when the level has floor areas
+        cx, cy, cos, sin, hx, hy, columns = self._zones.T  # (m,)
+        dx, dy = starts[:, 0:1] - cx, starts[:, 1:2] - cy  # (n, m)
+        u0, v0 = dx * cos + dy * sin, -dx * sin + dy * cos
+        du = dirs[:, 0:1] * cos + dirs[:, 1:2] * sin
+        dv = -dirs[:, 0:1] * sin + dirs[:, 1:2] * cos
+        du = np.where(du == 0.0, 1e-12, du)
+        dv = np.where(dv == 0.0, 1e-12, dv)
+        tu0, tu1 = (-hx - u0) / du, (hx - u0) / du
+        tv0, tv1 = (-hy - v0) / dv, (hy - v0) / dv
+        enter = np.maximum(np.maximum(np.minimum(tu0, tu1), np.minimum(tv0, tv1)), 0.0)
+        leave = np.minimum(np.maximum(tu0, tu1), np.maximum(tv0, tv1))
+        distance = np.where(leave >= enter, enter, np.inf) / self.length  # (n, m)
+        nearest = distance.argmin(axis=1)
+        distance = distance[np.arange(len(distance)), nearest]
+        for row in np.flatnonzero(distance < obs[:, -1]):
+            obs[row, :-1] = 0.0
+            obs[row, int(columns[nearest[row]])] = 1.0
+            obs[row, -1] = distance[row]
+
+    def _see_holes(self, obs: np.ndarray, starts: np.ndarray, dirs: np.ndarray) -> None:
+        """Marks each ray whose ground track enters missing floor before its hit as seeing a hole."""
+        assert self._holes is not None  # observe calls it only when the level has missing floor
+        x0, y0, x1, y1 = self._holes.T  # (m,)
+        ground = dirs[:, :2].copy()
+        ground[ground == 0.0] = 1e-12  # no division by zero: a ray parallel to a side meets it 'very far'
+        inverse = 1.0 / ground
+        tx0, tx1 = (x0 - starts[:, 0:1]) * inverse[:, 0:1], (x1 - starts[:, 0:1]) * inverse[:, 0:1]  # (n, m)
+        ty0, ty1 = (y0 - starts[:, 1:2]) * inverse[:, 1:2], (y1 - starts[:, 1:2]) * inverse[:, 1:2]
+        enter = np.maximum(np.minimum(tx0, tx1), np.minimum(ty0, ty1))  # the slab method
+        leave = np.minimum(np.maximum(tx0, tx1), np.maximum(ty0, ty1))
+        enter = np.maximum(enter, 0.0)  # a head over the gap sees it at once
+        distance = np.where(leave >= enter, enter, np.inf).min(axis=1) / self.length  # (n,)
+        rows = distance < obs[:, -1]
+        if rows.any():
+            obs[rows, :-1] = 0.0
+            obs[rows, HOLE] = 1.0
+            obs[rows, -1] = distance[rows]
+
+
+class Camera:
+    """A TinyRenderer camera in the head, looking forward: uint8 H x W x C (C = 3, or 1 in grey)."""
+
+    def __init__(self, client: int, resolution: int, grayscale: bool):
+        self.client = client
+        self.resolution = resolution
+        self.grayscale = grayscale
+        self.space = spaces.Box(0, 255, (resolution, resolution, 1 if grayscale else 3), np.uint8)
+        self.projection = p.computeProjectionMatrixFOV(CAMERA_FOV, 1.0, CAMERA_NEAR, CAMERA_FAR)
+
+    def observe(self, head_pos: np.ndarray, head_rot: np.ndarray) -> np.ndarray:
+        forward, up = head_rot[:, 0], head_rot[:, 2]
+        eye = head_pos + forward * EYE_OFFSET
+        return self.render(eye, eye + forward, up)
+
+    def render(self, eye, target, up) -> np.ndarray:
+        view = p.computeViewMatrix(eye.tolist(), target.tolist(), up.tolist())
+        return render_rgb(self.client, self.resolution, self.resolution, view, self.projection, self.grayscale)
+
+    def blank(self) -> np.ndarray:
+        return np.zeros(self.space.shape, np.uint8)
+
+
+class Blackout:
+    """L7's schedule: the camera sees for ``light`` seconds, then is dark for ``dark``, repeating.
+    Held in whole control steps; a level without one is never dark."""
+
+    def __init__(self, schedule: SpecBlackout | None = None, control_dt: float = 1.0):
+        self.steps = None
+        if schedule:
+            light = round(schedule.light / control_dt)
+            self.steps = light, light + round(schedule.dark / control_dt)
+
+    def dark(self, step: int) -> bool:
+        return self.steps is not None and step % self.steps[1] >= self.steps[0]
+
+
+class RayMemory:
+    """What the rays showed of food before: ``depth`` earlier observations, 1, 2, 4 ... 2^(depth-1)
+    observations (env steps) back, each ray's green-food and yellow-food flags and its distance (a
+    ray that saw no food reads 0, 0, 1; so do the steps before the episode began).
+
+    Rays are lines through the present: food that slides behind an occluder, or that the body
+    turns away from, leaves them at once. This is the short memory of it, in the rays' own frame
+    at the time (the frames are not turned with the body)."""
+
+    def __init__(self, rays: Rays, depth: int):
+        self.lags = 2 ** np.arange(depth)
+        self.columns = [rays.column[KIND_INDEX["food_green"]], rays.column[KIND_INDEX["food_yellow"]]]
+        self.grid_shape = rays.grid_shape
+        self.space = spaces.Box(0.0, 1.0, (depth, rays.n_rays, 3), np.float32)
+        self._frames = np.zeros((int(self.lags[-1]), rays.n_rays, 3), np.float32)  # a ring, newest at _newest
+        self._newest = -1
+        self.clear()
+
+    def clear(self) -> None:
+        self._frames[:] = 0.0
+        self._frames[:, :, 2] = 1.0
+        self._newest = -1
+
+    def recall(self, rays: np.ndarray) -> np.ndarray:
+        """The memory as it stands before ``rays`` (this step's), then ``rays`` remembered."""
+        size = len(self._frames)
+        recalled = self._frames[(self._newest - self.lags + 1) % size]
+        grid = rays.reshape(self.grid_shape)
+        self._newest = (self._newest + 1) % size
+        frame = self._frames[self._newest]
+        frame[:, :2] = grid[:, self.columns]
+        frame[:, 2] = np.where(frame[:, :2].any(axis=1), grid[:, -1], 1.0)
+        return recalled
+
+
+class Senses:
+    """The body's senses as the config's ``sensors`` section sets them, and their Dict space."""
+
+    def __init__(self, client: int, sensors: dict, body: Quadruped):
+        self.rays = (
+            Rays(
+                client,
+                sensors["rays_per_side"],
+                sensors["ray_max_angle"],
+                sensors["ray_length"],
+                sensors["rays_flat"],
+                sensors.get("ray_kinds", "classic"),
+                sensors.get("ray_down_fan", 0.0),
+                sensors.get("ray_width", 0.0),
+            )
+            if sensors["rays"]
+            else None
+        )
+        self.camera = (
+            Camera(client, sensors["camera_resolution"], sensors["camera_grayscale"]) if sensors["camera"] else None
+        )
+        self.blackout = Blackout()
+        self.foot_slot = body.foot_slot
+        self.feet = np.zeros(len(body.foot_links), np.float32)
+        n = body.n_axes
+        space: dict[str, spaces.Space] = {"joints": spaces.Box(-1.0, 1.0, (n,), np.float32)}
+        if self.rays:
+            space["rays"] = self.rays.space
+        depth = sensors.get("ray_memory", 0)
+        self.memory = RayMemory(self.rays, depth) if self.rays and depth else None
+        if self.memory:
+            space["ray_memory"] = self.memory.space
+        if self.camera:
+            space["camera"] = self.camera.space
+        if sensors["joint_velocities"]:
+            space["joint_velocities"] = spaces.Box(-np.inf, np.inf, (n,), np.float32)
+        if sensors["head_orientation"]:
+            space["head_orientation"] = spaces.Box(-1.0, 1.0, (3,), np.float32)
+        if sensors["foot_contacts"]:
+            space["foot_contacts"] = spaces.Box(0.0, 1.0, (len(self.feet),), np.float32)
+        self.space = spaces.Dict(space)
+        self.joint_velocities = "joint_velocities" in space
+        self.head_orientation = "head_orientation" in space
+        self.foot_contacts = "foot_contacts" in space
+
+    def start(self, spec: LevelSpec, control_dt: float) -> None:
+        """Readies the senses for a new level: the rays learn its missing floor, the camera its blackout."""
+        if self.rays:
+            self.rays.set_holes(missing_floor(spec))
+            self.rays.set_zones(
+                [
+                    (*obj.position[:2], obj.yaw, obj.size[0] / 2, obj.size[1] / 2, KIND_INDEX[obj.kind])
+                    for obj in spec.objects
+                    if getattr(kind_class(obj.kind), "zone", False)
+                ]
+            )
+        self.blackout = Blackout(spec.blackout, control_dt)
+        self.feet[:] = 0.0
+        if self.memory:
+            self.memory.clear()
+
+    def feel(self, contacts) -> None:
+        """Which feet touch anything, from the step's contacts of the body (only worked out when the
+        feet are observed)."""
+        if not self.foot_contacts:
+            return
+        self.feet[:] = 0.0
+        slot = self.foot_slot
+        for contact in contacts:
+            if contact[3] in slot:
+                self.feet[slot[contact[3]]] = 1.0
+
+    def observe(
+        self, angles: np.ndarray, speeds: np.ndarray, position, orientation, kind_index: np.ndarray, dark: bool
+    ) -> dict[str, np.ndarray]:
+        observation = {"joints": angles.astype(np.float32)}
+        if self.rays or self.camera or self.head_orientation:
+            head_pos = np.array(position)
+            head_rot = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+        if self.rays:
+            observation["rays"] = self.rays.observe(head_pos, head_rot, kind_index)
+            if self.memory:
+                observation["ray_memory"] = self.memory.recall(observation["rays"])
+        if self.camera:
+            observation["camera"] = self.camera.blank() if dark else self.camera.observe(head_pos, head_rot)
+        if self.joint_velocities:
+            observation["joint_velocities"] = speeds.astype(np.float32)
+        if self.head_orientation:
+            observation["head_orientation"] = (-head_rot[2, :]).astype(np.float32)  # gravity in the head frame
+        if self.foot_contacts:
+            observation["foot_contacts"] = self.feet.copy()
+        return observation
+
+
+def render_rgb(client: int, width: int, height: int, view, projection, grayscale: bool = False) -> np.ndarray:
+    """An image from TinyRenderer as uint8 H x W x 3 (or H x W x 1 in grey)."""
+    _, _, rgba, _, _ = p.getCameraImage(
+        width,
+        height,
+        view,
+        projection,
+        renderer=p.ER_TINY_RENDERER,
+        flags=p.ER_NO_SEGMENTATION_MASK,
+        physicsClientId=client,
+    )
+    rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+    if grayscale:
+        return cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)[:, :, None]
+    return np.ascontiguousarray(rgb)

@@ -1,0 +1,627 @@
+"""Arena files: a level written by hand as YAML, one to one with aaai.spec.LevelSpec.
+
+An arena file's keys are the spec's fields (docs, "Write your own test"):
+
+- ``level``, ``name``, ``difficulty``, ``seed``: what the episode reports. Optional: ``level`` and
+  ``name`` default to the ``category``'s (or 0 and ``food_contact``), ``difficulty`` to 0 and
+  ``seed`` to the episode's seed;
+- ``agent: {x, y, yaw}`` (required; yaw in radians, 0 facing east, pi/2 north);
+- ``objects``: a list of ``{kind, shape, position: [x, y, z], size: [sx, sy, sz], yaw, colour:
+  [r, g, b, a] or null, mass, behaviour, timing}`` (``kind``, ``position`` and ``size`` required; ``shape``
+  default box, food a sphere);
+- ``arena_size: [x, y]``, ``wall_height``, ``tiles: [nx, ny]``, ``holes: [[i, j], ...]`` (an item
+  may also be ``{rect: [i0, j0, i1, j1]}``: every tile of that block, both ends included),
+  ``heightfield`` (rows of heights, or null), ``max_food_reward`` (default: the best food reward the
+  objects give: the largest green plus every yellow), ``time_limit`` (seconds), ``blackout:
+  {light, dark}`` or null, ``colours: {kind: [r, g, b, a]}``, ``bridge: [x0, y0, x1, y1]`` or null,
+  ``inner: {level, name, difficulty, seed}`` or null, ``regenerated``, ``extras`` (any plain data);
+- ``pass_mark``: the return at or above which an episode of this arena passes (Animal-AI's
+  ``passMark``); kept in the spec's ``extras["pass_mark"]`` (aaai.tools.animalai.passed); optional;
+- and three keys that are not the spec's: ``description`` (one line for people), ``category``
+  (the level name, label or id the test belongs to, e.g. ``y_maze``: the scoreboard's summary
+  groups by it) and ``arena_walls`` (true: the four walls round the arena, as the generators'
+  ``aaai.levels.common.arena_walls`` builds them, come before ``objects``; default false).
+
+Randomisation: any number may be written ``{uniform: [low, high]}`` (a float drawn uniformly),
+``{integers: [low, high]}`` (an integer, both ends included) or ``{choice: [a, b, ...]}`` (one of
+the values, which may be any plain data). The draws come, in the file's order, from
+``np.random.default_rng([seed, crc32(file name)])``, so one file stands for a family of instances
+and the same (file name, seed) gives the same spec.
+
+Errors are ConfigErrors naming the file, the line and the object: an unknown key, a wrong type,
+and every problem aaai.task.validate.check finds (overlapping solids, food that cannot be reached, an
+agent inside a wall). Nothing is run from an invalid file.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import zlib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from aaai.config import ConfigError, _PlainLoader, read_yaml
+from aaai.sim.behaviours import REGISTRY
+from aaai.sim.kinds import ENDING_KINDS, FOOD_KINDS, OBJECT_KINDS, kind_class
+from aaai.spec import SHAPES, AgentPose, Blackout, InnerLevel, LevelSpec, ObjectSpec
+from aaai.task import validate
+
+META_KEYS = ("description", "category", "arena_walls", "pass_mark")
+SPEC_KEYS = (
+    "level",
+    "name",
+    "difficulty",
+    "seed",
+    "agent",
+    "objects",
+    "arena_size",
+    "wall_height",
+    "tiles",
+    "holes",
+    "heightfield",
+    "max_food_reward",
+    "time_limit",
+    "blackout",
+    "colours",
+    "bridge",
+    "inner",
+    "regenerated",
+    "extras",
+)
+TOP_KEYS = META_KEYS + SPEC_KEYS
+OBJECT_KEYS = ("kind", "shape", "position", "size", "yaw", "colour", "mass", "behaviour", "timing")
+AGENT_KEYS = ("x", "y", "yaw")
+BLACKOUT_KEYS = ("light", "dark")
+INNER_KEYS = ("level", "name", "difficulty", "seed")
+RANDOM_FORMS = ("uniform", "integers", "choice")
+DEFAULT_TIME_LIMIT = 60.0
+
+
+# --- writing ------------------------------------------------------------------------------
+def _plain(value: Any) -> Any:
+    """Numpy scalars to Python's, tuples to lists: what yaml.safe_dump can write."""
+    if value is None or isinstance(value, (bool, str)):
+        return value
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value)
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    raise TypeError(f"cannot write {value!r} ({type(value).__name__}) to an arena file")
+
+
+FIXED_NOTE = (
+    "# A fixed arena: the one level instance this was written from. Every episode of it starts alike,\n"
+    "# whatever the episode seed; to vary it, put {uniform: [low, high]}, {integers: [low, high]} or\n"
+    "# {choice: [...]} in place of a number (docs, Write your own test)."
+)
+
+
+def spec_to_arena(spec: LevelSpec, description: str | None = None, category: str | None = None) -> str:
+    """The arena file (YAML text) that loads back to ``spec`` (an equal spec, the same digest)."""
+    from aaai.levels import all_levels
+
+    known = all_levels().get(spec.level)
+    data = spec.to_dict()
+    head = {
+        "description": description
+        or (
+            f"{known.label if known else 'L' + str(spec.level)} {spec.name} difficulty "
+            f"{spec.difficulty} seed {spec.seed}, as generated"
+        ),
+        "category": category or (known.name if known else spec.name),
+    }
+    objects = data.pop("objects")
+    body = _plain({**head, **{key: data[key] for key in SPEC_KEYS if key != "objects"}})
+    lines = [FIXED_NOTE]
+    for key, value in body.items():  # holes and heightfield on one line each, the rest as YAML lays it out
+        if key == "holes" and value:
+            lines.append(f"{key}: " + yaml.safe_dump(value, default_flow_style=True, width=10**6).strip())
+            continue
+        flow = None if isinstance(value, (list, dict)) and value else False
+        lines.append(
+            yaml.safe_dump(
+                {key: value}, sort_keys=False, default_flow_style=flow, width=10**6, allow_unicode=True
+            ).rstrip("\n")
+        )
+    lines.append("objects:" if objects else "objects: []")
+    for index, obj in enumerate(objects):  # one flow mapping per object: one line each, easy to read
+        line = yaml.safe_dump(_plain(obj), sort_keys=False, default_flow_style=True, width=10**6).strip()
+        lines.append(f"- {line}  # objects[{index}]")
+    return "\n".join(lines) + "\n"
+
+
+# --- reading ------------------------------------------------------------------------------
+class _Source:
+    """A parsed file: its name and the line of every key and list item, by path."""
+
+    def __init__(self, path: Path, node: yaml.Node):
+        self.name = path.name
+        self.offset = 0  # spec objects before the file's own (the arena walls)
+        self.lines: dict[tuple, int] = {(): node.start_mark.line + 1}
+        self._walk(node, ())
+
+    def _walk(self, node, where: tuple) -> None:
+        if isinstance(node, yaml.MappingNode):
+            for key, value in node.value:
+                here = where + (key.value,)
+                self.lines[here] = key.start_mark.line + 1
+                self._walk(value, here)
+        elif isinstance(node, yaml.SequenceNode):
+            for index, item in enumerate(node.value):
+                self.lines[where + (index,)] = item.start_mark.line + 1
+                self._walk(item, where + (index,))
+
+    def line(self, where: tuple) -> int:
+        while where not in self.lines:
+            where = where[:-1]
+        return self.lines[where]
+
+    def error(self, where: tuple, message: str) -> ConfigError:
+        return ConfigError(f"{self.name} line {self.line(where)}, {describe(where)}: {message}")
+
+
+def describe(where: tuple) -> str:
+    if not where:
+        return "the file"
+    text = str(where[0])
+    for part in where[1:]:
+        text += f"[{part}]" if isinstance(part, int) else f".{part}"
+    return text
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+class ArenaProblems(ConfigError):
+    """Every problem found in an arena file, each naming the file, its line and the key (``problems``);
+    as a message, one per line."""
+
+    def __init__(self, problems: list[str]):
+        self.problems = list(problems)
+        super().__init__("\n".join(self.problems))
+
+
+class _Skip(Exception):
+    """A part of the file that cannot be read; its problem is recorded and reading goes on."""
+
+
+class _Reader:
+    """Turns the parsed YAML into spec fields, drawing the random numbers and checking types.
+    Every problem is recorded (``problems``), and the parts that can still be read are read, so
+    that one pass over a file reports all of them."""
+
+    def __init__(self, source: _Source, rng: np.random.Generator, data: dict):
+        self.source, self.rng, self.data = source, rng, data
+        self.problems: list[str] = []
+
+    def fail(self, where: tuple, message: str):
+        self.problems.append(str(self.source.error(where, message)))
+        raise _Skip
+
+    def attempt(self, make, default=None):
+        """``make()``, or ``default`` when the part it reads has a problem (recorded)."""
+        try:
+            return make()
+        except _Skip:
+            return default
+
+    def keys(self, mapping, allowed: tuple, where: tuple, required: tuple = (), strict: bool = True) -> None:
+        """Records every unknown and missing key; with ``strict``, then skips the part."""
+        if not isinstance(mapping, dict):
+            self.fail(where, f"got {mapping!r}; allowed: a mapping with keys {', '.join(allowed)}")
+        before = len(self.problems)
+        for key in mapping:
+            if key not in allowed:
+                self.problems.append(
+                    str(self.source.error(where + (key,), f"key {key!r} does not exist; allowed: {', '.join(allowed)}"))
+                )
+        for key in required:
+            if key not in mapping:
+                self.problems.append(str(self.source.error(where, f"key {key!r} is missing")))
+        if strict and len(self.problems) > before:
+            raise _Skip
+
+    def draw(self, value, where: tuple):
+        """A value, with a randomisation form replaced by its draw."""
+        if isinstance(value, dict) and len(value) == 1 and next(iter(value)) in RANDOM_FORMS:
+            form, args = next(iter(value.items()))
+            here = where + (form,)
+            if form == "choice":
+                if not isinstance(args, list) or not args:
+                    self.fail(here, f"got {args!r}; allowed: a list of one or more values to choose from")
+                return args[int(self.rng.integers(len(args)))]
+            if not (
+                isinstance(args, list)
+                and len(args) == 2
+                and all(_number(a) for a in args)
+                and all(math.isfinite(a) for a in args)
+                and args[0] <= args[1]
+            ):
+                self.fail(here, f"got {args!r}; allowed: [low, high], two finite numbers, low <= high")
+            if form == "integers":
+                if not all(float(a).is_integer() for a in args):
+                    self.fail(here, f"got {args!r}; allowed: [low, high], two integers")
+                return int(self.rng.integers(int(args[0]), int(args[1]) + 1))
+            return float(self.rng.uniform(args[0], args[1]))
+        return value
+
+    def number(self, value, where: tuple, integer: bool = False, positive: bool = False):
+        value = self.draw(value, where)
+        ok = _number(value) and math.isfinite(value)
+        if integer:
+            ok = ok and float(value).is_integer()
+        if positive:
+            ok = ok and value > 0
+        if not ok:
+            what = "an integer" if integer else "a finite number"
+            extra = " (or {uniform: [low, high]}, {integers: [low, high]}, {choice: [...]})"
+            self.fail(where, f"got {value!r}; allowed: {what}{' above 0' if positive else ''}{extra}")
+        return int(value) if integer and not isinstance(value, int) else value
+
+    def numbers(self, value, where: tuple, count: int | None, integer: bool = False, positive: bool = False) -> tuple:
+        value = self.draw(value, where)
+        if not isinstance(value, list) or (count is not None and len(value) != count):
+            size = f"{count} numbers" if count is not None else "numbers"
+            self.fail(where, f"got {value!r}; allowed: a list of {size}")
+        return tuple(self.number(v, where + (i,), integer, positive) for i, v in enumerate(value))
+
+    def text(self, value, where: tuple, choices: tuple | None = None) -> str:
+        value = self.draw(value, where)
+        if not isinstance(value, str) or (choices is not None and value not in choices):
+            allowed = "one of " + ", ".join(choices) if choices else "a string"
+            self.fail(where, f"got {value!r}; allowed: {allowed}")
+        return value
+
+    def plain(self, value, where: tuple):
+        """Any plain data, with randomisation forms drawn anywhere inside it."""
+        value = self.draw(value, where)
+        if isinstance(value, dict):
+            return {k: self.plain(v, where + (k,)) for k, v in value.items()}
+        if isinstance(value, list):
+            return [self.plain(v, where + (i,)) for i, v in enumerate(value)]
+        return value
+
+    # --- the parts ------------------------------------------------------------------
+    def agent(self, value) -> AgentPose:
+        where = ("agent",)
+        self.keys(value, AGENT_KEYS, where, required=("x", "y"))
+        return AgentPose(
+            self.number(value["x"], where + ("x",)),
+            self.number(value["y"], where + ("y",)),
+            self.number(value.get("yaw", math.pi / 2), where + ("yaw",)),
+        )
+
+    def obj(self, value, index: int) -> ObjectSpec:
+        where = ("objects", index)
+        before = len(self.problems)
+        self.keys(value, OBJECT_KEYS, where, required=("kind", "position", "size"), strict=False)
+        kind = (
+            self.attempt(lambda: self.text(value["kind"], where + ("kind",), OBJECT_KINDS)) if "kind" in value else None
+        )
+        shape = self.attempt(lambda: self.text(value.get("shape", default_shape(kind)), where + ("shape",), SHAPES))
+        position = (
+            self.attempt(lambda: self.numbers(value["position"], where + ("position",), 3))
+            if "position" in value
+            else None
+        )
+        size = (
+            self.attempt(lambda: self.numbers(value["size"], where + ("size",), 3, positive=True))
+            if "size" in value
+            else None
+        )
+        yaw = self.attempt(lambda: self.number(value.get("yaw", 0.0), where + ("yaw",)), 0.0)
+        colour = self.attempt(lambda: self._colour(value, where))
+        mass = self.attempt(lambda: self.number(value.get("mass", 0.0), where + ("mass",)), 0.0)
+        if mass < 0:
+            self.attempt(lambda: self.fail(where + ("mass",), f"got {mass!r}; allowed: 0 (static) or more"))
+        behaviour = self.attempt(lambda: self._behaviour(value, where))
+        timing = self.attempt(lambda: self.plain(value.get("timing"), where + ("timing",)))
+        if len(self.problems) > before:
+            raise _Skip
+        try:
+            return ObjectSpec(kind, shape, position, size, yaw, colour, mass, behaviour, timing)
+        except ValueError as error:
+            self.fail(where, str(error))
+
+    def _colour(self, value: dict, where: tuple):
+        colour = self.draw(value.get("colour"), where + ("colour",))
+        return None if colour is None else self.numbers(colour, where + ("colour",), 4)
+
+    def _behaviour(self, value: dict, where: tuple):
+        behaviour = self.plain(value.get("behaviour"), where + ("behaviour",))
+        if behaviour is not None:
+            if not isinstance(behaviour, dict) or behaviour.get("type") not in REGISTRY:
+                self.fail(
+                    where + ("behaviour",),
+                    f"got {behaviour!r}; allowed: null or a mapping with type one of "
+                    f"{', '.join(REGISTRY)} and its fields",
+                )
+            fields = REGISTRY[behaviour["type"]].fields
+            for key in behaviour:
+                if key != "type" and key not in fields:
+                    self.fail(
+                        where + ("behaviour", key),
+                        f"key {key!r} does not exist for {behaviour['type']}; allowed: type, {', '.join(fields)}",
+                    )
+            missing = [f for f in fields if f not in behaviour]
+            if missing:
+                self.fail(where + ("behaviour",), f"behaviour {behaviour['type']!r} lacks {', '.join(missing)}")
+        return behaviour
+
+    def optional(self, key: str, make):
+        value = self.draw(self.data.get(key), (key,))
+        return None if value is None else make(value)
+
+
+def default_shape(kind: str | None) -> str:
+    """The shape an object of this kind has when the file does not say: food a sphere, a newer
+    kind its own (aaai.sim.kinds), anything else a box."""
+    cls = kind_class(kind) if kind else None
+    if cls is not None:
+        return cls.shape
+    return "sphere" if kind in FOOD_KINDS else "box"
+
+
+def _category(value, source: _Source):
+    from aaai.levels import get_level
+
+    try:
+        return get_level(value)
+    except ConfigError as error:
+        raise source.error(("category",), str(error)) from None
+
+
+def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Source]:
+    """The spec an arena file gives for an episode seed, the file's own keys (description,
+    category) and where each key stands; wrong keys and types are errors, validity is not checked."""
+    path = Path(path)
+    data = read_yaml(path)  # the project's limits: size, UTF-8, no aliases, depth
+    try:
+        node = yaml.compose(path.read_text(encoding="utf-8"), Loader=_PlainLoader)
+    except yaml.YAMLError as error:  # read_yaml has already refused what does not parse
+        raise ConfigError(f"{path.name}: {error}") from None
+    source = _Source(path, node if node is not None else yaml.MappingNode("tag:yaml.org,2002:map", []))
+    rng = np.random.default_rng([int(seed), zlib.crc32(path.name.encode())])
+    read = _Reader(source, rng, data)
+    if not isinstance(data, dict):
+        read.attempt(lambda: read.keys(data, TOP_KEYS, (), required=("agent", "objects")))
+        raise ArenaProblems(read.problems)
+    read.keys(data, TOP_KEYS, (), required=("agent", "objects"), strict=False)
+    attempt = read.attempt
+    meta = {"description": data.get("description", ""), "category": None}
+    if "description" in data and not isinstance(data["description"], str):
+        attempt(lambda: read.fail(("description",), f"got {data['description']!r}; allowed: one line of text"))
+    level_id, name = 0, "food_contact"
+    if "category" in data:
+        try:
+            category = attempt(lambda: _category(read.draw(data["category"], ("category",)), source))
+        except ConfigError as error:
+            category = None
+            read.problems.append(str(error))
+        if category is not None:
+            meta["category"] = category.name
+            level_id, name = category.id, category.name
+    level = attempt(lambda: read.number(data.get("level", level_id), ("level",), integer=True), level_id)
+    name = attempt(lambda: read.text(data.get("name", name), ("name",)), name)
+    difficulty = attempt(lambda: read.number(data.get("difficulty", 0), ("difficulty",), integer=True), 0)
+    spec_seed = attempt(lambda: read.number(data.get("seed", int(seed)), ("seed",), integer=True), int(seed))
+    agent = attempt(lambda: read.agent(read.draw(data["agent"], ("agent",)))) if "agent" in data else None
+
+    def object_list():
+        value = read.draw(data["objects"], ("objects",))
+        if not isinstance(value, list):
+            read.fail(("objects",), f"got {value!r}; allowed: a list of objects")
+        return value
+
+    objects_value = attempt(object_list, []) if "objects" in data else []
+    objects = tuple(
+        obj
+        for obj in (
+            attempt(lambda i=i, obj=obj: read.obj(read.draw(obj, ("objects", i)), i))
+            for i, obj in enumerate(objects_value)
+        )
+        if obj is not None
+    )
+    fields: dict[str, Any] = {}
+    if "arena_size" in data:
+        fields["arena_size"] = attempt(
+            lambda: read.numbers(data["arena_size"], ("arena_size",), 2, positive=True), (50.0, 50.0)
+        )
+    if "wall_height" in data:
+        fields["wall_height"] = attempt(lambda: read.number(data["wall_height"], ("wall_height",), positive=True), 4.0)
+    walls = data.get("arena_walls", False)
+    if not isinstance(walls, bool):
+        attempt(lambda: read.fail(("arena_walls",), f"got {walls!r}; allowed: true or false"))
+    if walls is True:  # they come first, so objects[i] of the file is objects[4 + i] of the spec
+        from aaai.levels.common import arena_walls
+
+        objects = tuple(arena_walls(fields.get("arena_size", (50.0, 50.0)), fields.get("wall_height", 4.0))) + objects
+        source.offset = 4
+    if "tiles" in data:
+        fields["tiles"] = attempt(
+            lambda: read.numbers(data["tiles"], ("tiles",), 2, integer=True, positive=True), (1, 1)
+        )
+
+    def hole_list():
+        holes = read.draw(data["holes"], ("holes",))
+        if not isinstance(holes, list):
+            read.fail(("holes",), f"got {holes!r}; allowed: a list of [i, j] floor tiles")
+        tiles: list[tuple[int, ...]] = []
+        for i, hole in enumerate(holes):
+            hole = read.draw(hole, ("holes", i))
+            if isinstance(hole, dict):  # {rect: [i0, j0, i1, j1]}: every tile in that block, both ends included
+                read.keys(hole, ("rect",), ("holes", i), required=("rect",))
+                i0, j0, i1, j1 = read.numbers(hole["rect"], ("holes", i, "rect"), 4, integer=True)
+                if i0 > i1 or j0 > j1:
+                    read.fail(
+                        ("holes", i, "rect"), f"got {hole['rect']!r}; allowed: [i0, j0, i1, j1], i0 <= i1, j0 <= j1"
+                    )
+                tiles += [(a, b) for a in range(i0, i1 + 1) for b in range(j0, j1 + 1)]
+            else:
+                tiles.append(read.numbers(hole, ("holes", i), 2, integer=True))
+        return tuple(tiles)
+
+    if "holes" in data:
+        fields["holes"] = attempt(hole_list, ())
+    fields["heightfield"] = attempt(
+        lambda: read.optional(
+            "heightfield",
+            lambda rows: (
+                tuple(read.numbers(row, ("heightfield", i), None) for i, row in enumerate(rows))
+                if isinstance(rows, list)
+                else read.fail(("heightfield",), f"got {rows!r}; allowed: null or a list of rows of heights")
+            ),
+        )
+    )
+
+    def time_limit():
+        value = read.number(data.get("time_limit", DEFAULT_TIME_LIMIT), ("time_limit",), positive=True)
+        if not 0.2 <= value <= 200:
+            read.fail(("time_limit",), f"got {value!r}; allowed: 0.2 to 200 seconds")
+        return value
+
+    fields["time_limit"] = attempt(time_limit, DEFAULT_TIME_LIMIT)
+
+    def blackout(value):
+        read.keys(value, BLACKOUT_KEYS, ("blackout",), required=BLACKOUT_KEYS)
+        return Blackout(*(read.number(value[k], ("blackout", k), positive=True) for k in BLACKOUT_KEYS))
+
+    def inner(value):
+        read.keys(value, INNER_KEYS, ("inner",), required=INNER_KEYS)
+        return InnerLevel(
+            read.number(value["level"], ("inner", "level"), integer=True),
+            read.text(value["name"], ("inner", "name")),
+            read.number(value["difficulty"], ("inner", "difficulty"), integer=True),
+            read.number(value["seed"], ("inner", "seed"), integer=True),
+        )
+
+    def colours(value):
+        if not isinstance(value, dict):
+            read.fail(("colours",), f"got {value!r}; allowed: a mapping from kind to [r, g, b, a]")
+        for kind in value:
+            if kind not in OBJECT_KINDS:
+                read.fail(("colours", kind), f"kind {kind!r} does not exist; allowed: {', '.join(OBJECT_KINDS)}")
+        return {kind: read.numbers(rgba, ("colours", kind), 4) for kind, rgba in value.items()}
+
+    fields["blackout"] = attempt(lambda: read.optional("blackout", blackout))
+    fields["colours"] = attempt(lambda: read.optional("colours", colours)) or {}
+    fields["bridge"] = attempt(lambda: read.optional("bridge", lambda v: read.numbers(v, ("bridge",), 4)))
+    fields["inner"] = attempt(lambda: read.optional("inner", inner))
+    fields["regenerated"] = attempt(lambda: read.number(data.get("regenerated", 0), ("regenerated",), integer=True), 0)
+
+    def extras():
+        value = read.plain(data.get("extras", {}), ("extras",))
+        if not isinstance(value, dict):
+            read.fail(("extras",), f"got {value!r}; allowed: a mapping of plain data")
+        return value
+
+    fields["extras"] = attempt(extras, {})
+    if "pass_mark" in data:
+        mark = attempt(lambda: read.number(data["pass_mark"], ("pass_mark",)))
+        if mark is not None:
+            fields["extras"] = {**(fields["extras"] or {}), "pass_mark": float(mark)}
+    if "max_food_reward" in data:
+        fields["max_food_reward"] = attempt(lambda: read.number(data["max_food_reward"], ("max_food_reward",)), 0.0)
+    else:
+        green = [o.food_value for o in objects if o.is_food and o.kind in ENDING_KINDS]
+        fields["max_food_reward"] = max(green, default=0.0) + sum(
+            o.food_value for o in objects if o.is_food and o.kind not in ENDING_KINDS
+        )
+    if read.problems:
+        raise ArenaProblems(read.problems)
+    spec = LevelSpec(level, name, difficulty, spec_seed, agent, objects, **fields)
+    return spec, meta, source
+
+
+_OBJECT_REF = re.compile(
+    r"(" + "|".join(sorted(OBJECT_KINDS, key=len, reverse=True)) + r") at "
+    r"\((-?\d+\.\d), (-?\d+\.\d)\)"
+)
+_INDEX_REF = re.compile(r"object (\d+) \((\w+)\)")
+
+
+def _located(spec: LevelSpec, source: _Source, problem: str) -> str:
+    """A validate.check message with the file, the line and the objects it names by index."""
+    indices: list[int] = []  # the spec's object indices named, in order
+
+    def name(index: int) -> str:
+        mine = index - source.offset
+        return f"objects[{mine}]" if mine >= 0 else f"arena_walls[{index}]"
+
+    def line(index: int) -> int:
+        mine = index - source.offset
+        return source.line(("objects", mine) if mine >= 0 else ("arena_walls",))
+
+    def by_place(match: re.Match) -> str:
+        kind, x, y = match.group(1), match.group(2), match.group(3)
+        for index, obj in enumerate(spec.objects):
+            if index in indices or obj.kind != kind:
+                continue
+            places = [obj.position, *validate.food_places(obj)[1:]] if obj.is_food else [obj.position]
+            if any(validate._xy(place) == f"({x}, {y})" for place in places):
+                indices.append(index)
+                return f"{name(index)} ({kind}) at ({x}, {y})"
+        return match.group(0)
+
+    def by_index(match: re.Match) -> str:
+        indices.append(int(match.group(1)))
+        return f"{name(int(match.group(1)))} ({match.group(2)})"
+
+    text = _INDEX_REF.sub(by_index, _OBJECT_REF.sub(by_place, problem))
+    text = re.sub(r"^solid objects overlap: (.*?) and (.*)$", r"\1 overlaps \2", text)
+    text = re.sub(r"^objects overlap exactly: (.*?) and (.*)$", r"\1 is exactly where \2 is", text)
+    if indices:
+        first = indices[0]
+        label = f"{name(first)} ({spec.objects[first].kind})"
+        text = text.replace(f"{label} at ", "at ", 1).replace(f"{label}'s ", "its ", 1)
+        return f"{source.name} line {line(first)}, {label}: {text}"
+    if "agent's start" in problem:
+        return f"{source.name} line {source.line(('agent',))}, agent: {problem}"
+    for key, words in (("arena_size", "arena size"), ("tiles", "floor tiles"), ("holes", "hole lies")):
+        if words in problem:
+            return f"{source.name} line {source.line((key,))}, {key}: {problem}"
+    return f"{source.name} line {source.line(())}: {problem}"
+
+
+def check_arena(spec: LevelSpec, source: _Source, require_food: bool = True) -> list[str]:
+    """validate.check's problems with the spec, each naming the file, the line and the object."""
+    return [_located(spec, source, problem) for problem in validate.check(spec, require_food=require_food)]
+
+
+def load_arena(path: str | Path, seed: int = 0, require_food: bool = True) -> LevelSpec:
+    """The level an arena file gives for an episode seed, checked as a generated level is
+    (aaai.task.validate.check): an invalid one is a ConfigError listing its problems by file, line and object."""
+    spec, _, source = parse_arena(path, seed)
+    problems = check_arena(spec, source, require_food)
+    if problems:
+        raise ArenaProblems(problems)
+    return spec
+
+
+def arena_meta(path: str | Path) -> dict:
+    """An arena file's description and category (the category's level name, or None)."""
+    return parse_arena(path, 0)[1]
+
+
+def arena_files(path: str | Path) -> list[Path]:
+    """A file, or a folder's *.yaml files in name order."""
+    path = Path(path)
+    if path.is_dir():
+        files = sorted(path.glob("*.yaml")) + sorted(path.glob("*.yml"))
+        if not files:
+            raise ConfigError(f"arena folder {str(path)!r} holds no .yaml files")
+        return files
+    if not path.is_file():
+        raise ConfigError(f"arena {str(path)!r} is neither a file nor a folder")
+    return [path]

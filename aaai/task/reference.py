@@ -1,0 +1,467 @@
+"""The reference controller: a privileged policy that shows what this body can do in each level.
+
+It reads what no learning agent is given (the level spec, the live positions of food and
+planks) and plans on the solvability grid of ``aaai.task.validate``; it acts only through the
+ordinary action vector, by steering the gait of ``aaai.sim.gait`` (no teleporting, no forces of its
+own). Its tactic is the same in every level, driven by what the level holds:
+
+- food: every yellow worth eating first (nearest first), then the best green; a green that is
+  not the target is given a wide berth, so it is not eaten by accident before the yellows;
+- a yellow on a sinking pillar (L2b): wait beside the pillar until the piece is down, eat it,
+  then the green;
+- a sliding piece (L8): go to where it will stop;
+- sectors with doors (L9): only the sector with the most food, and every piece in it;
+- a plank to tip over as a bridge (L10): walk round behind it, push it over, cross on it;
+- everything else (walls, holes, pits, mazes, terrain) is the planner's: the cheapest path on
+  the occupancy grid, kept away from walls and edges where there is room;
+- the newer kinds (aaai.sim.kinds): multi food, and food that ripens or decays, is eaten as yellows
+  are (nearest first, whatever its value now); food that grows or shrinks is a green, chosen by
+  its best value; bad food and death zones are
+  blocked on the grid (aaai.task.validate), so the body keeps clear of them; a path near a hot zone
+  costs HOT_COST more per unit, so it goes round one where it can; tunnels are walked through.
+
+Use it as any policy: ``aaai eval --policy reference``, ``aaai run --policy reference``,
+``aaai show --video out.mp4 --policy reference``, or ``ReferenceController(env)`` in Python.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pybullet as p
+
+from aaai.agent.urdf_writer import HEAD_RADIUS
+from aaai.sim.behaviours import Sink, behaviour_class
+from aaai.sim.gait import BACK_UP, SineGait, approach, steer
+from aaai.sim.geometry import corners
+from aaai.sim.kinds import ENDING_KINDS, FOOD_KINDS, kind_class
+from aaai.spec import ObjectSpec
+from aaai.task import validate
+from aaai.task.validate import FOOTPRINT_RADIUS
+
+# pieces that do not end the episode (yellow, multi, ripening, decaying food): eaten before the green
+EAT_FIRST = tuple(kind for kind in FOOD_KINDS if kind not in ENDING_KINDS)
+LAST = tuple(kind for kind in FOOD_KINDS if kind in ENDING_KINDS)  # green, growing and shrinking food
+COMFORT = 8.0  # paths keep this far (units) from walls and edges where there is room ...
+CROWDING_COST = 4.0  # ... paying up to this many times a step's length where there is not,
+CLOSE = 6.5  # and far more (CLOSE_COST) nearer than this, where a sweeping foot may touch a wall
+CLOSE_COST = 30.0
+SLOW = 0.4  # the fraction of full speed it walks at where a wall is within FOOTPRINT_RADIUS
+ARC = 0.5  # the least forward command while getting out from beside a wall
+GREEN_BERTH = 6.0  # extra clearance round a green that is not the target (while yellows remain)
+LOOKAHEAD = 4.0  # the body steers at the cheapest cell this close along the plan
+DIRECT = 7.0  # nearer than this (plus the food's radius) it steers straight at the food
+REPLAN_MOVE = 1.0  # a goal that moved this far gets a new plan (wandering, sliding food)
+PILLAR_WAIT = 8.0  # waits this far from a sinking pillar's axis until its food is down
+SETTLED = 0.3  # a sinking piece within this of its resting height counts as down
+PUSH_STAND_OFF = 6.0  # where the body starts its push, behind the plank
+PUSH_ALIGN_X = 1.5  # starts its push this close to the plank's middle line
+PUSH_ALIGN = math.radians(15)  # faces the plank this squarely before walking into it
+PUSH_LEAD = 6.0  # while pushing it steers at the plank's middle line this far ahead
+PUSHED_TILT = math.radians(60)  # a plank tilted this far is falling: the push is over
+PUSH_SECONDS = 15.0  # gives up pushing after this long and walks on
+CROSS_SECONDS = 25.0  # ... and crossing after this long
+CROSS_ALIGN_X = 4.5  # starts across this close to the fallen plank's middle line (it is 11 wide)
+CROSSED = 2.0  # across once the head is this close to the fallen plank's far end
+REST_SEARCH = 12.0  # with nothing left to eat, it stands at the roomiest place this close
+STUCK_SECONDS = 3.0  # no progress for this long: back off for a moment
+BACK_OFF_SECONDS = 1.0
+APPROACH_GAP = 4.0  # the approach point lies this far beyond head-to-food contact distance
+DETOUR_REACHED = 2.5
+RETRY_TURN = math.radians(50)  # a stuck approach is tried again from a side turned this far
+HOT_COST = 20.0  # extra path cost per unit where a foot may touch a hot zone
+
+
+class ReferenceController:
+    """A policy: ``action = controller(observation)``; ``reset(seed)`` at each episode start."""
+
+    def __init__(self, env):
+        self.env = env.unwrapped
+        self.gait = SineGait.for_env(self.env)
+        self.spec = None
+
+    def reset(self, seed: int | None = None) -> None:
+        self.spec = None  # plans are made at the first step, from the episode's spec
+
+    # --- planning -------------------------------------------------------------------
+    def _start_episode(self) -> None:
+        env = self.env
+        spec = self.spec = env.level_spec
+        self.gait.reset()
+        self.grid = validate.blocked_grid(spec)
+        self.doors_closed = 0
+        self._map()
+        rows, cols = self.walk.shape
+        self.cell_x = (np.arange(cols) + 0.5) * validate.GRID - spec.arena_size[0] / 2
+        self.cell_y = (np.arange(rows) + 0.5) * validate.GRID - spec.arena_size[1] / 2
+        self.plan_key, self.plan_goal, self.plan = None, None, None
+        self.sector = _best_sector(spec)
+        self.plank = _bridge_plank(env, spec)
+        self.bridge_phase, self.phase_started, self.lined_up = "push", 0.0, False
+        self.standing, self.rest = False, None
+        self.detour, self.approached, self.tries = None, set(), 0
+        self.best_progress, self.progress_time, self.back_off_until = math.inf, 0.0, -1.0
+        self.progress_key = None
+
+    def _map(self, start: tuple[float, float] | None = None) -> None:
+        """Clearance, the region walkable from ``start`` (default: the agent's start) and crowding
+        cost from the occupancy grid."""
+        self.clearance = validate.clearance_map(self.spec, self.grid)
+        walk = validate.walk_region(self.spec, self.clearance, start)
+        self.walk = walk if walk is not None else self.clearance > HEAD_RADIUS
+        self.crowding = (
+            1.0
+            + CROWDING_COST * np.clip(1.0 - self.clearance / COMFORT, 0.0, 1.0)
+            + CLOSE_COST * np.clip((CLOSE - self.clearance) / (CLOSE - FOOTPRINT_RADIUS), 0.0, 1.0)
+        )
+        hot = [obj for obj in self.spec.objects if getattr(kind_class(obj.kind), "hot", False)]
+        if hot:  # where a foot may touch a hot zone
+            zones = np.zeros(self.clearance.shape, np.uint8)
+            for obj in hot:
+                validate.fill(zones, self.spec, corners(obj))
+            away = (
+                cv2.distanceTransform((zones == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * validate.GRID
+            )
+            self.crowding = self.crowding + HOT_COST * (away < FOOTPRINT_RADIUS)
+        self.plan_key = None
+
+    def _doors(self, head: np.ndarray) -> None:
+        """A sector door that has closed (L9) is a wall from now on: the map is made again, with
+        the walking region the one the head is in."""
+        closed = self.env.world.closed
+        if len(closed) == self.doors_closed:
+            return
+        for door in closed[self.doors_closed :]:
+            validate.fill(self.grid, self.spec, corners(door.obj))
+        self.doors_closed = len(closed)
+        self._map((float(head[0]), float(head[1])))
+
+    def _costs(self, goal: tuple[float, float], reach: float, avoid: list[tuple[float, float, float]]) -> np.ndarray:
+        """Path costs to the cells from which the head reaches ``goal`` (within ``reach``)."""
+        near = np.hypot(self.cell_x[None, :] - goal[0], self.cell_y[:, None] - goal[1])
+        goals = self.walk & (near <= reach)
+        grow = reach
+        while not goals.any() and grow < 4 * reach + 10:  # a goal off the walkable region: the nearest part
+            grow += validate.GRID
+            goals = self.walk & (near <= grow)
+        cost = self.crowding
+        if avoid:
+            cost = cost.copy()
+            for x, y, radius in avoid:
+                cost[np.hypot(self.cell_x[None, :] - x, self.cell_y[:, None] - y) < radius] += 50.0
+        return validate.path_costs(self.walk, goals, cost)
+
+    def _waypoint(
+        self, head: np.ndarray, goal: tuple[float, float], reach: float, key, avoid: list[tuple[float, float, float]]
+    ) -> tuple[float, float]:
+        """Where to steer now: straight at a near goal, else the cheapest cell within LOOKAHEAD."""
+        if math.dist(head[:2], goal) < DIRECT + reach - HEAD_RADIUS and self._clear_line(head, goal):
+            return goal
+        if key != self.plan_key or self.plan_goal is None or math.dist(goal, self.plan_goal) > REPLAN_MOVE:
+            self.plan = self._costs(goal, reach, avoid)
+            self.plan_key, self.plan_goal = key, goal
+        row, col = validate.cell(self.spec, head[0], head[1], self.plan.shape)
+        span = int(LOOKAHEAD / validate.GRID) + 1
+        r0, c0 = max(row - span, 0), max(col - span, 0)
+        rows, cols = slice(r0, row + span + 1), slice(c0, col + span + 1)
+        near = np.hypot(self.cell_x[None, cols] - head[0], self.cell_y[rows, None] - head[1]) <= LOOKAHEAD
+        here = np.where(near, self.plan[rows, cols], np.inf)
+        if np.isfinite(here).any():
+            r, c = np.unravel_index(np.argmin(here), here.shape)
+            return float(self.cell_x[c0 + c]), float(self.cell_y[r0 + r])
+        # off the plan: head for the nearest planned cell
+        distance = np.where(
+            np.isfinite(self.plan), np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]), np.inf
+        )
+        r, c = np.unravel_index(np.argmin(distance), distance.shape)
+        return float(self.cell_x[c]), float(self.cell_y[r])
+
+    def _clear_line(self, head: np.ndarray, goal: tuple[float, float]) -> bool:
+        """No blocked cell on the straight line from the head to the goal."""
+        steps = max(2, int(math.dist(head[:2], goal) / validate.GRID))
+        for t in np.linspace(0.0, 1.0, steps):
+            x, y = head[0] + t * (goal[0] - head[0]), head[1] + t * (goal[1] - head[1])
+            row, col = validate.cell(self.spec, x, y, self.clearance.shape)
+            if self.clearance[row, col] < 1.0:
+                return False
+        return True
+
+    # --- what to do now -----------------------------------------------------------------
+    def _foods(self) -> list[tuple[int, ObjectSpec, tuple[float, float, float]]]:
+        env = self.env
+        foods = []
+        for body, food in env.world.food.items():
+            position = p.getBasePositionAndOrientation(body, physicsClientId=env.client)[0]
+            if self.sector is not None and _sector_of(position) != self.sector:
+                continue
+            foods.append((body, food, position))
+        return foods
+
+    def _target(self, head: np.ndarray):
+        """(goal x y, reach, plan key, things to avoid, wait): what the body goes for now."""
+        foods = self._foods()
+        yellows = [f for f in foods if f[1].kind in EAT_FIRST]
+        greens = [f for f in foods if f[1].kind in LAST]
+        down = [f for f in yellows if not _still_sinking(f)]
+        sinking = [f for f in yellows if _still_sinking(f)]
+        avoid = [(pos[0], pos[1], food.size[0] / 2 + HEAD_RADIUS + GREEN_BERTH) for _, food, pos in greens]
+        if down:
+            body, food, position = min(down, key=lambda f: math.dist(head[:2], f[2][:2]))
+            return self._food_goal(food, position), HEAD_RADIUS + food.size[0] / 2, body, avoid, False
+        if sinking:
+            body, food, position = min(sinking, key=lambda f: math.dist(head[:2], f[2][:2]))
+            return position[:2], PILLAR_WAIT, ("wait", body), avoid, True
+        if greens:
+            body, food, position = max(greens, key=lambda f: (f[1].food_value, -math.dist(head[:2], f[2][:2])))
+            others = [berth for berth, green in zip(avoid, greens) if green[0] != body]
+            return self._food_goal(food, position), HEAD_RADIUS + food.size[0] / 2, body, others, False
+        return None
+
+    @staticmethod
+    def _food_goal(food: ObjectSpec, position) -> tuple[float, float]:
+        """Where the piece is, or where it will stop if it slides."""
+        moving = behaviour_class(food)
+        ahead = moving.places(food) if moving else []
+        return (ahead[-1][0], ahead[-1][1]) if ahead else (position[0], position[1])
+
+    # --- acting ---------------------------------------------------------------------
+    def __call__(self, observation=None) -> np.ndarray:
+        """The next action: joint targets in the joint modes; in gait mode the gait commands
+        (forward, turn, crouch) that its own gait would be following now."""
+        joints = self._act()
+        if self.env.gait is None:
+            return joints
+        return np.asarray(self.gait.target, np.float32)
+
+    def command(self) -> np.ndarray:
+        """The gait commands (forward, turn, crouch) of the last action: the label a student of
+        this controller learns, in any action mode."""
+        return np.asarray(self.gait.target, np.float32)
+
+    def student_drove(self, seconds: float) -> None:
+        """As a teacher (aaai.train.student): another policy chose the last ``seconds`` of actions. Its
+        progress, or lack of it, is not this controller's: the clocks that detect being stuck and
+        time its pushes are held, and a back-off in progress is called off, so that the next label
+        is what it would do here, not a reaction to the student's walk."""
+        self.progress_time += seconds
+        self.back_off_until = -1.0
+        if getattr(self, "phase_started", None) is not None:
+            self.phase_started += seconds
+
+    def _act(self) -> np.ndarray:
+        env = self.env
+        if self.spec is not env.level_spec or env.steps == 0 and self.plan_key is not None:
+            self._start_episode()
+        head, rotation = env.body.head_pose()
+        yaw = math.atan2(rotation[1, 0], rotation[0, 0])
+        now = env.steps * env.control_dt
+        self._doors(head)
+        if self.plank is not None and self._bridging(head, yaw, now):
+            return self.gait()
+        target = self._target(head)
+        if target is None:  # nothing left to eat: stand still in the open, clear of walls
+            rest = self._rest_spot(head)
+            if math.dist(head[:2], rest) < 1.0 or self.standing:
+                self.standing = True
+                self.gait.command(0.0, 0.0, 0.0)
+                return self.gait.stand()
+            target = rest, 0.5, "rest", [], False
+        goal, reach, key, avoid, wait = target
+        if wait and math.dist(head[:2], goal) <= reach + 1.0:
+            error = _angle(math.atan2(goal[1] - head[1], goal[0] - head[0]) - yaw)
+            self.gait.command(0.0, steer(error, 0.0)[1] * 0.5)
+            self._progress(0.0, now, key)
+            return self.gait()
+        if now < self.back_off_until:
+            self.gait.command(-1.0, 0.0)
+            return self.gait()
+        if self._cramped(head, yaw, goal):
+            return self.gait()
+        eating = reach > HEAD_RADIUS and key != "rest"
+        close = eating and math.dist(head[:2], goal) < DIRECT + reach - HEAD_RADIUS
+        if close and key not in self.approached:  # first time near this piece: pick the open side
+            self.approached.add(key)
+            self.detour = self._approach_point(head, goal, reach, 0.0)
+        if self.detour is not None:
+            if math.dist(head[:2], self.detour) < DETOUR_REACHED:
+                self.detour = None
+            else:
+                goal, reach, key, close = self.detour, 0.5, ("detour", self.detour), False
+        point = self._waypoint(head, goal, reach, key, avoid)
+        remaining = math.dist(head[:2], goal)
+        if self.plan is not None and self.plan_key == key:
+            remaining = min(remaining, self.plan[validate.cell(self.spec, head[0], head[1], self.plan.shape)])
+        if not self._progress(remaining, now, key):  # stuck: back off, and come at food from another side
+            if self._room_behind(head, yaw):
+                self.back_off_until = now + BACK_OFF_SECONDS
+            self.detour = None
+            if close:
+                self.tries += 1
+                self.detour = self._approach_point(head, goal, reach, (-1) ** self.tries * RETRY_TURN)
+        error = _angle(math.atan2(point[1] - head[1], point[0] - head[0]) - yaw)
+        if close and point == goal:  # the final approach to a piece: crouch to reach it
+            self.gait.command(*approach(self.gait.parameters, error, math.dist(head[:2], goal), reach - HEAD_RADIUS))
+        else:
+            forward, turn = steer(
+                error, math.dist(head[:2], point), arrive=2.0 if self.detour else 0.0, reverse=remaining < BACK_UP
+            )
+            row, col = validate.cell(self.spec, head[0], head[1], self.clearance.shape)
+            room = (self.clearance[row, col] - FOOTPRINT_RADIUS) / (CLOSE - FOOTPRINT_RADIUS)
+            self.gait.command(forward * min(1.0, max(SLOW, room)) if forward > 0 else forward, turn)
+        return self.gait()
+
+    def _approach_point(
+        self, head: np.ndarray, food: tuple[float, float], reach: float, turn: float
+    ) -> tuple[float, float] | None:
+        """Where to stand before the last few steps to a piece: the side with the most room for
+        the head as it eats (so that it can back out straight) and on the way in, preferring the
+        side the head comes from (turned by ``turn`` rad); None when the head can go straight on."""
+        towards = math.atan2(head[1] - food[1], head[0] - food[0]) + turn
+        gap = reach + APPROACH_GAP
+        best, best_score = None, -math.inf
+        for k in range(-8, 8):
+            angle = towards + k * math.pi / 8
+            cos, sin = math.cos(angle), math.sin(angle)
+            stand = validate.cell(self.spec, food[0] + gap * cos, food[1] + gap * sin, self.clearance.shape)
+            if not self.walk[stand]:
+                continue
+            eat = validate.cell(self.spec, food[0] + reach * cos, food[1] + reach * sin, self.clearance.shape)
+            # room where the head will be as it eats (to back out straight), then on the way in
+            score = min(self.clearance[eat], COMFORT) + 0.5 * min(self.clearance[stand], CLOSE) - 0.3 * abs(k)
+            if score > best_score:
+                best, best_score = (food[0] + gap * cos, food[1] + gap * sin, k), score
+        if best is None or (best[2] == 0 and turn == 0.0):
+            return None
+        return best[0], best[1]
+
+    def _cramped(self, head: np.ndarray, yaw: float, goal: tuple[float, float]) -> bool:
+        """Too near a wall to turn on the spot without a foot touching it (after eating food by a
+        wall): walk out toward more room, backward if that is behind, arcing away from a wall
+        beside. False when there is room."""
+        row, col = validate.cell(self.spec, head[0], head[1], self.clearance.shape)
+        if self.clearance[row, col] >= FOOTPRINT_RADIUS or math.dist(head[:2], goal) < DIRECT:
+            return False
+        here = self.clearance[row, col]
+        straight = []  # straight out, ahead or behind, turns no leg toward the wall
+        for sign in (1.0, -1.0):
+            cell = validate.cell(
+                self.spec,
+                head[0] + sign * 2.0 * math.cos(yaw),
+                head[1] + sign * 2.0 * math.sin(yaw),
+                self.clearance.shape,
+            )
+            straight.append((self.clearance[cell], sign))
+        room, sign = max(straight)
+        if room > here + 0.3:
+            self.gait.command(sign * SLOW, 0.0)
+            return True
+        best, roomiest = yaw, -1.0
+        for k in range(16):  # the way out: the direction in which there is most room 2 units on
+            angle = yaw + k * math.pi / 8
+            room = self.clearance[
+                validate.cell(
+                    self.spec, head[0] + 2.0 * math.cos(angle), head[1] + 2.0 * math.sin(angle), self.clearance.shape
+                )
+            ]
+            if room > roomiest:
+                best, roomiest = angle, room
+        forward, turn = steer(_angle(best - yaw), 2.0, reverse=True)
+        if 0.0 <= forward < ARC:  # a wall beside: arc away from it rather than turn on the spot
+            forward = ARC
+        self.gait.command(forward * SLOW, turn)
+        return True
+
+    def _room_behind(self, head: np.ndarray, yaw: float) -> bool:
+        """Is there room to back off (no wall within the footprint of a place 2.5 behind)?"""
+        x, y = head[0] - 2.5 * math.cos(yaw), head[1] - 2.5 * math.sin(yaw)
+        row, col = validate.cell(self.spec, x, y, self.clearance.shape)
+        return bool(self.clearance[row, col] > FOOTPRINT_RADIUS)
+
+    def _rest_spot(self, head: np.ndarray) -> tuple[float, float]:
+        """The roomiest walkable place within REST_SEARCH of the head (chosen once)."""
+        if self.rest is None:
+            near = np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]) <= REST_SEARCH
+            room = np.where(self.walk & near, self.clearance, -1.0)
+            row, col = np.unravel_index(np.argmax(room), room.shape)
+            self.rest = (float(self.cell_x[col]), float(self.cell_y[row])) if room[row, col] > 0 else tuple(head[:2])
+        return self.rest
+
+    def _progress(self, remaining: float, now: float, key=None) -> bool:
+        """Records progress toward the goal ``key``; False when none was made for STUCK_SECONDS."""
+        if key != self.progress_key:  # a new goal: progress is counted afresh
+            self.progress_key, self.best_progress = key, math.inf
+        if remaining < self.best_progress - 0.5 or not math.isfinite(self.best_progress):
+            self.best_progress, self.progress_time = remaining, now
+            return True
+        if now - self.progress_time > STUCK_SECONDS:
+            self.best_progress, self.progress_time = remaining, now
+            return False
+        return True
+
+    def _bridging(self, head: np.ndarray, yaw: float, now: float) -> bool:
+        """L10: lines up behind the standing plank and walks it over, then lines up again and
+        walks straight across on it; False once across (or when either part takes too long)."""
+        env, (body, base_x, face, far_end) = self.env, self.plank
+        if self.bridge_phase == "push":
+            orientation = p.getBasePositionAndOrientation(body, physicsClientId=env.client)[1]
+            pushed_long = self.lined_up and now - self.phase_started > PUSH_SECONDS
+            if p.getMatrixFromQuaternion(orientation)[8] < math.cos(PUSHED_TILT) or pushed_long:
+                self.bridge_phase, self.phase_started, self.lined_up = "cross", now, False
+        elif head[1] > far_end - CROSSED or (self.lined_up and now - self.phase_started > CROSS_SECONDS):
+            self.plank, self.plan_key = None, None
+            return False
+        if not self.lined_up:
+            stand = (base_x, face - PUSH_STAND_OFF - HEAD_RADIUS)
+            slack = PUSH_ALIGN_X if self.bridge_phase == "push" else CROSS_ALIGN_X
+            on_line = abs(head[0] - base_x) < slack and stand[1] - 3.0 < head[1] < face
+            if not on_line:  # round to the back of the plank
+                point = self._waypoint(head, stand, 1.0, "push", [])
+                error = _angle(math.atan2(point[1] - head[1], point[0] - head[0]) - yaw)
+                self.gait.command(*steer(error, math.dist(head[:2], point), arrive=2.0))
+                return True
+            error = _angle(math.pi / 2 - yaw)
+            if abs(error) > PUSH_ALIGN:  # face the trench
+                self.gait.command(0.0, steer(error, 0.0)[1])
+                return True
+            self.lined_up, self.phase_started = True, now
+        # straight on along the plank's middle line, facing the trench
+        error = _angle(math.atan2(PUSH_LEAD, base_x - head[0]) - yaw)
+        self.gait.command(*steer(error, PUSH_LEAD))
+        return True
+
+
+def _angle(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def _still_sinking(food) -> bool:
+    _, obj, position = food
+    return behaviour_class(obj) is Sink and position[2] > obj.size[0] / 2 + SETTLED
+
+
+def _best_sector(spec) -> tuple[float, float] | None:
+    """L9: the direction of the sector with the most food, or None in a level without sectors."""
+    name = spec.extras.get("best_sector")
+    return {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}[name] if name else None
+
+
+def _sector_of(position) -> tuple[float, float]:
+    x, y = position[0], position[1]
+    if abs(x) > abs(y):
+        return (1.0, 0.0) if x > 0 else (-1.0, 0.0)
+    return (0.0, 1.0) if y > 0 else (0.0, -1.0)
+
+
+def _bridge_plank(env, spec):
+    """L10: (body, x, y where it stands, y where its far end lands) of the standing plank that
+    bridges the trench, or None."""
+    bridge = spec.bridge
+    if not bridge:
+        return None
+    x0, y0, x1, y1 = bridge
+    for body, obj in env.world.objects.items():
+        if obj.kind == "plank" and obj.mass > 0 and abs(obj.position[0] - (x0 + x1) / 2) < 1e-6:
+            return body, (x0 + x1) / 2, y0, y1
+    return None

@@ -1,0 +1,303 @@
+"""The ``aaai play`` web server: FastAPI and uvicorn, one WebSocket per browser tab.
+
+``GET /`` is the page (aaai/tools/play/static), ``GET /api/sessions`` the state of every session (for
+watching a study, and for tests), ``/ws`` the socket a page plays through. The socket's messages
+are JSON text; the page sends
+
+    {"type": "join", "player": NAME[, "token": T]}   take a player's battery (the token re-attaches a dropped tab)
+    {"type": "key", "key": KEY, "down": true|false}  a key pressed or released (aaai.tools.play.session.KEYS)
+    {"type": "focus", "focused": true|false}          the page gained or lost focus (losing it pauses)
+    {"type": "ack", "frame": N}                       frame N is on screen: the next may come
+
+and gets ``hello``, ``joined``, ``status`` (phase, episode, time left, food, pose, ...), ``frame``
+(the status with a frame number, then two binary messages: the camera as PNG and the map as JPEG)
+and ``error`` messages. A bad message gets an ``error`` naming what was wrong and changes nothing.
+
+Each tab's session is its own (its own environment, thread and scoreboard rows); a player name is
+held by one tab at a time, and a dropped tab can come back (with its token) within the grace
+period, after which its episode is abandoned.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import errno
+import json
+import socket
+import threading
+from importlib import resources
+from typing import Any
+
+from fastapi import FastAPI, WebSocket, WebSocketDisconnect
+from fastapi.responses import HTMLResponse, JSONResponse
+from fastapi.staticfiles import StaticFiles
+
+from aaai.config import ConfigError
+from aaai.tools.play.session import CONTROL_KEYS, GO_KEYS, KEYS, InputError, PlaySettings, Session, check_player
+
+MAX_MESSAGE_CHARS = 1000
+MESSAGE_TYPES = ("join", "key", "focus", "ack")
+
+
+class Registry:
+    """The server's sessions by player name; thread-safe."""
+
+    def __init__(self, settings: PlaySettings):
+        self.settings = settings
+        self.lock = threading.Lock()
+        self.sessions: dict[str, Session] = {}
+        self.generation: dict[str, int] = {}  # bumped on every attach, so that a stale expiry does nothing
+
+    def join(self, player: str, token: str | None, notify) -> Session:
+        player = check_player(player)
+        if self.settings.player is not None and player != self.settings.player:
+            raise InputError(f"player: got {player!r}; this server plays only {self.settings.player!r} (--player)")
+        with self.lock:
+            session = self.sessions.get(player)
+            if session is not None and session.phase in ("finished", "error", "abandoned") and not session.attached:
+                session = None  # over: a new tab starts the player's battery again (resuming its scoreboard)
+            if session is None:
+                session = Session(self.settings, player, notify)
+                self.sessions[player] = session
+                self.generation[player] = 1
+                session.start()
+                return session
+            if token != session.token:
+                raise InputError(
+                    f"player {player!r} is playing in another tab; one tab per player (their episodes "
+                    "go to one scoreboard): choose another name, or close that tab"
+                )
+            if session.attached:
+                raise InputError(f"player {player!r} is open in another tab (a duplicated tab?); close it first")
+            self.generation[player] += 1
+            session.attach(notify)
+            return session
+
+    def detach(self, session: Session) -> int:
+        with self.lock:
+            session.detach()
+            return self.generation.get(session.player, 0)
+
+    def expire(self, session: Session, generation: int) -> None:
+        """The grace period of a dropped tab is over: abandon its episode unless it came back."""
+        with self.lock:
+            if self.generation.get(session.player) == generation and not session.attached:
+                session.abandon("the tab was closed (or lost its connection) mid-battery")
+
+    def all(self) -> list[Session]:
+        with self.lock:
+            return list(self.sessions.values())
+
+    def close(self, reason: str = "the server stopped", timeout: float = 5.0) -> None:
+        sessions = self.all()
+        for session in sessions:
+            session.abandon(reason)
+        for session in sessions:
+            session.thread.join(timeout)
+
+
+def parse_message(text: Any) -> dict:
+    """A page's message, checked: InputError names what is wrong."""
+    if not isinstance(text, str):
+        raise InputError("message: got a binary message; allowed: JSON text")
+    if len(text) > MAX_MESSAGE_CHARS:
+        raise InputError(f"message: got {len(text)} characters; allowed: at most {MAX_MESSAGE_CHARS}")
+    try:
+        data = json.loads(text)
+    except ValueError:
+        raise InputError(
+            f'message: got {text[:60]!r}, which is not JSON; allowed: a JSON object with a "type"'
+        ) from None
+    if not isinstance(data, dict) or data.get("type") not in MESSAGE_TYPES:
+        shown = data.get("type") if isinstance(data, dict) else data
+        raise InputError(f"message type: got {shown!r}; allowed: {', '.join(MESSAGE_TYPES)}")
+    kind = data["type"]
+    if kind == "key" and not isinstance(data.get("down"), bool):
+        raise InputError(f"key message: 'down' got {data.get('down')!r}; allowed: true or false")
+    if kind == "focus" and not isinstance(data.get("focused"), bool):
+        raise InputError(f"focus message: 'focused' got {data.get('focused')!r}; allowed: true or false")
+    if kind == "ack" and (not isinstance(data.get("frame"), int) or isinstance(data.get("frame"), bool)):
+        raise InputError(f"ack message: 'frame' got {data.get('frame')!r}; allowed: a frame number")
+    if kind == "join" and data.get("token") is not None and not isinstance(data["token"], str):
+        raise InputError(f"join message: 'token' got {data['token']!r}; allowed: the token a 'joined' message gave")
+    return data
+
+
+def hello(settings: PlaySettings) -> dict:
+    return {
+        "type": "hello",
+        "keys": list(KEYS),
+        "controls": CONTROL_KEYS,
+        "start_keys": list(GO_KEYS),
+        "player": settings.player,
+        "episodes": len(settings.episodes()),
+    }
+
+
+def create_app(settings: PlaySettings) -> FastAPI:
+    registry = Registry(settings)
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: FastAPI):
+        yield
+        await asyncio.get_running_loop().run_in_executor(None, registry.close)
+
+    app = FastAPI(title="aaai play", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
+    app.state.registry = registry
+    static = resources.files("aaai.tools.play") / "static"
+
+    @app.get("/", response_class=HTMLResponse)
+    def page() -> str:
+        return (static / "index.html").read_text()
+
+    app.mount("/static", StaticFiles(directory=str(static)), name="static")
+
+    @app.get("/api/sessions")
+    def sessions() -> JSONResponse:
+        return JSONResponse([session.status() for session in registry.all()])
+
+    @app.websocket("/ws")
+    async def play_socket(websocket: WebSocket) -> None:
+        await websocket.accept()
+        loop = asyncio.get_running_loop()
+        wake = asyncio.Event()
+        sending = asyncio.Lock()
+        session: Session | None = None
+        sender: asyncio.Task | None = None
+
+        def notify() -> None:
+            loop.call_soon_threadsafe(wake.set)
+
+        async def send(data: dict) -> None:
+            async with sending:
+                await websocket.send_text(json.dumps(data))
+
+        async def send_updates(session: Session) -> None:
+            """Sends the newest frame the page has not had (one at a time: the page acknowledges
+            each), or the status when only that changed."""
+            sent_version, sent_frame = -1, -1
+            while True:
+                await wake.wait()
+                wake.clear()
+                frame = session.frame()
+                status = session.status()  # its "version" says which changes it shows
+                async with sending:
+                    if frame is not None and frame[0] != sent_frame:
+                        await websocket.send_text(json.dumps({"type": "frame", **status, "frame": frame[0]}))
+                        for image in frame[1]:
+                            await websocket.send_bytes(image)
+                        sent_frame = frame[0]
+                    elif status["version"] != sent_version:
+                        await websocket.send_text(json.dumps({"type": "status", **status}))
+                    sent_version = status["version"]
+
+        await send(hello(settings))
+        try:
+            while True:
+                message = await websocket.receive()
+                if message["type"] == "websocket.disconnect":
+                    break
+                try:
+                    data = parse_message(message.get("text", message.get("bytes")))
+                    if data["type"] == "join":
+                        if session is not None:
+                            raise InputError(f"join: this page plays {session.player!r} already")
+                        session = registry.join(data.get("player"), data.get("token"), notify)
+                        await send(
+                            {
+                                "type": "joined",
+                                "player": session.player,
+                                "token": session.token,
+                                "output": str(session.output),
+                            }
+                        )
+                        sender = asyncio.create_task(send_updates(session))
+                        notify()
+                    elif session is None:
+                        raise InputError(f"{data['type']} message before join; allowed first: join")
+                    elif data["type"] == "key":
+                        session.key(data.get("key"), data["down"])
+                    elif data["type"] == "focus":
+                        session.focus(data["focused"])
+                    else:
+                        session.ack(data["frame"])
+                except InputError as error:
+                    await send({"type": "error", "message": str(error)})
+        except WebSocketDisconnect:
+            pass
+        finally:
+            if sender is not None:
+                sender.cancel()
+            if session is not None:
+                generation = registry.detach(session)
+                loop.call_later(settings.grace_seconds, registry.expire, session, generation)
+
+    return app
+
+
+def bind(host: str, port: int) -> socket.socket:
+    """A listening socket, or a ConfigError saying the port is taken (or the host unknown)."""
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except socket.gaierror as error:
+        raise ConfigError(f"--host: got {host!r}, which is not an address of this machine ({error.strerror})") from None
+    family, kind, proto, _, address = infos[0]
+    sock = socket.socket(family, kind, proto)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind(address)
+    except OSError as error:
+        sock.close()
+        if error.errno == errno.EADDRINUSE:
+            raise ConfigError(
+                f"--port: got {port}, and {host}:{port} is in use (another aaai play?); allowed: a free "
+                "port, e.g. --port 8001, or --port 0 for any free one"
+            ) from None
+        raise ConfigError(f"--host/--port: cannot listen on {host}:{port}: {error.strerror}") from None
+    sock.listen(128)
+    sock.set_inheritable(True)
+    return sock
+
+
+def url_of(sock: socket.socket) -> str:
+    host, port = sock.getsockname()[:2]
+    shown = f"[{host}]" if ":" in host else host
+    return f"http://{'127.0.0.1' if host == '0.0.0.0' else shown}:{port}/"
+
+
+class Server:
+    """The app served on a socket by uvicorn in this thread (``run``) or a background one (``start``)."""
+
+    def __init__(self, settings: PlaySettings, host: str = "127.0.0.1", port: int = 8000):
+        import uvicorn
+
+        self.sock = bind(host, port)
+        self.url = url_of(self.sock)
+        self.app = create_app(settings)
+        self.server = uvicorn.Server(
+            uvicorn.Config(self.app, log_level="warning", ws="websockets-sansio", ws_max_size=1 << 16, lifespan="on")
+        )
+        self.thread: threading.Thread | None = None
+
+    @property
+    def registry(self) -> Registry:
+        return self.app.state.registry
+
+    def run(self) -> None:
+        try:
+            self.server.run(sockets=[self.sock])
+        finally:
+            self.sock.close()
+
+    def start(self) -> "Server":
+        self.thread = threading.Thread(target=self.run, name="aaai-play-server", daemon=True)
+        self.thread.start()
+        while not self.server.started and self.thread.is_alive():
+            threading.Event().wait(0.02)
+        return self
+
+    def stop(self) -> None:
+        self.server.should_exit = True
+        if self.thread is not None:
+            self.thread.join(10)

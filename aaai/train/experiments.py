@@ -1,0 +1,518 @@
+"""`aaai experiment curricula` (``make curricula``): the samplers compared on one budget, and `aaai plot`.
+
+Every sampler (aaai.train.curriculum) trains PPO on the same config, cells and budget, once per
+training seed. Every run is then scored on the reserved seeds of its cells (K per cell) and on
+seeds it trained on (per cell, the last K distinct seeds it played): the difference is its
+generalisation gap. The folder (default experiments/curricula/) gets:
+
+  experiment.yaml          what was run: samplers, seeds, budget, cells, the base config
+  <sampler>-seed<N>/       each run's folder (aaai.scoring.runs) with scoreboard_reserved.csv and
+                           scoreboard_trained.csv (models, checkpoints and TensorBoard logs are
+                           not committed: .gitignore)
+  runs.csv                 one row per run: pass rates on reserved and trained seeds, the gap
+  table.csv, table.md      per sampler: mean and standard deviation over its runs
+  curves.csv, curves.png   pass rate against training steps, mean and spread over seeds
+
+Re-running the same command continues: finished runs and whole scoreboards are skipped, an
+unfinished run resumes from its newest checkpoint, a half-written scoreboard is completed. The
+curve is the cell-averaged training pass rate: at each step, the mean over all active cells of
+each cell's pass rate over its last ``window`` training episodes (a cell not yet played counts 0).
+Averaging over cells (not over episodes) keeps it comparable between samplers that play
+different cells.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import csv
+import io
+import math
+import multiprocessing
+import shutil
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import yaml
+
+from aaai.config import ConfigError, load_config
+from aaai.files import atomic_path, write_atomic
+from aaai.scoring.runs import RunFolder
+from aaai.train.curriculum import SAMPLERS, episode_passed
+
+CURVE_POINTS = 20
+DEFAULT_FOLDER = Path("experiments/curricula")
+
+
+@dataclass
+class Experiment:
+    folder: Path
+    samplers: list[str]
+    seeds: list[int]
+    config: dict  # the resolved base config: cells, budget, action mode; sampler and seed set per run
+    seeds_per_cell: int
+
+    def run_config(self, sampler: str, seed: int) -> dict:
+        return load_config(self.config, mode="curriculum", sampler=sampler, seed=seed)
+
+    def run_dir(self, sampler: str, seed: int) -> Path:
+        return self.folder / f"{sampler}-seed{seed}"
+
+    def record(self) -> dict:
+        return {
+            "samplers": self.samplers,
+            "seeds": self.seeds,
+            "seeds_per_cell": self.seeds_per_cell,
+            "config": self.config,
+        }
+
+
+def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: dict, seeds_per_cell: int) -> Experiment:
+    """The experiment in ``folder``; refused if the folder holds another experiment."""
+    bad = [s for s in samplers if s not in SAMPLERS]
+    if bad or not samplers:
+        raise ConfigError(f"--samplers: got {','.join(samplers)!r}; allowed: a list of {', '.join(SAMPLERS)}")
+    if not seeds:
+        raise ConfigError("--seeds: got none; allowed: 1 or more training seeds")
+    experiment = Experiment(Path(folder), list(samplers), list(seeds), config, seeds_per_cell)
+    path = experiment.folder / "experiment.yaml"
+    if path.exists():
+        earlier = yaml.safe_load(path.read_text())
+        # resolved again: keys added to the config since then take their defaults, as in `config`
+        if (
+            load_config(earlier.get("config") or {}) != load_config(config)
+            or earlier.get("seeds_per_cell") != seeds_per_cell
+        ):
+            raise ConfigError(
+                f"--out: {str(experiment.folder)!r} holds an experiment with another config or K; "
+                "re-run it with the same options to continue it, or choose another --out"
+            )
+        # more samplers or seeds than before: the runs already done are kept
+        experiment.samplers = list(dict.fromkeys(earlier["samplers"] + experiment.samplers))
+        experiment.seeds = sorted(set(earlier["seeds"]) | set(experiment.seeds))
+    write_atomic(path, yaml.safe_dump(experiment.record(), sort_keys=False))
+    return experiment
+
+
+# --- running ------------------------------------------------------------------------------
+def finished(run: RunFolder, total_steps: int) -> bool:
+    """Has the run saved its final point at or past ``total_steps`` (with its model, for PPO)?"""
+    try:
+        needs_model = run.read_config()["train"]["agent"] == "ppo"
+        done = RunFolder.unreadable(run.final, needs_model) is None
+        return done and int(RunFolder.read_state(run.final)["step"]) >= total_steps
+    except (OSError, ValueError, KeyError, ConfigError):
+        return False
+
+
+def train_run(experiment: Experiment, sampler: str, seed: int, echo: Callable[[str], None], report=None) -> RunFolder:
+    """Trains one run to the budget: skipped when finished, resumed when started, else started.
+    ``report`` (an aaai.train.training.Progress) is told of its steps and episodes."""
+    from aaai.train.training import train
+
+    config = experiment.run_config(sampler, seed)
+    run = RunFolder(experiment.run_dir(sampler, seed))
+    total = config["train"]["total_steps"]
+    if finished(run, total):
+        echo(f"{run.path}: trained ({total} steps), skipped")
+        return run
+    hooks = {"progress": report.update, "on_episodes": report.on_episodes} if report is not None else {}
+    if run.config_path.is_file() and run.saved():
+        echo(f"{run.path}: resuming")
+        train(run.path, resume=True, say=echo, **hooks)
+        return run
+    if run.path.exists():  # started but nothing saved yet: start again
+        shutil.rmtree(run.path)
+    echo(f"{run.path}: training {sampler}, seed {seed}, {total} steps")
+    train(run.path, config, say=echo, **hooks)
+    return run
+
+
+def trained_seeds(run: RunFolder, cells: list[tuple[int, int]], count: int) -> dict[tuple[int, int], list[int]]:
+    """Per cell, the last ``count`` distinct seeds the run trained on (fewer if it played fewer)."""
+    played: dict[tuple[int, int], list[int]] = {cell: [] for cell in cells}
+    for row in read_episodes(run.path):
+        cell = (int(row["level"]), int(row["difficulty"]))
+        if cell in played:
+            played[cell].append(int(row["seed"]))
+    return {cell: list(dict.fromkeys(reversed(seeds)))[:count] for cell, seeds in played.items()}
+
+
+def score_run(experiment: Experiment, run: RunFolder, echo: Callable[[str], None]) -> dict[str, Path]:
+    """The run's two scoreboards (reserved seeds, seeds it trained on), each played only as far as missing."""
+    from aaai.scoring.evaluation import Cell, cells_for, evaluate, policy_record, scored_episodes
+    from aaai.scoring.policies import resolve
+
+    one_torch_thread()
+    config = load_config(run.read_config())
+    cur = config["curriculum"]
+    k = experiment.seeds_per_cell
+    reserved = cells_for(cur["levels"], cur["difficulties"], "reserved", k)
+    own = trained_seeds(run, [(c.level, c.difficulty) for c in reserved], k)
+    trained = [Cell(level, d, seeds) for (level, d), seeds in own.items() if seeds]
+    boards = {
+        "reserved": (reserved, run.path / "scoreboard_reserved.csv", "reserved"),
+        "trained": (trained, run.path / "scoreboard_trained.csv", "list"),
+    }
+    for name, (cells, output, seeds_mode) in boards.items():
+        wanted = sum(len(c.seeds) for c in cells)
+        if output.exists() and len(scored_episodes(output)) >= wanted:
+            echo(f"{output}: scored ({wanted} episodes), skipped")
+            continue
+        echo(f"{output}: scoring {wanted} episodes")
+        policy = resolve(str(run.path))
+        evaluate(policy, cells, output, config, record=policy_record(policy, seeds_mode))
+    return {name: output for name, (_, output, _) in boards.items()}
+
+
+def run_one(
+    experiment: Experiment,
+    sampler: str,
+    seed: int,
+    echo: Callable[[str], None] = print,
+    progress_every: float | None = None,
+) -> None:
+    """Trains and scores one (sampler, seed), as far as not done."""
+    from aaai.train.training import Progress, print_lines
+
+    name = f"{sampler}-seed{seed}"
+    report = None
+    if progress_every is not None:
+        report = Progress(
+            experiment.config["train"]["total_steps"],
+            label=f"training {name}",
+            every=progress_every,
+            write=print_lines(sys.stdout),
+        )
+    run = train_run(experiment, sampler, seed, echo, report)
+    score_run(experiment, run, echo)
+
+
+def _job(experiment: Experiment, sampler: str, seed: int, progress_every: float | None) -> None:
+    run_one(experiment, sampler, seed, print_flushed, progress_every)
+
+
+def print_flushed(text: str) -> None:
+    print(text, flush=True)
+
+
+def one_torch_thread() -> None:
+    """One torch thread per run: runs share the cores, and torch's idle threads spinning beside
+    another run made scoring several times slower (as the learner, aaai.train.learner, does in training)."""
+    try:
+        import torch
+    except ImportError:
+        return
+    torch.set_num_threads(1)
+
+
+def run_experiment(
+    experiment: Experiment, echo: Callable[[str], None] = print, progress_every: float | None = None, jobs: int = 1
+) -> list[dict]:
+    """Trains and scores every (sampler, seed) not yet done, ``jobs`` runs at a time (each in its
+    own process), then writes the table and the plot. Runs go seed by seed: an experiment stopped
+    early has every sampler on its first seeds."""
+    pairs = [(sampler, seed) for seed in experiment.seeds for sampler in experiment.samplers]
+    if jobs <= 1:
+        for sampler, seed in pairs:
+            run_one(experiment, sampler, seed, echo, progress_every)
+    else:
+        context = multiprocessing.get_context("forkserver")
+        with concurrent.futures.ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+            futures = [pool.submit(_job, experiment, sampler, seed, progress_every) for sampler, seed in pairs]
+            for future in futures:
+                future.result()  # the first failure is raised here, after the runs under way end
+    rows = [run_row(experiment, sampler, seed) for sampler in experiment.samplers for seed in experiment.seeds]
+    write_results(experiment, rows)
+    return rows
+
+
+# --- results ------------------------------------------------------------------------------
+def read_episodes(folder: Path) -> list[dict]:
+    path = Path(folder) / "episodes.csv"
+    if not path.is_file():
+        return []
+    with open(path, newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def read_board(path: Path) -> list[dict]:
+    if not path.is_file():
+        return []
+    with open(path, newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def pass_pct(rows: list[dict]) -> float:
+    return 100.0 * sum(r["outcome"] != "failed" for r in rows) / len(rows) if rows else math.nan
+
+
+RUN_COLUMNS = [
+    "sampler",
+    "seed",
+    "steps",
+    "episodes",
+    "cells_played",
+    "fewest_episodes_per_cell",
+    "reserved_episodes",
+    "reserved_pass_pct",
+    "reserved_mean_return",
+    "trained_episodes",
+    "trained_pass_pct",
+    "gap_pct",
+]
+
+
+def run_row(experiment: Experiment, sampler: str, seed: int) -> dict:
+    run = RunFolder(experiment.run_dir(sampler, seed))
+    cur = experiment.config["curriculum"]
+    cells = [(level, d) for level in cur["levels"] for d in cur["difficulties"]]
+    episodes = read_episodes(run.path)
+    counts = [sum(1 for e in episodes if (int(e["level"]), int(e["difficulty"])) == cell) for cell in cells]
+    reserved = read_board(run.path / "scoreboard_reserved.csv")
+    trained = read_board(run.path / "scoreboard_trained.csv")
+    state = RunFolder.read_state(run.final) if (run.final / "state.json").is_file() else {"step": 0}
+    row = {
+        "sampler": sampler,
+        "seed": seed,
+        "steps": state["step"],
+        "episodes": len(episodes),
+        "cells_played": sum(c > 0 for c in counts),
+        "fewest_episodes_per_cell": min(counts),
+        "reserved_episodes": len(reserved),
+        "reserved_pass_pct": pass_pct(reserved),
+        "reserved_mean_return": float(np.mean([float(r["return"]) for r in reserved])) if reserved else math.nan,
+        "trained_episodes": len(trained),
+        "trained_pass_pct": pass_pct(trained),
+    }
+    row["gap_pct"] = row["trained_pass_pct"] - row["reserved_pass_pct"]
+    return row
+
+
+TABLE_COLUMNS = [
+    "sampler",
+    "runs",
+    "reserved_pass_pct_mean",
+    "reserved_pass_pct_std",
+    "reserved_mean_return",
+    "trained_pass_pct_mean",
+    "trained_pass_pct_std",
+    "gap_pct_mean",
+    "cells_played_mean",
+    "fewest_episodes_per_cell_mean",
+]
+
+
+def table(rows: list[dict]) -> list[dict]:
+    """Per sampler: mean and (sample) standard deviation over its runs."""
+    out = []
+    for sampler in dict.fromkeys(r["sampler"] for r in rows):
+        group = [r for r in rows if r["sampler"] == sampler]
+
+        def mean(key):
+            values = [r[key] for r in group if not math.isnan(r[key])]
+            return float(np.mean(values)) if values else math.nan
+
+        def std(key):
+            values = [r[key] for r in group if not math.isnan(r[key])]
+            return float(np.std(values, ddof=1)) if len(values) > 1 else math.nan
+
+        out.append(
+            {
+                "sampler": sampler,
+                "runs": len(group),
+                "reserved_pass_pct_mean": mean("reserved_pass_pct"),
+                "reserved_pass_pct_std": std("reserved_pass_pct"),
+                "reserved_mean_return": mean("reserved_mean_return"),
+                "trained_pass_pct_mean": mean("trained_pass_pct"),
+                "trained_pass_pct_std": std("trained_pass_pct"),
+                "gap_pct_mean": mean("gap_pct"),
+                "cells_played_mean": mean("cells_played"),
+                "fewest_episodes_per_cell_mean": mean("fewest_episodes_per_cell"),
+            }
+        )
+    return out
+
+
+def table_markdown(summary: list[dict], experiment: Experiment) -> str:
+    cur, train = experiment.config["curriculum"], experiment.config["train"]
+
+    def pm(mean, std):
+        return "-" if math.isnan(mean) else f"{mean:.1f}" + ("" if math.isnan(std) else f" ± {std:.1f}")
+
+    lines = [
+        f"Levels {cur['levels']} x difficulties {cur['difficulties']}, "
+        f"{train['total_steps']} steps per run, action mode {experiment.config['agent']['action_mode']}, "
+        f"warm-up {cur['warmup']}, seeds {experiment.seeds}, K = {experiment.seeds_per_cell} seeds per cell. "
+        "Pass rates in %, mean ± standard deviation over the training seeds.",
+        "",
+        "| sampler | runs | reserved seeds: pass % | mean return | trained seeds: pass % | gap (trained - reserved) "
+        "| cells played | fewest episodes in a cell |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for s in summary:
+        lines.append(
+            f"| {s['sampler']} | {s['runs']} | {pm(s['reserved_pass_pct_mean'], s['reserved_pass_pct_std'])} "
+            f"| {s['reserved_mean_return']:.3f} | {pm(s['trained_pass_pct_mean'], s['trained_pass_pct_std'])} "
+            f"| {s['gap_pct_mean']:+.1f} | {s['cells_played_mean']:.1f} | {s['fewest_episodes_per_cell_mean']:.1f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def csv_text(rows: list[dict], columns: list[str]) -> str:
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=columns, lineterminator="\n")
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({k: (f"{v:.4f}" if isinstance(v, float) else v) for k, v in row.items()})
+    return text.getvalue()
+
+
+def cell_pass_curve(episodes: list[dict], cells: list[tuple[int, int]], steps: np.ndarray, window: int) -> np.ndarray:
+    """At each of ``steps``: the mean over ``cells`` of each cell's pass rate over its last
+    ``window`` episodes logged at or before that step (0 for a cell not yet played)."""
+    by_cell: dict[tuple[int, int], list[tuple[int, bool]]] = {cell: [] for cell in cells}
+    for e in episodes:
+        cell = (int(e["level"]), int(e["difficulty"]))
+        if cell in by_cell:
+            by_cell[cell].append((int(e["step"]), episode_passed(float(e["task_return"]), float(e["max_reward"]))))
+    curve = np.zeros(len(steps))
+    for played in by_cell.values():
+        at = np.array([s for s, _ in played], dtype=np.int64)
+        passed = np.array([p for _, p in played], dtype=np.float64)
+        for i, step in enumerate(steps):
+            n = int(np.searchsorted(at, step, side="right"))
+            if n:
+                curve[i] += passed[max(0, n - window) : n].mean()
+    return curve / len(cells)
+
+
+def curves(experiment: Experiment) -> tuple[np.ndarray, list[dict]]:
+    cur = experiment.config["curriculum"]
+    cells = [(level, d) for level in cur["levels"] for d in cur["difficulties"]]
+    runs = {
+        (sampler, seed): read_episodes(experiment.run_dir(sampler, seed))
+        for sampler in experiment.samplers
+        for seed in experiment.seeds
+    }
+    last = max((int(e["step"]) for episodes in runs.values() for e in episodes), default=0)
+    total = max(experiment.config["train"]["total_steps"], last)  # PPO ends on a whole rollout
+    steps = np.linspace(0, total, CURVE_POINTS + 1)[1:].round().astype(np.int64)
+    rows = []
+    for sampler in experiment.samplers:
+        for seed in experiment.seeds:
+            episodes = runs[(sampler, seed)]
+            curve = cell_pass_curve(episodes, cells, steps, cur["window"])
+            rows += [
+                {"sampler": sampler, "seed": seed, "step": int(s), "cell_pass_rate": float(v)}
+                for s, v in zip(steps, curve)
+            ]
+    return steps, rows
+
+
+def write_results(experiment: Experiment, rows: list[dict]) -> None:
+    folder = experiment.folder
+    write_atomic(folder / "runs.csv", csv_text(rows, RUN_COLUMNS))
+    summary = table(rows)
+    write_atomic(folder / "table.csv", csv_text(summary, TABLE_COLUMNS))
+    write_atomic(folder / "table.md", table_markdown(summary, experiment))
+    steps, curve_rows = curves(experiment)
+    write_atomic(folder / "curves.csv", csv_text(curve_rows, ["sampler", "seed", "step", "cell_pass_rate"]))
+    series = {}
+    for sampler in experiment.samplers:
+        values = np.array(
+            [
+                [r["cell_pass_rate"] for r in curve_rows if r["sampler"] == sampler and r["seed"] == seed]
+                for seed in experiment.seeds
+            ]
+        )
+        series[sampler] = values
+    plot_spread(
+        steps,
+        series,
+        folder / "curves.png",
+        title=f"{len(experiment.seeds)} seed(s) per sampler: mean, band = min to max over seeds",
+        ylabel="training pass rate (mean over cells)",
+    )
+
+
+# --- pictures -----------------------------------------------------------------------------
+def _pyplot():
+    try:
+        import matplotlib
+    except ImportError:
+        raise ImportError("plots need matplotlib (the train extra: pip install -e '.[train]')") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_spread(steps: np.ndarray, series: dict[str, np.ndarray], path: Path, title: str, ylabel: str) -> None:
+    """One line per name (the mean of its rows) with a band from the lowest to the highest row."""
+    plt = _pyplot()
+    figure, axes = plt.subplots(figsize=(7, 4.2), dpi=110)
+    for name, values in series.items():
+        if values.size == 0:
+            continue
+        (line,) = axes.plot(steps, values.mean(axis=0), label=name)
+        if len(values) > 1:
+            axes.fill_between(steps, values.min(axis=0), values.max(axis=0), color=line.get_color(), alpha=0.2)
+    axes.set_xlabel("training steps")
+    axes.set_ylabel(ylabel)
+    axes.set_ylim(-0.02, 1.02)
+    axes.set_title(title, fontsize=9)
+    axes.grid(alpha=0.3)
+    axes.legend()
+    save(figure, path)
+
+
+def save(figure, path: Path) -> None:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary, format="png", bbox_inches="tight")
+    figure.clear()
+    _pyplot().close(figure)
+
+
+def plot_runs(runs: list[str | Path], path: str | Path, smooth: int = 50) -> Path:
+    """`aaai plot`: the learning curves of runs on one figure, from their episodes.csv: task
+    return (without shaping) and pass rate, each a running mean over ``smooth`` episodes, against
+    training steps."""
+    plt = _pyplot()
+    data = []
+    for run in runs:
+        folder = Path(run)
+        RunFolder(folder).read_config()  # a clear error for a folder that is not a run
+        episodes = read_episodes(folder)
+        if not episodes:
+            raise ConfigError(f"RUN: got {str(folder)!r}, which has no finished episode yet (episodes.csv)")
+        data.append((folder, episodes))
+    figure, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6), dpi=110, sharex=True)
+    for folder, episodes in data:
+        steps = np.array([int(e["step"]) for e in episodes])
+        returns = np.array([float(e["task_return"]) for e in episodes])
+        passed = np.array([episode_passed(float(e["task_return"]), float(e["max_reward"])) for e in episodes], float)
+        label = folder.name if len({f.name for f, _ in data}) == len(data) else str(folder)
+        top.plot(steps, running_mean(returns, smooth), label=label)
+        bottom.plot(steps, running_mean(passed, smooth), label=label)
+    top.set_ylabel(f"task return (mean of last {smooth})")
+    bottom.set_ylabel(f"pass rate (last {smooth})")
+    bottom.set_ylim(-0.02, 1.02)
+    bottom.set_xlabel("training steps")
+    for axes in (top, bottom):
+        axes.grid(alpha=0.3)
+    top.legend(fontsize=8)
+    save(figure, Path(path))
+    return Path(path)
+
+
+def running_mean(values: np.ndarray, width: int) -> np.ndarray:
+    """Mean of each value and up to ``width - 1`` before it."""
+    sums = np.cumsum(np.concatenate([[0.0], values]))
+    ends = np.arange(1, len(values) + 1)
+    starts = np.maximum(0, ends - width)
+    return (sums[ends] - sums[starts]) / (ends - starts)

@@ -1,0 +1,402 @@
+"""`aaai train --teacher reference`: a student that sees only the agent's senses, taught by DAgger.
+
+DAgger (Ross, Gordon and Bagnell, 2011): the student acts, and the teacher labels every state the
+student visits with the action it would take there. Here the teacher is the reference controller
+(aaai.task.reference), which reads the level spec and the live positions of every object; the student
+gets only the ordinary observation (rays, proprioception, the camera if on). Each iteration
+
+1. plays ``dagger_episodes`` episodes spread evenly over the curriculum's cells, on training seeds,
+   each for at most ``dagger_episode_cap`` decisions; at every agent decision the teacher's action
+   is recorded as the label, and the action taken is the teacher's with probability
+   beta ** iteration, else the student's (iteration 0: the teacher alone, which is behaviour
+   cloning);
+2. adds the (observation, label) pairs to everything gathered so far;
+3. refits the student to all of it by supervised learning: the mean action of a
+   stable-baselines3 ``MultiInputPolicy`` regressed on the labels (mean squared error, Adam),
+   continuing from the last round's weights.
+
+The teacher is stateful: it notices when it makes no progress and backs off, and it times its
+plank pushes. While the student drives, those clocks are held (``ReferenceController.
+student_drove``): a first version let them run, and labelled the student's detours "stuck, back
+off", and its students got worse with every round after the third (docs: Learned agents).
+
+The student is an ordinary stable-baselines3 PPO model in an ordinary run folder, so ``aaai eval
+--policy RUN`` scores it and ``aaai train --init-from RUN`` fine-tunes it with PPO. Every
+iteration is a checkpoint (its model, and its data in ``dagger/``), so ``--resume`` continues a run
+after the last finished iteration. Episodes run in worker processes (``train.processes``, by default
+``train.num_envs`` up to the usable cores); with the same config a run repeats exactly.
+
+The student's inputs are only the observation. Its network has no state; what it remembers is
+what the senses keep (``sensors.ray_memory``: the rays' sightings of food 1, 2, 4 ... 64 decisions
+back in configs/student.yaml). What a level needs beyond that is measured by ``aaai diagnose``
+(docs, Learned agents).
+"""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from aaai.config import ConfigError, env_part, load_config
+from aaai.scoring.runs import RunFolder, check_writable
+from aaai.task.seeds import TRAIN_SEEDS
+from aaai.train.vector import Episode, worker_processes
+
+BATCH_SIZE = 1024
+LEARNING_RATE = 1e-3
+EPISODES_PER_JOB = 4  # episodes a worker plays per task: small enough to share the load evenly
+DATA_FOLDER = "dagger"
+
+
+@dataclass(frozen=True)
+class DaggerSettings:
+    """What a DAgger run does (the run's config, ``train`` section)."""
+
+    iterations: int  # train.dagger_iterations
+    episodes: int  # train.dagger_episodes: per iteration, spread evenly over the cells
+    beta: float  # train.dagger_beta: the teacher acts with probability beta ** iteration
+    epochs: int  # train.dagger_epochs: passes over the aggregated data per refit
+    episode_cap: int  # train.dagger_episode_cap: decisions an episode is played for at most
+    net_width: int  # train.net_width: two hidden layers of this width, as PPO's
+    log_std_init: float  # train.log_std_init: the exploration a PPO fine-tune starts from
+    workers: int  # train.processes (aaai.train.vector.worker_processes): worker processes playing episodes
+    seed: int  # train.seed
+
+    @classmethod
+    def from_config(cls, config: dict) -> "DaggerSettings":
+        train = config["train"]
+        return cls(
+            train["dagger_iterations"],
+            train["dagger_episodes"],
+            train["dagger_beta"],
+            train["dagger_epochs"],
+            train["dagger_episode_cap"],
+            train["net_width"],
+            train["log_std_init"],
+            worker_processes(train),
+            train["seed"],
+        )
+
+
+# --- the student's network --------------------------------------------------------------
+def build_policy(observation_space, action_space, net_width: int, log_std_init: float = 0.0):
+    """The student: stable-baselines3's MultiInputPolicy as PPO builds it."""
+    from stable_baselines3.common.policies import MultiInputActorCriticPolicy
+
+    return MultiInputActorCriticPolicy(
+        observation_space,
+        action_space,
+        lambda _: LEARNING_RATE,
+        net_arch=[net_width, net_width],
+        log_std_init=log_std_init,
+    )
+
+
+def act(policy, observation: dict) -> np.ndarray:
+    """The student's deterministic action for one observation (clipped to the action space)."""
+    action, _ = policy.predict(observation, deterministic=True)
+    return action
+
+
+def mean_actions(policy, observations: dict):
+    """The policy's mean action for a batch of observations (torch tensors), with gradients."""
+    features = policy.extract_features(observations, policy.pi_features_extractor)
+    latent = policy.mlp_extractor.forward_actor(features)
+    return policy.action_net(latent)
+
+
+# --- playing episodes -------------------------------------------------------------------
+@dataclass(frozen=True)
+class Job:
+    config: dict
+    weights: dict | None  # the student's state dict; None: the teacher acts alone
+    net_width: int
+    beta: float  # the probability that the teacher's action is taken
+    iteration: int
+    episodes: tuple[tuple[int, int, int], ...]  # (level, difficulty, seed)
+    cap: int = 10**9  # decisions an episode is played for at most
+
+
+def play_job(job: Job) -> dict:
+    """In a worker: plays the job's episodes; returns their observations, the teacher's labels and
+    one Episode record each."""
+    import torch
+
+    from aaai.env import AnimalAIEnv
+    from aaai.task.reference import ReferenceController
+
+    torch.set_num_threads(1)
+    env = AnimalAIEnv(config=env_part(job.config, 0.0))
+    teacher = ReferenceController(env)
+    student = None
+    if job.weights is not None:
+        student = build_policy(env.observation_space, env.action_space, job.net_width)
+        student.load_state_dict(job.weights)
+        student.set_training_mode(False)
+    observations: dict[str, list] = {key: [] for key in env.observation_space.spaces}
+    labels, records, taught = [], [], 0
+    try:
+        for level, difficulty, seed in job.episodes:
+            observation, info = env.reset(seed=seed, options={"level": level, "difficulty": difficulty})
+            teacher.reset(seed)
+            rng = np.random.default_rng([seed, job.iteration])
+            total, task, length = 0.0, 0.0, 0
+            while True:
+                label = np.asarray(teacher(observation), np.float32)
+                for key, value in observation.items():
+                    observations[key].append(value)
+                labels.append(label)
+                if student is None or rng.random() < job.beta:
+                    action, taught = label, taught + 1
+                else:
+                    action = act(student, observation)
+                    teacher.student_drove(env.hold * env.control_dt)
+                observation, reward, terminated, truncated, info = env.step(action)
+                total += reward
+                task += reward - info["reward_terms"].get("shaping", 0.0)
+                length += 1
+                if terminated or truncated or length >= job.cap:
+                    break
+            records.append(
+                Episode(
+                    0,
+                    level,
+                    difficulty,
+                    seed,
+                    total,
+                    task,
+                    length,
+                    info["food_eaten"],
+                    info["wall_hits"],
+                    bool(info["fell"]),
+                    bool(info["blew_up"]),
+                    info["max_reward"],
+                )
+            )
+    finally:
+        env.close()
+    return {
+        "observations": {key: np.stack(values) for key, values in observations.items()},
+        "labels": np.stack(labels),
+        "episodes": records,
+        "taught": taught,
+    }
+
+
+def plan_episodes(cells: list[tuple[int, int]], count: int, rng: np.random.Generator) -> list[tuple[int, int, int]]:
+    """``count`` episodes spread evenly over ``cells`` (each cell once before any twice, in a
+    shuffled order), each on a fresh training seed."""
+    order: list[tuple[int, int]] = []
+    while len(order) < count:
+        order.extend(cells[i] for i in rng.permutation(len(cells)))
+    seeds = rng.integers(TRAIN_SEEDS.start, TRAIN_SEEDS.stop, size=count)
+    return [(level, difficulty, int(seed)) for (level, difficulty), seed in zip(order[:count], seeds)]
+
+
+# --- fitting ----------------------------------------------------------------------------
+def fit(policy, observations: dict, labels: np.ndarray, epochs: int, seed: int) -> float:
+    """Regresses the policy's mean action on the labels; returns the last epoch's mean loss."""
+    import torch
+
+    generator = torch.Generator().manual_seed(seed)
+    inputs = {key: torch.as_tensor(value, dtype=torch.float32) for key, value in observations.items()}
+    targets = torch.as_tensor(labels, dtype=torch.float32)
+    optimizer = torch.optim.Adam(policy.parameters(), lr=LEARNING_RATE)
+    policy.set_training_mode(True)
+    size, loss_sum, batches = len(targets), 0.0, 0
+    for _ in range(epochs):
+        order = torch.randperm(size, generator=generator)
+        loss_sum, batches = 0.0, 0
+        for start in range(0, size, BATCH_SIZE):
+            index = order[start : start + BATCH_SIZE]
+            batch = {key: value[index] for key, value in inputs.items()}
+            loss = torch.nn.functional.mse_loss(mean_actions(policy, batch), targets[index])
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            loss_sum, batches = loss_sum + loss.item(), batches + 1
+    policy.set_training_mode(False)
+    return loss_sum / max(batches, 1)
+
+
+# --- the run ----------------------------------------------------------------------------
+@dataclass
+class StudentResult:
+    run: RunFolder
+    steps: int  # agent decisions gathered (labelled observations)
+    episodes: int
+    resumed_from: int
+
+
+def check_teachable(config: dict) -> None:
+    if config["train"]["teacher"] != "reference":
+        raise ConfigError(
+            f"config key 'train.teacher': got {config['train']['teacher']!r}; allowed for a student run: reference"
+        )
+    if config["agent"]["action_mode"] == "velocity":
+        raise ConfigError(
+            "config key 'agent.action_mode': got 'velocity'; allowed for a student of the reference: "
+            "gait or rotation (the reference steers the gait by joint angles)"
+        )
+
+
+def _save_data(folder: Path, iteration: int, observations: dict, labels: np.ndarray) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    final = folder / f"iteration_{iteration:03d}.npz"
+    partial = final.with_name(final.name + ".partial.npz")
+    np.savez(partial, labels=labels, **{f"obs_{key}": value for key, value in observations.items()})
+    partial.replace(final)
+
+
+def _load_data(folder: Path, iterations: int) -> tuple[dict, np.ndarray]:
+    observations: dict[str, list] = {}
+    labels = []
+    for iteration in range(iterations):
+        path = folder / f"iteration_{iteration:03d}.npz"
+        if not path.is_file():
+            raise ConfigError(f"--resume: {str(path)!r} is missing; the run's data cannot be rebuilt")
+        with np.load(path) as data:
+            labels.append(data["labels"])
+            for name in data.files:
+                if name.startswith("obs_"):
+                    observations.setdefault(name[4:], []).append(data[name])
+    return {key: np.concatenate(parts) for key, parts in observations.items()}, np.concatenate(labels)
+
+
+def train_student(
+    run_dir: str | Path, config: dict | None = None, resume: bool = False, say: Callable[[str], None] = print
+) -> StudentResult:
+    """Starts a DAgger run in ``run_dir`` with ``config`` (resolved), or resumes the one there."""
+    import torch
+    from stable_baselines3 import PPO
+
+    from aaai.env import AnimalAIEnv
+    from aaai.train.training import with_proprioception
+
+    run = RunFolder(run_dir)
+    check_writable(run.path, "--resume" if resume else "--run", folder=True)
+    done, state = 0, None
+    if resume:
+        config = load_config(run.read_config())
+        point = run.resume_point(needs_model=True, say=say)
+        if point is not None:
+            state = point[1]
+            done = state["agent"]["iterations_done"]
+            run.trim_episodes(state["step"])
+    else:
+        config = with_proprioception(config)
+        check_teachable(config)
+        run.create(config)
+    check_teachable(config)
+    settings = DaggerSettings.from_config(config)
+    torch.manual_seed(settings.seed)
+    torch.set_num_threads(1)
+    env = AnimalAIEnv(config=env_part(config, 0.0))
+    model = PPO(
+        "MultiInputPolicy",
+        env,
+        policy_kwargs={"net_arch": [settings.net_width] * 2, "log_std_init": settings.log_std_init},
+        learning_rate=config["train"]["learning_rate"],
+        n_steps=config["train"]["n_steps"],
+        batch_size=config["train"]["batch_size"],
+        seed=settings.seed,
+        device="cpu",
+        verbose=0,
+    )
+    env.close()
+    data_folder = run.path / DATA_FOLDER
+    if done:
+        observations, labels = _load_data(data_folder, done)
+        model.policy.load_state_dict(torch.load(run.latest_checkpoint() / "student.pth", weights_only=True))
+    else:
+        observations, labels = {}, np.zeros((0, *model.action_space.shape), np.float32)
+    cells = [(level, d) for level in config["curriculum"]["levels"] for d in config["curriculum"]["difficulties"]]
+    episodes_logged = 0
+    context = get_context("spawn")  # workers start clean: no copy of this process's torch or PyBullet state
+    with ProcessPoolExecutor(max_workers=settings.workers, mp_context=context) as pool:
+        for iteration in range(done, settings.iterations):
+            started = time.perf_counter()
+            rng = np.random.default_rng([settings.seed, iteration])
+            plan = plan_episodes(cells, settings.episodes, rng)
+            beta = settings.beta**iteration
+            weights = None if iteration == 0 else {k: v.clone() for k, v in model.policy.state_dict().items()}
+            jobs = [
+                Job(
+                    config,
+                    weights,
+                    settings.net_width,
+                    beta,
+                    iteration,
+                    tuple(plan[i : i + EPISODES_PER_JOB]),
+                    settings.episode_cap,
+                )
+                for i in range(0, len(plan), EPISODES_PER_JOB)
+            ]
+            results = list(pool.map(play_job, jobs))
+            new_obs = {
+                key: np.concatenate([r["observations"][key] for r in results]) for key in results[0]["observations"]
+            }
+            new_labels = np.concatenate([r["labels"] for r in results])
+            finished = [episode for r in results for episode in r["episodes"]]
+            _save_data(data_folder, iteration, new_obs, new_labels)
+            observations = (
+                new_obs
+                if not observations
+                else {key: np.concatenate([observations[key], new_obs[key]]) for key in observations}
+            )
+            labels = np.concatenate([labels, new_labels])
+            loss = fit(model.policy, observations, labels, settings.epochs, settings.seed + iteration)
+            with torch.no_grad():
+                model.policy.log_std.fill_(settings.log_std_init)
+            step = len(labels)
+            run.log_episodes(step, finished)
+            episodes_logged += len(finished)
+            passed = sum(e.max_reward > 0 and e.task_return / e.max_reward >= 0.8 for e in finished)
+            taught = sum(r["taught"] for r in results)
+            line = {
+                "iteration": iteration,
+                "beta": round(beta, 6),
+                "episodes": len(finished),
+                "decisions": len(new_labels),
+                "teacher_share": round(taught / max(len(new_labels), 1), 4),
+                "passed": passed,
+                "pass_rate": round(passed / max(len(finished), 1), 4),
+                "dataset": step,
+                "loss": round(loss, 6),
+                "seconds": round(time.perf_counter() - started, 1),
+            }
+            _log_iteration(run.path / "dagger.csv", line)
+            say(
+                f"DAgger iteration {iteration}: beta {beta:.3f}, {len(finished)} episodes passed {passed} "
+                f"({100 * line['pass_rate']:.0f} %, teacher's share of actions {100 * line['teacher_share']:.0f} %), "
+                f"{step} labelled decisions, loss {loss:.4f}, {line['seconds']:.0f} s"
+            )
+            last = iteration + 1 == settings.iterations
+
+            def save(path: Path) -> None:
+                model.save(path)
+                torch.save(model.policy.state_dict(), path.with_name("student.pth"))
+
+            # No sampler state: the plan of each iteration is a pure function of (seed, iteration).
+            run.save_checkpoint(
+                step, {"curriculum": None, "agent": {"iterations_done": iteration + 1}}, save, final=last
+            )
+    return StudentResult(run, len(labels), episodes_logged, done)
+
+
+def _log_iteration(path: Path, line: dict) -> None:
+    import csv
+
+    new = not path.exists()
+    with open(path, "a", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(line))
+        if new:
+            writer.writeheader()
+        writer.writerow(line)
+        handle.flush()

@@ -1,0 +1,320 @@
+"""`aaai train`: a curriculum (or uniform) over (level, difficulty) cells feeding parallel workers.
+
+The learner is PPO from stable-baselines3 (aaai/train/learner.py, the `train` extra); ``agent:
+random`` runs the same loop with uniform random actions and no torch.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, TextIO
+
+import numpy as np
+
+from aaai.config import ConfigError, load_config
+from aaai.scoring.runs import RunFolder, check_writable
+from aaai.train.curriculum import Curriculum, episode_passed
+from aaai.train.vector import CurriculumVecEnv, Episode
+
+MIN_CNN_RESOLUTION = 36  # the smallest image stable-baselines3's NatureCNN accepts
+
+
+@dataclass
+class TrainResult:
+    run: RunFolder
+    steps: int
+    episodes: int
+    resumed_from: int
+
+
+class Progress:
+    """How far a job of ``total`` steps is: steps done, their rate, episodes, the recent pass rate
+    and the time left; with ``every`` seconds and ``write``, one such line every ``every`` seconds
+    (for a log: piped or under nohup, where a progress bar prints nothing).
+
+    The rate is measured over the updates of the last ``window`` seconds, from the first update
+    on, so the start-up before the first step (worker processes, torch) does not count: counted,
+    it made the ETA hours long at the start of a run of seconds.
+    """
+
+    def __init__(
+        self,
+        total: int,
+        done: int = 0,
+        label: str = "training",
+        unit: str = "steps",
+        every: float | None = None,
+        write: Callable[[str], None] | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        window: float = 60.0,
+        recent: int = 50,
+    ):
+        self.total, self.done, self.label, self.unit = total, done, label, unit
+        self.every, self.write, self.clock, self.window = every, write, clock, window
+        self.episodes = self.env_steps = 0
+        self.started = clock()
+        self.passes: deque[bool] = deque(maxlen=recent)
+        self.marks: deque[tuple[float, int]] = deque()  # (time, steps done) of recent updates
+        self.last_line = clock()
+
+    def update(self, steps: int) -> None:
+        self.done += steps
+        now = self.clock()
+        self.marks.append((now, self.done))
+        while len(self.marks) > 2 and now - self.marks[1][0] >= self.window:
+            self.marks.popleft()
+        self.maybe_write(now)
+
+    def add_episodes(self, passed: list[bool], steps: int = 0) -> None:
+        """Finished episodes (whether each passed) and, when the unit is not steps, their steps."""
+        self.episodes += len(passed)
+        self.passes.extend(passed)
+        self.env_steps += steps
+
+    def on_episodes(self, finished: list[Episode]) -> None:
+        """For :class:`Tracker`: finished training episodes."""
+        self.add_episodes([episode_passed(e.task_return, e.max_reward) for e in finished])
+
+    def rate(self) -> float | None:
+        """Steps per second over the recent updates (None before two updates a moment apart)."""
+        if len(self.marks) < 2:
+            return None
+        (t0, s0), (t1, s1) = self.marks[0], self.marks[-1]
+        return (s1 - s0) / (t1 - t0) if t1 > t0 else None
+
+    def eta(self) -> float | None:
+        rate = self.rate()
+        return max(self.total - self.done, 0) / rate if rate else None
+
+    def details(self) -> str:
+        """Everything but the count: rate, episodes (or steps), the recent pass rate, the ETA."""
+        rate = self.rate()
+        rate_text = "-" if rate is None else f"{rate:.0f}" if rate >= 10 else f"{rate:.2g}"
+        if self.unit == "steps":
+            count = f"{self.episodes} episodes"
+        else:
+            elapsed = self.clock() - self.started
+            count = (
+                f"{self.env_steps} steps ({self.env_steps / elapsed:.0f} steps/s)"
+                if elapsed > 0
+                else f"{self.env_steps} steps"
+            )
+        passed = (
+            f"{100 * sum(self.passes) / len(self.passes):.0f}% of the last {len(self.passes)}" if self.passes else "-"
+        )
+        return f"{rate_text} {self.unit}/s, {count}, pass rate {passed}, ETA {format_duration(self.eta())}"
+
+    def line(self) -> str:
+        share = f" ({100 * self.done / self.total:.0f}%)" if self.total else ""
+        return f"{self.label}: {self.done} / {self.total} {self.unit}{share}, {self.details()}"
+
+    def maybe_write(self, now: float | None = None) -> None:
+        now = self.clock() if now is None else now
+        if self.write is not None and self.every is not None and now - self.last_line >= self.every:
+            self.last_line = now
+            self.write(self.line())
+
+
+def format_duration(seconds: float | None) -> str:
+    if seconds is None:
+        return "-"
+    seconds = int(round(seconds))
+    hours, rest = divmod(seconds, 3600)
+    return f"{hours} h {rest // 60:02d} min" if hours else f"{rest // 60} min {rest % 60:02d} s"
+
+
+def print_lines(stream: TextIO) -> Callable[[str], None]:
+    def write(text: str) -> None:
+        stream.write(text + "\n")
+        stream.flush()
+
+    return write
+
+
+class Tracker:
+    """Logs finished episodes and writes heatmaps and checkpoints as the step count passes their marks.
+    ``on_episodes`` (if set) is told of every finished episode too (a progress report)."""
+
+    def __init__(
+        self,
+        run: RunFolder,
+        curriculum: Curriculum,
+        config: dict,
+        start_step: int,
+        on_episodes: Callable[[list[Episode]], None] | None = None,
+    ):
+        self.run, self.curriculum, self.on_episodes = run, curriculum, on_episodes
+        self.checkpoint_every = config["train"]["checkpoint_every"]
+        self.heatmap_every = config["train"]["heatmap_every"]
+        self.next_checkpoint = (start_step // self.checkpoint_every + 1) * self.checkpoint_every
+        self.next_heatmap = (start_step // self.heatmap_every + 1) * self.heatmap_every
+        self.episodes = 0
+
+    def update(
+        self,
+        step: int,
+        finished: list[Episode],
+        agent_state: Callable[[], dict],
+        save_model: Callable[[Path], None] | None = None,
+    ) -> None:
+        if finished:
+            self.run.log_episodes(step, finished)
+            self.episodes += len(finished)
+            if self.on_episodes is not None:
+                self.on_episodes(finished)
+        if step >= self.next_heatmap:
+            self.curriculum.write_heatmap(self.run.path / "curriculum.png")
+            self.next_heatmap = (step // self.heatmap_every + 1) * self.heatmap_every
+        if step >= self.next_checkpoint:
+            self.save(step, agent_state, save_model)
+            self.next_checkpoint = (step // self.checkpoint_every + 1) * self.checkpoint_every
+
+    def save(self, step: int, agent_state: Callable[[], dict], save_model=None, final: bool = False) -> Path:
+        state = {"curriculum": self.curriculum.state_dict(), "agent": agent_state()}
+        return self.run.save_checkpoint(step, state, save_model, final=final)
+
+
+PROPRIOCEPTION = ("joint_velocities", "head_orientation", "foot_contacts")
+
+
+def with_proprioception(config: dict) -> dict:
+    """The run's config with the extra body senses on when train.proprioception asks for them.
+
+    The environment leaves them off by default; a learner without joint speeds, body tilt and foot
+    contacts learned next to nothing on L0 in our runs (see the docs, Training and curricula), so
+    training turns them on.
+    The run folder's config records the result, and evaluation reads it from there.
+    """
+    if not config["train"]["proprioception"]:
+        return config
+    return load_config(config, sensors={name: True for name in PROPRIOCEPTION})
+
+
+def check_trainable(config: dict) -> None:
+    sensors = config["sensors"]
+    if config["train"]["agent"] == "ppo" and sensors["camera"] and sensors["camera_resolution"] < MIN_CNN_RESOLUTION:
+        raise ConfigError(
+            f"config key 'sensors.camera_resolution': got {sensors['camera_resolution']}; allowed for PPO "
+            f"training: {MIN_CNN_RESOLUTION} or more (the smallest image the CNN accepts)"
+        )
+
+
+def check_init_from(config: dict) -> None:
+    """``train.init_from`` a run folder: its action mode, body, senses and network width must be this
+    run's, or its weights cannot fit (a model .zip is checked when its weights are loaded)."""
+    source = config["train"].get("init_from")
+    if not source:
+        return
+    if config["train"]["agent"] != "ppo":
+        raise ConfigError("--init-from: only a PPO run starts from another's weights (train.agent: ppo)")
+    path = Path(source)
+    if not path.exists():
+        raise ConfigError(f"--init-from: {source!r} does not exist; allowed: a run folder or a model .zip")
+    if not path.is_dir():
+        return
+    theirs = load_config(RunFolder(path).read_config())
+    keys = [("agent", "action_mode"), ("agent", "body"), ("train", "net_width")] + [
+        ("sensors", key) for key in config["sensors"]
+    ]
+    differ = [
+        f"{a}.{b}: {theirs[a][b]!r} there, {config[a][b]!r} here" for a, b in keys if theirs[a][b] != config[a][b]
+    ]
+    if differ:
+        raise ConfigError(
+            f"--init-from: run {source!r} was trained with another env or network ({'; '.join(differ)}); "
+            "allowed: a run of the same action mode, body, senses and train.net_width"
+        )
+
+
+def move_end(run: RunFolder, config: dict, checkpoint: Path | None, state: dict | None, total_steps: int) -> dict:
+    """On resume: the run's config with its end moved to ``total_steps`` (recorded in the run
+    folder); refused at or below the steps the run has done."""
+    done = state["step"] if state else 0
+    if total_steps <= done:
+        where = f" ({checkpoint.relative_to(run.path)})" if checkpoint is not None else ""
+        raise ConfigError(
+            f"--steps: got {total_steps}; the run already has {done} steps{where}; allowed: more than {done}"
+        )
+    config = load_config(config, total_steps=total_steps)
+    run.update_config(config)
+    return config
+
+
+def train(
+    run_dir: str | Path,
+    config: dict | None = None,
+    resume: bool = False,
+    progress: Callable[[int], None] | None = None,
+    asynchronous: bool | None = None,
+    total_steps: int | None = None,
+    say: Callable[[str], None] = print,
+    on_episodes: Callable[[list[Episode]], None] | None = None,
+) -> TrainResult:
+    """Starts a run in ``run_dir`` with ``config`` (a resolved config), or resumes the run there.
+
+    A resume continues from the newest readable saved point (``final/`` included); a damaged one is
+    skipped and ``say`` is told so. ``total_steps`` (if given) moves the run's end; the run
+    folder's config records it. It may not fall below the steps already done. ``progress`` is told
+    of every step, ``on_episodes`` of every finished episode (e.g. :class:`Progress`).
+    """
+    run = RunFolder(run_dir)
+    check_writable(run.path, "--resume" if resume else "--run", folder=True)  # before any work is done
+    checkpoint = state = None
+    if resume:
+        config = load_config(run.read_config())
+        point = run.resume_point(needs_model=config["train"]["agent"] == "ppo", say=say)
+        if point is not None:
+            checkpoint, state = point
+        if total_steps is not None:
+            config = move_end(run, config, checkpoint, state, total_steps)
+    else:
+        config = with_proprioception(config)
+        check_trainable(config)  # before the run folder exists: a refused config leaves nothing behind
+        check_init_from(config)
+        run.create(config)
+    curriculum = Curriculum.from_config(config)
+    start_step = state["step"] if state else 0
+    if state:
+        curriculum.load_state_dict(state["curriculum"])
+        run.trim_episodes(start_step)
+    tracker = Tracker(run, curriculum, config, start_step, on_episodes)
+    vec = CurriculumVecEnv(config, curriculum, config["train"]["num_envs"], asynchronous=asynchronous)
+    progress = progress or (lambda steps: None)
+    try:
+        if config["train"]["agent"] == "random":
+            steps = _train_random(vec, tracker, config, start_step, state, progress)
+        else:
+            from aaai.train.learner import train_ppo
+
+            steps = train_ppo(vec, tracker, config, run, checkpoint, progress)
+    finally:
+        vec.close()
+    curriculum.write_heatmap(run.path / "curriculum.png")
+    return TrainResult(run, steps, tracker.episodes, start_step)
+
+
+def _train_random(
+    vec: CurriculumVecEnv,
+    tracker: Tracker,
+    config: dict,
+    start_step: int,
+    state: dict | None,
+    progress: Callable[[int], None],
+) -> int:
+    rng = np.random.default_rng(config["train"]["seed"])
+    if state:
+        rng.bit_generator.state = state["agent"]["rng"]
+    agent_state = lambda: {"rng": rng.bit_generator.state}  # noqa: E731
+    shape = (vec.num_envs, *vec.single_action_space.shape)
+    step, total = start_step, config["train"]["total_steps"]
+    vec.reset()
+    while step < total:
+        _, _, _, _, finished, _ = vec.step(rng.uniform(-1.0, 1.0, shape).astype(np.float32))
+        step += vec.num_envs
+        tracker.update(step, finished, agent_state)
+        progress(vec.num_envs)
+    tracker.save(step, agent_state, final=True)
+    return step
