@@ -124,14 +124,14 @@ bench: install
 # Mutation testing (mutmut 3, configured in pyproject.toml under [tool.mutmut]): mutates core modules
 # in a copy, mutants/, runs the tests that cover each mutant and prints killed / total per module; a
 # fresh run each time. On 2 cores all six modules take about 65 minutes, so by default it mutates
-# four (about 30 minutes); MUTANTS_MODULES=evaluation (about 17) and MUTANTS_MODULES=validate (about
+# four (about 30 minutes); MUTANTS_MODULES="evaluation policies" (the scoring modules) and MUTANTS_MODULES=validate (about
 # 30) are the rest, MUTANTS_MODULES=all runs everything, MUTANTS_MODULES="rewards seeds" any subset.
 MUTANTS_MODULES ?= rewards curriculum sensors seeds
 mutants: install-train
 	$(BIN)/python -m pip install --quiet "mutmut>=3.8"
 	rm -rf mutants
-	$(BIN)/mutmut run $(if $(filter all,$(MUTANTS_MODULES)),,$(foreach m,$(MUTANTS_MODULES),"aaai.$(m).*"))
-	@$(BIN)/mutmut results --all true | sed -nE 's/^ *aaai\.([a-z_]+)\.[^:]*: (.*)$$/\1 \2/p' | awk '\
+	$(BIN)/mutmut run $(if $(filter all,$(MUTANTS_MODULES)),,$(foreach m,$(MUTANTS_MODULES),"aaai.*.$(m).*"))
+	@$(BIN)/mutmut results --all true | sed -nE 's/^ *aaai\.([a-z_]+)\.([a-z_]+)\.[^:]*: (.*)$$/\1\/\2 \3/p' | awk '\
 	  $$2 == "not" { next } \
 	  !($$1 in total) { order[++modules] = $$1 } \
 	  { total[$$1]++; n++ } \

@@ -127,3 +127,50 @@ def test_scoring_imports_nothing_from_training(module):
     via = reached(module, graph)
     found = [chain(name, via) for name in TRAINING if name in via]
     assert not found, "scoring imports training: " + "; ".join(found)
+
+
+# The package's map, bottom to top: a module may import its own layer and the layers below, never above.
+LAYERS = (
+    ("aaai.errors", "aaai.files"),  # what every module may use
+    ("aaai.agent",),  # the body: its URDF table and its handle in a client
+    ("aaai.config",),  # the configuration and its rules
+    ("aaai.spec", "aaai.sim"),  # a level as plain data; the simulation that builds and senses it
+    ("aaai.task", "aaai.levels"),  # rewards, solvability, seeds, arenas, the reference; the level generators
+    ("aaai.env", "aaai.registration"),  # the Gymnasium environment and its ids
+    ("aaai.scoring",),  # policies, episodes, the scoreboard, run folders, replays
+    ("aaai.train",),  # workers, samplers, PPO, DAgger, experiments
+    ("aaai.tools",),  # viewer, bench, gait tuning, play, Animal-AI import, baseline table
+)
+
+
+def layer_of(module: str) -> int:
+    top = ".".join(module.split(".")[:2])
+    for index, members in enumerate(LAYERS):
+        if top in members:
+            return index
+    raise LookupError(f"{module} is in no layer of LAYERS: put it on the map")
+
+
+def test_every_module_is_on_the_map():
+    for name in MODULES:
+        if name != "aaai":
+            layer_of(name)
+
+
+def test_no_import_runs_up_the_map():
+    upward = [
+        f"{name} (layer {layer_of(name)}) imports {target} (layer {layer_of(target)})"
+        for name, path in MODULES.items()
+        if name != "aaai"
+        for target in sorted(imported(name, path))
+        if target != "aaai" and layer_of(target) > layer_of(name)
+    ]
+    assert not upward, "imports that run up the map:\n" + "\n".join(upward)
+
+
+def test_an_upward_import_is_caught(tmp_path):
+    upward = tmp_path / "sensors.py"
+    upward.write_text("def f():\n    from aaai.scoring.evaluation import evaluate\n")
+    found = imported("aaai.sim.sensors", upward)
+    assert "aaai.scoring.evaluation" in found
+    assert any(layer_of(target) > layer_of("aaai.sim.sensors") for target in found)
