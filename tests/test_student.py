@@ -153,7 +153,7 @@ def test_demos_are_a_minari_dataset_that_loads_and_replays_bit_for_bit(tmp_path)
     result = CliRunner().invoke(cli, command)
     assert result.exit_code == 0, result.output
     with datasets_path(out):
-        dataset = minari.load_dataset("aaai/task/reference-v0")
+        dataset = minari.load_dataset("aaai/reference-v0")
         assert dataset.total_episodes == 2
         metadata = list(dataset.storage.get_episode_metadata(range(2)))
         assert [m["options"]["level"] for m in metadata] == [0, 1]
@@ -169,7 +169,7 @@ def test_demos_are_a_minari_dataset_that_loads_and_replays_bit_for_bit(tmp_path)
     again = CliRunner().invoke(cli, command)
     assert again.exit_code == 0, again.output
     with datasets_path(out):
-        assert minari.load_dataset("aaai/task/reference-v0").total_episodes == 2
+        assert minari.load_dataset("aaai/reference-v0").total_episodes == 2
 
 
 def test_diagnose_replays_each_failed_episode_into_one_first_cause(tmp_path):

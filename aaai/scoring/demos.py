@@ -9,7 +9,7 @@ for bit. Datasets are written with Minari's arrow storage (the ``demos`` extra) 
 episodes in batches, so an interrupted recording resumes where it stopped.
 
     aaai demos --policy reference --levels 0-12 --difficulty 0-10 -k 2 --action-mode gait --out demos
-    MINARI_DATASETS_PATH=demos python -c "import minari; print(minari.load_dataset('aaai/task/reference-v0'))"
+    MINARI_DATASETS_PATH=demos python -c "import minari; print(minari.load_dataset('aaai/reference-v0'))"
 """
 
 from __future__ import annotations
