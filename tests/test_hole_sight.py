@@ -1,0 +1,52 @@
+"""Missing floor in the rays: a hole is seen where its edge is, to within 0.2, and only within the
+rays' reach. Tested by running physics: teleport the body to face a hole, let it stand, read the
+forward ray and compare with the distance from the ray's origin to the hole's near edge."""
+
+import pytest
+from conftest import open_arena
+
+from aaai.sim.kinds import KIND_INDEX
+from aaai.sim.sensors import EYE_OFFSET
+
+HOLE = KIND_INDEX["hole"]
+LENGTH = 20.0
+SIGHT = dict(rays=True, rays_per_side=4, ray_max_angle=90.0, ray_length=LENGTH)
+FORWARD = 4  # the middle ray of 2 x 4 + 1
+EDGE = 5.0  # 5 x 5 tiles of 10 over the 50 x 50 arena: tile (3, 2) spans x 5..15, y -5..5
+
+
+def facing_the_hole(make_env, x: float):
+    """The forward ray and the true distance from its origin along it to the hole's near edge, the
+    body placed at (x, 0) facing +x and left to stand for half a second."""
+    env = make_env(**SIGHT)
+    observation, _ = env.reset(
+        options={"spec": open_arena(agent=(x, 0.0, 0.0), tiles=(5, 5), holes=((3, 2),)), "check": False}
+    )
+    for _ in range(25):
+        observation, *_ = env.step(env.body.rest_action())
+    position, rotation = env.body.head_pose()
+    forward = rotation[:, 0]
+    origin = position + forward * EYE_OFFSET
+    true_distance = (EDGE - origin[0]) / forward[0]  # along the ray, to where its ground track meets x = 5
+    return observation["rays"][FORWARD], true_distance
+
+
+@pytest.mark.parametrize("x", [-10.0, -5.0, -1.0])
+def test_a_hole_is_seen_at_its_true_distance_within_two_tenths(make_env, x):
+    ray, true_distance = facing_the_hole(make_env, x)
+    assert ray[HOLE] == 1.0 and ray[:-1].sum() == 1.0  # the hole and nothing else
+    assert ray[-1] * LENGTH == pytest.approx(true_distance, abs=0.2)
+
+
+@pytest.mark.parametrize("beyond", [-0.2, 0.2])
+def test_a_hole_a_hair_beyond_the_rays_reach_is_not_seen(make_env, beyond):
+    """The near edge 0.2 inside the reach is seen (at 0.99 of it); 0.2 beyond it, the ray sees nothing."""
+    _, offset = facing_the_hole(make_env, 0.0)  # how far ahead of the body's x the origin stands
+    origin_ahead = EDGE - offset
+    ray, true_distance = facing_the_hole(make_env, EDGE - LENGTH - beyond - origin_ahead)
+    assert true_distance == pytest.approx(LENGTH + beyond, abs=0.05)  # the probe is where it is meant to be
+    assert bool(ray[HOLE]) == (beyond < 0)
+    if beyond < 0:
+        assert ray[-1] * LENGTH == pytest.approx(true_distance, abs=0.2)
+    else:
+        assert ray[-1] == 1.0  # nothing within reach
