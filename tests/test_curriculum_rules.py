@@ -124,6 +124,11 @@ def test_positive_value_loss_and_rank_weights_at_their_edges():
     assert positive_value_loss([0.0, 4.0]) == 1.0  # mean 2: (0 + 2) / 2
     assert positive_value_loss([0.0, 0.0, 3.0]) == pytest.approx(2.0 / 3.0)  # mean 1: (0 + 0 + 2) / 3
     assert positive_value_loss([-3.0, 0.0, 0.0]) == pytest.approx(2.0 / 3.0)  # mean -1: (0 + 1 + 1) / 3
+    many = np.zeros(40)
+    many[5] = 1.0  # one cell first, the 39 tied after it in cell order (however many cells there are)
+    expected = np.empty(40)
+    expected[5], expected[[i for i in range(40) if i != 5]] = 1.0, 1.0 / np.arange(2, 41)
+    assert rank_weights(many, 1.0) == pytest.approx(expected / expected.sum())
     weights = rank_weights(np.array([1.0, 3.0, 2.0]), 1.0)  # ranks 3, 1, 2
     assert weights == pytest.approx(np.array([1 / 3, 1.0, 1 / 2]) / (11 / 6))
     assert rank_weights(np.array([0.0, 0.0, 0.0]), 0.5) == pytest.approx(np.array([1.0, 1 / 4, 1 / 9]) / (49 / 36))
@@ -228,6 +233,19 @@ def test_an_old_checkpoint_takes_its_draws_from_its_episodes_and_no_passes():
     with pytest.raises(ValueError) as error:
         Curriculum([0], [0, 2]).load_state_dict(state)
     assert str(error.value) == "the saved curriculum has cells [(0, 0), (0, 1)], this one [(0, 0), (0, 2)]"
+
+
+def test_a_checkpoint_keeps_the_episodes_still_under_way():
+    curriculum = Curriculum([0], [0, 1], sampler="plr", seed=6)
+    first = curriculum.sample()  # under way: drawn, not yet recorded
+    second = curriculum.sample()
+    curriculum.record(*second[:2], 1.0)
+    resumed = Curriculum([0], [0, 1], sampler="plr")
+    resumed.load_state_dict(curriculum.state_dict())
+    assert resumed.drawn.tolist() == curriculum.drawn.tolist() and sum(resumed.episodes.values()) == 1
+    assert resumed.last_drawn.tolist() == curriculum.last_drawn.tolist()
+    assert first[:2] != second[:2] or resumed.drawn.max() == 2
+    assert np.array_equal(resumed.probabilities(), curriculum.probabilities())
 
 
 def _heatmap(tmp_path) -> np.ndarray:

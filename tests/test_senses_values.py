@@ -293,6 +293,9 @@ def test_each_observed_value(world):
     assert level["head_orientation"].tolist() == pytest.approx([0.0, 0.0, -1.0])
     senses.feel([])
     assert senses.observe(angles, speeds, (0, 0, 0), (0, 0, 0, 1), np.array([WALL]), False)["foot_contacts"].sum() == 0
+    for alone in (dict(SENSORS), dict(SENSORS, rays=False, head_orientation=True), dict(SENSORS, rays=False)):
+        one = Senses(world.client, alone, Body()).observe(angles, speeds, (0, 0, 0), pitched, np.array([WALL]), True)
+        assert sorted(one) == sorted(Senses(world.client, alone, Body()).space)
     unfelt = Senses(world.client, SENSORS, Body())
     unfelt.feel([(0, 0, 0, 7, -1)])
     assert unfelt.feet.tolist() == [0.0, 0.0]  # feet not observed: not worked out
@@ -336,5 +339,111 @@ def test_the_camera_is_a_60_degree_pinhole_at_the_eye_looking_forward(world):
     turned = camera.observe(np.zeros(3), yaw(180.0))  # the far wall behind: only the floor
     assert not np.array_equal(turned, image)
     grey = Camera(world.client, 32, grayscale=True)
-    assert grey.space.shape == (32, 32, 1) and grey.observe(np.zeros(3), np.eye(3)).shape == (32, 32, 1)
+    assert grey.space.shape == (32, 32, 1)
+    weights = np.array([0.299, 0.587, 0.114])  # luma from red, green, blue in that order
+    np.testing.assert_allclose(grey.observe(np.zeros(3), np.eye(3))[:, :, 0], image @ weights, atol=1.0)
     assert grey.blank().shape == (32, 32, 1) and not grey.blank().any()
+
+
+def test_wide_rays_report_the_nearest_known_of_their_three_hits(world):
+    """Three rays a side of width 1: the centre one and two 0.5 to its left and right."""
+    kinds = []
+
+    def post(x, y, kind, half_y=0.05):
+        kinds.append(kind)
+        return world.box(x, y, 0.0, half=(0.05, half_y, 0.5))
+
+    rays = Rays(world.client, 1, 90.0, LENGTH, width=1.0)  # -90, 0, 90; row 1 looks along +x
+    assert post(4.0, -0.5, GREEN) == 0  # body 0 of kind 0, seen by the right ray alone
+    index = np.array(kinds)
+    row = rays.observe(np.zeros(3), np.eye(3), index)[1]
+    assert row[GREEN] == 1.0 and row[-1] == pytest.approx((4.0 - 0.05 - EYE_OFFSET) / LENGTH, abs=1e-6)
+
+    post(6.0, 0.0, WALL, half_y=0.3)  # farther, in front of the centre ray: the nearer side hit wins
+    post(3.0, 0.5, -1)  # nearer, of no kind: not a hit
+    row = rays.observe(np.zeros(3), np.eye(3), np.array(kinds))[1]
+    assert row[GREEN] == 1.0 and row[WALL] == 0.0
+    assert rays.observe(np.zeros(3), np.eye(3), np.array(kinds[1:] + [WALL]))[1, WALL] == 1.0  # body 0 unknown
+
+    post(2.0, 0.5, YELLOW)  # body 3: beyond the list of kinds it is nothing
+    row = rays.observe(np.zeros(3), np.eye(3), np.array(kinds[:3]))[1]
+    assert row[GREEN] == 1.0 and row[YELLOW] == 0.0
+    row = rays.observe(np.zeros(3), np.eye(3), np.array(kinds))[1]  # known: the nearest of all
+    assert row[YELLOW] == 1.0 and row[-1] == pytest.approx((2.0 - 0.05 - EYE_OFFSET) / LENGTH, abs=1e-6)
+
+
+def test_a_side_hit_as_near_as_the_centre_hit_leaves_the_centre_hit(world):
+    world.box(5.0, 0.0, 0.0, half=(0.05, 0.3, 0.5))  # the centre ray's wall
+    world.box(5.0, 0.5, 0.0, half=(0.05, 0.1, 0.5))  # food with the same front face, left
+    world.box(7.0, -0.5, 0.0, half=(0.05, 0.1, 0.5))  # food farther, right
+    rays = Rays(world.client, 1, 90.0, LENGTH, width=1.0)
+    row = rays.observe(np.zeros(3), np.eye(3), np.array([WALL, GREEN, GREEN]))[1]
+    assert row[WALL] == 1.0 and row[GREEN] == 0.0
+
+
+def march(rays: Rays, zones: list, start: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each ray's first point in a floor area by walking its ground track in steps of 1e-3."""
+    t = np.arange(0.0, rays.length, 1e-3)
+    distance, kind = np.ones(len(dirs)), np.full(len(dirs), -1)
+    for row, direction in enumerate(dirs):
+        points = start[:2] + direction[:2] * EYE_OFFSET + t[:, None] * direction[:2]
+        for x, y, angle, half_x, half_y, zone_kind in zones:
+            dx, dy = points[:, 0] - x, points[:, 1] - y
+            u, v = dx * math.cos(angle) + dy * math.sin(angle), -dx * math.sin(angle) + dy * math.cos(angle)
+            inside = np.flatnonzero((np.abs(u) <= half_x) & (np.abs(v) <= half_y))
+            if len(inside) and t[inside[0]] / rays.length < distance[row]:
+                distance[row], kind[row] = t[inside[0]] / rays.length, zone_kind
+    return distance, kind
+
+
+@pytest.mark.parametrize("layout", range(6))
+def test_floor_areas_turned_any_way_are_where_walking_the_ground_track_finds_them(world, layout):
+    rng = np.random.default_rng(layout)
+    rays = Rays(world.client, 4, 180.0, LENGTH, ray_kinds="all")  # every 45 degrees, behind too
+    kinds = [HOT, KIND_INDEX["death_zone"], HOT, KIND_INDEX["death_zone"], HOT]
+    zones = [
+        zone_row(*rng.uniform(-6.0, 6.0, 2), rng.uniform(-math.pi, math.pi), *rng.uniform(0.5, 2.5, 2), kind)
+        for kind in kinds
+    ]
+    rays.set_zones(zones)
+    start, rotation = np.array([*rng.uniform(-1.0, 1.0, 2), 0.0]), yaw(rng.uniform(-180.0, 180.0))
+    obs = rays.observe(start, rotation, np.array([WALL]))
+    distance, kind = march(rays, zones, start, rays.local_dirs @ rotation.T)
+    assert (distance < 1.0).sum() >= 3  # the layouts do put areas in the rays' way
+    np.testing.assert_allclose(obs[:, -1], distance, atol=2e-3 / LENGTH)
+    for row in range(rays.n_rays):
+        seen = [rays.column[k] for k in kind[row : row + 1] if k >= 0]
+        assert np.flatnonzero(obs[row, :-1]).tolist() == (seen or [rays.n_kinds])
+
+
+def test_a_ray_square_to_an_area_divides_by_no_zero_and_still_sees_it(world):
+    rays = Rays(world.client, 1, 45.0, LENGTH)
+    rays.set_zones([zone_row(0.0, 5.0, 0.0, 1.0, 1.0)])
+    quarter = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # exactly 90 degrees left
+    with np.errstate(all="raise"):
+        obs = rays.observe(np.zeros(3), quarter, np.array([WALL]))
+    assert obs[1, rays.column[HOT]] == 1.0
+    assert obs[1, -1] == pytest.approx((4.0 - EYE_OFFSET) / LENGTH, abs=1e-6)
+
+
+def test_an_area_touching_the_track_is_seen_and_one_at_the_rays_end_is_not(world):
+    rays = Rays(world.client, 1, 45.0, LENGTH)
+    kinds = np.array([WALL])
+    rays.set_zones([zone_row(5.0, 0.0, 0.0, 0.0, 1.0)])  # no depth at all: a line across the ray
+    assert rays.observe(np.zeros(3), np.eye(3), kinds)[1, rays.column[HOT]] == 1.0
+    end = EYE_OFFSET + LENGTH  # the ray's end, from the head
+    assert (end + 1.0 - 1.0 - EYE_OFFSET) / LENGTH == 1.0
+    rays.set_zones([zone_row(end + 1.0, 0.0, 0.0, 1.0, 1.0)])  # from exactly the ray's end on: out of reach
+    assert rays.observe(np.zeros(3), np.eye(3), kinds)[1].tolist() == nothing(rays.n_kinds)
+    rays.set_zones([zone_row(end + 1.0 - 1e-6, 0.0, 0.0, 1.0, 1.0)])  # a hair nearer: seen
+    obs = rays.observe(np.zeros(3), np.eye(3), kinds)
+    assert obs[1, rays.column[HOT]] == 1.0 and obs[1, -1] == pytest.approx(1.0 - 1e-7, abs=1e-7)
+
+
+def test_the_spaces_bounds_and_types(world):
+    rays = Rays(world.client, 1, 45.0, LENGTH)
+    memory = RayMemory(rays, 2).space
+    assert memory.dtype == np.float32 and (memory.low == 0.0).all() and (memory.high == 1.0).all()
+    camera = Camera(world.client, 8, grayscale=False)
+    assert (camera.space.low == 0).all() and (camera.space.high == 255).all()
+    assert camera.blank().dtype == np.uint8 and camera.blank().shape == (8, 8, 3) and not camera.blank().any()
