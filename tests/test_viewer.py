@@ -137,7 +137,7 @@ def test_door_not_yet_standing_is_only_outlined():
     standing = draw_top_down(spec, objects=list(spec.objects))  # as a live world once it has risen
     assert colour_at(standing, m, 0.0, 10.0) == rgb(COLOURS["wall"])
     sunk = replace(door, position=(0.0, 10.0, -3.0))
-    below = draw_top_down(spec, objects=[*spec.objects[:4], sunk])
+    below = draw_top_down(spec, objects=[sunk if obj is door else obj for obj in spec.objects])  # in place, any order
     assert colour_at(below, m, 0.0, 10.0) == rgb(COLOURS["floor"])
 
 
@@ -214,12 +214,14 @@ def test_snapshot_is_plain_data_by_spec_index_and_drawn_as_the_world(make_env):
     pieces = (sphere("food_yellow", 10.0, -10.0, 2.0), sphere("food_yellow", -10.0, -10.0, 2.0))
     env = make_env(camera=False)
     env.reset(seed=0, options={"spec": open_arena(door, *pieces, agent=(0.0, -15.0, 0.0))})
-    spec, first = env.level_spec, len(env.level_spec.objects) - 2
-    env.world.remove(next(iter(env.world.food)))  # the first piece, as if eaten
+    spec = env.level_spec  # found by value, not by where the walls happen to stand in the list
+    first, second, door_at = (spec.objects.index(obj) for obj in (*pieces, door))
+    eaten = next(body for body, obj in env.world.food.items() if obj == pieces[0])
+    env.world.remove(eaten)  # the first piece, as if eaten
     snapshot = env.snapshot()
     assert snapshot.objects[first] is None
-    assert (snapshot.objects[first + 1].x, snapshot.objects[first + 1].y) == pytest.approx((-10.0, -10.0))
-    assert snapshot.objects[first - 1].z < 0 and snapshot.closed_doors == frozenset()  # the door waits below
+    assert (snapshot.objects[second].x, snapshot.objects[second].y) == pytest.approx((-10.0, -10.0))
+    assert snapshot.objects[door_at].z < 0 and snapshot.closed_doors == frozenset()  # the door waits below
     assert len(snapshot.legs) == 4 and snapshot.time == 0.0
     points = [point for leg in snapshot.legs for point in (leg.hip, leg.knee, leg.foot)]
     values = [snapshot.time, *vars(snapshot.head).values(), *(v for point in points for v in point)]
