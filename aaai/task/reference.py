@@ -423,7 +423,7 @@ class ReferenceController:
                 return True
             error = _angle(math.pi / 2 - yaw)
             if abs(error) > PUSH_ALIGN:  # face the trench
-                self.gait.command(0.0, steer(error, 0.0)[1])
+                self.gait.command(0.0, steer(error, 0.0, reverse=False)[1])  # turn, even from behind
                 return True
             self.lined_up, self.phase_started = True, now
         # straight on along the plank's middle line, facing the trench
