@@ -447,3 +447,14 @@ def test_the_spaces_bounds_and_types(world):
     camera = Camera(world.client, 8, grayscale=False)
     assert (camera.space.low == 0).all() and (camera.space.high == 255).all()
     assert camera.blank().dtype == np.uint8 and camera.blank().shape == (8, 8, 3) and not camera.blank().any()
+
+
+def test_a_centre_hit_of_kind_zero_stands_and_one_of_no_kind_gives_way(world):
+    world.box(4.0, 0.0, 0.0, half=(0.05, 0.3, 0.5))  # body 0, on the centre ray
+    world.box(6.0, 0.5, 0.0, half=(0.05, 0.1, 0.5))  # body 1, farther, left
+    world.box(6.0, -0.5, 0.0, half=(0.05, 0.1, 0.5))  # body 2, as far, right
+    rays = Rays(world.client, 1, 90.0, LENGTH, width=1.0)
+    row = rays.observe(np.zeros(3), np.eye(3), np.array([GREEN, WALL, -1]))[1]
+    assert row[GREEN] == 1.0 and row[-1] == pytest.approx((4.0 - 0.05 - EYE_OFFSET) / LENGTH, abs=1e-6)
+    row = rays.observe(np.zeros(3), np.eye(3), np.array([-1, WALL, GREEN]))[1]  # the left one, first of equals
+    assert row[WALL] == 1.0 and row[-1] == pytest.approx((6.0 - 0.05 - EYE_OFFSET) / LENGTH, abs=1e-6)
