@@ -1,6 +1,7 @@
 """`make demo`'s training, the config of before `train.processes` against today's, alternated.
 
-Each round trains once with each config (the order rotated from round to round), timing only
+Each round trains once with each config (the 2 x 1024 config of before, the same in 2 worker
+processes as before `train.vector`, and today's) (the order rotated from round to round), timing only
 `aaai train --curriculum --run RUN`; after all rounds every run is scored with
 `aaai eval --seeds reserved --policy RUN` (untimed). Writes bench/demo_speed.csv (one row per
 run) and bench/demo_speed.md (median and spread of the per-round ratio old / new, pass rates).
@@ -23,9 +24,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 AAAI = str(Path(sys.executable).parent / "aaai")
-# The shipped config before `train.processes` (git show 9f318fc^:configs/default.yaml): 2 x 1024.
+# The shipped config before `train.processes` (git show 9f318fc^:configs/default.yaml): 2 x 1024;
+# and the same with its 2 worker processes, as `make demo` trained before `train.vector`.
 OLD = "train:\n  num_envs: 2\n  n_steps: 1024\n"
-CONFIGS = {"old_2x1024": OLD, "now_default": None}
+CONFIGS = {"old_2x1024": OLD, "now_default": None, "old_2x1024_processes": OLD + "  vector: async\n"}
+NOW = "now_default"
 FIELDS = ["round", "config", "seconds", "load_before", "load_after", "pass_rate", "passed", "episodes"]
 
 
@@ -70,7 +73,7 @@ def main() -> None:
     done = {(r["round"], r["config"]) for r in rows}
     names = list(CONFIGS)
     for round_ in range(args.rounds):
-        order = names[round_ % 2 :] + names[: round_ % 2]
+        order = names[round_ % len(names) :] + names[: round_ % len(names)]
         for name in order:
             if (str(round_), name) in done:
                 continue
@@ -101,10 +104,8 @@ def main() -> None:
 
 def report(rows: list[dict], path: Path) -> None:
     by = {(int(r["round"]), r["config"]): r for r in rows}
-    rounds = sorted({k[0] for k in by if all((k[0], n) in by for n in CONFIGS)})
-    ratios = [float(by[(r, "old_2x1024")]["seconds"]) / float(by[(r, "now_default")]["seconds"]) for r in rounds]
     lines = [
-        "# `make demo` training: the config of before `train.processes` against today's",
+        "# `make demo` training: the configs of before `train.processes` and `train.vector` against today's",
         "",
         "`bench/demo_speed.py`: `aaai train --curriculum --run RUN` timed, the two configs alternated",
         "(order rotated each round), then `aaai eval --seeds reserved --policy RUN` on each run.",
@@ -117,12 +118,15 @@ def report(rows: list[dict], path: Path) -> None:
         lines.append(
             f"| {r['round']} | {r['config']} | {r['seconds']} | {r['load_before']} -> {r['load_after']} | {rate} |"
         )
-    if ratios:
-        lines += [
-            "",
-            f"Speed-up old / now (per round): median {statistics.median(ratios):.2f}"
-            f" ({min(ratios):.2f}..{max(ratios):.2f}) over {len(ratios)} rounds.",
-        ]
+    lines.append("")
+    for old in (name for name in CONFIGS if name != NOW):
+        rounds = sorted(r for r, n in by if n == old and (r, NOW) in by)
+        ratios = [float(by[(r, old)]["seconds"]) / float(by[(r, NOW)]["seconds"]) for r in rounds]
+        if ratios:
+            lines.append(
+                f"- Speed-up {old} / {NOW} (per round): median {statistics.median(ratios):.2f}"
+                f" ({min(ratios):.2f}..{max(ratios):.2f}) over {len(ratios)} rounds."
+            )
     for name in CONFIGS:
         rates = [float(r["pass_rate"]) for r in rows if r["config"] == name and r.get("pass_rate")]
         if rates:
