@@ -32,23 +32,22 @@ def rest(env, steps):
 
 @pytest.mark.parametrize("action_repeat", [2, 4])
 def test_the_l2b_pillar_and_its_yellow_sink_to_the_floor_in_simulated_time(make_env, action_repeat):
-    difficulty = 2
-    seconds = round(1.5 * difficulty + 5)  # 8 s
     env = make_env(action_repeat=action_repeat, max_steps=5000)
-    env.reset(seed=4, options={"level": "L2b", "difficulty": difficulty})
+    env.reset(seed=4, options={"level": "L2b", "difficulty": 2})
     (pillar,), (yellow,) = bodies_of(env, "pillar"), bodies_of(env, "food_yellow")
-    height = env.world.objects[pillar].size[2]
-    per_second = round(1 / env.control_dt)
+    steps = round(env.world.objects[pillar].behaviour["duration"] / env.control_dt)  # the level's sink time
+    height, lift = env.world.objects[pillar].size[2], env.world.objects[yellow].size[0] / 2
     assert position(env, pillar)[2] == pytest.approx(height / 2)
-    rest(env, per_second * seconds // 2)
-    assert position(env, pillar)[2] == pytest.approx(0.0, abs=1e-6)  # half way: top at height / 2
-    assert position(env, yellow)[2] == pytest.approx(height / 2 + 1.5, abs=1e-6)
-    rest(env, per_second * seconds // 2 - 1)
+    rest(env, steps // 2)
+    top = height - height * (steps // 2) / steps  # half way (to a step): the top at about height / 2
+    assert position(env, pillar)[2] == pytest.approx(top - height / 2, abs=1e-6)
+    assert position(env, yellow)[2] == pytest.approx(top + lift, abs=1e-6)
+    rest(env, steps - steps // 2 - 1)
     assert position(env, pillar)[2] > -height / 2 + 1e-3  # not quite down a step before the end
     rest(env, 1)
     assert position(env, pillar)[2] == pytest.approx(-height / 2)  # its top flush with the floor
-    assert position(env, yellow)[2] == pytest.approx(1.5)  # the yellow (size 3) rests on the floor
-    rest(env, per_second)
+    assert position(env, yellow)[2] == pytest.approx(lift)  # the yellow rests on the floor
+    rest(env, steps // 8)
     assert position(env, pillar)[2] == pytest.approx(-height / 2) and not env.world.movers
 
 

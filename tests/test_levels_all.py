@@ -191,18 +191,6 @@ def test_l2_y_maze_one_better_green_and_a_smaller_one_above_5(difficulty):
             assert greens[0] == 2 and np.sign(spec.foods[0].position[0]) != np.sign(spec.foods[1].position[0])
 
 
-@pytest.mark.parametrize("difficulty", [0, 6, 10])
-def test_l2b_small_green_ahead_and_a_yellow_on_a_sinking_pillar(difficulty):
-    spec = generate("L2b", difficulty, 3)
-    (pillar,) = [o for o in spec.objects if o.kind == "pillar"]
-    green, yellow = sorted(spec.foods, key=lambda f: f.kind)
-    assert green.size[0] == 2 and yellow.size[0] == 3 and pillar.size[2] == 8
-    assert green.position[1] - spec.agent.y == 15
-    assert pillar.behaviour == {"type": "sink", "depth": 8.0, "duration": float(round(1.5 * difficulty + 5))}
-    assert yellow.behaviour == pillar.behaviour and yellow.position[2] == 8 + 1.5
-    assert spec.max_food_reward == 2 + 1.5
-
-
 @pytest.mark.parametrize("difficulty", range(11))
 def test_l3_a_transparent_wall_hides_the_green_and_obstacles_grow(difficulty):
     spec = generate(3, difficulty, 1)
