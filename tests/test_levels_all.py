@@ -192,22 +192,6 @@ def test_l2_y_maze_one_better_green_and_a_smaller_one_above_5(difficulty):
 
 
 @pytest.mark.parametrize("difficulty", range(11))
-def test_l3_a_transparent_wall_hides_the_green_and_obstacles_grow(difficulty):
-    spec = generate(3, difficulty, 1)
-    (food,) = spec.foods
-    # the glass: the transparent wall nearest the food (the extra obstacles keep 4 or more clear of it)
-    glass = min(
-        (o for o in inside(spec) if o.kind == "transparent_wall"),
-        key=lambda o: math.dist(o.position[:2], food.position[:2]),
-    )
-    assert glass.size[0] == difficulty + 5 and glass.size[2] == difficulty + 6
-    assert food.position[1] == pytest.approx(glass.position[1] + 0.5 + 3)
-    extra = [o for o in inside(spec) if not o.is_food and o is not glass]
-    assert len(extra) == round(0.4 * difficulty)
-    assert all(o.mass == 10 for o in extra if o.kind == "plank")
-
-
-@pytest.mark.parametrize("difficulty", range(11))
 def test_l4_holes_are_missing_tiles(difficulty):
     spec = generate(4, difficulty, 2)
     n = round(6 - 0.2 * difficulty)
