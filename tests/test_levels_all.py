@@ -192,15 +192,6 @@ def test_l2_y_maze_one_better_green_and_a_smaller_one_above_5(difficulty):
 
 
 @pytest.mark.parametrize("difficulty", range(11))
-def test_l4_holes_are_missing_tiles(difficulty):
-    spec = generate(4, difficulty, 2)
-    n = round(6 - 0.2 * difficulty)
-    assert spec.tiles == (n, n) and len(spec.holes) == (2 if difficulty <= 5 else 3)
-    walls = [o for o in inside(spec) if o.kind == "wall"]
-    assert len(walls) == round(0.2 * difficulty + 1)
-
-
-@pytest.mark.parametrize("difficulty", range(11))
 def test_l5_maze_grows_and_puts_agent_and_food_farthest_apart(difficulty):
     spec = generate(5, difficulty, 6)
     maze = spec.extras["maze"]
