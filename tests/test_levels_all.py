@@ -191,20 +191,6 @@ def test_l2_y_maze_one_better_green_and_a_smaller_one_above_5(difficulty):
             assert greens[0] == 2 and np.sign(spec.foods[0].position[0]) != np.sign(spec.foods[1].position[0])
 
 
-@pytest.mark.parametrize("difficulty", range(11))
-def test_l5_maze_grows_and_puts_agent_and_food_farthest_apart(difficulty):
-    spec = generate(5, difficulty, 6)
-    maze = spec.extras["maze"]
-    assert maze["chunks"] == round(0.6 * difficulty + 4)
-    assert spec.arena_size == (30.0 * maze["columns"], 30.0 * maze["rows"]) and spec.wall_height == 10
-
-    def cell(x, y):
-        return [int((x + spec.arena_size[0] / 2) // 30), int((y + spec.arena_size[1] / 2) // 30)]
-
-    assert cell(spec.agent.x, spec.agent.y) == maze["start"]
-    assert cell(*spec.foods[0].position[:2]) == maze["goal"] and maze["start"] != maze["goal"]
-
-
 def test_l6_recolours_kinds_with_five_colours_and_raises_walls():
     for seed in range(6):
         spec = generate(6, 10, seed)
