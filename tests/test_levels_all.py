@@ -14,7 +14,7 @@ import aaai  # noqa: F401  (registers the ids)
 from aaai.config import ConfigError, load_config
 from aaai.levels import InvalidLevelError, all_levels, generate, get_level
 from aaai.levels.common import arena_walls, slab, sphere
-from aaai.spec import AgentPose, Blackout, LevelSpec, ObjectSpec
+from aaai.spec import AgentPose, LevelSpec, ObjectSpec
 from aaai.task import validate
 from aaai_cli.main import cli
 
@@ -205,11 +205,19 @@ def test_l6_recolours_kinds_with_five_colours_and_raises_walls():
         ]
 
 
-def test_l7_wraps_another_level_with_a_blackout_schedule():
-    for difficulty in (0, 5, 9, 10):
+def test_l7_is_another_level_seen_through_a_camera_that_blacks_out():
+    for difficulty in (0, 5, 10):
         spec = generate(7, difficulty, difficulty)
-        assert spec.level == 7 and spec.inner.level not in (6, 7)
-        assert spec.blackout == Blackout(light=5.0, dark=float(math.floor(min(difficulty + 1.1, 10))))
+        inner = spec.inner
+        assert spec.level == 7 and inner.level not in (6, 7)
+        same = generate(inner.level, inner.difficulty, inner.seed)  # the level it wraps, as that level builds it
+        assert (spec.agent, spec.objects, spec.holes, spec.max_food_reward) == (
+            same.agent,
+            same.objects,
+            same.holes,
+            same.max_food_reward,
+        )
+        assert same.blackout is None and spec.blackout.light > 0 and spec.blackout.dark > 0
 
 
 @pytest.mark.parametrize("difficulty", range(11))
