@@ -76,11 +76,14 @@ def test_the_l8_food_slides_behind_the_occluder_and_stops(make_env):
         assert np.sign(pit_x) == -np.sign(x)  # the pit is on the other side of the barrier
 
 
-def test_an_l9_door_closes_once_the_head_is_inside_its_sector(make_env):
+@pytest.mark.parametrize("difficulty", [0, 5, 10])
+def test_an_l9_door_closes_once_the_head_is_inside_its_sector(make_env, difficulty):
+    """The door's trigger line read from the built level, probed a hair either side of it."""
     env = make_env()
-    env.reset(seed=3, options={"level": 9, "difficulty": 5})
+    env.reset(seed=3, options={"level": 9, "difficulty": difficulty})
     doors = {tuple(env.world.objects[b].behaviour["direction"]): b for b in env.world.doors}
     north = doors[(0.0, 1.0)]
+    trigger = env.world.objects[north].behaviour["distance"]
     assert all(position(env, b)[2] == HIDDEN_Z for b in doors.values())
     rest(env, 50)  # in the hub: every opening stays open
     assert len(env.world.doors) == 4
@@ -91,20 +94,23 @@ def test_an_l9_door_closes_once_the_head_is_inside_its_sector(make_env):
             body, (0.0, y, 1.5), p.getQuaternionFromEuler((0, 0, math.pi / 2)), physicsClientId=env.client
         )
 
-    teleport(12.0)  # in the opening, not yet past the trigger line
-    rest(env, 5)
-    assert position(env, north)[2] == HIDDEN_Z
-    teleport(16.0)  # inside the north sector
+    teleport(trigger - 0.05)  # in the opening, a hair short of the trigger line
+    rest(env, 1)
+    teleport(trigger - 0.05)
+    rest(env, 1)
+    assert position(env, north)[2] == HIDDEN_Z and len(env.world.doors) == 4
+    teleport(trigger + 0.05)  # a hair inside the north sector
     *_, info = rest(env, 2)
     assert position(env, north) == pytest.approx(env.world.objects[north].position)
     assert sorted(env.world.doors) == sorted(b for b in doors.values() if b != north)  # the others stay open
-    hit = p.rayTest((0.0, 14.0, 2.0), (0.0, 3.0, 2.0), physicsClientId=env.client)[0]
+    door_y = env.world.objects[north].position[1]
+    hit = p.rayTest((0.0, door_y + 2.0, 2.0), (0.0, 0.0, 2.0), physicsClientId=env.client)[0]
     assert hit[0] == north  # the way back to the hub is shut
     gait = SineGait.for_env(env, "backward")  # and walking back into it does not get through
     observation = None
     for _ in range(400):
         observation, *_ = env.step(gait(observation))
-    assert env.body.head_pose()[0][1] > 9.0
+    assert env.body.head_pose()[0][1] > door_y
 
 
 def hole_centre(spec, tile):

@@ -221,16 +221,6 @@ def test_l7_is_another_level_seen_through_a_camera_that_blacks_out():
 
 
 @pytest.mark.parametrize("difficulty", range(11))
-def test_l9_one_sector_holds_the_most_and_sets_max_food_reward(difficulty):
-    spec = generate(9, difficulty, 8)
-    counts = spec.extras["sector_food"]
-    most = max(counts.values())
-    assert list(counts.values()).count(most) == 1 and most <= min(max(3 + difficulty // 3, 2), 5) - 1
-    assert spec.max_food_reward == most * 1.0 and len(spec.foods) == sum(counts.values())
-    assert len([o for o in spec.objects if o.behaviour and o.behaviour["type"] == "door"]) == 4
-
-
-@pytest.mark.parametrize("difficulty", range(11))
 def test_l10_trench_plank_and_side_walls(difficulty):
     spec = generate(10, difficulty, 9)
     south, north = spec.extras["trench"]
