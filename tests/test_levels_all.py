@@ -171,15 +171,6 @@ def test_a_level_that_cannot_be_made_valid_names_its_seed(monkeypatch):
 
 
 # --- what each level holds --------------------------------------------------------------
-def inside(spec: LevelSpec) -> list[ObjectSpec]:
-    """The level's own objects: all but its four arena walls, found by what they are, not where they
-    stand in the list (a generator may list its objects in any order)."""
-    walls = arena_walls(spec.arena_size, spec.wall_height)
-    own = [o for o in spec.objects if o not in walls]
-    assert len(own) == len(spec.objects) - 4  # the four walls were there, once each
-    return own
-
-
 @pytest.mark.parametrize("difficulty", range(11))
 def test_l2_y_maze_one_better_green_and_a_smaller_one_above_5(difficulty):
     for seed in range(5):
@@ -218,31 +209,6 @@ def test_l7_is_another_level_seen_through_a_camera_that_blacks_out():
             same.max_food_reward,
         )
         assert same.blackout is None and spec.blackout.light > 0 and spec.blackout.dark > 0
-
-
-@pytest.mark.parametrize("difficulty", range(11))
-def test_l10_trench_plank_and_side_walls(difficulty):
-    spec = generate(10, difficulty, 9)
-    south, north = spec.extras["trench"]
-    assert north - south == round(4 + 0.6 * difficulty)
-    (plank,) = [o for o in spec.objects if o.kind == "plank"]
-    assert plank.mass == 10 and plank.size[2] > north - south + 2
-    x0, y0, x1, y1 = spec.bridge
-    assert y0 < south and y1 > north and x1 - x0 > 9
-    side = [o for o in inside(spec) if o.kind in ("wall", "transparent_wall")]
-    assert len(side) == [0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2][difficulty]
-    assert spec.foods[0].position[1] > north and spec.agent.y < south
-
-
-def test_l10_side_walls_are_transparent_with_probability_1_2_minus_0_1d():
-    for difficulty, expected in ((4, 0.8), (10, 0.2)):
-        kinds = [
-            o.kind
-            for seed in range(150)
-            for o in inside(generate(10, difficulty, seed))
-            if o.kind in ("wall", "transparent_wall")
-        ]
-        assert abs(kinds.count("transparent_wall") / len(kinds) - expected) < 0.1
 
 
 @pytest.mark.parametrize("difficulty", [0, 10])
