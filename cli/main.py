@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from aaai.config import ConfigError, load_config, parse_int_set
+from aaai.config import ConfigError, load_config, parse_int_set, read_yaml
 from aaai.env import AnimalAIEnv
 from aaai.levels import all_levels, generate, get_level, level_ids
 from aaai.registration import level_env_id
@@ -968,16 +968,33 @@ def seeds_command(levels, difficulty, count, seed_key_file):
     help="Steps per round of PPO, the random agent and the environment alone (0: no training row).",
 )
 @click.option("--train-envs", type=click.IntRange(1, 256), help="Workers of the training row (default: the config's).")
+@click.option(
+    "--config",
+    "config_path",
+    type=click.Path(),
+    help="A YAML overriding configs/default.yaml for the training row (its train and curriculum keys, senses).",
+)
 @click.option("--memory-steps", type=click.IntRange(1000), default=20000, show_default=True)
 @click.option(
     "--out", "folder", type=click.Path(), default="bench", show_default=True, help="Folder for bench.json and bench.md."
 )
-def bench_command(levels, rounds, steps, resets, worker_steps, train_steps, train_envs, memory_steps, folder):
+def bench_command(
+    levels, rounds, steps, resets, worker_steps, train_steps, train_envs, config_path, memory_steps, folder
+):
     """Measure steps/s against a bare PyBullet loop and MuJoCo Ant-v5, training against the
     environment alone, resets, workers and memory; alternated rounds, medians and spreads."""
     from aaai.tools import bench
 
     level_list = parse_levels(levels) if levels else None
+    train_config: dict = {}
+    if config_path is not None:
+        try:
+            load_config(config_path)  # checked whole first: one message naming the key and the value
+            train_config = read_yaml(config_path)
+        except ConfigError as error:
+            raise click.BadParameter(str(error), param_hint="--config") from None
+    if train_envs:
+        train_config = {**train_config, "train": {**train_config.get("train", {}), "num_envs": train_envs}}
     results = bench.run(
         level_list,
         steps=steps,
@@ -986,7 +1003,7 @@ def bench_command(levels, rounds, steps, resets, worker_steps, train_steps, trai
         worker_steps=worker_steps,
         train_steps=train_steps,
         memory_steps=memory_steps,
-        train_config={"train": {"num_envs": train_envs}} if train_envs else None,
+        train_config=train_config or None,
         log=lambda text: click.echo(text, err=True),
     )
     json_path, md_path = bench.write(results, Path(folder))

@@ -105,6 +105,7 @@ def test_the_training_row_sets_ppo_and_the_random_agent_against_the_environment_
     }
     row = bench.training_rates(steps=64, rounds=2, config=config)
     assert row["config"]["runs"] == "in-process" and row["config"]["num_envs"] == 2
+    assert (row["config"]["n_epochs"], row["config"]["batch_size"], row["config"]["net_width"]) == (1, 32, 8)
     assert set(row["rates"]) == {"env alone, in-process", "env alone, worker processes", "random agent", "PPO"}
     assert all(len(figure["rounds"]) == 2 and figure["median"] > 0 for figure in row["rates"].values())
     rates = {name: figure["rounds"] for name, figure in row["rates"].items()}
@@ -114,3 +115,36 @@ def test_the_training_row_sets_ppo_and_the_random_agent_against_the_environment_
     assert row["ratios"]["PPO / env alone (best)"]["rounds"] == bench.per_round(rates["PPO"], best)
     assert "joint_velocities" in row["config"]["sensors"]  # training's extra senses, as aaai train runs
     assert set(row["load"]) == {"before", "after"}
+
+
+def test_bench_config_sets_the_training_row_and_train_envs_overrides_its_workers(tmp_path, monkeypatch):
+    from click.testing import CliRunner
+
+    from aaai_cli.main import cli
+
+    seen = {}
+
+    def fake_run(levels, train_config=None, **settings):
+        seen.update(levels=levels, train_config=train_config)
+        raise SystemExit(0)  # stop before measuring: only what reaches the bench matters here
+
+    monkeypatch.setattr(bench, "run", fake_run)
+    config = tmp_path / "fast.yaml"
+    config.write_text("train:\n  n_epochs: 4\n  batch_size: 512\n  num_envs: 16\n")
+    CliRunner().invoke(cli, ["bench", "--levels", "0", "--config", str(config), "--train-envs", "4"])
+    assert seen["train_config"] == {"train": {"n_epochs": 4, "batch_size": 512, "num_envs": 4}}
+    CliRunner().invoke(cli, ["bench", "--levels", "0", "--config", str(config)])
+    assert seen["train_config"]["train"]["num_envs"] == 16
+
+
+def test_bench_refuses_a_bad_config_naming_the_key_before_measuring_anything(tmp_path, monkeypatch):
+    from click.testing import CliRunner
+
+    from aaai_cli.main import cli
+
+    monkeypatch.setattr(bench, "run", lambda *a, **k: pytest.fail("measured with a bad config"))
+    config = tmp_path / "bad.yaml"
+    config.write_text("train:\n  n_epochs: 0\n")
+    result = CliRunner().invoke(cli, ["bench", "--config", str(config)])
+    assert result.exit_code == 2
+    assert "--config" in result.output and "train.n_epochs" in result.output and "got 0" in result.output

@@ -407,6 +407,9 @@ def training_rates(steps: int, rounds: int, config: dict | None = None, ppo: boo
             "vector": train["vector"],
             "runs": "in-process" if in_process else "worker processes",
             "n_steps": train["n_steps"],
+            "n_epochs": train["n_epochs"],
+            "batch_size": train["batch_size"],
+            "net_width": train["net_width"],
             "levels": sorted(config["curriculum"]["levels"]),
             "difficulties": sorted(config["curriculum"]["difficulties"]),
             "sensors": sensors,
@@ -578,8 +581,9 @@ def markdown(results: dict) -> str:
         c, t_rates, t_ratios = training["config"], training["rates"], training["ratios"]
         lines += [
             "",
-            f"Training ({c['num_envs']} workers, train.vector {c['vector']}: "
-            f"{c['runs']}; levels {c['levels']}, difficulties {c['difficulties']}; sensors "
+            f"Training ({c['num_envs']} workers x n_steps {c['n_steps']}, train.vector {c['vector']}: "
+            f"{c['runs']}; PPO {c.get('n_epochs', '?')} epochs of batch {c.get('batch_size', '?')}, "
+            f"net_width {c.get('net_width', '?')}; levels {c['levels']}, difficulties {c['difficulties']}; sensors "
             f"{', '.join(c['sensors'])}; load {training['load']['before']} -> {training['load']['after']}):",
             "",
             "| | steps/s (median, min..max) | / env alone, same vector env | / env alone, the faster |",

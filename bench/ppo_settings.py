@@ -1,0 +1,149 @@
+"""PPO settings compared as `make demo` runs them: training wall time and the reserved-seed pass rate.
+
+Each setting (a config override of the shipped config) trains `aaai train --curriculum --run RUN`
+once per training seed (`train.seed`), the settings alternated within each seed (the order
+rotated from seed to seed); then every run is scored with `aaai eval --seeds reserved --policy RUN`
+(untimed). Writes bench/ppo_settings.csv (one row per run) and bench/ppo_settings.md (per setting:
+median wall time and the per-seed ratio against the shipped setting, pass rates). Resumable: runs
+already in the CSV are skipped.
+
+    nice -n 10 .venv/bin/python bench/ppo_settings.py --seeds 0,1,2,3
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+AAAI = str(Path(sys.executable).parent / "aaai")
+SHIPPED = "shipped"
+SETTINGS = {
+    SHIPPED: {},
+    "16x128_e4_b512": {"num_envs": 16, "n_steps": 128, "n_epochs": 4, "batch_size": 512},
+    "8x256_e4_b512": {"n_epochs": 4, "batch_size": 512},
+}
+FIELDS = ["seed", "setting", "seconds", "load_before", "load_after", "passed", "episodes", "pass_rate", "mean_return"]
+
+
+def load() -> float:
+    return round(os.getloadavg()[0], 2)
+
+
+def read_rows(path: Path) -> list[dict]:
+    if not path.exists():
+        return []
+    with path.open() as handle:
+        return list(csv.DictReader(handle))
+
+
+def write_rows(path: Path, rows: list[dict]) -> None:
+    temporary = path.with_suffix(".tmp")
+    with temporary.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=FIELDS)
+        writer.writeheader()
+        writer.writerows(rows)
+    temporary.replace(path)
+
+
+def config_text(setting: dict, seed: int) -> str:
+    lines = ["train:", f"  seed: {seed}"] + [f"  {key}: {value}" for key, value in setting.items()]
+    return "\n".join(lines) + "\n"
+
+
+def score(run: Path) -> tuple[int, int, float]:
+    out = run / "scoreboard_reserved.csv"
+    if not out.exists():
+        command = [AAAI, "eval", "--seeds", "reserved", "--policy", str(run)]
+        subprocess.run(command, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
+    with out.open() as handle:
+        rows = list(csv.DictReader(handle))
+    passed = sum(row["outcome"] != "failed" for row in rows)
+    return passed, len(rows), statistics.mean(float(row["return"]) for row in rows)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--seeds", default="0,1,2,3")
+    parser.add_argument("--work", default=str(ROOT / "runs" / "ppo_settings"))
+    parser.add_argument("--out", default=str(ROOT / "bench"))
+    args = parser.parse_args()
+    work, out = Path(args.work), Path(args.out)
+    work.mkdir(parents=True, exist_ok=True)
+    csv_path = out / "ppo_settings.csv"
+    rows = read_rows(csv_path)
+    done = {(r["seed"], r["setting"]) for r in rows}
+    names = list(SETTINGS)
+    for index, seed in enumerate(int(s) for s in args.seeds.split(",")):
+        order = names[index % len(names) :] + names[: index % len(names)]
+        for name in order:
+            if (str(seed), name) in done:
+                continue
+            run = work / f"{name}-s{seed}"
+            shutil.rmtree(run, ignore_errors=True)
+            config = work / f"{name}-s{seed}.yaml"
+            config.write_text(config_text(SETTINGS[name], seed))
+            command = [AAAI, "train", "--curriculum", "--run", str(run), "--config", str(config)]
+            before = load()
+            start = time.perf_counter()
+            subprocess.run(command, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
+            row = {"seed": seed, "setting": name, "seconds": round(time.perf_counter() - start, 1)}
+            row.update(load_before=before, load_after=load())
+            rows.append(row)
+            write_rows(csv_path, rows)
+            print(row, flush=True)
+    for row in rows:
+        if row.get("pass_rate") in (None, ""):
+            passed, episodes, mean_return = score(work / f"{row['setting']}-s{row['seed']}")
+            row.update(passed=passed, episodes=episodes, pass_rate=round(passed / episodes, 3))
+            row["mean_return"] = round(mean_return, 3)
+            write_rows(csv_path, rows)
+            print(row, flush=True)
+    report(rows, out / "ppo_settings.md")
+
+
+def report(rows: list[dict], path: Path) -> None:
+    by = {(r["seed"], r["setting"]): r for r in rows}
+    lines = [
+        "# PPO settings as `make demo` trains them",
+        "",
+        "`bench/ppo_settings.py`: `aaai train --curriculum` (100,000 steps, L0 d0-2) timed per training",
+        "seed, the settings alternated, then `aaai eval --seeds reserved` (30 episodes) on each run.",
+        "",
+        "| seed | setting | training s | load before -> after | passed or better | mean return |",
+        "|---|---|---:|---|---:|---:|",
+    ]
+    for r in sorted(rows, key=lambda r: (int(r["seed"]), r["setting"])):
+        rate = f"{float(r['pass_rate']):.0%} ({r['passed']}/{r['episodes']})" if r.get("pass_rate") else "-"
+        lines.append(
+            f"| {r['seed']} | {r['setting']} | {r['seconds']} | {r['load_before']} -> {r['load_after']} | {rate} "
+            f"| {r.get('mean_return') or '-'} |"
+        )
+    lines.append("")
+    for name, setting in SETTINGS.items():
+        own = [r for r in rows if r["setting"] == name]
+        if not own:
+            continue
+        seconds = [float(r["seconds"]) for r in own]
+        ratios = [
+            float(by[(r["seed"], SHIPPED)]["seconds"]) / float(r["seconds"]) for r in own if (r["seed"], SHIPPED) in by
+        ]
+        rates = [float(r["pass_rate"]) for r in own if r.get("pass_rate")]
+        text = f"- {name} {setting or '(configs/default.yaml)'}: training median {statistics.median(seconds):.0f} s"
+        if ratios and name != SHIPPED:
+            text += f", shipped / this per seed {statistics.median(ratios):.2f} ({min(ratios):.2f}..{max(ratios):.2f})"
+        if rates:
+            text += f"; pass rate mean {statistics.mean(rates):.0%} (per seed {', '.join(f'{x:.0%}' for x in rates)})"
+        lines.append(text)
+    path.write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
