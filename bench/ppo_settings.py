@@ -29,6 +29,7 @@ SETTINGS = {
     SHIPPED: {},
     "16x128_e4_b512": {"num_envs": 16, "n_steps": 128, "n_epochs": 4, "batch_size": 512},
     "8x256_e4_b512": {"n_epochs": 4, "batch_size": 512},
+    "16x128": {"num_envs": 16, "n_steps": 128},
 }
 FIELDS = ["seed", "setting", "seconds", "load_before", "load_after", "passed", "episodes", "pass_rate", "mean_return"]
 
