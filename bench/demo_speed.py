@@ -13,51 +13,20 @@ Resumable: runs already in the CSV are skipped.
 from __future__ import annotations
 
 import argparse
-import csv
-import os
 import shutil
 import statistics
 import subprocess
-import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-AAAI = str(Path(sys.executable).parent / "aaai")
+from run_rows import AAAI, ROOT, load, read_rows, score, write_rows
+
 # The shipped config before `train.processes` (git show 9f318fc^:configs/default.yaml): 2 x 1024;
 # and the same with its 2 worker processes, as `make demo` trained before `train.vector`.
 OLD = "train:\n  num_envs: 2\n  n_steps: 1024\n"
 CONFIGS = {"old_2x1024": OLD, "now_default": None, "old_2x1024_processes": OLD + "  vector: async\n"}
 NOW = "now_default"
 FIELDS = ["round", "config", "seconds", "load_before", "load_after", "pass_rate", "passed", "episodes"]
-
-
-def load() -> float:
-    return round(os.getloadavg()[0], 2)
-
-
-def read_rows(path: Path) -> list[dict]:
-    if not path.exists():
-        return []
-    with path.open() as handle:
-        return list(csv.DictReader(handle))
-
-
-def write_rows(path: Path, rows: list[dict]) -> None:
-    with path.open("w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=FIELDS)
-        writer.writeheader()
-        writer.writerows(rows)
-
-
-def score(run: Path) -> tuple[int, int]:
-    out = run / "scoreboard_reserved.csv"
-    if not out.exists():
-        command = [AAAI, "eval", "--seeds", "reserved", "--policy", str(run)]
-        subprocess.run(command, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
-    with out.open() as handle:
-        outcomes = [row["outcome"] for row in csv.DictReader(handle)]
-    return sum(o != "failed" for o in outcomes), len(outcomes)
 
 
 def main() -> None:
@@ -91,13 +60,13 @@ def main() -> None:
             row = {"round": round_, "config": name, "seconds": round(seconds, 1), "load_before": before}
             row["load_after"] = load()
             rows.append(row)
-            write_rows(csv_path, rows)
+            write_rows(csv_path, rows, FIELDS)
             print(row, flush=True)
     for row in rows:
         if row.get("pass_rate") in (None, ""):
-            passed, episodes = score(work / f"{row['config']}-r{row['round']}")
+            passed, episodes, _ = score(work / f"{row['config']}-r{row['round']}")
             row.update(passed=passed, episodes=episodes, pass_rate=round(passed / episodes, 3))
-            write_rows(csv_path, rows)
+            write_rows(csv_path, rows, FIELDS)
             print(row, flush=True)
     report(rows, out / "demo_speed.md")
 

@@ -13,61 +13,29 @@ already in the CSV are skipped.
 from __future__ import annotations
 
 import argparse
-import csv
-import os
 import shutil
 import statistics
 import subprocess
-import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-AAAI = str(Path(sys.executable).parent / "aaai")
+from run_rows import AAAI, ROOT, load, read_rows, score, write_rows
+
 SHIPPED = "shipped"
 SETTINGS = {
     SHIPPED: {},
     "16x128_e4_b512": {"num_envs": 16, "n_steps": 128, "n_epochs": 4, "batch_size": 512},
     "8x256_e4_b512": {"n_epochs": 4, "batch_size": 512},
     "16x128": {"num_envs": 16, "n_steps": 128},
+    # the first setting given the shipped setting's wall time: 1.41 x its steps
+    "16x128_e4_b512_140k": {"num_envs": 16, "n_steps": 128, "n_epochs": 4, "batch_size": 512, "total_steps": 140000},
 }
 FIELDS = ["seed", "setting", "seconds", "load_before", "load_after", "passed", "episodes", "pass_rate", "mean_return"]
-
-
-def load() -> float:
-    return round(os.getloadavg()[0], 2)
-
-
-def read_rows(path: Path) -> list[dict]:
-    if not path.exists():
-        return []
-    with path.open() as handle:
-        return list(csv.DictReader(handle))
-
-
-def write_rows(path: Path, rows: list[dict]) -> None:
-    temporary = path.with_suffix(".tmp")
-    with temporary.open("w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=FIELDS)
-        writer.writeheader()
-        writer.writerows(rows)
-    temporary.replace(path)
 
 
 def config_text(setting: dict, seed: int) -> str:
     lines = ["train:", f"  seed: {seed}"] + [f"  {key}: {value}" for key, value in setting.items()]
     return "\n".join(lines) + "\n"
-
-
-def score(run: Path) -> tuple[int, int, float]:
-    out = run / "scoreboard_reserved.csv"
-    if not out.exists():
-        command = [AAAI, "eval", "--seeds", "reserved", "--policy", str(run)]
-        subprocess.run(command, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
-    with out.open() as handle:
-        rows = list(csv.DictReader(handle))
-    passed = sum(row["outcome"] != "failed" for row in rows)
-    return passed, len(rows), statistics.mean(float(row["return"]) for row in rows)
 
 
 def main() -> None:
@@ -98,24 +66,24 @@ def main() -> None:
             row = {"seed": seed, "setting": name, "seconds": round(time.perf_counter() - start, 1)}
             row.update(load_before=before, load_after=load())
             rows.append(row)
-            write_rows(csv_path, rows)
+            write_rows(csv_path, rows, FIELDS)
             print(row, flush=True)
     for row in rows:
         if row.get("pass_rate") in (None, ""):
             passed, episodes, mean_return = score(work / f"{row['setting']}-s{row['seed']}")
             row.update(passed=passed, episodes=episodes, pass_rate=round(passed / episodes, 3))
             row["mean_return"] = round(mean_return, 3)
-            write_rows(csv_path, rows)
+            write_rows(csv_path, rows, FIELDS)
             print(row, flush=True)
     report(rows, out / "ppo_settings.md")
 
 
 def report(rows: list[dict], path: Path) -> None:
-    by = {(r["seed"], r["setting"]): r for r in rows}
+    by = {(str(r["seed"]), r["setting"]): r for r in rows}  # seeds read back from the CSV are text
     lines = [
         "# PPO settings as `make demo` trains them",
         "",
-        "`bench/ppo_settings.py`: `aaai train --curriculum` (100,000 steps, L0 d0-2) timed per training",
+        "`bench/ppo_settings.py`: `aaai train --curriculum` (100,000 steps unless set, L0 d0-2) timed per training",
         "seed, the settings alternated, then `aaai eval --seeds reserved` (30 episodes) on each run.",
         "",
         "| seed | setting | training s | load before -> after | passed or better | mean return |",
@@ -134,7 +102,9 @@ def report(rows: list[dict], path: Path) -> None:
             continue
         seconds = [float(r["seconds"]) for r in own]
         ratios = [
-            float(by[(r["seed"], SHIPPED)]["seconds"]) / float(r["seconds"]) for r in own if (r["seed"], SHIPPED) in by
+            float(by[(str(r["seed"]), SHIPPED)]["seconds"]) / float(r["seconds"])
+            for r in own
+            if (str(r["seed"]), SHIPPED) in by
         ]
         rates = [float(r["pass_rate"]) for r in own if r.get("pass_rate")]
         text = f"- {name} {setting or '(configs/default.yaml)'}: training median {statistics.median(seconds):.0f} s"
