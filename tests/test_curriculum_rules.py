@@ -261,10 +261,23 @@ def _heatmap(tmp_path) -> np.ndarray:
 def test_the_heatmap_is_drawn_pixel_for_pixel_as_before(tmp_path):
     image = _heatmap(tmp_path)
     panel = MARGIN_PX + CELL_PX * 2 + 10
-    assert image.shape == (panel, 4 * panel, 3)  # mean return, episodes, q(1-q), p (in the warm-up)
+    # mean return, episodes, q(1-q), and p, whose title "p (learnability, warm-up)" widens its panel
+    assert image.shape[0] == panel and 4 * panel < image.shape[1] < 5 * panel
     expected = cv2.imread(str(FIXTURE))
     differ = np.argwhere((image != expected).any(axis=2))
     assert differ.size == 0, f"{len(differ)} pixels differ, the first at (y, x) {differ[0].tolist()}"
+
+
+@pytest.mark.parametrize("cells", [[(0, 0)], [(0, 0), (0, 1)], [(0, d) for d in range(11)]])
+def test_a_panels_title_is_drawn_whole_however_few_its_cells(cells):
+    title = "p (learnability, warm-up)"
+    panel = heatmap_panel(title, np.zeros(len(cells)), cells)
+    band = (panel[:22] < 200).any(axis=2)  # the title's row: dark pixels are its letters
+    columns = np.flatnonzero(band.any(axis=0))
+    (width, _), _ = cv2.getTextSize(title, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)
+    assert columns[-1] < panel.shape[1] - 5  # white to the panel's edge after the last letter
+    assert columns[-1] - columns[0] >= width - 4  # and the letters span the whole title
+    assert panel.shape[1] >= MARGIN_PX + CELL_PX * len(cells) + 10  # the cells keep their room
 
 
 def test_a_panel_without_finite_values_or_spread_still_draws_each_cell(tmp_path):

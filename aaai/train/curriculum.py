@@ -268,7 +268,8 @@ def heatmap_panel(
     levels = sorted({level for level, _ in cells})
     difficulties = sorted({d for _, d in cells})
     height = MARGIN_PX + CELL_PX * len(levels) + 10
-    width = MARGIN_PX + CELL_PX * len(difficulties) + 10
+    (title_width, _), _ = cv2.getTextSize(title, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)
+    width = max(MARGIN_PX + CELL_PX * len(difficulties), 4 + title_width) + 10  # the title whole, however few cells
     image = np.full((height, width, 3), 255, np.uint8)
     finite = values[np.isfinite(values)]
     low, high = limits or ((finite.min(), finite.max()) if finite.size else (0.0, 1.0))
