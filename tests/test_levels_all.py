@@ -171,17 +171,6 @@ def test_a_level_that_cannot_be_made_valid_names_its_seed(monkeypatch):
 
 
 # --- what each level holds --------------------------------------------------------------
-@pytest.mark.parametrize("difficulty", range(11))
-def test_l2_y_maze_one_better_green_and_a_smaller_one_above_5(difficulty):
-    for seed in range(5):
-        spec = generate(2, difficulty, seed)
-        greens = sorted(f.size[0] for f in spec.foods)
-        assert len(greens) == (2 if difficulty > 5 else 1) and all(f.kind == "food_green" for f in spec.foods)
-        assert 3 <= greens[-1] <= 4 and spec.max_food_reward == greens[-1]  # one green only
-        if difficulty > 5:
-            assert greens[0] == 2 and np.sign(spec.foods[0].position[0]) != np.sign(spec.foods[1].position[0])
-
-
 def test_l6_recolours_kinds_with_five_colours_and_raises_walls():
     for seed in range(6):
         spec = generate(6, 10, seed)
