@@ -24,10 +24,13 @@ if not os.environ.get("CI"):  # on CI (make test installs the play extra) a miss
 from websockets.sync.client import connect  # noqa: E402  (the play extra)
 
 from aaai.scoring.replays import load_replay, run_replay  # noqa: E402
+from aaai.tools.play.measure import CHROMEDRIVER as CHROMEDRIVER_PATH  # noqa: E402
+from aaai.tools.play.measure import CHROMIUM as CHROMIUM_PATH  # noqa: E402
+from aaai.tools.play.measure import FLAGS as CHROMIUM_FLAGS  # noqa: E402
 from aaai.tools.play.server import Server  # noqa: E402
 from aaai.tools.play.session import InputError, PlaySettings, abandoned_path, command_of, control_of  # noqa: E402
 
-CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver")
+CHROMIUM, CHROMEDRIVER = Path(CHROMIUM_PATH), Path(CHROMEDRIVER_PATH)
 ROOT_ARENAS = Path(__file__).resolve().parent.parent / "configs" / "arenas"
 
 
@@ -124,19 +127,7 @@ def test_browser_plays_an_episode_scores_it_and_its_replay_runs_again_bit_for_bi
     options = webdriver.ChromeOptions()
     options.binary_location = str(CHROMIUM)
     profile = tempfile.mkdtemp(prefix="aaai-chromium-")
-    for flag in (
-        "--headless",
-        "--no-sandbox",
-        "--disable-gpu",
-        "--disable-quic",
-        "--no-first-run",
-        "--disable-background-networking",
-        "--disable-component-update",
-        "--disable-sync",
-        "--disable-dev-shm-usage",
-        f"--user-data-dir={profile}",
-        "--window-size=1000,800",
-    ):
+    for flag in (*CHROMIUM_FLAGS, f"--user-data-dir={profile}"):  # the flags `aaai play`'s measure uses
         options.add_argument(flag)
     driver = webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=options)
     try:

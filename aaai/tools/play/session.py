@@ -301,27 +301,12 @@ class Session:
                 return
             make_policy, on_episode = self._policy_makers()
             record = settings.record(self.player)
+            player = external(f"human:{self.player}")
+            common = {"on_episode": on_episode, "record": record, "make_policy": make_policy}
             if settings.arenas:
-                evaluate_arenas(
-                    external(f"human:{self.player}"),
-                    settings.arenas,
-                    settings.arena_seeds,
-                    self.output,
-                    settings.config,
-                    on_episode=on_episode,
-                    record=record,
-                    make_policy=make_policy,
-                )
+                evaluate_arenas(player, settings.arenas, settings.arena_seeds, self.output, settings.config, **common)
             else:
-                evaluate(
-                    external(f"human:{self.player}"),
-                    settings.cells,
-                    self.output,
-                    settings.config,
-                    on_episode=on_episode,
-                    record=record,
-                    make_policy=make_policy,
-                )
+                evaluate(player, settings.cells, self.output, settings.config, **common)
             self._finish(
                 f"the battery is done ({self.total} episode{'s' * (self.total != 1)}); the scores are in {self.output}"
             )
