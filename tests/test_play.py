@@ -379,3 +379,22 @@ def test_a_dropped_connection_pauses_and_the_tab_carries_on_with_its_token(tmp_p
     assert end["phase"] == "finished" and not abandoned_path(tmp_path / "human_eve.csv").exists()
     [row] = rows_of(tmp_path / "human_eve.csv")
     assert row["steps"] == "60"
+
+
+def test_a_battery_of_arena_files_is_played_and_scored_with_its_arena_column(tmp_path):
+    arena = ROOT_ARENAS / "l0_food_ahead.yaml"
+    server = Server(settings_for(tmp_path, max_steps=40, cells=[], arenas=[arena], arena_seeds=[0, 1]), port=0).start()
+    try:
+        with ExitStack() as stack:
+            page = Page(stack, server)
+            page.join("eve")
+            for index in (1, 2):
+                page.pump(lambda s, i=index: startable(s) and s["episode"]["index"] == i)
+                page.key(" ")
+                page.key(" ", down=False)
+                status = page.pump(lambda s, i=index: s["scored"] == i)
+    finally:
+        server.stop()
+    rows = rows_of(tmp_path / "human_eve.csv")
+    assert [(row["arena"], row["seed"]) for row in rows] == [(arena.name, "0"), (arena.name, "1")]
+    assert all(row["steps"] == "40" for row in rows) and status["last"]["arena"] == arena.name
