@@ -59,3 +59,13 @@ def processes_holding(text: str) -> set[int]:
 
 
 __all__ = ["heading", "open_arena", "processes_holding", "sphere"]
+
+
+def needs(module: str, extra: str):
+    """``module`` of the ``extra`` extra: skipped where it is not installed, but on CI (where
+    make test installs every extra) imported, so that a missing extra fails instead of skipping."""
+    if os.environ.get("CI"):
+        import importlib
+
+        return importlib.import_module(module)
+    return pytest.importorskip(module, reason=f"needs the {extra} extra, which make test installs")

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import needs
 
 from aaai.config import ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
@@ -40,7 +41,7 @@ def _save_model(config: dict, path: Path) -> None:
 def run(tmp_path_factory) -> Path:
     """A run folder as the trainer leaves it: its config (4 rays a side, 20-step episodes), an older
     checkpoint and final/, each with a model."""
-    pytest.importorskip("stable_baselines3", reason="needs the train extra")
+    needs("stable_baselines3", "train")
     folder = tmp_path_factory.mktemp("policies") / "run"
     config = load_config({**SHORT, "sensors": {"rays_per_side": 4}})
     RunFolder(folder).create(config)
@@ -293,7 +294,7 @@ def test_a_trusted_model_acts_as_the_one_read_without_code(run):
 def test_a_recurrent_model_carries_its_memory_through_an_episode_and_forgets_it_at_reset(tmp_path):
     """As RecurrentPPO itself plays: the state goes from one decision to the next, and a new
     episode starts from none."""
-    pytest.importorskip("sb3_contrib", reason="needs the train extra")
+    needs("sb3_contrib", "train")
     from sb3_contrib import RecurrentPPO
 
     config = load_config(SHORT)
@@ -380,7 +381,7 @@ def test_an_rllib_run_is_named_by_its_checkpoint_and_the_hash_of_its_files(tmp_p
 
 
 def test_an_rllib_checkpoint_from_elsewhere_is_refused_before_it_loads(tmp_path):
-    pytest.importorskip("ray.rllib", reason="needs the ray extra")
+    needs("ray.rllib", "ray")
     _rllib_run(tmp_path / "run")
     env = AnimalAIEnv(config=load_config(SHORT))
     try:
