@@ -103,7 +103,9 @@ competence: install-train
 # trained on one budget, config and cells, 3 seeds each, scored on reserved and trained seeds; writes
 # experiments/curricula/ (table.md, table.csv, curves.png, runs.csv, each run's CSVs). The committed
 # results are this budget: 50,000 gait decisions per run, 5 seeds per cell scored (about 25 minutes
-# on 2 cores). Re-running continues where it stopped. CURRICULA_ARGS adds options, e.g.
+# on 2 cores). Re-running continues where it stopped. Its settings (PPO's, the camera's look) are
+# pinned in configs/curricula.yaml, the command's default --config, not taken from configs/default.yaml:
+# a change of a default then leaves the committed experiment continuable. CURRICULA_ARGS adds options, e.g.
 # CURRICULA_ARGS="--steps 500000 -k 10 --out experiments/curricula-500k" for the larger budget.
 CURRICULA_ARGS ?=
 curricula: install-train

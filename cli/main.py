@@ -1081,7 +1081,13 @@ def default_action_mode() -> str:
     type=click.Choice(["rotation", "velocity", "gait"]),
     help="Action mode of every run (default: gait where available, else rotation).",
 )
-@click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
+@click.option(
+    "--config",
+    "config_path",
+    type=click.Path(),
+    help="A YAML overriding configs/default.yaml. Default: configs/curricula.yaml, the settings the committed "
+    "experiment was run with (PPO's, pinned so that a change of the defaults leaves it continuable).",
+)
 @click.option("--out", "folder", type=click.Path(file_okay=False), default="experiments/curricula", show_default=True)
 @click.option(
     "--jobs",
@@ -1115,6 +1121,7 @@ def curricula_command(
     """Train every sampler on one budget, config and cells, several seeds each; score each run on
     reserved and on trained seeds; write a table and a learning-curve plot (make curricula).
     Re-running continues where it stopped."""
+    from aaai.config import config_dir
     from aaai.scoring.runs import check_writable
     from aaai.train.experiments import plan, run_experiment
 
@@ -1122,7 +1129,7 @@ def curricula_command(
     try:
         check_writable(Path(folder), "--out", folder=True)
         config = load_config(
-            config_path,
+            config_path or config_dir() / "curricula.yaml",
             levels=parse_levels(levels),
             difficulties=parse_range(difficulty, "--difficulty", 0, 10),
             total_steps=total_steps,

@@ -14,10 +14,15 @@ generalisation gap. The folder (default experiments/curricula/) gets:
   curves.csv, curves.png   pass rate against training steps, mean and spread over seeds
 
 Re-running the same command continues: finished runs and whole scoreboards are skipped, an
-unfinished run resumes from its newest checkpoint, a half-written scoreboard is completed. The
-curve is the cell-averaged training pass rate: at each step, the mean over all active cells of
-each cell's pass rate over its last ``window`` training episodes (a cell not yet played counts 0).
-Averaging over cells (not over episodes) keeps it comparable between samplers that play
+unfinished run resumes from its newest checkpoint, a half-written scoreboard is completed. A
+folder run with another base config or K is not continued: the refusal names what differs (the
+sampler and seed each run sets for itself are not compared). The command's settings are pinned in
+configs/curricula.yaml, so that a change of configs/default.yaml leaves the committed experiment
+continuable.
+
+The curve is the cell-averaged training pass rate: at each step, the mean over all active cells
+of each cell's pass rate over its last ``window`` training episodes (a cell not yet played counts
+0). Averaging over cells (not over episodes) keeps it comparable between samplers that play
 different cells.
 """
 
@@ -81,19 +86,55 @@ def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: dict
     if path.exists():
         earlier = yaml.safe_load(path.read_text())
         # resolved again: keys added to the config since then take their defaults, as in `config`
-        if (
-            load_config(earlier.get("config") or {}) != load_config(config)
-            or earlier.get("seeds_per_cell") != seeds_per_cell
-        ):
-            raise ConfigError(
-                f"--out: {str(experiment.folder)!r} holds an experiment with another config or K; "
-                "re-run it with the same options to continue it, or choose another --out"
-            )
+        differences = config_differences(load_config(earlier.get("config") or {}), load_config(config))
+        if earlier.get("seeds_per_cell") != seeds_per_cell:
+            differences.insert(0, ("K (-k, seeds per cell)", earlier.get("seeds_per_cell"), seeds_per_cell))
+        if differences:
+            raise ConfigError(refusal(experiment.folder, differences))
         # more samplers or seeds than before: the runs already done are kept
         experiment.samplers = list(dict.fromkeys(earlier["samplers"] + experiment.samplers))
         experiment.seeds = sorted(set(earlier["seeds"]) | set(experiment.seeds))
     write_atomic(path, yaml.safe_dump(experiment.record(), sort_keys=False))
     return experiment
+
+
+# the keys each run sets for itself (Experiment.run_config): the base config's values do not matter
+PER_RUN_KEYS = ("curriculum.sampler", "train.seed")
+LISTED_DIFFERENCES = 5
+
+
+def flat_keys(tree: dict, prefix: str = "") -> dict:
+    """A nested config as {"section.key": value}."""
+    flat = {}
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            flat.update(flat_keys(value, f"{prefix}{key}."))
+        else:
+            flat[f"{prefix}{key}"] = value
+    return flat
+
+
+def config_differences(earlier: dict, now: dict) -> list[tuple[str, object, object]]:
+    """(key, value in the folder, value now) for each key of two resolved configs that differs,
+    leaving out the keys each run sets (PER_RUN_KEYS)."""
+    before, after = flat_keys(earlier), flat_keys(now)
+    keys = [key for key in dict.fromkeys([*before, *after]) if key not in PER_RUN_KEYS]
+    return [(key, before.get(key), after.get(key)) for key in keys if before.get(key) != after.get(key)]
+
+
+def refusal(folder: Path, differences: list[tuple[str, object, object]]) -> str:
+    """The message refusing to continue the experiment in ``folder``: what differs, and what to do."""
+    listed = "; ".join(
+        f"{key}: {was!r} in the folder, {now!r} now" for key, was, now in differences[:LISTED_DIFFERENCES]
+    )
+    more = len(differences) - LISTED_DIFFERENCES
+    if more > 0:
+        listed += f"; and {more} more"
+    return (
+        f"--out: {str(folder)!r} holds an experiment with another config or K ({listed}). To continue it, re-run "
+        f"it with the options and --config file it was run with (by default configs/curricula.yaml; the folder's "
+        f"whole config is in {str(folder / 'experiment.yaml')!r}), or choose another --out"
+    )
 
 
 # --- running ------------------------------------------------------------------------------
