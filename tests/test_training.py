@@ -637,3 +637,25 @@ def test_curricula_experiment_continues_whatever_the_base_sampler_and_seed(tmp_p
     assert experiment.samplers == ["paper", "plr", "uniform"] and experiment.seeds == [0, 1]
     assert experiment.run_config("plr", 1)["curriculum"]["sampler"] == "plr"
     assert experiment.run_config("plr", 1)["train"]["seed"] == 1
+
+
+def test_make_curricula_on_a_clone_skips_the_committed_runs_it_has_no_model_of(tmp_path, monkeypatch):
+    """A clone has the committed runs' states and scoreboards, not their models: continuing the
+    experiment skips them (nothing trained, nothing scored) and writes its table again."""
+    import aaai.scoring.evaluation as evaluation
+    import aaai.train.training as training
+
+    folder = tmp_path / "experiments" / "curricula"
+    shutil.copytree(
+        REPO / "experiments" / "curricula", folder, ignore=shutil.ignore_patterns("model.zip", "checkpoints", "tb")
+    )
+    monkeypatch.chdir(tmp_path)
+    for module, name in ((training, "train"), (evaluation, "evaluate")):
+        monkeypatch.setattr(module, name, lambda *a, _name=name, **k: pytest.fail(f"{_name} was called"))
+    result = CliRunner().invoke(cli, [*make_curricula_command(), "--jobs", "1"])
+    assert result.exit_code == 0, result.output
+    committed = yaml.safe_load((REPO / "experiments" / "curricula" / "experiment.yaml").read_text())
+    runs = len(committed["samplers"]) * len(committed["seeds"])
+    assert result.output.count("and scored, without its model (not kept), skipped") == runs, result.output
+    assert result.output.count("), skipped") == 3 * runs  # each run, and its two scoreboards
+    assert (folder / "table.md").read_text() == (REPO / "experiments" / "curricula" / "table.md").read_text()

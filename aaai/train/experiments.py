@@ -14,7 +14,9 @@ generalisation gap. The folder (default experiments/curricula/) gets:
   curves.csv, curves.png   pass rate against training steps, mean and spread over seeds
 
 Re-running the same command continues: finished runs and whole scoreboards are skipped, an
-unfinished run resumes from its newest checkpoint, a half-written scoreboard is completed. A
+unfinished run resumes from its newest checkpoint, a half-written scoreboard is completed (a run
+trained to the budget and fully scored is finished without its model, which the committed runs do
+not keep). A
 folder run with another base config or K is not continued: the refusal names what differs (the
 sampler and seed each run sets for itself are not compared). The command's settings are pinned in
 configs/curricula.yaml, so that a change of configs/default.yaml leaves the committed experiment
@@ -159,6 +161,9 @@ def train_run(experiment: Experiment, sampler: str, seed: int, echo: Callable[[s
     if finished(run, total):
         echo(f"{run.path}: trained ({total} steps), skipped")
         return run
+    if kept_results(experiment, run, total):
+        echo(f"{run.path}: trained ({total} steps) and scored, without its model (not kept), skipped")
+        return run
     hooks = {"progress": report.update, "on_episodes": report.on_episodes} if report is not None else {}
     if run.config_path.is_file() and run.saved():
         echo(f"{run.path}: resuming")
@@ -181,25 +186,49 @@ def trained_seeds(run: RunFolder, cells: list[tuple[int, int]], count: int) -> d
     return {cell: list(dict.fromkeys(reversed(seeds)))[:count] for cell, seeds in played.items()}
 
 
-def score_run(experiment: Experiment, run: RunFolder, echo: Callable[[str], None]) -> dict[str, Path]:
-    """The run's two scoreboards (reserved seeds, seeds it trained on), each played only as far as missing."""
-    from aaai.scoring.evaluation import Cell, cells_for, evaluate, policy_record, scored_episodes
-    from aaai.scoring.policies import resolve
+def scoreboards(experiment: Experiment, run: RunFolder) -> dict[str, tuple[list, Path, str]]:
+    """The run's two scoreboards: name -> (cells and seeds, file, seeds mode of its record)."""
+    from aaai.scoring.evaluation import Cell, cells_for
 
-    one_torch_thread()
-    config = load_config(run.read_config())
-    cur = config["curriculum"]
+    cur = load_config(run.read_config())["curriculum"]
     k = experiment.seeds_per_cell
     reserved = cells_for(cur["levels"], cur["difficulties"], "reserved", k)
     own = trained_seeds(run, [(c.level, c.difficulty) for c in reserved], k)
     trained = [Cell(level, d, seeds) for (level, d), seeds in own.items() if seeds]
-    boards = {
+    return {
         "reserved": (reserved, run.path / "scoreboard_reserved.csv", "reserved"),
         "trained": (trained, run.path / "scoreboard_trained.csv", "list"),
     }
-    for name, (cells, output, seeds_mode) in boards.items():
+
+
+def scored(cells: list, output: Path) -> bool:
+    from aaai.scoring.evaluation import scored_episodes
+
+    return output.exists() and len(scored_episodes(output)) >= sum(len(c.seeds) for c in cells)
+
+
+def kept_results(experiment: Experiment, run: RunFolder, total_steps: int) -> bool:
+    """Did the run train to ``total_steps`` and fill both scoreboards, though its model is gone?
+    The committed runs keep no model (experiments/curricula/.gitignore): they are done, not resumed."""
+    try:
+        trained = RunFolder.unreadable(run.final, needs_model=False) is None
+        trained = trained and int(RunFolder.read_state(run.final)["step"]) >= total_steps
+        return trained and all(scored(cells, output) for cells, output, _ in scoreboards(experiment, run).values())
+    except (OSError, ValueError, KeyError, ConfigError):
+        return False
+
+
+def score_run(experiment: Experiment, run: RunFolder, echo: Callable[[str], None]) -> dict[str, Path]:
+    """The run's two scoreboards (reserved seeds, seeds it trained on), each played only as far as missing."""
+    from aaai.scoring.evaluation import evaluate, policy_record
+    from aaai.scoring.policies import resolve
+
+    one_torch_thread()
+    config = load_config(run.read_config())
+    boards = scoreboards(experiment, run)
+    for cells, output, seeds_mode in boards.values():
         wanted = sum(len(c.seeds) for c in cells)
-        if output.exists() and len(scored_episodes(output)) >= wanted:
+        if scored(cells, output):
             echo(f"{output}: scored ({wanted} episodes), skipped")
             continue
         echo(f"{output}: scoring {wanted} episodes")
