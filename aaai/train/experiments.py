@@ -16,11 +16,10 @@ generalisation gap. The folder (default experiments/curricula/) gets:
 Re-running the same command continues: finished runs and whole scoreboards are skipped, an
 unfinished run resumes from its newest checkpoint, a half-written scoreboard is completed (a run
 trained to the budget and fully scored is finished without its model, which the committed runs do
-not keep). A
-folder run with another base config or K is not continued: the refusal names what differs (the
-sampler and seed each run sets for itself are not compared). The command's settings are pinned in
-configs/curricula.yaml, so that a change of configs/default.yaml leaves the committed experiment
-continuable.
+not keep). A folder run with another base config or K is not continued: the refusal names what
+differs (the sampler and seed each run sets for itself are not compared). The command's settings
+are pinned in configs/curricula.yaml, so that a change of configs/default.yaml leaves the committed
+experiment continuable.
 
 The curve is the cell-averaged training pass rate: at each step, the mean over all active cells
 of each cell's pass rate over its last ``window`` training episodes (a cell not yet played counts
