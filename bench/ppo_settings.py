@@ -8,6 +8,13 @@ median wall time and the per-seed ratio against the shipped setting, pass rates)
 already in the CSV are skipped.
 
     nice -n 10 .venv/bin/python bench/ppo_settings.py --seeds 0,1,2,3
+    nice -n 10 .venv/bin/python bench/ppo_settings.py --seeds 4,5,6,7 --settings shipped,32x64_w64_e6
+    .venv/bin/python bench/ppo_settings.py --ratios --seeds none
+
+With ``--ratios`` it also measures each setting's throughput as `aaai bench --config` does: the
+training row (``aaai.tools.bench.training_rates``: PPO against the environment alone, the same
+vector env, alternated rounds), written to bench/ppo_settings_ratio.csv (resumable) and reported
+as the setting's "PPO / env alone" (median and spread over rounds).
 """
 
 from __future__ import annotations
@@ -29,7 +36,17 @@ SETTINGS = {
     "16x128": {"num_envs": 16, "n_steps": 128},
     # the first setting given the shipped setting's wall time: 1.41 x its steps
     "16x128_e4_b512_140k": {"num_envs": 16, "n_steps": 128, "n_epochs": 4, "batch_size": 512, "total_steps": 140000},
+    # more environments per forward pass, fewer passes over each rollout (batch 256 kept)
+    "32x64_e5": {"num_envs": 32, "n_steps": 64, "n_epochs": 5},
+    "16x128_w64_e5": {"num_envs": 16, "n_steps": 128, "net_width": 64, "n_epochs": 5},
+    "16x128_w64_e6": {"num_envs": 16, "n_steps": 128, "net_width": 64, "n_epochs": 6},
+    "32x64_w64_e6": {"num_envs": 32, "n_steps": 64, "net_width": 64, "n_epochs": 6},
+    "32x64_w64_e8": {"num_envs": 32, "n_steps": 64, "net_width": 64, "n_epochs": 8},
+    "32x64_w64": {"num_envs": 32, "n_steps": 64, "net_width": 64},
+    # the 32 x 64 setting given about the shipped setting's wall time: 1.5 x its steps
+    "32x64_w64_e6_150k": {"num_envs": 32, "n_steps": 64, "net_width": 64, "n_epochs": 6, "total_steps": 150000},
 }
+RATIO_FIELDS = ["setting", "ratio_median", "ratio_min", "ratio_max", "rounds", "load_before", "load_after"]
 FIELDS = ["seed", "setting", "seconds", "load_before", "load_after", "passed", "episodes", "pass_rate", "mean_return"]
 
 
@@ -41,6 +58,9 @@ def config_text(setting: dict, seed: int) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--seeds", default="0,1,2,3")
+    parser.add_argument("--settings", default=",".join(SETTINGS), help="names of SETTINGS to run, comma-separated")
+    parser.add_argument("--ratios", action="store_true", help="also measure each setting's PPO / env alone")
+    parser.add_argument("--rounds", type=int, default=3, help="alternated rounds of the --ratios measurement")
     parser.add_argument("--work", default=str(ROOT / "runs" / "ppo_settings"))
     parser.add_argument("--out", default=str(ROOT / "bench"))
     args = parser.parse_args()
@@ -49,8 +69,9 @@ def main() -> None:
     csv_path = out / "ppo_settings.csv"
     rows = read_rows(csv_path)
     done = {(r["seed"], r["setting"]) for r in rows}
-    names = list(SETTINGS)
-    for index, seed in enumerate(int(s) for s in args.seeds.split(",")):
+    names = [name for name in SETTINGS if name in args.settings.split(",")]
+    seeds = [] if args.seeds == "none" else [int(s) for s in args.seeds.split(",")]
+    for index, seed in enumerate(seeds):
         order = names[index % len(names) :] + names[: index % len(names)]
         for name in order:
             if (str(seed), name) in done:
@@ -75,16 +96,41 @@ def main() -> None:
             row["mean_return"] = round(mean_return, 3)
             write_rows(csv_path, rows, FIELDS)
             print(row, flush=True)
-    report(rows, out / "ppo_settings.md")
+    ratio_path = out / "ppo_settings_ratio.csv"
+    ratios = read_rows(ratio_path)
+    if args.ratios:
+        measure_ratios(names, ratios, ratio_path, args.rounds)
+    report(rows, ratios, out / "ppo_settings.md")
 
 
-def report(rows: list[dict], path: Path) -> None:
+def measure_ratios(names: list[str], ratios: list[dict], path: Path, rounds: int) -> None:
+    """PPO / env alone of each setting not yet in ``path``: the training row of `aaai bench --config`."""
+    from aaai.tools.bench import training_rates
+
+    done = {r["setting"] for r in ratios}
+    for name in names:
+        if name in done:
+            continue
+        measured = training_rates(4096, rounds, {"train": SETTINGS[name]})
+        ratio = measured["ratios"]["PPO / env alone"]
+        row = {"setting": name, "rounds": rounds, "load_before": load()}
+        row.update(ratio_median=round(ratio["median"], 3), ratio_min=round(ratio["min"], 3))
+        row.update(ratio_max=round(ratio["max"], 3), load_after=load())
+        ratios.append(row)
+        write_rows(path, ratios, RATIO_FIELDS)
+        print(row, flush=True)
+
+
+def report(rows: list[dict], throughput: list[dict], path: Path) -> None:
+    ratio_of = {r["setting"]: r for r in throughput}
     by = {(str(r["seed"]), r["setting"]): r for r in rows}  # seeds read back from the CSV are text
     lines = [
         "# PPO settings as `make demo` trains them",
         "",
         "`bench/ppo_settings.py`: `aaai train --curriculum` (100,000 steps unless set, L0 d0-2) timed per training",
-        "seed, the settings alternated, then `aaai eval --seeds reserved` (30 episodes) on each run.",
+        "seed, the settings alternated, then `aaai eval --seeds reserved` (30 episodes) on each run. PPO / env",
+        "alone: `--ratios`, the training row of `aaai bench --config` (3 alternated rounds of 4,096 steps), median",
+        "(min..max).",
         "",
         "| seed | setting | training s | load before -> after | passed or better | mean return |",
         "|---|---|---:|---|---:|---:|",
@@ -108,6 +154,10 @@ def report(rows: list[dict], path: Path) -> None:
         ]
         rates = [float(r["pass_rate"]) for r in own if r.get("pass_rate")]
         text = f"- {name} {setting or '(configs/default.yaml)'}: training median {statistics.median(seconds):.0f} s"
+        if name in ratio_of:
+            r = ratio_of[name]
+            low, high = float(r["ratio_min"]), float(r["ratio_max"])
+            text += f", PPO / env alone {float(r['ratio_median']):.2f} ({low:.2f}..{high:.2f})"
         if ratios and name != SHIPPED:
             text += f", shipped / this per seed {statistics.median(ratios):.2f} ({min(ratios):.2f}..{max(ratios):.2f})"
         if rates:
