@@ -69,3 +69,40 @@ def test_the_known_l1_d5_failures_are_a_green_eaten_before_the_yellows(reference
     row = run_episode(env, controller, 1, 5, seed)
     pieces = len(env.level_spec.foods)
     assert row["outcome"] == "failed" and row["steps"] < row["max_steps"] and row["food_eaten"] < pieces
+
+
+@pytest.mark.parametrize("side", [1, -1])
+def test_waiting_by_a_sinking_pillar_the_body_turns_its_head_to_the_pillar(side):
+    """L2b: set down within the waiting distance of the sinking pillar with the pillar 150 degrees
+    off its heading (left, then right), the body turns to face it, not its tail."""
+    import math
+
+    import pybullet as p
+
+    from aaai.task.reference import PILLAR_WAIT
+
+    env = AnimalAIEnv()
+    try:
+        controller = ReferenceController(env)
+        env.reset(seed=3, options={"level": "L2b", "difficulty": 0})
+        (pillar,) = [body for body, obj in env.world.objects.items() if obj.kind == "pillar"]
+        x, y, _ = env.world.objects[pillar].position
+        start = np.array([x, y - (PILLAR_WAIT - 1.0)])  # due south of the pillar, within waiting distance
+        yaw = math.pi / 2 - side * math.radians(150)  # the pillar 150 degrees to the left (side 1) or right
+        p.resetBasePositionAndOrientation(
+            env.body.id, (*start, 1.5), p.getQuaternionFromEuler((0, 0, yaw)), physicsClientId=env.client
+        )
+
+        def off() -> float:
+            head, rotation = env.body.head_pose()
+            heading = math.atan2(rotation[1, 0], rotation[0, 0])
+            error = math.atan2(y - head[1], x - head[0]) - heading
+            return abs(math.atan2(math.sin(error), math.cos(error)))
+
+        before = off()
+        for _ in range(round(1.5 / env.control_dt)):
+            env.step(controller())
+        assert before > math.radians(140)
+        assert off() < before - math.radians(30), (math.degrees(before), math.degrees(off()))
+    finally:
+        env.close()

@@ -271,7 +271,7 @@ class ReferenceController:
         goal, reach, key, avoid, wait = target
         if wait and math.dist(head[:2], goal) <= reach + 1.0:
             error = _angle(math.atan2(goal[1] - head[1], goal[0] - head[0]) - yaw)
-            self.gait.command(0.0, steer(error, 0.0)[1] * 0.5)
+            self.gait.command(0.0, steer(error, 0.0, reverse=False)[1] * 0.5)  # head, not tail, to it
             self._progress(0.0, now, key)
             return self.gait()
         if now < self.back_off_until:
