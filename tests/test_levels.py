@@ -41,3 +41,35 @@ def test_l0_one_green_ahead_inside_the_arena(difficulty):
         across = ahead[1] * math.cos(spec.agent.yaw) - ahead[0] * math.sin(spec.agent.yaw)
         assert along > 0 and abs(across) < along
         assert max(abs(food.position[0]), abs(food.position[1])) + food.size[0] / 2 < 25
+
+
+@pytest.mark.parametrize("difficulty", range(11))
+def test_l1_pieces_are_at_least_10_apart(difficulty):
+    """What the levels page promises of L1: its pieces (one green) start at least 10 apart, centre
+    to centre, so a head at one piece touches no other. With five pieces in the 50 x 50 arena, a
+    smaller separation gives closer pairs within a few seeds."""
+    closest = math.inf
+    for seed in range(40):
+        spec = generate(1, difficulty, seed)
+        assert [food.kind for food in spec.foods].count("food_green") == 1
+        assert len(spec.foods) == round(0.4 * difficulty + 1)
+        for i, a in enumerate(spec.foods):
+            for b in spec.foods[i + 1 :]:
+                closest = min(closest, math.dist(a.position[:2], b.position[:2]))
+    assert closest >= 10.0
+    if difficulty >= 5:  # the bound is what holds them apart, not luck: pairs come close to it
+        assert closest < 12.0
+
+
+def test_l11_the_green_is_at_least_15_from_the_start():
+    """What the levels page promises of L11: the green is at least 15 from the agent's start (the
+    walk over rough ground is the test), and the bound is what keeps it there: over these seeds
+    some green lies within a unit of it."""
+    distances = []
+    for difficulty in range(11):
+        for seed in range(60):
+            spec = generate(11, difficulty, seed)
+            (food,) = spec.foods
+            distances.append(math.dist(food.position[:2], (spec.agent.x, spec.agent.y)))
+    assert min(distances) >= 15.0
+    assert min(distances) < 16.0
