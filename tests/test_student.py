@@ -288,3 +288,20 @@ def test_steps_for_a_student_are_refused_not_ignored(tmp_path):
     assert refused.exit_code == 2
     assert "--steps: got 5000 for a student" in refused.output and "train.dagger_iterations" in refused.output
     assert not (tmp_path / "s").exists()
+
+
+def test_the_documented_fine_tuning_of_the_committed_student_runs(tmp_path):
+    """docs (Learned agents): `aaai train --init-from runs/student --config configs/student_ppo.yaml`
+    fine-tunes the student with PPO. Its config must give the student's senses and network, or
+    the command is refused; run here from the committed student for one short rollout."""
+    import shutil
+
+    source = tmp_path / "student"
+    (source / "final").mkdir(parents=True)
+    shutil.copy(MODELS / "student.yaml", source / "config.yaml")
+    shutil.copy(MODELS / "student.zip", source / "final" / "model.zip")
+    config = Path(__file__).resolve().parents[1] / "configs" / "student_ppo.yaml"
+    args = ["train", "--init-from", str(source), "--config", str(config), "--run", str(tmp_path / "tuned")]
+    result = CliRunner().invoke(cli, args + ["--steps", "512", "--envs", "1", "--levels", "0", "--difficulty", "0"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "tuned" / "final" / "model.zip").exists()
