@@ -113,9 +113,9 @@ def measure_ratios(names: list[str], ratios: list[dict], path: Path, rounds: int
     for name in names:
         if name in done:
             continue
+        row = {"setting": name, "rounds": rounds, "load_before": load()}
         measured = training_rates(4096, rounds, {"train": SETTINGS[name]})
         ratio = measured["ratios"]["PPO / env alone"]
-        row = {"setting": name, "rounds": rounds, "load_before": load()}
         row.update(ratio_median=round(ratio["median"], 3), ratio_min=round(ratio["min"], 3))
         row.update(ratio_max=round(ratio["max"], 3), load_after=load())
         ratios.append(row)
