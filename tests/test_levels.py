@@ -73,3 +73,18 @@ def test_l11_the_green_is_at_least_15_from_the_start():
             distances.append(math.dist(food.position[:2], (spec.agent.x, spec.agent.y)))
     assert min(distances) >= 15.0
     assert min(distances) < 16.0
+
+
+@pytest.mark.parametrize("difficulty", [4, 6, 8, 10])
+def test_l10_side_walls_are_transparent_with_probability_1_2_minus_a_tenth_of_d(difficulty):
+    """What the levels page promises of L10: a wall beside the plank from d 4, two from d 8, each
+    transparent with probability 1.2 - 0.1d. Over 150 seeds the share is within 0.1 of it (three
+    standard deviations or more at these counts)."""
+    kinds = []
+    for seed in range(150):
+        walls = [o.kind for o in generate(10, difficulty, seed).objects if o.kind in ("wall", "transparent_wall")]
+        side = walls[4:]  # after the arena's four walls
+        assert len(side) == (2 if difficulty >= 8 else 1)
+        kinds += side
+    share = kinds.count("transparent_wall") / len(kinds)
+    assert abs(share - (1.2 - 0.1 * difficulty)) < 0.1, share
