@@ -2,7 +2,7 @@
 L0 d0-2, in gait mode and in a joint mode, on this machine.
 
 For each action mode, one PPO run on the shipped default config (the ``make demo`` run: L0
-d0-2, the paper's curriculum, 2 workers) with that mode and a budget of its own, saving a
+d0-2, its workers and rollouts) with that mode and a budget of its own, saving a
 checkpoint every ``checkpoint_every`` agent decisions. Every checkpoint is then scored on the
 reserved seeds of L0 d0-2 (10 per cell, 30 episodes). The time of a checkpoint is the wall-clock
 time from the run's start (its config.yaml) to the checkpoint's state.json: training alone,
