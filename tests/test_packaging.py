@@ -72,8 +72,13 @@ def test_the_built_wheel_runs_the_environment_and_the_cli_without_the_checkout(t
     with zipfile.ZipFile(wheel) as archive:
         archive.extractall(site)
         held = set(archive.namelist())
-    modules = {str(path.relative_to(ROOT)) for path in (ROOT / "aaai").rglob("*.py")}
-    assert not modules - held, f"modules missing from the wheel: {sorted(modules - held)}"
+    # every module and data file of the three packages: aaai/, cli/ as aaai_cli, configs/ as aaai_configs
+    wanted = set()
+    for folder, package in (("aaai", "aaai"), ("cli", "aaai_cli"), ("configs", "aaai_configs")):
+        for path in (ROOT / folder).rglob("*"):
+            if path.is_file() and "__pycache__" not in path.parts:
+                wanted.add(f"{package}/{path.relative_to(ROOT / folder).as_posix()}")
+    assert not wanted - held, f"files missing from the wheel: {sorted(wanted - held)}"
     code = f"ROOT = {str(ROOT)!r}\nSITE = {str(site)!r}\n" + PROBE
     run = subprocess.run(
         [sys.executable, "-c", code],
