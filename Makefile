@@ -125,8 +125,8 @@ bench: install
 
 # Mutation testing (mutmut 3, configured in pyproject.toml under [tool.mutmut]): mutates core modules
 # in a copy, mutants/, runs the tests that cover each mutant and prints killed / total per module; a
-# fresh run each time. On 2 cores all six modules take about 65 minutes, so by default it mutates
-# four (about 30 minutes); MUTANTS_MODULES="evaluation policies" (the scoring modules) and MUTANTS_MODULES=validate (about
+# fresh run each time. On 2 cores six of the seven modules took about 65 minutes, so by default it
+# mutates four (about 30 minutes); MUTANTS_MODULES="evaluation policies" (the scoring modules) and MUTANTS_MODULES=validate (about
 # 30) are the rest, MUTANTS_MODULES=all runs everything, MUTANTS_MODULES="rewards seeds" any subset.
 MUTANTS_MODULES ?= rewards curriculum sensors seeds
 mutants: install-train

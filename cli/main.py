@@ -316,7 +316,13 @@ def _overrides(**values) -> dict:
     help="Agent decisions in all: env.step calls, one control step (0.02 s) each in the joint modes, "
     "agent.decision_interval (0.1 s, 5 control steps) each in gait mode.",
 )
-@click.option("--envs", "num_envs", type=int, help="Worker processes.")
+@click.option(
+    "--envs",
+    "num_envs",
+    type=int,
+    help="Workers: environments stepping together (train.num_envs), in this process or one process each "
+    "(train.vector).",
+)
 @click.option("--seed", type=int, help="Seeds the sampler and the learner.")
 @click.option("--agent", type=click.Choice(["ppo", "random"]), help="ppo (needs the train extra) or random.")
 @click.option("--camera/--no-camera", default=None)

@@ -59,3 +59,20 @@ def test_aaai_baselines_scores_three_policies_and_tabulates_them(tmp_path):
 def test_aaai_baselines_needs_a_trained_run(tmp_path):
     result = CliRunner().invoke(cli, ["baselines", "--demo-run", str(tmp_path / "missing"), "--out", str(tmp_path)])
     assert result.exit_code == 2 and "make demo" in result.output
+
+
+def test_the_docs_show_the_committed_baseline_table():
+    """docs/baselines.md shows baselines/table.md's table as committed, and the README's summary
+    its 'all levels' row for each policy: a re-scored table cannot leave the pages behind."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    committed = [line for line in (root / "baselines" / "table.md").read_text().splitlines() if line.startswith("|")]
+    docs = (root / "docs" / "baselines.md").read_text().splitlines()
+    assert all(line in docs for line in committed), "docs/baselines.md differs from baselines/table.md"
+    header, _, *_, totals = committed
+    cells = [cell.strip() for cell in totals.strip("|").split("|")]
+    policies = [cell.strip().removesuffix(": all") for cell in header.strip("|").split("|")[1::2]]
+    readme = (root / "README.md").read_text()
+    for index, policy in enumerate(policies):
+        assert f"| {policy} | {cells[1 + 2 * index]} | {cells[2 + 2 * index]} |" in readme, policy
