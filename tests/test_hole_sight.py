@@ -2,6 +2,7 @@
 rays' reach. Tested by running physics: teleport the body to face a hole, let it stand, read the
 forward ray and compare with the distance from the ray's origin to the hole's near edge."""
 
+import numpy as np
 import pytest
 from conftest import open_arena
 
@@ -50,3 +51,49 @@ def test_a_hole_a_hair_beyond_the_rays_reach_is_not_seen(make_env, beyond):
         assert ray[-1] * LENGTH == pytest.approx(true_distance, abs=0.2)
     else:
         assert ray[-1] == 1.0  # nothing within reach
+
+
+def ground_track_distance(start, direction, box, reach=LENGTH, step=0.001):
+    """How far along ``direction`` (per unit of the 3-d ray) the ray's ground track from ``start``
+    first lies inside ``box`` (x0, y0, x1, y1), found by walking it; None within ``reach``."""
+    t = np.arange(0.0, reach, step)
+    x, y = start[0] + t * direction[0], start[1] + t * direction[1]
+    inside = (x >= box[0]) & (x <= box[2]) & (y >= box[1]) & (y <= box[3])
+    return float(t[inside.argmax()]) if inside.any() else None
+
+
+@pytest.mark.parametrize("where", [(-1.0, -8.0, 0.0), (-2.0, 9.0, -0.3), (20.0, -9.0, 2.6)])
+def test_every_ray_sees_the_hole_where_its_ground_track_enters_it(make_env, where):
+    """Oblique rays too: each of the nine rays of a fan over +-90 degrees that passes over the hole
+    reports it at the distance where its ground track enters it (to 0.01, found by walking the
+    track, not by the sensor's slab arithmetic), entering by an x side or a y side; the others
+    report no hole."""
+    env = make_env(**SIGHT)
+    observation, _ = env.reset(options={"spec": open_arena(agent=where, tiles=(5, 5), holes=((3, 2),)), "check": False})
+    for _ in range(25):
+        observation, *_ = env.step(env.body.rest_action())
+    position, rotation = env.body.head_pose()
+    directions = env.rays.local_dirs @ rotation.T
+    starts = position + directions * EYE_OFFSET
+    seen = 0
+    for ray, start, direction in zip(observation["rays"], starts, directions):
+        distance = ground_track_distance(start, direction, (EDGE, -EDGE, 15.0, EDGE))
+        if distance is None:
+            assert ray[HOLE] == 0.0
+        else:
+            seen += 1
+            assert ray[HOLE] == 1.0 and ray[-1] * LENGTH == pytest.approx(distance, abs=0.01)
+    assert seen >= 2
+
+
+def test_a_head_over_the_edge_sees_the_hole_at_once(make_env):
+    """The body set down with its head's rays starting over the gap: the hole at distance 0."""
+    env = make_env(**SIGHT)
+    observation, _ = env.reset(
+        options={"spec": open_arena(agent=(4.0, 0.0, 0.0), tiles=(5, 5), holes=((3, 2),)), "check": False}
+    )
+    position, rotation = env.body.head_pose()
+    origin = position + rotation[:, 0] * EYE_OFFSET
+    assert EDGE < origin[0] < 15.0  # the forward ray starts over the gap
+    ray = observation["rays"][FORWARD]
+    assert ray[HOLE] == 1.0 and ray[-1] == 0.0
