@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from aaai.config import ConfigError, load_config, parse_int_set, read_yaml
+from aaai.config import ConfigError, describe_ids, load_config, parse_int_set, read_yaml
 from aaai.env import AnimalAIEnv
 from aaai.levels import all_levels, generate, get_level, level_ids
 from aaai.registration import level_env_id
@@ -38,19 +38,35 @@ def parse_range(text: str, name: str, low: int, high: int) -> list[int]:
 
 
 def parse_levels(text: str | None, name: str = "--levels") -> list[int]:
-    """'0-3,5' -> those level ids, each a registered level; None or 'all' -> every registered level."""
+    """'0-3,5', 'L2b,L3' or 'food_contact' -> those level ids, each a registered level (by id, label
+    or name; ranges by id); None or 'all' -> every registered level."""
     known = level_ids()
-    if text is None or text == "all":
+    if text is None or text.strip() == "all":
         return known
-    levels = parse_range(text, name, 0, max(known))
-    missing = [level for level in levels if level not in known]
+    allowed = (
+        f"all, or levels by id ({describe_ids(known)}), label (e.g. L2b) or name (e.g. food_contact), "
+        "as a list, with id ranges like '0-3,5'"
+    )
+    ids, numeric = [], []
+    for part in (part.strip() for part in text.split(",")):
+        if part[:1].isdigit():
+            numeric.append(part)
+            continue
+        try:
+            ids.append(get_level(part).id)
+        except ConfigError:
+            raise click.BadParameter(f"got {text!r}: no level {part!r}; allowed: {allowed}", param_hint=name) from None
+    if numeric:
+        try:
+            ids += parse_int_set(",".join(numeric), name, 0, max(known))
+        except ConfigError:
+            raise click.BadParameter(f"got {text!r}; allowed: {allowed}", param_hint=name) from None
+    missing = [level for level in ids if level not in known]
     if missing:
         raise click.BadParameter(
-            f"got {text!r}, and level {missing[0]} does not exist; allowed: all, or ids "
-            f"among {', '.join(map(str, known))}",
-            param_hint=name,
+            f"got {text!r}, and level {missing[0]} does not exist; allowed: {allowed}", param_hint=name
         )
-    return levels
+    return sorted(set(ids))
 
 
 @click.group()
@@ -307,7 +323,7 @@ def _overrides(**values) -> dict:
 @click.option("--curriculum", "mode", flag_value="curriculum", help="Sample cells by the curriculum (default).")
 @click.option("--random", "mode", flag_value="random", help="Sample cells uniformly.")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
-@click.option("--levels", help="Active levels, e.g. '0-3,5'.")
+@click.option("--levels", help="Active levels by id, label or name, e.g. '0-3,5' or 'L2b,L3'.")
 @click.option("--difficulty", help="Active difficulties, e.g. '0-4'.")
 @click.option(
     "--steps",
@@ -435,7 +451,7 @@ def train_command(
                 config_path,
                 **_overrides(
                     mode=mode,
-                    levels=levels,
+                    levels=parse_levels(levels) if levels else None,
                     difficulties=difficulty,
                     total_steps=total_steps,
                     num_envs=num_envs,
@@ -788,7 +804,9 @@ def summary_markdown_of(summary: list[dict]) -> str:
 
 @cli.command("demos")
 @click.option("--policy", default="reference", show_default=True, help=POLICY_HELP)
-@click.option("--levels", default="all", show_default=True, help="Levels, e.g. '0-3,5', or all.")
+@click.option(
+    "--levels", default="all", show_default=True, help="Levels by id, label or name, e.g. '0-3,5' or 'L2b,L3', or all."
+)
 @click.option("--difficulty", default="0-10", show_default=True)
 @click.option("-k", "--episodes-per-cell", "count", type=click.IntRange(1), default=1, show_default=True)
 @click.option(
@@ -880,7 +898,9 @@ def diagnose_command(policy, scoreboard, levels, limit, config_path):
     help="The trained run scored as ppo_demo (make demo writes it).",
 )
 @click.option("--out", "folder", type=click.Path(file_okay=False), default="baselines", show_default=True)
-@click.option("--levels", default="all", show_default=True, help="Levels, e.g. '0-3,5', or all.")
+@click.option(
+    "--levels", default="all", show_default=True, help="Levels by id, label or name, e.g. '0-3,5' or 'L2b,L3', or all."
+)
 @click.option("--difficulty", default="0-10", show_default=True)
 @click.option("--seeds-per-cell", "-k", "count", type=click.IntRange(1), default=10, show_default=True)
 @click.option("--workers", type=click.IntRange(1), default=2, show_default=True, help="Worker processes.")
@@ -925,7 +945,9 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers, stud
 
 
 @cli.command("seeds")
-@click.option("--levels", default="all", show_default=True, help="Levels, e.g. '0-3,5', or all.")
+@click.option(
+    "--levels", default="all", show_default=True, help="Levels by id, label or name, e.g. '0-3,5' or 'L2b,L3', or all."
+)
 @click.option("--difficulty", default="0-10", show_default=True)
 @click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=10, show_default=True)
 @click.option(

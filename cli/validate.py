@@ -11,7 +11,9 @@ ARENA_SEEDS = 10  # seeds an arena file is checked with unless --seeds says othe
 
 
 @click.command("validate")
-@click.option("--levels", "levels_text", default=None, help="Levels, e.g. '0-3,5' (default: all).")
+@click.option(
+    "--levels", "levels_text", default=None, help="Levels by id, label or name, e.g. '0-3,5' or 'L2b' (default: all)."
+)
 @click.option("--difficulty", "difficulty_text", default="0-10", show_default=True, help="Difficulties, e.g. '0,5'.")
 @click.option("--seeds", type=click.IntRange(1), default=100, show_default=True, help="Seeds per (level, difficulty).")
 @click.option("--first-seed", type=click.IntRange(0), default=0, show_default=True, help="The first seed checked.")

@@ -235,3 +235,23 @@ def test_training_seeds_of_l6_and_l7_build_their_inner_levels_from_training_seed
 @pytest.mark.long
 def test_10000_training_seeds_of_l6_and_l7_build_inner_levels_from_training_seeds():
     _inner_seeds_stay_in_training(10000)
+
+
+def test_level_lists_on_the_command_line_take_ids_labels_and_names(tmp_path):
+    """docs (Levels): every tool knows a level by its id, label and name, --levels lists too."""
+    import yaml
+    from click.testing import CliRunner
+
+    from aaai_cli.main import cli
+
+    runner = CliRunner()
+    result = runner.invoke(cli, ["seeds", "--levels", "L2b,food_contact,3-4", "--difficulty", "0", "-k", "1"])
+    assert result.exit_code == 0, result.output
+    assert [line.split()[0] for line in result.output.splitlines()[1:]] == ["L0", "L3", "L4", "L2b"]
+    run = tmp_path / "run"
+    args = ["train", "--agent", "random", "--levels", "L2b", "--difficulty", "0", "--steps", "8", "--run", str(run)]
+    result = runner.invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    assert yaml.safe_load((run / "config.yaml").read_text())["curriculum"]["levels"] == [12]
+    refused = runner.invoke(cli, ["seeds", "--levels", "L2b,L99"])
+    assert refused.exit_code != 0 and "no level 'L99'" in refused.output and "label (e.g. L2b)" in refused.output
