@@ -86,8 +86,11 @@ def test_an_explicit_config_wins_over_the_runs(run, tmp_path):
     assert resolve(str(run)).config(str(config))["sensors"]["rays_per_side"] == 6
     bare = resolve(str(run / "checkpoints" / "step_000000000100" / "model.zip"))
     assert bare.run is None and bare.file.endswith("step_000000000100/model.zip")
-    assert bare.config()["sensors"]["rays_per_side"] == 8  # a file alone: the defaults ...
-    assert bare.run_config["sensors"]["rays_per_side"] == 4  # ... but it is checked against its run's
+    assert bare.config()["sensors"]["rays_per_side"] == 4  # a checkpoint's file: scored with its run's senses
+    assert bare.config(str(config))["sensors"]["rays_per_side"] == 6  # unless a config is given
+    alone = tmp_path / "alone.zip"
+    shutil.copy(bare.file, alone)
+    assert resolve(str(alone)).config()["sensors"]["rays_per_side"] == 8  # a file outside a run: the defaults
 
 
 def test_the_value_pickles_and_builds_the_same_policy_from_a_copy_of_its_file(run, tmp_path):
@@ -469,3 +472,18 @@ def test_sensor_settings_count_only_for_senses_that_are_on():
             check_model(Path("m.zip"), on, (), load_config({"sensors": {"rays_per_side": 4, "ray_length": 3.0}}))
     finally:
         on.close()
+
+
+def test_aaai_eval_scores_a_checkpoint_file_with_its_runs_senses(run, tmp_path):
+    """docs (Training): an earlier point of a run is scored with --policy RUN/checkpoints/step_…/model.zip,
+    no --config needed: the run's senses (4 rays a side, not the default 8) come with it."""
+    from click.testing import CliRunner
+
+    from aaai_cli.main import cli
+
+    model = run / "checkpoints" / "step_000000000100" / "model.zip"
+    out = tmp_path / "board.csv"
+    args = ["eval", "--policy", str(model), "--levels", "0", "--difficulty", "0", "--seeds", "1", "--out", str(out)]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    assert len(out.read_text().splitlines()) == 2  # the header and one episode

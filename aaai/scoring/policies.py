@@ -55,9 +55,10 @@ class Policy:
     trust: bool = False
 
     def config(self, config_path: str | None = None) -> dict:
-        """The config the policy is scored with: ``config_path`` if given, else its run's own
-        (the senses it was trained with), else the defaults."""
-        if config_path or self.run is None or self.run_config is None:
+        """The config the policy is scored with: ``config_path`` if given, else its run's own (the
+        senses it was trained with: the run folder named, or the run a model file sits in, e.g. a
+        checkpoint's model.zip), else the defaults."""
+        if config_path or self.run_config is None:
             return load_config(config_path)
         return self.run_config
 
