@@ -5,6 +5,7 @@ from __future__ import annotations
 import gymnasium as gym
 
 ENTRY_POINT = "aaai.env:AnimalAIEnv"
+LEVEL_ENTRY_POINT = "aaai.registration:make_level_env"
 
 
 def level_env_id(level) -> str:
@@ -20,4 +21,21 @@ def register_envs() -> None:
     for level in all_levels().values():
         env_id = level_env_id(level)
         if env_id not in gym.registry:
-            gym.register(env_id, entry_point=ENTRY_POINT, kwargs={"level": level.id})
+            gym.register(env_id, entry_point=LEVEL_ENTRY_POINT, kwargs={"level": level.id, "id_level": level.id})
+
+
+def make_level_env(id_level: int, **kwargs):
+    """The environment of a level's own id: ``level=`` may name that level (by id, label or name),
+    not another one, which would silently make the id a lie."""
+    from aaai.config import ConfigError
+    from aaai.env import AnimalAIEnv
+    from aaai.levels import get_level
+
+    level = kwargs.pop("level", id_level)
+    if get_level(level).id != id_level:
+        label = get_level(id_level).label
+        raise ConfigError(
+            f"gym.make: got level={level!r} for the id of {label}; allowed: {label} (or leave level out), "
+            "or aaai/AnimalAI-v0 with level= for any level"
+        )
+    return AnimalAIEnv(level=id_level, **kwargs)

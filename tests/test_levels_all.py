@@ -13,6 +13,7 @@ import aaai  # noqa: F401  (registers the ids)
 from aaai.config import ConfigError, load_config
 from aaai.levels import InvalidLevelError, all_levels, generate, get_level
 from aaai.levels.common import arena_walls, slab, sphere
+from aaai.registration import level_env_id
 from aaai.spec import AgentPose, LevelSpec, ObjectSpec
 from aaai.task import validate
 from aaai_cli.main import cli
@@ -255,3 +256,18 @@ def test_level_lists_on_the_command_line_take_ids_labels_and_names(tmp_path):
     assert yaml.safe_load((run / "config.yaml").read_text())["curriculum"]["levels"] == [12]
     refused = runner.invoke(cli, ["seeds", "--levels", "L2b,L99"])
     assert refused.exit_code != 0 and "no level 'L99'" in refused.output and "label (e.g. L2b)" in refused.output
+
+
+@pytest.mark.parametrize("level", LEVELS)
+def test_a_levels_own_id_builds_that_level_and_refuses_another(level):
+    label = all_levels()[level].label
+    env_id = level_env_id(all_levels()[level])
+    env = gym.make(env_id, level=label)  # naming its own level is fine
+    try:
+        env.reset(seed=0)
+        assert env.unwrapped.level_spec.level == level
+    finally:
+        env.close()
+    other = (level + 1) % len(LEVELS)
+    with pytest.raises(ConfigError, match=f"got level={other} for the id of {label}; allowed: {label}"):
+        gym.make(env_id, level=other)
