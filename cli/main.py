@@ -330,7 +330,8 @@ def _overrides(**values) -> dict:
     "total_steps",
     type=int,
     help="Agent decisions in all: env.step calls, one control step (0.02 s) each in the joint modes, "
-    "agent.decision_interval (0.1 s, 5 control steps) each in gait mode.",
+    "agent.decision_interval (0.1 s, 5 control steps) each in gait mode. The workers step together, so a run "
+    "ends at the first multiple of their number at or past it.",
 )
 @click.option(
     "--envs",
@@ -411,6 +412,8 @@ def train_command(
     from aaai.train.rllib_learner import train_rllib
     from aaai.train.training import Progress, train
 
+    if mode == "random" and sampler not in (None, "uniform"):
+        raise click.UsageError(f"--random samples cells uniformly: it cannot be used with --sampler {sampler}")
     ignored = {
         name: value
         for name, value in {

@@ -233,6 +233,8 @@ BAD_LINES = [
     ["train", "--config", "BROKEN"],
     ["train", "--camera-resolution", "0"],
     ["train", "--sampler", "x"],
+    ["train", "--random", "--sampler", "plr"],
+    ["seeds", "--levels", "L99"],
     ["train", "--progress-every", "inf"],
     ["train", "--backend", "x"],
     ["train", "--action-mode", "x"],
