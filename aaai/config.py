@@ -243,33 +243,32 @@ def _depth(data, limit: int) -> int:
     return 0
 
 
-def read_yaml(path: str | Path) -> dict:
+def read_yaml(path: str | Path, what: str = "config file") -> dict:
+    """A YAML file's mapping, read within the project's limits; errors name the file as ``what``."""
     if not isinstance(path, (str, Path)):
         raise ConfigError(f"config: got {path!r}; allowed: a YAML file's path or a mapping of keys")
     path = Path(path)
     if not path.is_file():
-        raise ConfigError(f"config file {str(path)!r} does not exist")
+        raise ConfigError(f"{what} {str(path)!r} does not exist")
     size = path.stat().st_size
     if size > MAX_YAML_BYTES:
-        raise ConfigError(f"config file {str(path)!r} is {size} bytes; allowed: at most {MAX_YAML_BYTES}")
+        raise ConfigError(f"{what} {str(path)!r} is {size} bytes; allowed: at most {MAX_YAML_BYTES}")
     try:
         text = path.read_bytes().decode("utf-8")
     except UnicodeDecodeError as error:
-        raise ConfigError(
-            f"config file {str(path)!r} is not UTF-8 text ({error.reason} at byte {error.start})"
-        ) from None
+        raise ConfigError(f"{what} {str(path)!r} is not UTF-8 text ({error.reason} at byte {error.start})") from None
     try:
         data = yaml.load(text, Loader=_PlainLoader)
     except yaml.YAMLError as error:
-        raise ConfigError(f"config file {str(path)!r} is not valid YAML: {error}") from None
+        raise ConfigError(f"{what} {str(path)!r} is not valid YAML: {error}") from None
     except RecursionError:
-        raise ConfigError(f"config file {str(path)!r} nests too deeply; allowed: {MAX_YAML_DEPTH} levels") from None
+        raise ConfigError(f"{what} {str(path)!r} nests too deeply; allowed: {MAX_YAML_DEPTH} levels") from None
     if data is None:
         return {}
     if not isinstance(data, dict):
-        raise ConfigError(f"config file {str(path)!r}: the top level must be a mapping, got {type(data).__name__}")
+        raise ConfigError(f"{what} {str(path)!r}: the top level must be a mapping, got {type(data).__name__}")
     if _depth(data, MAX_YAML_DEPTH) > MAX_YAML_DEPTH:
-        raise ConfigError(f"config file {str(path)!r} nests too deeply; allowed: {MAX_YAML_DEPTH} levels")
+        raise ConfigError(f"{what} {str(path)!r} nests too deeply; allowed: {MAX_YAML_DEPTH} levels")
     return data
 
 

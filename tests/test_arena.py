@@ -255,3 +255,14 @@ def test_eval_arenas_honours_an_arenas_own_pass_mark(tmp_path):
     assert result.exit_code == 0, result.output
     outcomes = {row["arena"]: row["outcome"] for row in scored_episodes(out)}
     assert outcomes == {"easy.yaml": "passed", "hard.yaml": "failed", "plain.yaml": "failed"}
+
+
+def test_a_missing_or_broken_arena_file_is_named_as_an_arena_file(tmp_path):
+    from aaai.env import AnimalAIEnv
+
+    with pytest.raises(ConfigError, match=r"^arena file '.*missing.yaml' does not exist$"):
+        AnimalAIEnv(arena=str(tmp_path / "missing.yaml"))
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("arena: [")
+    with pytest.raises(ConfigError, match=r"^arena file '.*broken.yaml' is not valid YAML"):
+        AnimalAIEnv(arena=str(broken))

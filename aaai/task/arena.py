@@ -386,7 +386,7 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
     """The spec an arena file gives for an episode seed, the file's own keys (description,
     category) and where each key stands; wrong keys and types are errors, validity is not checked."""
     path = Path(path)
-    data = read_yaml(path)  # the project's limits: size, UTF-8, no aliases, depth
+    data = read_yaml(path, "arena file")  # the project's limits: size, UTF-8, no aliases, depth
     try:
         node = yaml.compose(path.read_text(encoding="utf-8"), Loader=_PlainLoader)
     except yaml.YAMLError as error:  # read_yaml has already refused what does not parse
