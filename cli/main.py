@@ -544,7 +544,7 @@ def train_command(
     "--policy",
     default="random",
     show_default=True,
-    help="A run folder, a model .zip, random, or module:callable (called with the env).",
+    help="A run folder, a model .zip, random, reference, gait, or module:callable (called with the env).",
 )
 @click.option("--levels", help="Levels to score (default: the run's or config's curriculum levels).")
 @click.option("--difficulty", help="Difficulties to score (default: the curriculum's).")

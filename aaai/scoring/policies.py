@@ -135,6 +135,8 @@ def resolve(policy: str, trust: bool = False) -> Policy:
         if config["train"]["agent"] == "random":  # a run of the random agent: scored with random actions
             return Policy(policy, "random", None, policy, config, {"policy": policy}, trust)
         return _model(policy, _newest_model(run, policy), policy, config, trust)
+    if ":" not in policy:  # not module:callable, so a path that is not there
+        raise ConfigError(f"--policy: {policy!r} is no run folder or model file here; allowed: {ALLOWED}")
     factory(policy)  # importable here (and so, with the same packages, on every worker)
     record: dict[str, Any] = {"policy": policy}
     source = _module_file(policy.partition(":")[0])
