@@ -99,7 +99,7 @@ class AnimalAIEnv(gym.Env):
         if unexpected:  # worded as Python's own error, which libraries that probe keywords expect
             raise TypeError(
                 f"AnimalAIEnv.__init__() got an unexpected keyword argument '{unexpected[0]}'; allowed: "
-                f"level, difficulty, config, render_mode, arena, {', '.join(sorted(env_keywords()))}"
+                + ", ".join(["config", "render_mode", "arena", *sorted(env_keywords() | {"level", "difficulty"})])
             )
         if level is not None:
             overrides["level"] = get_level(level).id

@@ -129,8 +129,10 @@ def test_the_env_refuses_an_unknown_or_training_keyword_as_python_does(keyword):
 
     with pytest.raises(
         TypeError, match=rf"__init__\(\) got an unexpected keyword argument '{keyword}'; allowed: .*camera"
-    ):
+    ) as refused:
         gym.make("aaai/L0-FoodContact-v0", **{keyword: 1})
+    allowed = str(refused.value).split("; allowed: ")[1].split(" was raised")[0].split(", ")
+    assert len(allowed) == len(set(allowed)) and {"level", "difficulty", "arena"} <= set(allowed)
 
 
 @pytest.mark.parametrize("text", ["5-2", "0-3000000000", "0-13", "-1", "x"])
