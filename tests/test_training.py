@@ -659,3 +659,12 @@ def test_make_curricula_on_a_clone_skips_the_committed_runs_it_has_no_model_of(t
     assert result.output.count("and scored, without its model (not kept), skipped") == runs, result.output
     assert result.output.count("), skipped") == 3 * runs  # each run, and its two scoreboards
     assert (folder / "table.md").read_text() == (REPO / "experiments" / "curricula" / "table.md").read_text()
+
+
+def test_an_unknown_sampler_of_the_curricula_experiment_is_named(tmp_path):
+    from aaai.config import ConfigError
+    from aaai.train.experiments import plan
+
+    with pytest.raises(ConfigError, match=r"--samplers: got 'paper,unifrom' \('unifrom' is not a sampler\); allowed"):
+        plan(tmp_path / "exp", ["paper", "unifrom"], [0], {}, 1)
+    assert not (tmp_path / "exp").exists()

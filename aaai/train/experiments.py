@@ -79,7 +79,8 @@ def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: dict
     """The experiment in ``folder``; refused if the folder holds another experiment."""
     bad = [s for s in samplers if s not in SAMPLERS]
     if bad or not samplers:
-        raise ConfigError(f"--samplers: got {','.join(samplers)!r}; allowed: a list of {', '.join(SAMPLERS)}")
+        unknown = f" ({bad[0]!r} is not a sampler)" if bad else ""
+        raise ConfigError(f"--samplers: got {','.join(samplers)!r}{unknown}; allowed: a list of {', '.join(SAMPLERS)}")
     if not seeds:
         raise ConfigError("--seeds: got none; allowed: 1 or more training seeds")
     experiment = Experiment(Path(folder), list(samplers), list(seeds), config, seeds_per_cell)
