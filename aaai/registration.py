@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import functools
+
 import gymnasium as gym
 
 ENTRY_POINT = "aaai.env:AnimalAIEnv"
-LEVEL_ENTRY_POINT = "aaai.registration:make_level_env"
 
 
 def level_env_id(level) -> str:
@@ -14,6 +15,7 @@ def level_env_id(level) -> str:
 
 
 def register_envs() -> None:
+    from aaai.env import AnimalAIEnv
     from aaai.levels import all_levels
 
     if "aaai/AnimalAI-v0" not in gym.registry:
@@ -21,7 +23,9 @@ def register_envs() -> None:
     for level in all_levels().values():
         env_id = level_env_id(level)
         if env_id not in gym.registry:
-            gym.register(env_id, entry_point=LEVEL_ENTRY_POINT, kwargs={"level": level.id, "id_level": level.id})
+            maker = functools.partial(make_level_env, level.id)
+            maker.metadata = AnimalAIEnv.metadata  # gym.make reads the render modes from the entry point
+            gym.register(env_id, entry_point=maker, kwargs={"level": level.id})
 
 
 def make_level_env(id_level: int, **kwargs):
@@ -31,11 +35,11 @@ def make_level_env(id_level: int, **kwargs):
     from aaai.env import AnimalAIEnv
     from aaai.levels import get_level
 
-    level = kwargs.pop("level", id_level)
-    if get_level(level).id != id_level:
+    level = kwargs.pop("level", None)
+    if level is not None and get_level(level).id != id_level:
         label = get_level(id_level).label
         raise ConfigError(
-            f"gym.make: got level={level!r} for the id of {label}; allowed: {label} (or leave level out), "
-            "or aaai/AnimalAI-v0 with level= for any level"
+            f"gym.make: got level={level!r} for {level_env_id(get_level(id_level))}; allowed: {label} (or leave "
+            "level out), or aaai/AnimalAI-v0 with level= for any level"
         )
     return AnimalAIEnv(level=id_level, **kwargs)

@@ -262,12 +262,14 @@ def test_level_lists_on_the_command_line_take_ids_labels_and_names(tmp_path):
 def test_a_levels_own_id_builds_that_level_and_refuses_another(level):
     label = all_levels()[level].label
     env_id = level_env_id(all_levels()[level])
-    env = gym.make(env_id, level=label)  # naming its own level is fine
-    try:
-        env.reset(seed=0)
-        assert env.unwrapped.level_spec.level == level
-    finally:
-        env.close()
+    for named in (label, None):  # naming its own level, or none, is fine
+        env = gym.make(env_id, level=named, render_mode="rgb_array_list")  # render modes as AnimalAIEnv's
+        try:
+            env.reset(seed=0)
+            assert env.unwrapped.level_spec.level == level and len(env.render()) == 1
+        finally:
+            env.close()
+    assert gym.spec(env_id).kwargs == {"level": level}  # as AnimalAIEnv(**kwargs) takes it
     other = (level + 1) % len(LEVELS)
-    with pytest.raises(ConfigError, match=f"got level={other} for the id of {label}; allowed: {label}"):
+    with pytest.raises(ConfigError, match=f"got level={other} for {env_id}; allowed: {label}"):
         gym.make(env_id, level=other)
