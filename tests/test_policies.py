@@ -488,3 +488,17 @@ def test_aaai_eval_scores_a_checkpoint_file_with_its_runs_senses(run, tmp_path):
     result = CliRunner().invoke(cli, args)
     assert result.exit_code == 0, result.output
     assert len(out.read_text().splitlines()) == 2  # the header and one episode
+    record = json.loads(out.with_name("board_scored_with.json").read_text())
+    assert '"rays_per_side": 4' in json.dumps(record)  # scored with the run's senses
+
+
+def test_a_model_file_of_a_run_whose_config_is_broken_is_refused_naming_it(run, tmp_path):
+    broken = tmp_path / "broken_run"
+    shutil.copytree(run, broken)
+    (broken / "config.yaml").write_text("level: 50\n")
+    with pytest.raises(ConfigError, match=r"belongs to run '.*broken_run', whose config cannot be read \(.*level"):
+        resolve(str(broken / "final" / "model.zip"))
+    elsewhere = tmp_path / "broken_run" / "notes" / "model.zip"  # not a run's saved point: no run config
+    elsewhere.parent.mkdir()
+    shutil.copy(broken / "final" / "model.zip", elsewhere)
+    assert resolve(str(elsewhere)).run_config is None

@@ -40,9 +40,9 @@ class Policy:
 
     ``kind``: random, reference, gait, model (a stable-baselines3 .zip), rllib (an RLlib checkpoint
     folder), callable (module:callable) or external (a policy its caller makes, e.g. a human's).
-    ``file``: the model file or checkpoint folder. ``run``: the run folder named, whose config is
-    the one the policy is scored with by default. ``run_config``: the config of the run the model
-    comes from (its model is checked against it), None outside a run folder. ``record``: the
+    ``file``: the model file or checkpoint folder. ``run``: the run folder named (None for a model
+    file named directly). ``run_config``: the config of the run the model comes from, None outside a
+    run folder: the model is checked against it, and scored with it unless a config is given. ``record``: the
     policy's part of a scoreboard's record. ``trust``: load with code from the file (--trust-model).
     """
 
@@ -328,15 +328,29 @@ MODEL_KEYS = ("agent.body", "agent.action_mode", "agent.decision_interval", "phy
 
 
 def model_run_config(path: Path) -> dict | None:
-    """The config of the run a model file belongs to, or None for a file outside a run folder."""
+    """The config of the run a model file belongs to (RUN/final/model.zip or
+    RUN/checkpoints/step_*/model.zip beside RUN/config.yaml), or None for a file outside a run
+    folder. A run config that cannot be read is refused, naming it: the model is scored with it."""
     path = Path(path).absolute()
-    for folder in (path.parent.parent, path.parent.parent.parent):
-        if (folder / "config.yaml").is_file() and path.parent.parent in (folder, folder / "checkpoints"):
-            try:
-                return load_config(RunFolder(folder).read_config())
-            except (ConfigError, OSError, ValueError):
-                return None
-    return None
+    point = path.parent
+    if path.name != "model.zip":
+        return None
+    if point.name == "final":
+        folder = point.parent
+    elif point.parent.name == "checkpoints" and point.name.startswith("step_"):
+        folder = point.parent.parent
+    else:
+        return None
+    if not (folder / "config.yaml").is_file():
+        return None
+    try:
+        return load_config(RunFolder(folder).read_config())
+    except (ConfigError, OSError, ValueError) as error:
+        raise ConfigError(
+            f"--policy: model file {str(path)!r} belongs to run {str(folder)!r}, whose config cannot be read "
+            f"({error}); allowed: a run whose config.yaml loads (or a copy of the model file outside the run, "
+            "scored with --config)"
+        ) from None
 
 
 def _dotted(config: dict, key: str):
