@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from aaai.config import ConfigError, describe_ids, load_config, parse_int_set, read_yaml
+from aaai.config import ConfigError, describe_ids, env_part, load_config, parse_int_set, read_yaml
 from aaai.env import AnimalAIEnv
 from aaai.levels import all_levels, generate, get_level, level_ids
 from aaai.registration import level_env_id
@@ -183,7 +183,9 @@ def run_command(
         for level in levels:
             get_level(level)
         chosen = resolve(policy, trust_model)
-        env = AnimalAIEnv(level=levels[0], config=config_path, arena=arena, **overrides)
+        # a trained policy plays with its run's senses unless --config says otherwise, as in eval
+        config = env_part(chosen.config(config_path), shaping=0.0) if chosen.run_config else config_path
+        env = AnimalAIEnv(level=levels[0], config=config, arena=arena, **overrides)
         actor = chosen.build(env)
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None

@@ -492,6 +492,17 @@ def test_aaai_eval_scores_a_checkpoint_file_with_its_runs_senses(run, tmp_path):
     assert '"rays_per_side": 4' in json.dumps(record)  # scored with the run's senses
 
 
+def test_aaai_run_plays_a_run_and_its_checkpoint_with_the_runs_senses(run):
+    from click.testing import CliRunner
+
+    from aaai_cli.main import cli
+
+    for policy in (run, run / "checkpoints" / "step_000000000100" / "model.zip"):
+        args = ["run", "--policy", str(policy), "--levels", "0", "--difficulty", "0", "--episodes", "1"]
+        result = CliRunner().invoke(cli, args)
+        assert result.exit_code == 0, result.output
+
+
 def test_a_model_file_of_a_run_whose_config_is_broken_is_refused_naming_it(run, tmp_path):
     broken = tmp_path / "broken_run"
     shutil.copytree(run, broken)
