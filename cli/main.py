@@ -414,8 +414,6 @@ def train_command(
     from aaai.train.rllib_learner import train_rllib
     from aaai.train.training import Progress, train
 
-    if mode == "random" and sampler not in (None, "uniform"):
-        raise click.UsageError(f"--random samples cells uniformly: it cannot be used with --sampler {sampler}")
     ignored = {
         name: value
         for name, value in {
@@ -456,7 +454,7 @@ def train_command(
                 config_path,
                 **_overrides(
                     mode=mode,
-                    levels=parse_levels(levels) if levels else None,
+                    levels=parse_levels(levels) if levels is not None else None,
                     difficulties=difficulty,
                     total_steps=total_steps,
                     num_envs=num_envs,

@@ -234,6 +234,7 @@ BAD_LINES = [
     ["train", "--camera-resolution", "0"],
     ["train", "--sampler", "x"],
     ["train", "--random", "--sampler", "plr"],
+    ["train", "--levels", ""],
     ["seeds", "--levels", "L99"],
     ["train", "--progress-every", "inf"],
     ["train", "--backend", "x"],

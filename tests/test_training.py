@@ -503,7 +503,7 @@ def test_curricula_experiment_runs_scores_and_resumes(tmp_path, jobs):
 def test_train_sampler_option_and_random_alias_reach_the_runs_sampler(tmp_path):
     for extra, expected in (
         (["--sampler", "learnability"], "learnability"),
-        (["--random", "--sampler", "plr"], "uniform"),
+        (["--random"], "uniform"),  # with another --sampler it is refused (below)
     ):
         run = tmp_path / expected
         result = CliRunner().invoke(
@@ -668,3 +668,19 @@ def test_an_unknown_sampler_of_the_curricula_experiment_is_named(tmp_path):
     with pytest.raises(ConfigError, match=r"--samplers: got 'paper,unifrom' \('unifrom' is not a sampler\); allowed"):
         plan(tmp_path / "exp", ["paper", "unifrom"], [0], {}, 1)
     assert not (tmp_path / "exp").exists()
+
+
+def test_a_new_run_of_mode_random_with_another_sampler_is_refused_before_its_folder(tmp_path):
+    """curriculum.mode random samples uniformly: a config (or --random --sampler) naming another
+    sampler would record one the run never uses."""
+    from click.testing import CliRunner
+
+    from aaai_cli.main import cli
+
+    config = tmp_path / "c.yaml"
+    config.write_text("curriculum:\n  mode: random\n  sampler: paper\n")
+    run = tmp_path / "run"
+    for extra in (["--config", str(config)], ["--random", "--sampler", "plr"]):
+        result = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "8", "--run", str(run), *extra])
+        assert result.exit_code != 0 and "'curriculum.sampler'" in result.output and "mode random" in result.output
+        assert not run.exists()

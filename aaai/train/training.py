@@ -194,6 +194,13 @@ def with_proprioception(config: dict) -> dict:
 
 
 def check_trainable(config: dict) -> None:
+    """What a new run refuses before its folder exists (a resumed or scored run is read as it is)."""
+    curriculum = config["curriculum"]
+    if curriculum["mode"] == "random" and curriculum["sampler"] != "uniform":
+        raise ConfigError(
+            f"config key 'curriculum.sampler': got {curriculum['sampler']!r} with 'curriculum.mode': random "
+            "(--random), which samples cells uniformly; allowed: uniform with mode random, or mode curriculum"
+        )
     sensors = config["sensors"]
     if config["train"]["agent"] == "ppo" and sensors["camera"] and sensors["camera_resolution"] < MIN_CNN_RESOLUTION:
         raise ConfigError(
