@@ -192,7 +192,12 @@ def test_train_with_ppo_then_eval_end_to_end(tmp_path):
 
 def test_cli_errors_are_clear(tmp_path):
     result = aaai("train", "--levels", "0-14", "--run", tmp_path / "x", check=False)
-    assert result.returncode != 0 and "curriculum.levels" in result.stderr and "0 to 12" in result.stderr
+    assert (
+        result.returncode != 0
+        and "--levels" in result.stderr
+        and "got '0-14'" in result.stderr
+        and "0 to 12" in result.stderr
+    )
     result = aaai("eval", "--policy", "nope.zip", check=False)
     assert result.returncode != 0 and "nope.zip" in result.stderr
     result = aaai("eval", "--seeds", "a,b", check=False)
