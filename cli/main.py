@@ -49,13 +49,17 @@ def parse_levels(text: str | None, name: str = "--levels") -> list[int]:
     )
     ids, numeric = [], []
     for part in (part.strip() for part in text.split(",")):
-        if part[:1].isdigit():
-            numeric.append(part)
-            continue
         try:
-            ids.append(get_level(part).id)
-        except ConfigError:
-            raise click.BadParameter(f"got {text!r}: no level {part!r}; allowed: {allowed}", param_hint=name) from None
+            ids.append(get_level(part).id)  # an id, label or name (a custom level's may start with a digit)
+        except ConfigError as error:
+            if not part[:1].isdigit():  # not an id range either
+                listed = str(error).split("; allowed: ", 1)[-1]
+                raise click.BadParameter(
+                    f"got {text!r}: no level {part!r}; allowed: all, or a list of levels by id, label or name "
+                    f"({listed}), with id ranges like '0-3,5'",
+                    param_hint=name,
+                ) from None
+            numeric.append(part)
     if numeric:
         try:
             ids += parse_int_set(",".join(numeric), name, 0, max(known))

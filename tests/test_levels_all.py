@@ -255,7 +255,11 @@ def test_level_lists_on_the_command_line_take_ids_labels_and_names(tmp_path):
     assert result.exit_code == 0, result.output
     assert yaml.safe_load((run / "config.yaml").read_text())["curriculum"]["levels"] == [12]
     refused = runner.invoke(cli, ["seeds", "--levels", "L2b,L99"])
-    assert refused.exit_code != 0 and "no level 'L99'" in refused.output and "label (e.g. L2b)" in refused.output
+    assert (
+        refused.exit_code != 0
+        and "no level 'L99'" in refused.output
+        and "12 (L2b delayed_gratification)" in refused.output
+    )
 
 
 @pytest.mark.parametrize("level", LEVELS)
