@@ -73,11 +73,13 @@ def test_the_built_wheel_runs_the_environment_and_the_cli_without_the_checkout(t
         archive.extractall(site)
         held = set(archive.namelist())
     # every module and data file of the three packages: aaai/, cli/ as aaai_cli, configs/ as aaai_configs
-    wanted = set()
-    for folder, package in (("aaai", "aaai"), ("cli", "aaai_cli"), ("configs", "aaai_configs")):
-        for path in (ROOT / folder).rglob("*"):
-            if path.is_file() and "__pycache__" not in path.parts:
-                wanted.add(f"{package}/{path.relative_to(ROOT / folder).as_posix()}")
+    # (the files git tracks there: an untracked editor backup is not the package's)
+    tracked = subprocess.run(["git", "ls-files", "aaai", "cli", "configs"], cwd=ROOT, capture_output=True, text=True)
+    assert tracked.returncode == 0, tracked.stderr
+    packages = {"aaai": "aaai", "cli": "aaai_cli", "configs": "aaai_configs"}
+    wanted = {
+        f"{packages[folder]}/{rest}" for folder, _, rest in (line.partition("/") for line in tracked.stdout.split())
+    }
     assert not wanted - held, f"files missing from the wheel: {sorted(wanted - held)}"
     code = f"ROOT = {str(ROOT)!r}\nSITE = {str(site)!r}\n" + PROBE
     run = subprocess.run(
