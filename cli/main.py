@@ -127,7 +127,13 @@ def spec_command(level, difficulty, seed, as_json, as_yaml):
 
 
 @cli.command("run")
-@click.option("--levels", "levels_text", default="0", show_default=True, help="Levels, e.g. '0-1' or '0,1'.")
+@click.option(
+    "--levels",
+    "levels_text",
+    default="0",
+    show_default=True,
+    help="Levels by id, label or name, e.g. '0-1' or 'L2b,L3'.",
+)
 @click.option("--difficulty", "difficulty_text", default="0", show_default=True, help="Difficulties, e.g. '0-4'.")
 @click.option("--episodes", type=click.IntRange(1), default=1, show_default=True, help="Episodes per cell.")
 @click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="First episode seed.")
@@ -550,7 +556,10 @@ def train_command(
     show_default=True,
     help="A run folder, a model .zip, random, reference, gait, or module:callable (called with the env).",
 )
-@click.option("--levels", help="Levels to score (default: the run's or config's curriculum levels).")
+@click.option(
+    "--levels",
+    help="Levels to score by id, label or name, e.g. '0-3' or 'L2b' (default: the run's or config's curriculum).",
+)
 @click.option("--difficulty", help="Difficulties to score (default: the curriculum's).")
 @click.option("--seeds-per-cell", "-k", type=click.IntRange(1), help="K seeds per cell (default: eval.seeds_per_cell).")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
@@ -874,7 +883,7 @@ def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, co
     required=True,
     help="The policy's scoreboard CSV (aaai eval): its failed episodes are replayed.",
 )
-@click.option("--levels", help="Only these levels, e.g. '7,8'.")
+@click.option("--levels", help="Only these levels, by id, label or name, e.g. '7,8' or 'L8'.")
 @click.option("--limit", type=click.IntRange(1), help="At most this many failed episodes per level.")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
 def diagnose_command(policy, scoreboard, levels, limit, config_path):
@@ -978,7 +987,7 @@ def seeds_command(levels, difficulty, count, seed_key_file):
 
 
 @cli.command("bench")
-@click.option("--levels", help="Levels to measure (default: all).")
+@click.option("--levels", help="Levels to measure by id, label or name (default: all).")
 @click.option(
     "--rounds",
     type=click.IntRange(1),
@@ -1099,7 +1108,9 @@ def default_action_mode() -> str:
     show_default=True,
     help="The budget: training steps (agent decisions) of every run.",
 )
-@click.option("--levels", default="0,1,3,4", show_default=True, help="Active levels of every run.")
+@click.option(
+    "--levels", default="0,1,3,4", show_default=True, help="Active levels of every run, by id, label or name."
+)
 @click.option("--difficulty", default="0-3", show_default=True, help="Active difficulties of every run.")
 @click.option(
     "-k",

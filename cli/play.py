@@ -24,7 +24,7 @@ LOOPBACK = ("127.0.0.1", "localhost", "::1")
 @click.option(
     "--seeds", "seeds_mode", help="A battery: reserved, train or a list like 1,2,3, over --levels x --difficulty."
 )
-@click.option("--levels", help="Battery levels, e.g. '0-11,12' [default with --seeds: all].")
+@click.option("--levels", help="Battery levels by id, label or name, e.g. '0-11,L2b' [default with --seeds: all].")
 @click.option("--difficulty", "difficulties", help="Battery difficulties, e.g. '0,5,10' [default: 0].")
 @click.option(
     "-k",
