@@ -64,7 +64,7 @@ class Level:
 
 
 def _load_level(path) -> Level:
-    data = read_yaml(path)
+    data = read_yaml(path, "level file")
     for key in data:
         if key not in LEVEL_FILE_KEYS:
             raise ConfigError(f"{path.name}: key '{key}' does not exist; allowed: {', '.join(LEVEL_FILE_KEYS)}")

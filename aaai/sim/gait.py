@@ -69,7 +69,7 @@ def load_parameters(path: Path | None = None) -> GaitParameters:
     """Gait parameters from a YAML file; by default the shipped ones, configs/gait.yaml (written
     by ``python -m aaai.tools.gait_tuning --write``)."""
     path = config_dir() / "gait.yaml" if path is None else Path(path)
-    data = read_yaml(path)
+    data = read_yaml(path, "gait file")
     allowed = [f.name for f in fields(GaitParameters)]
     for key, value in data.items():
         if key not in allowed:
