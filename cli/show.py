@@ -136,23 +136,29 @@ def show(
         if path is not None and not Path(path).absolute().parent.is_dir():
             raise click.UsageError(f"output {path!r}: the folder {str(Path(path).absolute().parent)!r} does not exist")
 
-    from aaai.config import load_config
+    from aaai.config import env_part, load_config
     from aaai.env import AnimalAIEnv  # after the checks: bad input fails fast
     from aaai.scoring.policies import resolve
 
     try:
+        chosen = resolve(policy, trust_model) if video is not None else None
+        # a trained policy acts with its run's senses unless --config says otherwise, as in eval and run
+        if chosen is not None and chosen.run_config:
+            base = env_part(chosen.config(config_path), shaping=0.0)
+        else:
+            base = load_config(config_path)
         env = AnimalAIEnv(
             level=lvl.id if lvl else None,
             difficulty=difficulty,
-            config=config_path,
+            config=env_part(base, shaping=base["episode"]["shaping"]),
             camera=True,
             camera_resolution=CAMERA_RESOLUTION,
             arena=arena,
             **({"action_mode": action_mode} if action_mode else {}),
         )
         # the camera is turned on here to draw it: a model that was not trained with it does not see it
-        extra = () if load_config(config_path)["sensors"]["camera"] else ("camera",)
-        actor = resolve(policy, trust_model).build(env, extra_keys=extra) if video is not None else None
+        extra = () if base["sensors"]["camera"] else ("camera",)
+        actor = chosen.build(env, extra_keys=extra) if chosen is not None else None
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
 

@@ -503,6 +503,18 @@ def test_aaai_run_plays_a_run_and_its_checkpoint_with_the_runs_senses(run):
         assert result.exit_code == 0, result.output
 
 
+def test_aaai_show_films_a_run_with_the_runs_senses(run, tmp_path):
+    from click.testing import CliRunner
+
+    from aaai_cli.main import cli
+
+    video = tmp_path / "run.mp4"
+    args = ["show", "0", "--policy", str(run), "--video", str(video), "--steps", "5"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    assert video.stat().st_size > 0
+
+
 def test_a_model_file_of_a_run_whose_config_is_broken_is_refused_naming_it(run, tmp_path):
     broken = tmp_path / "broken_run"
     shutil.copytree(run, broken)
