@@ -465,7 +465,7 @@ def train_command(
                 **_overrides(
                     mode=mode,
                     levels=parse_levels(levels) if levels is not None else None,
-                    difficulties=difficulty,
+                    difficulties=parse_range(difficulty, "--difficulty", 0, 10) if difficulty is not None else None,
                     total_steps=total_steps,
                     num_envs=num_envs,
                     seed=seed,

@@ -191,6 +191,8 @@ def test_train_with_ppo_then_eval_end_to_end(tmp_path):
 
 
 def test_cli_errors_are_clear(tmp_path):
+    result = aaai("train", "--difficulty", "11", "--run", tmp_path / "x", check=False)
+    assert result.returncode != 0 and "--difficulty: got '11'" in result.stderr and "0 to 10" in result.stderr
     result = aaai("train", "--levels", "0-14", "--run", tmp_path / "x", check=False)
     assert (
         result.returncode != 0
