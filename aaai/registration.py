@@ -37,9 +37,9 @@ def make_level_env(id_level: int, **kwargs):
 
     level = kwargs.pop("level", None)
     if level is not None and get_level(level).id != id_level:
-        label = get_level(id_level).label
+        own = get_level(id_level)
         raise ConfigError(
-            f"gym.make: got level={level!r} for {level_env_id(get_level(id_level))}; allowed: {label} (or leave "
+            f"gym.make: got level={level!r} for {level_env_id(own)}; allowed: {own.label} (or leave "
             "level out), or aaai/AnimalAI-v0 with level= for any level"
         )
     return AnimalAIEnv(level=id_level, **kwargs)

@@ -10,9 +10,9 @@ from pathlib import Path
 import click
 import numpy as np
 
-from aaai.config import ConfigError, describe_ids, env_part, load_config, parse_int_set, read_yaml
+from aaai.config import ConfigError, describe_ids, load_config, parse_int_set, read_yaml
 from aaai.env import AnimalAIEnv
-from aaai.levels import all_levels, generate, get_level, level_ids
+from aaai.levels import all_levels, describe_levels, generate, get_level, level_ids
 from aaai.registration import level_env_id
 from aaai.scoring.episodes import play
 from aaai.scoring.policies import resolve
@@ -44,21 +44,17 @@ def parse_levels(text: str | None, name: str = "--levels") -> list[int]:
     if text is None or text.strip() == "all":
         return known
     allowed = (
-        f"all, or levels by id ({describe_ids(known)}), label (e.g. L2b) or name (e.g. food_contact), "
-        "as a list, with id ranges like '0-3,5'"
+        f"all, or a list of levels by id ({describe_ids(known)}), label or name ({describe_levels()}), "
+        "with id ranges like '0-3,5'"
     )
     ids, numeric = [], []
     for part in (part.strip() for part in text.split(",")):
         try:
             ids.append(get_level(part).id)  # an id, label or name (a custom level's may start with a digit)
-        except ConfigError as error:
+        except ConfigError:
             if not part[:1].isdigit():  # not an id range either
-                listed = str(error).split("; allowed: ", 1)[-1]
-                raise click.BadParameter(
-                    f"got {text!r}: no level {part!r}; allowed: all, or a list of levels by id, label or name "
-                    f"({listed}), with id ranges like '0-3,5'",
-                    param_hint=name,
-                ) from None
+                refusal = f"got {text!r}: no level {part!r}; allowed: {allowed}"
+                raise click.BadParameter(refusal, param_hint=name) from None
             numeric.append(part)
     if numeric:
         try:
@@ -193,9 +189,7 @@ def run_command(
         for level in levels:
             get_level(level)
         chosen = resolve(policy, trust_model)
-        # a trained policy plays with its run's senses unless --config says otherwise, as in eval
-        config = env_part(chosen.config(config_path), shaping=0.0) if chosen.run_config else config_path
-        env = AnimalAIEnv(level=levels[0], config=config, arena=arena, **overrides)
+        env = AnimalAIEnv(level=levels[0], config=chosen.play_config(config_path), arena=arena, **overrides)
         actor = chosen.build(env)
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None

@@ -136,21 +136,17 @@ def show(
         if path is not None and not Path(path).absolute().parent.is_dir():
             raise click.UsageError(f"output {path!r}: the folder {str(Path(path).absolute().parent)!r} does not exist")
 
-    from aaai.config import env_part, load_config
+    from aaai.config import load_config
     from aaai.env import AnimalAIEnv  # after the checks: bad input fails fast
     from aaai.scoring.policies import resolve
 
     try:
         chosen = resolve(policy, trust_model) if video is not None else None
-        # a trained policy acts with its run's senses unless --config says otherwise, as in eval and run
-        if chosen is not None and chosen.run_config:
-            base = env_part(chosen.config(config_path), shaping=0.0)
-        else:
-            base = load_config(config_path)
+        base = chosen.play_config(config_path) if chosen is not None else load_config(config_path)
         env = AnimalAIEnv(
             level=lvl.id if lvl else None,
             difficulty=difficulty,
-            config=env_part(base, shaping=base["episode"]["shaping"]),
+            config=base,
             camera=True,
             camera_resolution=CAMERA_RESOLUTION,
             arena=arena,

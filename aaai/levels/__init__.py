@@ -154,8 +154,12 @@ def get_level(ref: int | str) -> Level:
     for level in levels.values():
         if ref in (level.id, level.label, level.name, str(level.id)):
             return level
-    allowed = ", ".join(f"{level.id} ({level.label} {level.name})" for level in levels.values())
-    raise ConfigError(f"level {ref!r} does not exist; allowed: {allowed}")
+    raise ConfigError(f"level {ref!r} does not exist; allowed: {describe_levels()}")
+
+
+def describe_levels() -> str:
+    """Every registered level as '0 (L0 food_contact), 1 (L1 food_retrieval), ...'."""
+    return ", ".join(f"{level.id} ({level.label} {level.name})" for level in all_levels().values())
 
 
 def check_difficulty(difficulty) -> int:

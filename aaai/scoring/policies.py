@@ -24,7 +24,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from aaai.config import ConfigError, load_config
+from aaai.config import ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
 from aaai.scoring.runs import RunFolder, model_problem, rllib_checkpoint, run_backend
 from aaai.sim.gait import gait_policy
@@ -61,6 +61,12 @@ class Policy:
         if config_path or self.run_config is None:
             return load_config(config_path)
         return self.run_config
+
+    def play_config(self, config_path: str | None = None) -> dict:
+        """The config ``aaai run`` and ``aaai show`` play the policy in: :meth:`config`, and for a
+        trained run's policy its environment part without shaping, as scores count its reward."""
+        config = self.config(config_path)
+        return env_part(config, shaping=0.0) if self.run_config else config
 
     @property
     def key(self) -> str:
