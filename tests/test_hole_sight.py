@@ -16,15 +16,20 @@ FORWARD = 4  # the middle ray of 2 x 4 + 1
 EDGE = 5.0  # 5 x 5 tiles of 10 over the 50 x 50 arena: tile (3, 2) spans x 5..15, y -5..5
 
 
+def beside_the_hole(make_env, agent, stand_steps: int = 25):
+    """An arena of 5 x 5 tiles missing tile (3, 2), the body set down at ``agent`` (x, y, yaw) with
+    rays only, left to stand ``stand_steps`` control steps: the env and its observation."""
+    env = make_env(**SIGHT)
+    observation, _ = env.reset(options={"spec": open_arena(agent=agent, tiles=(5, 5), holes=((3, 2),)), "check": False})
+    for _ in range(stand_steps):
+        observation, *_ = env.step(env.body.rest_action())
+    return env, observation
+
+
 def facing_the_hole(make_env, x: float):
     """The forward ray and the true distance from its origin along it to the hole's near edge, the
     body placed at (x, 0) facing +x and left to stand for half a second."""
-    env = make_env(**SIGHT)
-    observation, _ = env.reset(
-        options={"spec": open_arena(agent=(x, 0.0, 0.0), tiles=(5, 5), holes=((3, 2),)), "check": False}
-    )
-    for _ in range(25):
-        observation, *_ = env.step(env.body.rest_action())
+    env, observation = beside_the_hole(make_env, (x, 0.0, 0.0))
     position, rotation = env.body.head_pose()
     forward = rotation[:, 0]
     origin = position + forward * EYE_OFFSET
@@ -68,10 +73,7 @@ def test_every_ray_sees_the_hole_where_its_ground_track_enters_it(make_env, wher
     reports it at the distance where its ground track enters it (to 0.01, found by walking the
     track, not by the sensor's slab arithmetic), entering by an x side or a y side; the others
     report no hole."""
-    env = make_env(**SIGHT)
-    observation, _ = env.reset(options={"spec": open_arena(agent=where, tiles=(5, 5), holes=((3, 2),)), "check": False})
-    for _ in range(25):
-        observation, *_ = env.step(env.body.rest_action())
+    env, observation = beside_the_hole(make_env, where)
     position, rotation = env.body.head_pose()
     directions = env.rays.local_dirs @ rotation.T
     starts = position + directions * EYE_OFFSET
@@ -88,10 +90,7 @@ def test_every_ray_sees_the_hole_where_its_ground_track_enters_it(make_env, wher
 
 def test_a_head_over_the_edge_sees_the_hole_at_once(make_env):
     """The body set down with its head's rays starting over the gap: the hole at distance 0."""
-    env = make_env(**SIGHT)
-    observation, _ = env.reset(
-        options={"spec": open_arena(agent=(4.0, 0.0, 0.0), tiles=(5, 5), holes=((3, 2),)), "check": False}
-    )
+    env, observation = beside_the_hole(make_env, (4.0, 0.0, 0.0), stand_steps=0)
     position, rotation = env.body.head_pose()
     origin = position + rotation[:, 0] * EYE_OFFSET
     assert EDGE < origin[0] < 15.0  # the forward ray starts over the gap
