@@ -9,8 +9,6 @@ import click
 from aaai.config import ConfigError, load_config
 from aaai.scoring.policies import Policy
 
-LOOPBACK = ("127.0.0.1", "localhost", "::1")
-
 
 @click.command("play")
 @click.argument("level", required=False)
@@ -54,7 +52,8 @@ LOOPBACK = ("127.0.0.1", "localhost", "::1")
     "--host",
     default="127.0.0.1",
     show_default=True,
-    help="Address to listen on: 127.0.0.1 is this machine only; 0.0.0.0 lets anyone who can reach it play.",
+    help="Address to listen on: 127.0.0.1 is this machine only; 0.0.0.0 lets anyone who can reach it and "
+    "has the printed link (it holds a random token) play.",
 )
 @click.option("--port", type=click.IntRange(0, 65535), default=8000, show_default=True, help="0: any free port.")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
@@ -80,6 +79,12 @@ LOOPBACK = ("127.0.0.1", "localhost", "::1")
     show_default=True,
     help="Seconds a page that lost its connection may come back before its episode is abandoned.",
 )
+@click.option(
+    "--max-sessions",
+    type=click.IntRange(1),
+    help="Players at once (each holds a simulation); a join beyond is refused "
+    "[default: 4 per CPU core, within half the available memory at 50 MB each].",
+)
 def play(
     level,
     difficulty_text,
@@ -100,6 +105,7 @@ def play(
     camera_resolution,
     fps,
     grace,
+    max_sessions,
 ):
     """Play LEVEL (default L0) in a browser: arrows or WASD walk and turn, C or Shift crouches.
 
@@ -142,6 +148,7 @@ def play(
             player=player,
             max_fps=fps,
             grace_seconds=grace,
+            max_sessions=max_sessions,
             replays=Path(replays) if replays else None,
         )
         if arena is not None:
@@ -186,13 +193,15 @@ def play(
         raise click.UsageError(str(error)) from None
     episodes = len(settings.episodes())
     click.echo(
-        f"aaai play: open {server.url} in a browser ({episodes} episode{'s' * (episodes != 1)} per player; "
-        f"scores to {output}). Ctrl+C stops."
+        f"aaai play: open {server.url} in a browser ({episodes} episode{'s' * (episodes != 1)} per player, "
+        f"at most {server.registry.max_sessions} players at once; scores to {output}). Ctrl+C stops."
     )
-    if host not in LOOPBACK:
+    if server.network:
+        here = f" ({server.local_url} on this machine)" if server.local_url != server.url else ""
         click.echo(
-            f"--host {host}: anyone who can reach this machine on port {server.sock.getsockname()[1]} can "
-            "open the page and play (there is no login); the scoreboards are written here."
+            f"--host {host}: anyone who can reach this machine on port {server.port} and has this link{here} "
+            "can play under any name (the token in it is the only key; there is no encryption); "
+            "the scoreboards are written here."
         )
     server.run()
 

@@ -57,7 +57,8 @@ class Page:
     """A page's side of the socket, in Python: sends keys, acknowledges frames, reads the status."""
 
     def __init__(self, stack: ExitStack, server: Server):
-        self.ws = stack.enter_context(connect(server.url.replace("http", "ws") + "ws", max_size=None))
+        origin = server.url.split("/?")[0].rstrip("/")  # the page's own origin, as a browser sends it
+        self.ws = stack.enter_context(connect(server.url.replace("http", "ws") + "ws", origin=origin, max_size=None))
         self.hello = json.loads(self.ws.recv(5))
         self.status: dict = {}
         self.errors: list[str] = []

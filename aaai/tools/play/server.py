@@ -15,7 +15,12 @@ and ``error`` messages. A bad message gets an ``error`` naming what was wrong an
 
 Each tab's session is its own (its own environment, thread and scoreboard rows); a player name is
 held by one tab at a time, and a dropped tab can come back (with its token) within the grace
-period, after which its episode is abandoned.
+period, after which its episode is abandoned. At most ``max_sessions`` sessions hold an
+environment at once (:func:`default_max_sessions`); a session whose battery is over and whose tab
+is gone is dropped, its memory given back.
+
+Nothing reaches the app that is not from the server's own page, by its own address, and (on a
+network) with its token: :class:`aaai.tools.play.guard.Guard`.
 """
 
 from __future__ import annotations
@@ -24,6 +29,8 @@ import asyncio
 import contextlib
 import errno
 import json
+import os
+import secrets
 import socket
 import threading
 from importlib import resources
@@ -34,10 +41,44 @@ from fastapi.responses import HTMLResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 
 from aaai.config import ConfigError
-from aaai.tools.play.session import CONTROL_KEYS, GO_KEYS, KEYS, InputError, PlaySettings, Session, check_player
+from aaai.tools.play.guard import WILDCARDS, Guard, is_loopback, link_host, own_hosts
+from aaai.tools.play.session import (
+    CONTROL_KEYS,
+    GO_KEYS,
+    KEYS,
+    InputError,
+    PlaySettings,
+    Session,
+    check_player,
+    return_memory,
+)
 
 MAX_MESSAGE_CHARS = 1000
 MESSAGE_TYPES = ("join", "key", "focus", "ack")
+SESSIONS_PER_CORE = 4  # a running session takes about a fifth of a core (docs/play.md, "How fast")
+SESSION_MEGABYTES = 50  # a session's environment, camera and thread take about 45 MB (docs/play.md)
+
+
+def available_megabytes() -> float | None:
+    """The memory the system could give (MemAvailable, Linux), or None where unknown."""
+    try:
+        with open("/proc/meminfo") as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return None
+
+
+def default_max_sessions() -> int:
+    """--max-sessions by default: 4 per CPU core (each running session takes about a fifth of a
+    core at 50 control steps a second), and no more than half the available memory holds."""
+    cap = SESSIONS_PER_CORE * (os.cpu_count() or 1)
+    memory = available_megabytes()
+    if memory is not None:
+        cap = min(cap, int(memory / 2 / SESSION_MEGABYTES))
+    return max(1, cap)
 
 
 class Registry:
@@ -45,6 +86,7 @@ class Registry:
 
     def __init__(self, settings: PlaySettings):
         self.settings = settings
+        self.max_sessions = settings.max_sessions or default_max_sessions()
         self.lock = threading.Lock()
         self.sessions: dict[str, Session] = {}
         self.generation: dict[str, int] = {}  # bumped on every attach, so that a stale expiry does nothing
@@ -58,7 +100,14 @@ class Registry:
             if session is not None and session.phase in ("finished", "error", "abandoned") and not session.attached:
                 session = None  # over: a new tab starts the player's battery again (resuming its scoreboard)
             if session is None:
-                session = Session(self.settings, player, notify)
+                live = self.live()
+                if live >= self.max_sessions:
+                    raise InputError(
+                        f"the server is full: {live} player{'s' * (live != 1)} "
+                        f"{'are' if live != 1 else 'is'} playing (--max-sessions {self.max_sessions}); "
+                        "try again when one has finished"
+                    )
+                session = Session(self.settings, player, notify, on_end=self.ended)
                 self.sessions[player] = session
                 self.generation[player] = 1
                 session.start()
@@ -74,16 +123,41 @@ class Registry:
             session.attach(notify)
             return session
 
+    def live(self) -> int:
+        """Sessions holding an environment (their battery not over); call holding the lock."""
+        return sum(not session.done.is_set() for session in self.sessions.values())
+
     def detach(self, session: Session) -> int:
         with self.lock:
             session.detach()
-            return self.generation.get(session.player, 0)
+            generation = self.generation.get(session.player, 0)
+            gone = session.done.is_set() and self._forget(session)  # over already: nothing to come back to
+        if gone:
+            return_memory()
+        return generation
 
     def expire(self, session: Session, generation: int) -> None:
         """The grace period of a dropped tab is over: abandon its episode unless it came back."""
         with self.lock:
-            if self.generation.get(session.player) == generation and not session.attached:
+            current = self.sessions.get(session.player) is session and self.generation.get(session.player) == generation
+            if current and not session.attached:
                 session.abandon("the tab was closed (or lost its connection) mid-battery")
+
+    def ended(self, session: Session) -> None:
+        """A session's battery is over (on its thread): forgotten now unless a tab still shows it
+        (then when that tab goes), and the memory of its environment given back."""
+        with self.lock:
+            gone = self._forget(session)
+        if gone:
+            return_memory()
+
+    def _forget(self, session: Session) -> bool:
+        """Drops an over session whose tab is gone; call holding the lock."""
+        if session.attached or self.sessions.get(session.player) is not session:
+            return False
+        del self.sessions[session.player]
+        self.generation.pop(session.player, None)
+        return True
 
     def all(self) -> list[Session]:
         with self.lock:
@@ -135,7 +209,11 @@ def hello(settings: PlaySettings) -> dict:
     }
 
 
-def create_app(settings: PlaySettings) -> FastAPI:
+def create_app(
+    settings: PlaySettings, hosts: list[str], token: str | None = None, cookie: str = "aaai_play"
+) -> FastAPI:
+    """The app: its page, its API and its socket, behind the Guard (``hosts``: the Host values it
+    answers to; ``token``: the one every request must carry, on a network)."""
     registry = Registry(settings)
 
     @contextlib.asynccontextmanager
@@ -144,6 +222,7 @@ def create_app(settings: PlaySettings) -> FastAPI:
         await asyncio.get_running_loop().run_in_executor(None, registry.close)
 
     app = FastAPI(title="aaai play", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
+    app.add_middleware(Guard, hosts=hosts, token=token, cookie=cookie)
     app.state.registry = registry
     static = resources.files("aaai.tools.play") / "static"
 
@@ -260,21 +339,25 @@ def bind(host: str, port: int) -> socket.socket:
     return sock
 
 
-def url_of(sock: socket.socket) -> str:
-    host, port = sock.getsockname()[:2]
-    shown = f"[{host}]" if ":" in host else host
-    return f"http://{'127.0.0.1' if host == '0.0.0.0' else shown}:{port}/"
-
-
 class Server:
-    """The app served on a socket by uvicorn in this thread (``run``) or a background one (``start``)."""
+    """The app served on a socket by uvicorn in this thread (``run``) or a background one (``start``).
+
+    On loopback (``host`` 127.0.0.1, localhost, ::1) ``url`` is the page's address; on a network
+    the server has a random token and ``url`` carries it (``?token=...``), as ``local_url`` does
+    for a browser on this machine."""
 
     def __init__(self, settings: PlaySettings, host: str = "127.0.0.1", port: int = 8000):
         import uvicorn
 
         self.sock = bind(host, port)
-        self.url = url_of(self.sock)
-        self.app = create_app(settings)
+        self.port = self.sock.getsockname()[1]
+        self.network = not is_loopback(host)
+        self.token = secrets.token_urlsafe(24) if self.network else None
+        query = f"?token={self.token}" if self.token else ""
+        local = "127.0.0.1" if self.sock.family == socket.AF_INET else "[::1]"
+        self.url = f"http://{link_host(host) if self.network else local}:{self.port}/{query}"
+        self.local_url = f"http://{local}:{self.port}/{query}" if host in WILDCARDS else self.url
+        self.app = create_app(settings, own_hosts(host, self.port), self.token, cookie=f"aaai_play_{self.port}")
         self.server = uvicorn.Server(
             uvicorn.Config(self.app, log_level="warning", ws="websockets-sansio", ws_max_size=1 << 16, lifespan="on")
         )

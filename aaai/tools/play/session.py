@@ -15,6 +15,8 @@ acknowledgements in, and sends out what ``status()`` and ``frame()`` give.
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import re
 import secrets
 import threading
@@ -50,7 +52,8 @@ CONTROL_KEYS = {
 }
 GO_KEYS = (" ", "Enter")  # start an episode, go on after a pause (any control key does too)
 KEYS = tuple(CONTROL_KEYS) + GO_KEYS
-PLAYER_NAME = re.compile(r"[A-Za-z0-9_.-]{1,40}")
+PLAYER_NAME = re.compile(r"[A-Za-z0-9_-]{1,40}")  # ASCII letters and digits, '-' and '_'
+MAX_PLAYER_CHARS = 40
 MAX_LAG = 0.1  # seconds the simulation may fall behind the clock before the clock slips
 PHASES = ("loading", "ready", "running", "paused", "finished", "abandoned", "error")
 
@@ -97,14 +100,26 @@ class InputError(ValueError):
 
 
 def check_player(name) -> str:
+    """A player's name, checked: the one way a name becomes part of a file name (the scoreboard's
+    ``{player}``, the replays' prefix). 1 to 40 ASCII letters, digits, '-' and '_', so that no name
+    can climb out of a folder (``..``), name another one (``/``) or be empty; InputError otherwise."""
     if not isinstance(name, str) or not PLAYER_NAME.fullmatch(name):
-        raise InputError(f"player: got {name!r}; allowed: 1 to 40 letters, digits, '_', '.' or '-'")
+        shown = repr(name)
+        if isinstance(name, str) and len(name) > MAX_PLAYER_CHARS:
+            shown = f"{name[:MAX_PLAYER_CHARS]!r}... ({len(name)} characters)"
+        elif not isinstance(name, str):
+            shown = f"{shown[:MAX_PLAYER_CHARS]} (a {type(name).__name__})"
+        raise InputError(
+            f"player: got {shown}; allowed: 1 to {MAX_PLAYER_CHARS} letters (A-Z, a-z), digits, '-' or '_'"
+        )
     return name
 
 
 def control_of(key) -> str | None:
     """The control a key holds (None for a start key); InputError for a key that does nothing."""
-    if isinstance(key, str) and len(key) == 1:
+    if not isinstance(key, str):
+        raise InputError(f"key: got {str(key)[:40]} (a {type(key).__name__}); allowed: {', '.join(map(repr, KEYS))}")
+    if len(key) == 1:
         key = key.lower()
     if key in CONTROL_KEYS:
         return CONTROL_KEYS[key]
@@ -147,8 +162,10 @@ class PlaySettings:
     between_seconds: float = 1.0  # after an episode, keys are ignored this long (a key held on is not a start)
     grace_seconds: float = 20.0  # a page that drops its socket may come back this long before its episode is abandoned
 
+    max_sessions: int | None = None  # sessions holding an environment at once (None: the server's default)
+
     def output_for(self, player: str) -> Path:
-        return Path(self.output.replace("{player}", player))
+        return Path(self.output.replace("{player}", check_player(player)))
 
     def record(self, player: str) -> dict:
         record = policy_record(external(f"human:{player}"), self.seeds_label, self.seed_key)
@@ -184,8 +201,16 @@ class Session:
     """One player in one tab. Thread-safe: the server calls ``key``, ``focus``, ``ack``,
     ``attach``/``detach`` and ``abandon`` from its event loop; the battery runs on its own thread."""
 
-    def __init__(self, settings: PlaySettings, player: str, notify: Callable[[], None] = lambda: None):
+    def __init__(
+        self,
+        settings: PlaySettings,
+        player: str,
+        notify: Callable[[], None] = lambda: None,
+        on_end: Callable[["Session"], None] | None = None,
+    ):
         self.settings, self.player = settings, check_player(player)
+        self.on_end = on_end  # called on the session's thread when the battery is over (its environment closed)
+        self.done = threading.Event()  # set then
         self.token = secrets.token_urlsafe(18)
         self.output = settings.output_for(player)
         self.notify = notify
@@ -290,6 +315,16 @@ class Session:
 
     # --- the battery's thread ---------------------------------------------------------
     def _run(self) -> None:
+        try:
+            self._play()
+        finally:
+            with self.cond:
+                self.env = None  # closed by now (evaluate closes it): nothing keeps its memory
+            self.done.set()
+            if self.on_end is not None:
+                self.on_end(self)
+
+    def _play(self) -> None:
         settings = self.settings
         try:
             done = {self._key_of(row) for row in scored_episodes(self.output)}
@@ -527,6 +562,15 @@ def abandoned_path(output: Path) -> Path:
     return output.with_name(output.stem + "_abandoned.csv")
 
 
+def return_memory() -> None:
+    """Gives the memory freed by closed environments back to the system (glibc's malloc_trim;
+    without it the freed pages of a session's thread stay with the process)."""
+    try:
+        ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):  # not glibc: its allocator keeps or returns memory as it does
+        pass
+
+
 __all__ = [
     "Abandoned",
     "HumanPolicy",
@@ -537,6 +581,7 @@ __all__ = [
     "CONTROL_KEYS",
     "abandoned_path",
     "check_player",
+    "return_memory",
     "control_of",
     "command_of",
 ]

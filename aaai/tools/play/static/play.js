@@ -11,6 +11,8 @@ let pending = [];            // the images of the frame being received: [camera,
 let frameNo = 0;
 let lastStatus = null;
 let joined = false;
+// On a network the server asks for the token of the link it printed (and keeps it in a cookie).
+const linkToken = new URLSearchParams(location.search).get("token");
 
 function keyName(event) {
   return event.key.length === 1 ? event.key.toLowerCase() : event.key;
@@ -22,7 +24,8 @@ function send(message) {
 
 function connect() {
   const scheme = location.protocol === "https:" ? "wss" : "ws";
-  socket = new WebSocket(`${scheme}://${location.host}/ws`);
+  const query = linkToken ? `?token=${encodeURIComponent(linkToken)}` : "";
+  socket = new WebSocket(`${scheme}://${location.host}/ws${query}`);
   socket.binaryType = "blob";
   socket.onmessage = (event) => {
     if (typeof event.data === "string") receive(JSON.parse(event.data));
@@ -87,7 +90,7 @@ function image(blob) {
 }
 
 function askName(problem) {
-  showScreen("Who is playing?", problem || "Type your name (letters, digits, _ . -), then press Play.");
+  showScreen("Who is playing?", problem || "Type your name (letters, digits, - and _), then press Play.");
   const form = $("join");
   form.hidden = false;
   const field = $("player");
