@@ -148,6 +148,11 @@ def test_browser_plays_an_episode_scores_it_and_its_replay_runs_again_bit_for_bi
                 time.sleep(0.05)
 
         wait(lambda: driver.find_element(By.ID, "player").is_displayed())
+        driver.find_element(By.ID, "player").send_keys("../up", Keys.ENTER)  # not a plain name: the page says so
+        refusal = "player: got '../up'; allowed: 1 to 40 letters (A-Z, a-z), digits, '-' or '_'"
+        wait(lambda: driver.find_element(By.ID, "screen-text").text == refusal)
+        assert driver.find_element(By.ID, "player").is_displayed()
+        driver.find_element(By.ID, "player").clear()
         driver.find_element(By.ID, "player").send_keys("alice", Keys.ENTER)
         wait(lambda: phase() == "ready")
         assert "Walk to the green ball" in driver.find_element(By.ID, "task").text

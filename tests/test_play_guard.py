@@ -225,7 +225,14 @@ typed = st.fixed_dictionaries(
         "frame": json_values | st.integers(-(2**70), 2**70),
     },
 )
+well_formed = st.one_of(  # a known type with its flag right, the rest anything
+    st.fixed_dictionaries({"type": st.just("key"), "key": json_values | st.sampled_from(KEYS), "down": st.booleans()}),
+    st.fixed_dictionaries({"type": st.just("focus"), "focused": st.booleans()}),
+    st.fixed_dictionaries({"type": st.just("ack"), "frame": st.integers(-(2**70), 2**70)}),
+    st.fixed_dictionaries({"type": st.just("join"), "player": json_values, "token": st.none() | st.text(max_size=30)}),
+)
 messages = st.one_of(
+    well_formed.map(json.dumps),
     typed.map(json.dumps),
     json_values.map(json.dumps),
     st.text(max_size=40),
