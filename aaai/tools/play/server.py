@@ -55,8 +55,8 @@ from aaai.tools.play.session import (
 
 MAX_MESSAGE_CHARS = 1000
 MESSAGE_TYPES = ("join", "key", "focus", "ack")
-SESSIONS_PER_CORE = 4  # a running session takes about a fifth of a core (docs/play.md, "How fast")
-SESSION_MEGABYTES = 50  # a session's environment, camera and thread take about 45 MB (docs/play.md)
+SESSIONS_PER_CORE = 4  # a running session takes a fifth to a quarter of a core (docs/play.md, "How many players")
+SESSION_MEGABYTES = 50  # a session's environment, camera and thread take 37 to 48 MB (docs/play.md)
 
 
 def available_megabytes() -> float | None:
@@ -72,8 +72,9 @@ def available_megabytes() -> float | None:
 
 
 def default_max_sessions() -> int:
-    """--max-sessions by default: 4 per CPU core (each running session takes about a fifth of a
-    core at 50 control steps a second), and no more than half the available memory holds."""
+    """--max-sessions by default: 4 per CPU core (a running session takes a fifth to a quarter of a
+    core at 50 control steps a second), and no more than half the available memory holds at 50 MB
+    a session (one takes 37 to 48 MB)."""
     cap = SESSIONS_PER_CORE * (os.cpu_count() or 1)
     memory = available_megabytes()
     if memory is not None:
