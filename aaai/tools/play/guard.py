@@ -75,8 +75,8 @@ def own_hosts(host: str, port: int) -> list[str]:
         names |= set(LOOPBACK_NAMES)
     if not is_loopback(host):
         names |= machine_names()
-        if host not in WILDCARDS:
-            names.add(host)
+    if host not in WILDCARDS:
+        names.add(host)
     hosts = sorted(f"{shown(name)}:{port}" for name in names)
     return hosts + sorted(shown(name) for name in names) * (port == 80)  # a browser leaves out port 80
 
@@ -152,4 +152,4 @@ def link_host(host: str) -> str:
     return shown(host)
 
 
-__all__ = ["Guard", "is_loopback", "link_host", "own_hosts"]
+__all__ = ["WILDCARDS", "Guard", "is_loopback", "link_host", "own_hosts", "shown"]

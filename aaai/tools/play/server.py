@@ -41,7 +41,7 @@ from fastapi.responses import HTMLResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 
 from aaai.config import ConfigError
-from aaai.tools.play.guard import WILDCARDS, Guard, is_loopback, link_host, own_hosts
+from aaai.tools.play.guard import WILDCARDS, Guard, is_loopback, link_host, own_hosts, shown
 from aaai.tools.play.session import (
     CONTROL_KEYS,
     GO_KEYS,
@@ -355,7 +355,8 @@ class Server:
         self.network = not is_loopback(host)
         self.token = secrets.token_urlsafe(24) if self.network else None
         query = f"?token={self.token}" if self.token else ""
-        local = "127.0.0.1" if self.sock.family == socket.AF_INET else "[::1]"
+        bound = self.sock.getsockname()[0]
+        local = shown(bound) if bound not in WILDCARDS else "127.0.0.1" if bound == "0.0.0.0" else "[::1]"
         self.url = f"http://{link_host(host) if self.network else local}:{self.port}/{query}"
         self.local_url = f"http://{local}:{self.port}/{query}" if host in WILDCARDS else self.url
         self.app = create_app(settings, own_hosts(host, self.port), self.token, cookie=f"aaai_play_{self.port}")
