@@ -161,7 +161,6 @@ class PlaySettings:
     map_size: int = 480
     between_seconds: float = 1.0  # after an episode, keys are ignored this long (a key held on is not a start)
     grace_seconds: float = 20.0  # a page that drops its socket may come back this long before its episode is abandoned
-
     max_sessions: int | None = None  # sessions holding an environment at once (None: the server's default)
 
     def output_for(self, player: str) -> Path:
@@ -210,7 +209,7 @@ class Session:
     ):
         self.settings, self.player = settings, check_player(player)
         self.on_end = on_end  # called on the session's thread when the battery is over (its environment closed)
-        self.done = threading.Event()  # set then
+        self.done = threading.Event()  # set then (the server no longer counts it)
         self.token = secrets.token_urlsafe(18)
         self.output = settings.output_for(player)
         self.notify = notify
