@@ -44,7 +44,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from aaai.config import ConfigError, _PlainLoader, read_yaml
+from aaai import safe_yaml
+from aaai.config import ConfigError
 from aaai.sim.behaviours import REGISTRY
 from aaai.sim.kinds import ENDING_KINDS, FOOD_KINDS, OBJECT_KINDS, kind_class
 from aaai.spec import SHAPES, AgentPose, Blackout, InnerLevel, LevelSpec, ObjectSpec
@@ -386,11 +387,8 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
     """The spec an arena file gives for an episode seed, the file's own keys (description,
     category) and where each key stands; wrong keys and types are errors, validity is not checked."""
     path = Path(path)
-    data = read_yaml(path, "arena file")  # the project's limits: size, UTF-8, no aliases, depth
-    try:
-        node = yaml.compose(path.read_text(encoding="utf-8"), Loader=_PlainLoader)
-    except yaml.YAMLError as error:  # read_yaml has already refused what does not parse
-        raise ConfigError(f"{path.name}: {error}") from None
+    data, node = safe_yaml.load_with_nodes(path, "arena file")  # plain data within limits: size, aliases, depth
+    data = {} if data is None else data
     source = _Source(path, node if node is not None else yaml.MappingNode("tag:yaml.org,2002:map", []))
     rng = np.random.default_rng([int(seed), zlib.crc32(path.name.encode())])
     read = _Reader(source, rng, data)
