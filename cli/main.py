@@ -1243,8 +1243,8 @@ def import_animalai_command(source, out, scale):
         results = import_animalai(Path(source), Path(out), scale, echo=click.echo)
     except (ConfigError, OSError) as error:
         raise click.UsageError(str(error)) from None
-    if not any(not result.problem for result in results):
-        raise SystemExit(1)
+    if not any(not result.problem for result in results) or any(result.refused for result in results):
+        raise SystemExit(1)  # nothing converted, or a file or name refused (each named on a SKIPPED line)
 
 
 # Commands that live in their own files.

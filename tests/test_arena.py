@@ -128,6 +128,26 @@ def test_yaml_limits_still_apply(tmp_path):
         load_arena(path)
 
 
+@pytest.mark.parametrize(
+    "line, words",
+    [
+        ("seed: " + "7" * 5001, "an integer of 5,001 digits"),
+        ("wall_height: 1.0e+999", "too large for a float"),
+        ("extras: !!python/object/apply:os.system [echo]", "the tag !!python/object/apply:os.system is not allowed"),
+        ('extras: {"a\\0": 1}', "a NUL character in a value"),
+        ("extras: " + "[" * 30 + "]" * 30, "nests too deeply at line 5; allowed: 20 levels"),
+    ],
+    ids=["digits", "float", "python", "nul", "deep"],
+)
+def test_a_hostile_arena_file_gets_one_line_naming_the_file_and_the_line(tmp_path, line, words):
+    path = write(tmp_path, BASE.split("objects:")[0] + line + "\nobjects: []\n")
+    with pytest.raises(ConfigError) as error:
+        load_arena(path)
+    message = str(error.value)
+    assert message.startswith(f"arena file {str(path)!r}") and "\n" not in message, message
+    assert words in message and "line 5" in message, message
+
+
 def test_gym_make_with_arena_uses_episode_seed(tmp_path):
     path = ARENAS / "l0_food_ahead.yaml"
     env = gym.make("aaai/AnimalAI-v0", arena=str(path), max_steps=20)

@@ -159,6 +159,10 @@ def test_importing_aaai_prints_nothing():
         (b"episode:\n  max_steps: 500\n\xff\xfe\n", ["not UTF-8"]),
         (b"[" * 5000 + b"]" * 5000, ["nests too deeply"]),
         (b"- 1\n- 2\n", ["top level must be a mapping"]),
+        (b"train:\n  total_steps: " + b"9" * 500 + b"\n", ["line 2", "an integer of 500 digits", "at most 40"]),
+        (b"train:\n  learning_rate: 1.0e+500\n", ["line 2", "too large for a float"]),
+        (b"episode: !!python/object/apply:os.system [echo]\n", ["line 1", "tag !!python/object/apply:os.system"]),
+        (b'"episode\\0": {max_steps: 500}\n', ["line 1", "a NUL character"]),
     ],
 )
 def test_a_hostile_yaml_file_gets_one_clear_message(tmp_path, content, words):
@@ -167,6 +171,14 @@ def test_a_hostile_yaml_file_gets_one_clear_message(tmp_path, content, words):
     with pytest.raises(ConfigError) as error:
         load_config(path)
     assert str(path) in str(error.value) and all(word in str(error.value) for word in words)
+
+
+@pytest.mark.parametrize("value", [10**500, -(10**500), 2**64], ids=["1e500", "-1e500", "2**64"])
+def test_a_huge_integer_value_is_refused_as_out_of_range(value):
+    with pytest.raises(ConfigError, match=r"'train.total_steps': got .*allowed: an integer from 1 to 1e\+10"):
+        load_config(total_steps=value)
+    with pytest.raises(ConfigError, match=r"config key 'train.learning_rate': got .*allowed: a number from"):
+        load_config(learning_rate=value)
 
 
 def test_a_config_that_is_neither_a_path_nor_a_mapping_is_refused():
