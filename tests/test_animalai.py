@@ -297,3 +297,10 @@ def test_aliases_within_the_budget_are_read_and_an_arena_of_too_many_objects_is_
     result, out, seconds = run_import(tmp_path, many, "many.yaml")
     assert result.exit_code == 1 and "many.yaml, arena 0: 4,000 objects; allowed: at most 500" in result.output
     assert seconds < 5 and not (out / "many.yaml").exists()
+
+
+def test_a_skipped_arena_is_named_in_a_short_line_however_large_its_value(tmp_path):
+    text = "!ArenaConfig\narenas:\n  0: !Arena\n    p: &p " + POSITIONS + "\n    items: {a: *p, b: *p}\n"
+    result, _, _ = run_import(tmp_path, text)
+    assert result.exit_code == 1 and "attack.yaml, arena 0: items must be a list, got {'a': [" in result.output
+    assert len(result.output) < 1000, result.output
