@@ -249,7 +249,7 @@ def test_two_files_of_one_name_do_not_overwrite_each_other(tmp_path):
 
 
 def laughs_arena() -> str:
-    """381 bytes that expand to 10**8 values: each list aliases the one before ten times."""
+    """A bomb of 532 bytes that expands to 10**8 values: each list aliases the one before ten times."""
     text = "!ArenaConfig\narenas:\n  0: !Arena\n    l0: &l0 [x, x, x, x, x, x, x, x, x, x]\n"
     for level in range(1, 8):
         text += f"    l{level}: &l{level} [" + ", ".join([f"*l{level - 1}"] * 10) + "]\n"
