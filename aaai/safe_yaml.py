@@ -330,6 +330,8 @@ def load_with_nodes(path: str | Path, what: str = "file", limits: Limits = Limit
     path = Path(path)
     label = f"{what} {str(path)!r}"
     if not path.is_file():
+        if path.exists():  # a folder, a device, a pipe: nothing to read as a file (and /dev/zero never ends)
+            raise YAMLRefused(f"{label} is not a file", "not a file")
         raise YAMLRefused(f"{label} does not exist", "does not exist")
     size = path.stat().st_size
     if size > limits.max_bytes:
