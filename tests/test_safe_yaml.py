@@ -3,6 +3,7 @@ line and what is allowed, in bounded time and memory, with libyaml's parser and 
 
 import time
 import tracemalloc
+from pathlib import Path
 
 import pytest
 import yaml
@@ -120,6 +121,9 @@ def test_not_utf8_a_missing_file_and_a_top_level_that_is_not_a_mapping(tmp_path)
         load(bad, "gait file")
     with pytest.raises(YAMLRefused, match=r"^gait file '.*none.yaml' does not exist$"):
         load(tmp_path / "none.yaml", "gait file")
+    for endless in (Path("/dev/zero"), tmp_path):  # a device that never ends, a folder: never read
+        with pytest.raises(YAMLRefused, match=r"^gait file '.*' is not a file$"):
+            load(endless, "gait file")
     listed = tmp_path / "list.yaml"
     listed.write_text("- 1\n")
     with pytest.raises(YAMLRefused, match="the top level must be a mapping, got list"):
