@@ -80,6 +80,8 @@ BLACKOUT_KEYS = ("light", "dark")
 INNER_KEYS = ("level", "name", "difficulty", "seed")
 RANDOM_FORMS = ("uniform", "integers", "choice")
 DEFAULT_TIME_LIMIT = 60.0
+MAX_HOLE_TILES = 400 * 400  # tiles the holes list, rects expanded (aaai.task.validate: at most 400 x 400 tiles)
+MAX_OBJECTS = 1000  # objects in an arena file (a generated level has at most a few dozen, an imported one 504)
 
 
 # --- writing ------------------------------------------------------------------------------
@@ -420,6 +422,8 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
         value = read.draw(data["objects"], ("objects",))
         if not isinstance(value, list):
             read.fail(("objects",), f"got {value!r}; allowed: a list of objects")
+        if len(value) > MAX_OBJECTS:  # each is checked against every other: thousands would take hours
+            read.fail(("objects",), f"got {len(value):,} objects; allowed: at most {MAX_OBJECTS}")
         return value
 
     objects_value = attempt(object_list, []) if "objects" in data else []
@@ -464,6 +468,19 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
                 if i0 > i1 or j0 > j1:
                     read.fail(
                         ("holes", i, "rect"), f"got {hole['rect']!r}; allowed: [i0, j0, i1, j1], i0 <= i1, j0 <= j1"
+                    )
+                nx, ny = fields.get("tiles", (1, 1))
+                if i0 < 0 or j0 < 0 or i1 >= nx or j1 >= ny:  # checked before the block's tiles are listed
+                    read.fail(
+                        ("holes", i, "rect"),
+                        f"got {hole['rect']!r}; allowed: a block within the {nx} x {ny} floor tiles "
+                        f"(i from 0 to {nx - 1}, j from 0 to {ny - 1})",
+                    )
+                if len(tiles) + (i1 - i0 + 1) * (j1 - j0 + 1) > MAX_HOLE_TILES:
+                    read.fail(
+                        ("holes", i, "rect"),
+                        f"the holes list more than {MAX_HOLE_TILES:,} tiles; allowed: at most {MAX_HOLE_TILES:,} "
+                        "(the largest floor, 400 x 400)",
                     )
                 tiles += [(a, b) for a in range(i0, i1 + 1) for b in range(j0, j1 + 1)]
             else:
