@@ -1,3 +1,5 @@
+import time
+
 import pytest
 
 from aaai.agent.body import urdf_path
@@ -79,6 +81,26 @@ def test_level_parameters_follow_difficulty():
         resolve({"food_sise": 1}, 0, ("food_size",), "L0.yaml")
     with pytest.raises(LevelParamError, match="list of 11"):
         resolve_value([1, 2, 3], 0, "x")
+
+
+@pytest.mark.parametrize(
+    "expression, words",
+    [
+        ("9**9**9", "is too large to compute"),  # would compute a number of 370 million digits
+        ("ceil(2**2000 / 1.5)", "is too large to compute"),
+        ("round(1e400)", "is too large to compute"),
+        ("floor(1e400 - 1e400)", "cannot convert float NaN to integer"),
+        ("(-8) ** 0.5", "not a real number"),
+        ("-" * 100000 + "1", "an expression of 100,001 characters; allowed: .* of at most 200"),
+    ],
+    ids=["power", "division", "infinity", "nan", "complex", "long"],
+)
+def test_a_level_parameter_expression_that_cannot_be_computed_gets_one_clear_message(expression, words):
+    started = time.perf_counter()
+    with pytest.raises(LevelParamError, match=rf"^L0.yaml: parameter 'n': .*{words}"):
+        resolve_value(expression, 3, "L0.yaml: parameter 'n'")
+    assert time.perf_counter() - started < 1
+    assert resolve_value("2 ** d", 3, "x") == 8 and resolve_value("2 ** 0.5", 3, "x") == pytest.approx(2**0.5)
 
 
 def test_bad_seed_is_rejected():
