@@ -12,8 +12,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-import yaml
-
+from aaai import safe_yaml
 from aaai.agent.urdf_writer import BODIES
 from aaai.errors import ConfigError as ConfigError  # where users and modules import it from
 
@@ -84,8 +83,8 @@ class Rule:
             ok = isinstance(value, str) and value in self.choices
         else:
             is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
-            if self.kind == "int":
-                is_number = is_number and float(value).is_integer()
+            if self.kind == "int":  # an int is whole however large (float() of 10**500 overflows)
+                is_number = is_number and (isinstance(value, int) or float(value).is_integer())
             ok = is_number and self.low <= value <= self.high
             if ok:
                 value = int(value) if self.kind == "int" else float(value)
@@ -218,58 +217,12 @@ def config_dir() -> Path:
     return Path(str(resources.files("aaai_configs")))
 
 
-MAX_YAML_BYTES = 1 << 20  # a config or level file is a few kB; anything near a megabyte is a mistake
-MAX_YAML_DEPTH = 20
-
-
-class _PlainLoader(yaml.SafeLoader):
-    """YAML without aliases (``*name``): a config has no use for them, and they let a few lines
-    expand into gigabytes (a "billion laughs" file) or refer to themselves."""
-
-    def compose_node(self, parent, index):
-        if self.check_event(yaml.AliasEvent):
-            mark = self.peek_event().start_mark
-            raise yaml.composer.ComposerError(None, None, "an alias (*name) is not allowed here", mark)
-        return super().compose_node(parent, index)
-
-
-def _depth(data, limit: int) -> int:
-    if limit < 0:
-        return 0
-    if isinstance(data, dict):
-        return 1 + max((_depth(v, limit - 1) for v in data.values()), default=0)
-    if isinstance(data, list):
-        return 1 + max((_depth(v, limit - 1) for v in data), default=0)
-    return 0
-
-
 def read_yaml(path: str | Path, what: str = "config file") -> dict:
-    """A YAML file's mapping, read within the project's limits; errors name the file as ``what``."""
+    """A YAML file's mapping, read as plain data within the project's limits (aaai.safe_yaml: size,
+    UTF-8, no aliases or tags, depth, numbers); errors name the file as ``what``."""
     if not isinstance(path, (str, Path)):
         raise ConfigError(f"config: got {path!r}; allowed: a YAML file's path or a mapping of keys")
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{what} {str(path)!r} does not exist")
-    size = path.stat().st_size
-    if size > MAX_YAML_BYTES:
-        raise ConfigError(f"{what} {str(path)!r} is {size} bytes; allowed: at most {MAX_YAML_BYTES}")
-    try:
-        text = path.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as error:
-        raise ConfigError(f"{what} {str(path)!r} is not UTF-8 text ({error.reason} at byte {error.start})") from None
-    try:
-        data = yaml.load(text, Loader=_PlainLoader)
-    except yaml.YAMLError as error:
-        raise ConfigError(f"{what} {str(path)!r} is not valid YAML: {error}") from None
-    except RecursionError:
-        raise ConfigError(f"{what} {str(path)!r} nests too deeply; allowed: {MAX_YAML_DEPTH} levels") from None
-    if data is None:
-        return {}
-    if not isinstance(data, dict):
-        raise ConfigError(f"{what} {str(path)!r}: the top level must be a mapping, got {type(data).__name__}")
-    if _depth(data, MAX_YAML_DEPTH) > MAX_YAML_DEPTH:
-        raise ConfigError(f"{what} {str(path)!r} nests too deeply; allowed: {MAX_YAML_DEPTH} levels")
-    return data
+    return safe_yaml.load_mapping(path, what)
 
 
 def _flatten(tree: Mapping, prefix: str = "") -> dict[str, Any]:

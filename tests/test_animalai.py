@@ -2,6 +2,7 @@
 format) converted into aaai arena files."""
 
 import math
+import time
 from pathlib import Path
 
 import pytest
@@ -188,3 +189,118 @@ arenas:
     import_animalai(source, tmp_path / "out", echo=lambda line: None)
     foods = [o for o in parse_arena(tmp_path / "out" / "five.yaml", 0)[0].objects if o.kind == "multi_food"]
     assert [food.size[0] for food in foods] == [S, S, 2 * S]  # positions drawn at random for each
+
+
+# --- files from outside: nothing written outside --out, every attack one line, in bounded time ----
+def arena_config(*arenas: tuple[str, str]) -> str:
+    """An !ArenaConfig of arenas given as (key, items text)."""
+    text = "!ArenaConfig\narenas:\n"
+    for key, items in arenas:
+        text += f"  {key}: !Arena\n    t: 250\n    items:\n{items}"
+    return text
+
+
+GOAL = "    - !Item\n      name: GoodGoal\n      positions:\n      - !Vector3 {x: 20, y: 0, z: 30}\n"
+
+
+def run_import(tmp_path, text: str, name: str = "attack.yaml"):
+    source = tmp_path / "in" / name
+    source.parent.mkdir(exist_ok=True)
+    source.write_text(text)
+    out = tmp_path / "deep" / "out"
+    started = time.perf_counter()
+    result = CliRunner().invoke(cli, ["import-animalai", str(source), "--out", str(out)])
+    return result, out, time.perf_counter() - started
+
+
+def files_under(folder: Path) -> set[Path]:
+    return {path for path in folder.rglob("*") if path.is_file()}
+
+
+@pytest.mark.parametrize("key", ['"/../../evil"', '"../evil"', "a/b", '"x\\ty"', "'" + "k" * 65 + "'", "true"])
+def test_an_arena_key_that_is_no_plain_name_is_refused_and_nothing_is_written_outside(tmp_path, key):
+    before = files_under(tmp_path)
+    result, out, _ = run_import(tmp_path, arena_config((key, GOAL), ("0", GOAL)))
+    assert result.exit_code == 1, result.output
+    assert "is not a plain name; allowed: 1 to 64 letters, digits, _ or -" in result.output
+    assert result.output.count("SKIPPED") == 1 and "Traceback" not in result.output
+    assert files_under(tmp_path) - before == {tmp_path / "in" / "attack.yaml"}  # nothing written, in --out or not
+
+
+def test_a_name_leading_out_of_out_through_a_link_is_refused(tmp_path):
+    outside = tmp_path / "outside.yaml"
+    outside.write_text("mine\n")
+    out = tmp_path / "deep" / "out"
+    out.mkdir(parents=True)
+    (out / "attack_a1.yaml").symlink_to(outside)
+    result, out, _ = run_import(tmp_path, arena_config(("0", GOAL), ("1", GOAL)))
+    assert result.exit_code == 1 and "attack_a1.yaml lies outside" in result.output, result.output
+    assert outside.read_text() == "mine\n" and (out / "attack_a0.yaml").is_file()
+
+
+def test_two_files_of_one_name_do_not_overwrite_each_other(tmp_path):
+    for folder in ("a", "b"):
+        (tmp_path / "src" / folder).mkdir(parents=True)
+        (tmp_path / "src" / folder / "same.yaml").write_text(arena_config(("0", GOAL)))
+    lines: list[str] = []
+    results = import_animalai(tmp_path / "src", tmp_path / "out", echo=lines.append)
+    assert [r.problem for r in results][0] == ""
+    assert "b/same.yaml" not in "".join(lines) and "same.yaml was already written from same.yaml, arena 0" in lines[0]
+
+
+def laughs_arena() -> str:
+    """A bomb of 532 bytes that expands to 10**8 values: each list aliases the one before ten times."""
+    text = "!ArenaConfig\narenas:\n  0: !Arena\n    l0: &l0 [x, x, x, x, x, x, x, x, x, x]\n"
+    for level in range(1, 8):
+        text += f"    l{level}: &l{level} [" + ", ".join([f"*l{level - 1}"] * 10) + "]\n"
+    return text + "    items: *l7\n"
+
+
+POSITIONS = "[" + ", ".join(["{x: 1, y: 0, z: 1}"] * 2000) + "]"  # 40 kB
+ATTACKS = {
+    "bomb": (laughs_arena(), "more than 100,000 values once its aliases are expanded"),
+    "aliased positions": (
+        "!ArenaConfig\narenas:\n  0: !Arena\n    p: &p "
+        + POSITIONS
+        + "\n    items:\n"
+        + "".join("    - !Item {name: GoodGoal, positions: *p}\n" for _ in range(100)),
+        "more than 100,000 values once its aliases are expanded",
+    ),
+    "deep list": ("!ArenaConfig\narenas: " + "[" * 50000 + "]" * 50000 + "\n", "nests too deeply at line 2"),
+    "deep block": ("!ArenaConfig\narenas:\n" + "".join("  " * i + "-\n" for i in range(40)), "nests too deeply"),
+    "NUL in a key": (arena_config(('"a\\0b"', GOAL)), "line 3: a NUL character in a value"),
+    "NUL byte": (arena_config(("a\0b", GOAL)), "line 3: the character U+0000 is not allowed"),
+    "5001 digits": (arena_config(("0", GOAL)).replace("t: 250", "t: " + "9" * 5001), "an integer of 5,001 digits"),
+    "overflowing float": (arena_config(("0", GOAL)).replace("t: 250", "t: 1.0e+400"), "too large for a float"),
+    "python tag": ("!ArenaConfig\narenas: !!python/object/apply:os.system [echo]\n", "the tag !!python/object/apply"),
+}
+
+
+@pytest.mark.parametrize("attack", sorted(ATTACKS))
+def test_an_attack_gets_one_line_naming_the_file_in_bounded_time(tmp_path, attack):
+    text, words = ATTACKS[attack]
+    result, out, seconds = run_import(tmp_path, text)
+    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+    skipped = [line for line in result.output.splitlines() if line.startswith("SKIPPED")]
+    assert skipped == [f"SKIPPED attack.yaml: not Animal-AI arena YAML: {skipped[0].split(': ', 2)[2]}"]
+    assert words in skipped[0] and len(result.output) < 1000, result.output
+    assert seconds < 5 and not list(out.glob("*"))
+
+
+def test_aliases_within_the_budget_are_read_and_an_arena_of_too_many_objects_is_skipped(tmp_path):
+    reused = "!ArenaConfig\narenas:\n  0: !Arena\n    t: 250\n    p: &p [{x: 20, y: 0, z: 30}]\n    items:\n"
+    reused += "    - !Item {name: GoodGoal, positions: *p}\n"
+    result, out, _ = run_import(tmp_path, reused)
+    assert result.exit_code == 0 and (out / "attack.yaml").is_file(), result.output
+    many = "!ArenaConfig\narenas:\n  0: !Arena\n    p: &p " + POSITIONS + "\n    items:\n"
+    many += "".join("    - !Item {name: GoodGoal, positions: *p}\n" for _ in range(2))
+    result, out, seconds = run_import(tmp_path, many, "many.yaml")
+    assert result.exit_code == 1 and "many.yaml, arena 0: 4,000 objects; allowed: at most 500" in result.output
+    assert seconds < 5 and not (out / "many.yaml").exists()
+
+
+def test_a_skipped_arena_is_named_in_a_short_line_however_large_its_value(tmp_path):
+    text = "!ArenaConfig\narenas:\n  0: !Arena\n    p: &p " + POSITIONS + "\n    items: {a: *p, b: *p}\n"
+    result, _, _ = run_import(tmp_path, text)
+    assert result.exit_code == 1 and "attack.yaml, arena 0: items must be a list, got {'a': [" in result.output
+    assert len(result.output) < 1000, result.output

@@ -128,6 +128,26 @@ def test_yaml_limits_still_apply(tmp_path):
         load_arena(path)
 
 
+@pytest.mark.parametrize(
+    "line, words",
+    [
+        ("seed: " + "7" * 5001, "an integer of 5,001 digits"),
+        ("wall_height: 1.0e+999", "too large for a float"),
+        ("extras: !!python/object/apply:os.system [echo]", "the tag !!python/object/apply:os.system is not allowed"),
+        ('extras: {"a\\0": 1}', "a NUL character in a value"),
+        ("extras: " + "[" * 30 + "]" * 30, "nests too deeply at line 5; allowed: 20 levels"),
+    ],
+    ids=["digits", "float", "python", "nul", "deep"],
+)
+def test_a_hostile_arena_file_gets_one_line_naming_the_file_and_the_line(tmp_path, line, words):
+    path = write(tmp_path, BASE.split("objects:")[0] + line + "\nobjects: []\n")
+    with pytest.raises(ConfigError) as error:
+        load_arena(path)
+    message = str(error.value)
+    assert message.startswith(f"arena file {str(path)!r}") and "\n" not in message, message
+    assert words in message and "line 5" in message, message
+
+
 def test_gym_make_with_arena_uses_episode_seed(tmp_path):
     path = ARENAS / "l0_food_ahead.yaml"
     env = gym.make("aaai/AnimalAI-v0", arena=str(path), max_steps=20)
@@ -266,3 +286,16 @@ def test_a_missing_or_broken_arena_file_is_named_as_an_arena_file(tmp_path):
     broken.write_text("arena: [")
     with pytest.raises(ConfigError, match=r"^arena file '.*broken.yaml' is not valid YAML"):
         AnimalAIEnv(arena=str(broken))
+
+
+def test_a_hole_block_beyond_the_floor_or_too_many_objects_is_refused_before_it_is_built(tmp_path):
+    head = "agent: {x: 0, y: 0}\ntiles: [10, 10]\n"
+    huge = write(tmp_path, head + "holes: [{rect: [0, 0, 100000, 100000]}]\nobjects: []\n")
+    with pytest.raises(ConfigError, match=r"holes\[0\].rect: got .*allowed: a block within the 10 x 10 floor tiles"):
+        load_arena(huge, require_food=False)
+    floor = "agent: {x: 0, y: 0}\ntiles: [400, 400]\nholes: [" + ", ".join(["{rect: [0, 0, 399, 399]}"] * 3) + "]\n"
+    with pytest.raises(ConfigError, match=r"holes\[1\].rect: the holes list more than 160,000 tiles"):
+        load_arena(write(tmp_path, floor + "objects: []\n"), require_food=False)
+    many = write(tmp_path, head + "objects:\n" + "- {kind: wall, position: [0, 0, 1], size: [1, 1, 1]}\n" * 1001)
+    with pytest.raises(ConfigError, match=r"line 3, objects: got 1,001 objects; allowed: at most 1000"):
+        load_arena(many)

@@ -1,3 +1,5 @@
+import time
+
 import pytest
 
 from aaai.agent.body import urdf_path
@@ -81,6 +83,26 @@ def test_level_parameters_follow_difficulty():
         resolve_value([1, 2, 3], 0, "x")
 
 
+@pytest.mark.parametrize(
+    "expression, words",
+    [
+        ("9**9**9", "is too large to compute"),  # would compute a number of 370 million digits
+        ("ceil(2**2000 / 1.5)", "is too large to compute"),
+        ("round(1e400)", "is too large to compute"),
+        ("floor(1e400 - 1e400)", "cannot convert float NaN to integer"),
+        ("(-8) ** 0.5", "not a real number"),
+        ("-" * 100000 + "1", "an expression of 100,001 characters; allowed: .* of at most 200"),
+    ],
+    ids=["power", "division", "infinity", "nan", "complex", "long"],
+)
+def test_a_level_parameter_expression_that_cannot_be_computed_gets_one_clear_message(expression, words):
+    started = time.perf_counter()
+    with pytest.raises(LevelParamError, match=rf"^L0.yaml: parameter 'n': .*{words}"):
+        resolve_value(expression, 3, "L0.yaml: parameter 'n'")
+    assert time.perf_counter() - started < 1
+    assert resolve_value("2 ** d", 3, "x") == 8 and resolve_value("2 ** 0.5", 3, "x") == pytest.approx(2**0.5)
+
+
 def test_bad_seed_is_rejected():
     with pytest.raises(ConfigError, match="seed: got -1"):
         generate(0, 0, -1)
@@ -159,6 +181,10 @@ def test_importing_aaai_prints_nothing():
         (b"episode:\n  max_steps: 500\n\xff\xfe\n", ["not UTF-8"]),
         (b"[" * 5000 + b"]" * 5000, ["nests too deeply"]),
         (b"- 1\n- 2\n", ["top level must be a mapping"]),
+        (b"train:\n  total_steps: " + b"9" * 500 + b"\n", ["line 2", "an integer of 500 digits", "at most 40"]),
+        (b"train:\n  learning_rate: 1.0e+500\n", ["line 2", "too large for a float"]),
+        (b"episode: !!python/object/apply:os.system [echo]\n", ["line 1", "tag !!python/object/apply:os.system"]),
+        (b'"episode\\0": {max_steps: 500}\n', ["line 1", "a NUL character"]),
     ],
 )
 def test_a_hostile_yaml_file_gets_one_clear_message(tmp_path, content, words):
@@ -167,6 +193,14 @@ def test_a_hostile_yaml_file_gets_one_clear_message(tmp_path, content, words):
     with pytest.raises(ConfigError) as error:
         load_config(path)
     assert str(path) in str(error.value) and all(word in str(error.value) for word in words)
+
+
+@pytest.mark.parametrize("value", [10**500, -(10**500), 2**64], ids=["1e500", "-1e500", "2**64"])
+def test_a_huge_integer_value_is_refused_as_out_of_range(value):
+    with pytest.raises(ConfigError, match=r"'train.total_steps': got .*allowed: an integer from 1 to 1e\+10"):
+        load_config(total_steps=value)
+    with pytest.raises(ConfigError, match=r"config key 'train.learning_rate': got .*allowed: a number from"):
+        load_config(learning_rate=value)
 
 
 def test_a_config_that_is_neither_a_path_nor_a_mapping_is_refused():

@@ -23,8 +23,9 @@ _BINARY = {
     ast.Div: operator.truediv,
     ast.FloorDiv: operator.floordiv,
     ast.Mod: operator.mod,
-    ast.Pow: operator.pow,
+    ast.Pow: lambda base, exponent: _power(base, exponent),
 }
+MAX_EXPRESSION = 200  # characters: a parameter's expression is a line, never a program
 _FUNCTIONS = {
     "round": round,
     "floor": math.floor,
@@ -38,6 +39,14 @@ _FUNCTIONS = {
 
 class LevelParamError(ValueError):
     """A level parameter that cannot be resolved."""
+
+
+def _power(base, exponent):
+    """``base ** exponent``: exact for small integers, else in floats, so that ``9**9**9`` overflows
+    (an error) at once instead of computing a number of 370 million digits."""
+    if isinstance(base, int) and isinstance(exponent, int) and abs(base) <= 2**32 and 0 <= exponent <= 64:
+        return base**exponent
+    return float(base) ** float(exponent)
 
 
 def _evaluate(node: ast.AST, d: int) -> float:
@@ -76,11 +85,25 @@ def resolve_value(value: Any, d: int, where: str) -> float:
             raise LevelParamError(f"{where}: got {value!r}; allowed: {allowed}")
         return value[d]
     if isinstance(value, str):
+        if len(value) > MAX_EXPRESSION:
+            raise LevelParamError(
+                f"{where}: an expression of {len(value):,} characters; allowed: {allowed}, of at most {MAX_EXPRESSION}"
+            )
         try:
-            tree = ast.parse(value, mode="eval")
-            return _evaluate(tree, d)
-        except (SyntaxError, LevelParamError, TypeError, ZeroDivisionError) as error:
+            result = _evaluate(ast.parse(value, mode="eval"), d)
+        except OverflowError:
+            raise LevelParamError(
+                f"{where}: expression {value!r} is too large to compute; allowed: {allowed}"
+            ) from None
+        except (SyntaxError, LevelParamError, TypeError, ZeroDivisionError, ValueError) as error:
             raise LevelParamError(f"{where}: expression {value!r} fails: {error}; allowed: {allowed}") from None
+        except (RecursionError, MemoryError):
+            raise LevelParamError(f"{where}: expression {value!r} nests too deeply; allowed: {allowed}") from None
+        if isinstance(result, complex):  # (-8) ** 0.5
+            raise LevelParamError(
+                f"{where}: expression {value!r} gives {result!r}, not a real number; allowed: {allowed}"
+            )
+        return result
     raise LevelParamError(f"{where}: got {value!r}; allowed: {allowed}")
 
 

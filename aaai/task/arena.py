@@ -44,7 +44,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from aaai.config import ConfigError, _PlainLoader, read_yaml
+from aaai import safe_yaml
+from aaai.config import ConfigError
 from aaai.sim.behaviours import REGISTRY
 from aaai.sim.kinds import ENDING_KINDS, FOOD_KINDS, OBJECT_KINDS, kind_class
 from aaai.spec import SHAPES, AgentPose, Blackout, InnerLevel, LevelSpec, ObjectSpec
@@ -79,6 +80,8 @@ BLACKOUT_KEYS = ("light", "dark")
 INNER_KEYS = ("level", "name", "difficulty", "seed")
 RANDOM_FORMS = ("uniform", "integers", "choice")
 DEFAULT_TIME_LIMIT = 60.0
+MAX_HOLE_TILES = 400 * 400  # tiles the holes list, rects expanded (aaai.task.validate: at most 400 x 400 tiles)
+MAX_OBJECTS = 1000  # objects in an arena file (a generated level has at most a few dozen, an imported one 504)
 
 
 # --- writing ------------------------------------------------------------------------------
@@ -386,11 +389,8 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
     """The spec an arena file gives for an episode seed, the file's own keys (description,
     category) and where each key stands; wrong keys and types are errors, validity is not checked."""
     path = Path(path)
-    data = read_yaml(path, "arena file")  # the project's limits: size, UTF-8, no aliases, depth
-    try:
-        node = yaml.compose(path.read_text(encoding="utf-8"), Loader=_PlainLoader)
-    except yaml.YAMLError as error:  # read_yaml has already refused what does not parse
-        raise ConfigError(f"{path.name}: {error}") from None
+    data, node = safe_yaml.load_with_nodes(path, "arena file")  # plain data within limits: size, aliases, depth
+    data = {} if data is None else data
     source = _Source(path, node if node is not None else yaml.MappingNode("tag:yaml.org,2002:map", []))
     rng = np.random.default_rng([int(seed), zlib.crc32(path.name.encode())])
     read = _Reader(source, rng, data)
@@ -422,6 +422,8 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
         value = read.draw(data["objects"], ("objects",))
         if not isinstance(value, list):
             read.fail(("objects",), f"got {value!r}; allowed: a list of objects")
+        if len(value) > MAX_OBJECTS:  # each is checked against every other: thousands would take hours
+            read.fail(("objects",), f"got {len(value):,} objects; allowed: at most {MAX_OBJECTS}")
         return value
 
     objects_value = attempt(object_list, []) if "objects" in data else []
@@ -466,6 +468,19 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
                 if i0 > i1 or j0 > j1:
                     read.fail(
                         ("holes", i, "rect"), f"got {hole['rect']!r}; allowed: [i0, j0, i1, j1], i0 <= i1, j0 <= j1"
+                    )
+                nx, ny = fields.get("tiles", (1, 1))
+                if i0 < 0 or j0 < 0 or i1 >= nx or j1 >= ny:  # checked before the block's tiles are listed
+                    read.fail(
+                        ("holes", i, "rect"),
+                        f"got {hole['rect']!r}; allowed: a block within the {nx} x {ny} floor tiles "
+                        f"(i from 0 to {nx - 1}, j from 0 to {ny - 1})",
+                    )
+                if len(tiles) + (i1 - i0 + 1) * (j1 - j0 + 1) > MAX_HOLE_TILES:
+                    read.fail(
+                        ("holes", i, "rect"),
+                        f"the holes list more than {MAX_HOLE_TILES:,} tiles; allowed: at most {MAX_HOLE_TILES:,} "
+                        "(the largest floor, 400 x 400)",
                     )
                 tiles += [(a, b) for a in range(i0, i1 + 1) for b in range(j0, j1 + 1)]
             else:

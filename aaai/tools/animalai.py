@@ -36,6 +36,8 @@ the timed food of aaai.sim.kinds (see TIMED).
 from __future__ import annotations
 
 import math
+import re
+import reprlib
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,6 +45,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from aaai import safe_yaml
 from aaai.config import ConfigError
 from aaai.files import write_atomic
 from aaai.scoring.evaluation import PASS_RATIO
@@ -128,12 +131,20 @@ NOT_HERE = {  # known Animal-AI items without a counterpart, and why
 
 
 # --- reading ------------------------------------------------------------------------------
-class _Loader(yaml.SafeLoader):
-    """Safe YAML with Animal-AI's tags read as plain mappings: nothing in the file is run."""
+ANIMALAI_TAGS = ("!ArenaConfig", "!Arena", "!Item", "!Vector3", "!RGB")  # read as the plain mappings they tag
+MAX_ALIASES = 100  # an Animal-AI file may reuse a value (*name) this often
+MAX_VALUES = 100_000  # values once aliases are expanded: a file of 40 arenas of 100 items each needs about 30,000
+MAX_ARENAS = 1000  # arenas in one file
+MAX_OBJECTS = 500  # objects in one arena (Animal-AI's own arenas hold a few dozen)
+LIMITS = safe_yaml.Limits(max_bytes=MAX_FILE_BYTES, aliases=MAX_ALIASES, max_values=MAX_VALUES, tags=ANIMALAI_TAGS)
+_PLAIN_NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")  # an arena's key, as it goes into a file name
+_SHOWN = reprlib.Repr()
+_SHOWN.maxlevel, _SHOWN.maxstring, _SHOWN.maxother, _SHOWN.maxlist, _SHOWN.maxdict = 3, 60, 60, 6, 6
 
 
-for _tag in ("!ArenaConfig", "!Arena", "!Item", "!Vector3", "!RGB"):
-    _Loader.add_constructor(_tag, lambda loader, node: loader.construct_mapping(node, deep=True))
+def _shown(value) -> str:
+    """A value from the file as a message shows it: its repr, cut short (an alias can make it huge)."""
+    return _SHOWN.repr(value)
 
 
 class Unmappable(Exception):
@@ -141,18 +152,28 @@ class Unmappable(Exception):
 
 
 def read_arena_config(path: Path) -> dict:
-    """The parsed ``!ArenaConfig`` of a file, checked for its outline."""
+    """The parsed ``!ArenaConfig`` of a file, read as plain data within LIMITS (aaai.safe_yaml: no
+    code, a few aliases, no deep nesting, no NUL, no huge numbers) and checked for its outline: a
+    mapping of at most MAX_ARENAS arenas, each under a plain name (it goes into a file name)."""
     if path.stat().st_size > MAX_FILE_BYTES:
         raise ConfigError(f"{path.name}: larger than {MAX_FILE_BYTES:,} bytes; allowed: an Animal-AI arena file")
     try:
-        data = yaml.load(path.read_text(encoding="utf-8"), Loader=_Loader)  # noqa: S506 (a safe loader)
-    except (yaml.YAMLError, UnicodeDecodeError) as error:
-        raise ConfigError(f"{path.name}: not Animal-AI arena YAML: {error}") from None
+        data = safe_yaml.load(path, "Animal-AI arena file", LIMITS)
+    except safe_yaml.YAMLRefused as error:
+        raise ConfigError(f"{path.name}: not Animal-AI arena YAML: {error.detail}") from None
     if not isinstance(data, dict) or not isinstance(data.get("arenas"), dict) or not data["arenas"]:
         raise ConfigError(
             f"{path.name}: got no 'arenas' mapping; allowed: an Animal-AI !ArenaConfig with arenas: "
             "{0: !Arena {...}}"
         )
+    if len(data["arenas"]) > MAX_ARENAS:
+        raise ConfigError(f"{path.name}: {len(data['arenas'])} arenas; allowed: at most {MAX_ARENAS} in one file")
+    for key in data["arenas"]:
+        if isinstance(key, bool) or not _PLAIN_NAME.fullmatch(str(key)):
+            raise ConfigError(
+                f"{path.name}: arena key {_shown(key)} is not a plain name; allowed: 1 to 64 letters, digits, _ "
+                "or - (e.g. 0, 1, 2), as it becomes part of a file name"
+            )
     return data
 
 
@@ -171,6 +192,7 @@ class Converted:
     text: str = ""
     problem: str = ""
     items: list[str] = field(default_factory=list)
+    refused: bool = False  # the whole file was refused (unreadable, unsafe): ``arena`` and ``name`` are empty
 
 
 class _Arena:
@@ -179,7 +201,7 @@ class _Arena:
         self.half = AAI_ARENA / 2 * scale
 
     def where(self, index: int, name: str) -> str:
-        return f"{self.source}, arena {self.key}, item {index} ({name})"
+        return f"{self.source}, arena {self.key}, item {index} ({name if len(name) <= 60 else name[:57] + '...'})"
 
     # numbers
     def _xy(self, value, low: float, high: float):
@@ -206,13 +228,15 @@ class _Arena:
     def convert(self) -> tuple[dict, list[str]]:
         arena = self.arena
         if not isinstance(arena, dict):
-            raise Unmappable(f"{self.source}, arena {self.key}: got {arena!r}; allowed: an !Arena mapping")
+            raise Unmappable(f"{self.source}, arena {self.key}: got {_shown(arena)}; allowed: an !Arena mapping")
         items = arena.get("items", arena.get("Items", []))
         if not isinstance(items, list):
-            raise Unmappable(f"{self.source}, arena {self.key}: items must be a list, got {items!r}")
+            raise Unmappable(f"{self.source}, arena {self.key}: items must be a list, got {_shown(items)}")
         steps = arena.get("timeLimit", arena.get("t", 0))
         if not _number(steps) or steps < 0:
-            raise Unmappable(f"{self.source}, arena {self.key}: t / timeLimit {steps!r}; allowed: a number of steps")
+            raise Unmappable(
+                f"{self.source}, arena {self.key}: t / timeLimit {_shown(steps)}; allowed: a number of steps"
+            )
         time_limit = MAX_TIME if steps == 0 else min(MAX_TIME, max(1.0, steps * SECONDS_PER_STEP * self.scale))
         out: dict = {
             "description": f"Animal-AI {self.source} arena {self.key}, imported at scale {self.scale:g}",
@@ -224,7 +248,7 @@ class _Arena:
         mark = arena.get("passMark", arena.get("pass_mark"))
         if mark is not None:
             if not _number(mark):
-                raise Unmappable(f"{self.source}, arena {self.key}: pass mark {mark!r}; allowed: a number")
+                raise Unmappable(f"{self.source}, arena {self.key}: pass mark {_shown(mark)}; allowed: a number")
             s = self.scale
             out["pass_mark"] = round(s * mark if mark <= 0 else max(s * mark - (s - 1) / 2, s * mark / 2), 4)
         blackouts = arena.get("blackouts")
@@ -234,14 +258,23 @@ class _Arena:
                 out["blackout"] = {"light": round(seconds, 4), "dark": round(seconds, 4)}
             else:
                 raise Unmappable(
-                    f"{self.source}, arena {self.key}: blackouts {blackouts!r} at listed frames cannot "
+                    f"{self.source}, arena {self.key}: blackouts {_shown(blackouts)} at listed frames cannot "
                     "be mapped; allowed here: [-n], dark and light every n frames"
                 )
+        total = sum(
+            _count(item, f"{self.source}, arena {self.key}, item {index}")
+            for index, item in enumerate(items)
+            if isinstance(item, dict)
+        )
+        if total > MAX_OBJECTS:
+            raise Unmappable(
+                f"{self.source}, arena {self.key}: {total:,} objects; allowed: at most {MAX_OBJECTS} in an arena"
+            )
         objects, names, agent = [], [], None
         for index, item in enumerate(items):
             if not isinstance(item, dict) or not isinstance(item.get("name"), str):
                 raise Unmappable(
-                    f"{self.source}, arena {self.key}, item {index}: got {item!r}; allowed: an !Item with a name"
+                    f"{self.source}, arena {self.key}, item {index}: got {_shown(item)}; allowed: an !Item with a name"
                 )
             name = item["name"]
             if name == "Agent":
@@ -256,7 +289,8 @@ class _Arena:
                 "yaw": self._yaw(None),
             }
         out["agent"] = agent
-        out["objects"] = [_settled(obj, objects) for obj in objects]
+        supports = _supports(objects)
+        out["objects"] = [_settled(obj, supports) for obj in objects]
         return out, names
 
     def agent(self, item: dict) -> dict:
@@ -286,7 +320,7 @@ class _Arena:
             key = symbol.replace("-", "_") if isinstance(symbol, str) else None
             if key not in SYMBOLS:
                 raise Unmappable(
-                    f"{self.where(index, name)}: cannot be mapped (symbol {symbol!r}; allowed: "
+                    f"{self.where(index, name)}: cannot be mapped (symbol {_shown(symbol)}; allowed: "
                     f"{', '.join(s.replace('_', '-') for s in SYMBOLS)}); arena skipped"
                 )
             position = position if isinstance(position, dict) else {}
@@ -321,7 +355,9 @@ class _Arena:
             for key in ("initialValues", "finalValues", "delays", "changeRates"):
                 value = self._entry(item.get(key), k)
                 if value is not None and not _number(value):
-                    raise Unmappable(f"{where}: cannot be mapped ({key} {value!r}; allowed: numbers); arena skipped")
+                    raise Unmappable(
+                        f"{where}: cannot be mapped ({key} {_shown(value)}; allowed: numbers); arena skipped"
+                    )
                 values[key] = value
             start, end = values["initialValues"], values["finalValues"]
             if start is None or end is None:
@@ -445,7 +481,7 @@ def _count(item: dict, where: str) -> int:
     for key in ("positions", "sizes", "rotations", "colors"):
         value = item.get(key)
         if value is not None and not isinstance(value, list):
-            raise Unmappable(f"{where}: {key} {value!r}; allowed: a list")
+            raise Unmappable(f"{where}: {key} {_shown(value)}; allowed: a list")
         lengths.append(len(value or []))
     return max(lengths)
 
@@ -461,9 +497,20 @@ def _inside(x: float, y: float, box: dict) -> bool:
     return abs(u) <= box["size"][0] / 2 and abs(v) <= box["size"][1] / 2
 
 
-def _settled(obj: dict, objects: list[dict]) -> dict:
+def _supports(objects: list[dict]) -> list[dict]:
+    """The static boxes of an arena, with every number given, on which a goal or block may land."""
+    return [
+        box
+        for box in objects
+        if box["kind"] in SUPPORTS
+        and not box.get("mass")
+        and all(isinstance(v, (int, float)) for v in (*box["position"], *box["size"], box.get("yaw", 0.0)))
+    ]
+
+
+def _settled(obj: dict, supports: list[dict]) -> dict:
     """A goal or movable block given above the floor, where Animal-AI would let it fall: onto the
-    highest box beneath it that it is above, or the floor (positions drawn at random stay as given)."""
+    highest of ``supports`` beneath it that it is above, or the floor (positions drawn at random stay as given)."""
     position = obj["position"]
     if obj["kind"] in SUPPORTS and not obj.get("mass") or not all(isinstance(v, (int, float)) for v in position):
         return obj
@@ -472,15 +519,16 @@ def _settled(obj: dict, objects: list[dict]) -> dict:
     if bottom <= 0:
         return obj
     landing = 0.0
-    for box in objects:
-        if box is obj or box["kind"] not in SUPPORTS or box.get("mass"):
-            continue
-        if not all(isinstance(v, (int, float)) for v in (*box["position"], *box["size"], box.get("yaw", 0.0))):
+    for box in supports:
+        if box is obj:
             continue
         top = box["position"][2] + box["size"][2] / 2
         if top <= bottom + 1e-6 and _inside(position[0], position[1], {**box, "yaw": box.get("yaw", 0.0)}):
             landing = max(landing, top)
     return {**obj, "position": [position[0], position[1], round(landing + height / 2, 4)]}
+
+
+_DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml's emitter when present: the same text, faster
 
 
 def _dump(data: dict) -> str:
@@ -498,7 +546,9 @@ def _dump(data: dict) -> str:
             )
     lines.append("objects:" if objects else "objects: []")
     for obj in objects:
-        lines.append("  - " + yaml.safe_dump(obj, sort_keys=False, default_flow_style=True, width=10**6).strip())
+        lines.append(
+            "  - " + yaml.dump(obj, Dumper=_DUMPER, sort_keys=False, default_flow_style=True, width=10**6).strip()
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -507,8 +557,9 @@ def convert_file(path: Path, scale: float = DEFAULT_SCALE) -> list[Converted]:
     data = read_arena_config(path)
     arenas = data["arenas"]
     results = []
+    stem = re.sub(r"[^A-Za-z0-9_.-]", "_", path.stem)[:100]  # a file name, whatever the source file's
     for number, (key, arena) in enumerate(arenas.items()):
-        name = f"{path.stem}.yaml" if len(arenas) == 1 else f"{path.stem}_a{key}.yaml"
+        name = f"{stem}.yaml" if len(arenas) == 1 else f"{stem}_a{key}.yaml"  # the keys: plain names
         rng = np.random.default_rng([IMPORT_SEED, zlib.crc32(path.name.encode()), number])
         try:
             out, names = _Arena(path.name, key, arena, scale, rng).convert()
@@ -535,13 +586,17 @@ def animalai_files(path: Path) -> list[Path]:
 
 def import_animalai(source: Path, out: Path, scale: float = DEFAULT_SCALE, echo=print) -> list[Converted]:
     """Converts a file or a folder of them into ``out`` (one aaai arena file per arena), printing
-    each skipped arena's reason and a summary; returns every arena's result."""
+    each skipped arena's reason and a summary; returns every arena's result, and one (``refused``)
+    for each file that could not be read. Every file is written inside ``out``: a name leading
+    elsewhere is refused (``refused``), as is a second arena of the same name (skipped)."""
     if not (_number(scale) and 0.1 <= scale <= 20):
         raise ConfigError(f"--scale: got {scale!r}; allowed: a number from 0.1 to 20")
     files = animalai_files(source)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    folder = out.resolve()
     results: list[Converted] = []
+    written: dict[str, str] = {}  # output name -> the file and arena it came from
     unreadable = 0
     for path in files:
         try:
@@ -549,26 +604,39 @@ def import_animalai(source: Path, out: Path, scale: float = DEFAULT_SCALE, echo=
         except ConfigError as error:
             echo(f"SKIPPED {error}")
             unreadable += 1
+            results.append(Converted(path.name, "", "", problem=str(error), refused=True))
             continue
         for result in converted:
+            if not result.problem:
+                target = (out / result.name).resolve()
+                if target.parent != folder:  # a name that leads elsewhere (a link in --out) is refused
+                    result.problem = f"{result.source}, arena {result.arena}: {result.name} lies outside {out}"
+                    result.refused = True
+                elif result.name in written:
+                    result.problem = (
+                        f"{result.source}, arena {result.arena}: {result.name} was already written from "
+                        f"{written[result.name]}; arena skipped"
+                    )
             if result.problem:
                 echo(f"SKIPPED {result.problem}")
             else:
                 write_atomic(out / result.name, result.text)
+                written[result.name] = f"{result.source}, arena {result.arena}"
         results += converted
-    done = [r for r in results if not r.problem]
+    arenas = [r for r in results if r.arena or not r.refused]  # a refused file's entry is no arena
+    done = [r for r in arenas if not r.problem]
     kinds: dict[str, int] = {}
     for result in done:
         for name in result.items:
             kinds[name] = kinds.get(name, 0) + 1
     echo(
-        f"{len(files)} files, {len(results)} arenas: {len(done)} converted into {out}, "
-        f"{len(results) - len(done)} skipped" + (f", {unreadable} files unreadable" if unreadable else "")
+        f"{len(files)} files, {len(arenas)} arenas: {len(done)} converted into {out}, "
+        f"{len(arenas) - len(done)} skipped" + (f", {unreadable} files unreadable" if unreadable else "")
     )
     if kinds:
         echo("items converted: " + ", ".join(f"{name} {count}" for name, count in sorted(kinds.items())))
     reasons: dict[str, int] = {}
-    for result in results:
+    for result in arenas:
         if result.problem:
             reason = result.problem.split(": ", 1)[-1]
             reasons[reason] = reasons.get(reason, 0) + 1
