@@ -167,6 +167,16 @@ def test_a_key_others_can_read_is_refused_naming_the_chmod_fix(key, tmp_path):
     model_io.check_rllib_checkpoint(checkpoint)
 
 
+def test_rllib_training_with_a_key_that_cannot_sign_is_refused_before_its_run_folder(key, tmp_path):
+    key.parent.mkdir()
+    key.write_bytes(bytes(64))
+    key.chmod(0o640)
+    run = tmp_path / "run"
+    result = CliRunner().invoke(cli, ["train", "--backend", "rllib", "--steps", "64", "--run", str(run)])
+    _refused_in_one_line(result, str(key), "mode 0640", "chmod 600")
+    assert not run.exists()
+
+
 def test_a_full_disk_while_the_key_is_made_leaves_no_key_and_the_next_run_makes_a_whole_one(key, monkeypatch):
     real = os.fsync
 
@@ -193,23 +203,23 @@ def _deflated_zeros(mib: int) -> bytes:
     return block * mib + zlib.compressobj(9, zlib.DEFLATED, -15).flush()
 
 
-def _bomb(source: Path, target: Path, mib: int, declared: int | None = None) -> Path:
-    """``source`` with its policy.pth replaced by ``mib`` MiB of zeros, deflated; ``declared``: the
+def _bomb(source: Path, target: Path, mib: int, declared: int | None = None, member: str = "policy.pth") -> Path:
+    """``source`` with its ``member`` replaced by ``mib`` MiB of zeros, deflated; ``declared``: the
     inflated size its headers state (default: the true one)."""
     members = _members(source)
-    members["policy.pth"] = _deflated_zeros(mib)
+    members[member] = _deflated_zeros(mib)
     with zipfile.ZipFile(target, "w", zipfile.ZIP_STORED) as archive:
         for name, blob in members.items():
             archive.writestr(name, blob)
     raw = bytearray(target.read_bytes())
     size = (mib << 20) if declared is None else declared
     with zipfile.ZipFile(target) as archive:
-        info = archive.getinfo("policy.pth")
+        info = archive.getinfo(member)
     local = info.header_offset
     struct.pack_into("<H", raw, local + 8, zipfile.ZIP_DEFLATED)
     struct.pack_into("<I", raw, local + 22, size)
     central = raw.index(b"PK\x01\x02")
-    while raw[central + 46 : central + 46 + len(b"policy.pth")] != b"policy.pth":
+    while raw[central + 46 : central + 46 + len(member)] != member.encode():
         central = raw.index(b"PK\x01\x02", central + 4)
     struct.pack_into("<H", raw, central + 10, zipfile.ZIP_DEFLATED)
     struct.pack_into("<I", raw, central + 24, size)
@@ -232,6 +242,10 @@ def test_a_real_zip_bomb_is_refused_at_once_by_its_declared_size(model, config_f
     result = _eval("--policy", liar, "--config", config_file, "--out", tmp_path / "l.csv")
     _refused_in_one_line(result, str(liar), "policy.pth")
     assert time.perf_counter() - start < 5
+    # a data part of 1 GiB
+    data = _bomb(model, tmp_path / "data.zip", 1024, member="data")
+    result = _eval("--policy", data, "--config", config_file, "--out", tmp_path / "d.csv")
+    _refused_in_one_line(result, str(data), "'data' inflates to 1024.0 MiB", "at most 16.0 MiB")
 
 
 def test_each_member_is_inflated_within_its_budget(model, config_file, tmp_path, monkeypatch):
@@ -304,6 +318,26 @@ def test_weights_that_are_not_the_declared_network_are_refused_naming_the_tensor
         bad = _with_state(model, tmp_path / f"{change.__name__}.zip", change)
         result = _eval("--policy", bad, "--config", config_file, "--out", tmp_path / "w.csv")
         _refused_in_one_line(result, str(bad), *words)
+
+
+def test_weights_whose_records_are_compressed_inside_torch_format_are_refused_unread(model, config_file, tmp_path):
+    """torch.load inflates a deflated record whatever its size (0.4 MB held 400 MB of tensor):
+    torch.save writes none, so one is refused before torch.load sees it."""
+    members = _members(model)
+    inner = zipfile.ZipFile(io.BytesIO(members["policy.pth"]))
+    repacked = io.BytesIO()
+    with zipfile.ZipFile(repacked, "w") as archive:
+        for record in inner.infolist():
+            deflated = "/data/" in record.filename
+            archive.writestr(record, inner.read(record), zipfile.ZIP_DEFLATED if deflated else zipfile.ZIP_STORED)
+    members["policy.pth"] = repacked.getvalue()
+    bad = _write(tmp_path / "inner.zip", members)
+    result = _eval("--policy", bad, "--config", config_file, "--out", tmp_path / "i.csv")
+    _refused_in_one_line(result, str(bad), "'policy.pth' holds a compressed record", "torch.save writes none")
+    members["policy.pth"] = b"\x80\x02" + members["policy.pth"][2:]  # not a zip: the legacy format is refused too
+    bad = _write(tmp_path / "legacy.zip", members)
+    result = _eval("--policy", bad, "--config", config_file, "--out", tmp_path / "i.csv")
+    _refused_in_one_line(result, str(bad), "not in torch.save's format")
 
 
 def test_a_data_part_nested_deep_is_one_line(model, config_file, tmp_path):

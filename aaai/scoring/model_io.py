@@ -146,6 +146,7 @@ MAX_JSON_DEPTH = 64  # nesting of the data part (stable-baselines3 writes 4 leve
 MAX_LAYERS = 16  # hidden layers in net_arch (per network, for pi and vf)
 MAX_WIDTH = 4096  # units in one hidden layer (the largest train.net_width)
 MAX_PARAMETERS = 64_000_000  # the policy's parameters (256 MiB as float32; the optimiser holds twice that again)
+MAX_RECORDS = 4096  # tensors in one .pth member (torch.save's zip holds one record per storage)
 CHUNK_BYTES = 1 << 20  # a member is inflated this much at a time, stopping at its budget
 
 _TRUST = contextvars.ContextVar("aaai_trust_model", default=False)
@@ -294,20 +295,42 @@ def read_tensors(path: str | Path, name: str = "policy.pth", trust_helps: bool =
         raise _bad(path, f"it lacks {name}") from None
     except (zipfile.BadZipFile, OSError, EOFError, ValueError, NotImplementedError) as error:
         raise _bad(path, f"member {name!r} cannot be read ({_first_line(error)})") from None
-    if not blob.startswith(b"PK\x03\x04"):  # torch.save's format; the legacy one sizes storages from its header
-        raise _bad(path, f"member {name!r} is not in torch.save's format")
+    problem = _torch_format_problem(blob)
+    if problem:
+        raise _bad(path, f"member {name!r} {problem}")
     try:
         value = torch.load(io.BytesIO(blob), map_location="cpu", weights_only=True)
     except pickle.UnpicklingError as error:  # weights_only met an object other than tensors
+        found = re.search(r"WeightsUnpickler error: ([^.\n]*)", str(error))
+        what = f"holds more than plain tensors ({found.group(1) if found else _first_line(error)})"
         if trust_helps:
-            raise _refuse(path, name, f"holds more than plain tensors ({_first_line(error)})") from None
-        raise _bad(path, f"member {name!r} holds more than plain tensors ({_first_line(error)})") from None
+            raise _refuse(path, name, what) from None
+        raise _bad(path, f"member {name!r} {what}") from None
     except Exception as error:  # noqa: BLE001 - any other failure is damage in the file
         raise _bad(path, f"member {name!r} is damaged ({type(error).__name__}: {_first_line(error)})") from None
     problem = _tensor_problem(value)
     if problem:
         raise _bad(path, f"member {name!r}: {problem}")
     return value
+
+
+def _torch_format_problem(blob: bytes) -> str | None:
+    """Why a .pth blob is not torch.save's own format, whose tensors can be no larger than the blob:
+    a zip of stored (uncompressed) records. The legacy format sizes storages from its header, and a
+    deflated record would inflate beyond the member's budget inside torch.load."""
+    if not blob.startswith(b"PK\x03\x04"):
+        return "is not in torch.save's format (a zip of records)"
+    try:
+        with zipfile.ZipFile(io.BytesIO(blob)) as inner:
+            records = inner.infolist()
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError) as error:
+        return f"is damaged ({_first_line(error)})"
+    if len(records) > MAX_RECORDS:
+        return f"holds {len(records)} records; allowed: at most {MAX_RECORDS}"
+    for record in records:
+        if record.compress_type != zipfile.ZIP_STORED or record.file_size != record.compress_size:
+            return f"holds a compressed record {record.filename!r} (torch.save writes none)"
+    return None
 
 
 def _first_line(error: BaseException) -> str:
@@ -796,6 +819,12 @@ def _create_key(path: Path) -> None:
         ) from None
     finally:
         Path(name).unlink(missing_ok=True)
+
+
+def signing_key() -> bytes:
+    """This machine's signing key (created on first use, owner-only). A key that anyone could guess
+    (shorter than :data:`MIN_KEY_BYTES`) or read (group or others may read it) is refused, naming it."""
+    return _key()
 
 
 def _key() -> bytes:
