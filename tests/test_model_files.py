@@ -288,6 +288,18 @@ def test_a_network_not_allowed_is_refused_before_it_is_built(model, config_file,
     assert time.perf_counter() - start < 10
 
 
+def test_a_plain_field_of_a_wrong_kind_does_not_blame_trust(model, config_file, tmp_path):
+    for field, value, words in (
+        ("use_sde", "yes", ["'use_sde' is 'yes'", "true or false"]),
+        ("learning_rate", "fast", ["'learning_rate' is 'fast'", "a number or a constant schedule"]),
+        ("policy_kwargs", [1], ["'policy_kwargs' is '[1]'", "a mapping"]),
+        ("policy_class", None, ["'policy_class' is missing"]),
+    ):
+        bad = _with_data(model, tmp_path / f"{field}.zip", lambda data: data.__setitem__(field, value))
+        result = _eval("--policy", bad, "--config", config_file, "--out", tmp_path / "f.csv")
+        _refused_in_one_line(result, str(bad), *words)
+
+
 def test_weights_that_are_not_the_declared_network_are_refused_naming_the_tensor(model, config_file, tmp_path):
     def nan(state):
         state["action_net.weight"][0, 0] = float("nan")

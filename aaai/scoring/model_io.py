@@ -401,7 +401,7 @@ def policy_class_name(archive: Archive) -> str:
     """The registered policy class the file names (refused if it names another)."""
     entry = archive.data.get("policy_class")
     if not isinstance(entry, dict):
-        raise _refuse(archive.path, "policy_class", "is missing or not the description of a class")
+        raise _bad(archive.path, "its field 'policy_class' is missing or not the description of a class")
     match = re.fullmatch(r"<function (\w+)\.__init__ at 0x[0-9a-fA-F]+>", str(entry.get("__init__", "")))
     if match is None or match.group(1) not in POLICIES or entry.get("__module__") not in POLICY_MODULES:
         shown = match.group(1) if match else entry.get(":type:", "?")
@@ -461,7 +461,7 @@ def policy_kwargs(archive: Archive, fallback: dict | None = None) -> dict:
     if stored is None:
         return dict(fallback or {})
     if not isinstance(stored, dict):
-        raise _refuse(archive.path, "policy_kwargs", "is not a mapping")
+        raise _bad(archive.path, f"its field 'policy_kwargs' is {str(stored)[:60]!r}; allowed: a mapping")
     kwargs = {}
     for key, value in stored.items():
         field = f"policy_kwargs.{key}"
@@ -472,7 +472,9 @@ def policy_kwargs(archive: Archive, fallback: dict | None = None) -> dict:
         elif key in PLAIN_KEYS and _plain(value) and not (_pickled(stored) and isinstance(value, str)):
             kwargs[key] = value
         else:
-            raise _refuse(archive.path, field, f"holds {str(value)[:80]!r}, which is not a plain setting we know")
+            if _pickled(value) or _pickled(stored) or str(value).startswith("<"):  # an object: only its pickle says
+                raise _refuse(archive.path, field, f"holds {str(value)[:80]!r}, which is not a plain setting we know")
+            raise _bad(archive.path, f"field {field!r} holds {str(value)[:80]!r}, not a setting the policy takes")
     net_arch = kwargs.get("net_arch")
     if isinstance(net_arch, list) and net_arch and isinstance(net_arch[0], dict):
         kwargs["net_arch"] = net_arch[0]  # the old format, as stable-baselines3 converts it
@@ -492,7 +494,9 @@ def schedule_constant(archive: Archive, field: str, default: float | None = None
         match = re.fullmatch(r"ConstantSchedule\(val=([-+0-9.eE]+|inf)\)", text)
         if match:
             return float(match.group(1))
-    raise _refuse(archive.path, field, "is a schedule that is not a constant")
+    if _pickled(value):  # a pickled function: only running it tells what it returns
+        raise _refuse(archive.path, field, "is a schedule that is not a constant")
+    raise _bad(archive.path, f"field {field!r} is {str(value)[:60]!r}; allowed: a number or a constant schedule")
 
 
 # --- spaces -------------------------------------------------------------------------------------
@@ -697,7 +701,7 @@ def load_policy_network(
     kwargs = policy_kwargs(archive, fallback_kwargs)
     use_sde = archive.data.get("use_sde", False)
     if not isinstance(use_sde, bool):
-        raise _refuse(archive.path, "use_sde", "is not true or false")
+        raise _bad(archive.path, f"field 'use_sde' is {str(use_sde)[:30]!r}; allowed: true or false")
     learning_rate = schedule_constant(archive, "learning_rate", 0.0)
     expected = expected_state(archive.path, cls, observation_space, action_space, use_sde, kwargs)
     state = archive.tensors("policy.pth")
@@ -753,7 +757,7 @@ def load_for_training(
     kwargs = policy_kwargs(archive, fallback_kwargs)
     use_sde = hyper.get("use_sde", False)
     if not isinstance(use_sde, bool):
-        raise _refuse(path, "use_sde", "is not true or false")
+        raise _bad(path, f"field 'use_sde' is {str(use_sde)[:30]!r}; allowed: true or false")
     expected = expected_state(path, _policy_class(archive), env.observation_space, env.action_space, use_sde, kwargs)
     params = {
         Path(name).stem: archive.tensors(name)
