@@ -353,13 +353,14 @@ def test_weights_whose_records_are_compressed_inside_torch_format_are_refused_un
 
 
 def test_a_data_part_nested_deep_is_one_line(model, config_file, tmp_path):
-    members = _members(model)
-    data = json.loads(members["data"])
-    data["policy_kwargs"]["optimizer_kwargs"] = "DEEP"
-    members["data"] = json.dumps(data).replace('"DEEP"', "[" * 990 + "]" * 990).encode()
-    bad = _write(tmp_path / "deep.zip", members)
-    result = _eval("--policy", bad, "--config", config_file, "--out", tmp_path / "j.csv")
-    _refused_in_one_line(result, str(bad), "nests deeper than 64 levels")
+    for depth in (990, 100):  # beyond what json parses here; within it but beyond the limit
+        members = _members(model)
+        data = json.loads(members["data"])
+        data["policy_kwargs"]["optimizer_kwargs"] = "DEEP"
+        members["data"] = json.dumps(data).replace('"DEEP"', "[" * depth + "]" * depth).encode()
+        bad = _write(tmp_path / f"deep{depth}.zip", members)
+        result = _eval("--policy", bad, "--config", config_file, "--out", tmp_path / "j.csv")
+        _refused_in_one_line(result, str(bad), "nests deeper than 64 levels")
 
 
 class _Runs:
