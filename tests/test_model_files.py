@@ -262,6 +262,15 @@ def test_each_member_is_inflated_within_its_budget(model, config_file, tmp_path,
     _refused_in_one_line(result, "together")
 
 
+def test_memory_running_out_within_the_budgets_blames_memory_not_trust(model, config_file, tmp_path, monkeypatch):
+    def short_of_memory(*args, **kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(torch, "load", short_of_memory)
+    result = _eval("--policy", model, "--config", config_file, "--out", tmp_path / "m.csv")
+    _refused_in_one_line(result, str(model), "'policy.pth'", "MiB inflated) does not fit in the memory")
+
+
 # --- 3. the network, checked before it is built ---------------------------------------------------
 def _net_arch(value):
     def change(data):

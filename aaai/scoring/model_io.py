@@ -295,6 +295,8 @@ def read_tensors(path: str | Path, name: str = "policy.pth", trust_helps: bool =
         raise _bad(path, f"it lacks {name}") from None
     except (zipfile.BadZipFile, OSError, EOFError, ValueError, NotImplementedError) as error:
         raise _bad(path, f"member {name!r} cannot be read ({_first_line(error)})") from None
+    except MemoryError:
+        raise _out_of_memory(path, name) from None
     problem = _torch_format_problem(blob)
     if problem:
         raise _bad(path, f"member {name!r} {problem}")
@@ -306,6 +308,8 @@ def read_tensors(path: str | Path, name: str = "policy.pth", trust_helps: bool =
         if trust_helps:
             raise _refuse(path, name, what) from None
         raise _bad(path, f"member {name!r} {what}") from None
+    except MemoryError:
+        raise _out_of_memory(path, name) from None
     except Exception as error:  # noqa: BLE001 - any other failure is damage in the file
         raise _bad(path, f"member {name!r} is damaged ({type(error).__name__}: {_first_line(error)})") from None
     problem = _tensor_problem(value)
@@ -331,6 +335,18 @@ def _torch_format_problem(blob: bytes) -> str | None:
         if record.compress_type != zipfile.ZIP_STORED or record.file_size != record.compress_size:
             return f"holds a compressed record {record.filename!r} (torch.save writes none)"
     return None
+
+
+def _out_of_memory(path: Path, name: str) -> ConfigError:
+    """Memory ran out within the budgets: the machine's limit, not the file's trust, is the cause."""
+    with contextlib.suppress(OSError, zipfile.BadZipFile, KeyError):
+        with zipfile.ZipFile(path) as archive:
+            size = _mib(archive.getinfo(name).file_size)
+            return ConfigError(
+                f"model file {str(path)!r}: member {name!r} ({size} inflated) does not fit in the memory this "
+                "process may use; free memory or raise the limit"
+            )
+    return ConfigError(f"model file {str(path)!r}: member {name!r} does not fit in the memory this process may use")
 
 
 def _first_line(error: BaseException) -> str:
@@ -372,6 +388,8 @@ def read_archive(path: str | Path) -> Archive:
         raise ConfigError(f"model file {str(path)!r} is not a stable-baselines3 model (it has no data part)") from None
     except (zipfile.BadZipFile, OSError, EOFError, UnicodeDecodeError, ValueError, NotImplementedError) as error:
         raise ConfigError(f"model file {str(path)!r} cannot be read: {_first_line(error)}") from None
+    except MemoryError:
+        raise _out_of_memory(path, "data") from None
     try:
         data = json.loads(text)
     except RecursionError:
