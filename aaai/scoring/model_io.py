@@ -22,7 +22,16 @@ they are loaded only when trusted, or when their files carry this machine's sign
 this machine's ``aaai train --backend rllib`` saved them (:func:`sign_checkpoint`): an HMAC-SHA256
 over the checkpoint's files with a key kept in ``~/.config/aaai/checkpoint.key`` (or the file named
 by ``AAAI_CHECKPOINT_KEY``), created on first use, readable by its owner only. :class:`RLlibPolicy`
-loads such a checkpoint's policy for scoring.
+loads such a checkpoint's policy for scoring. A key shorter than :data:`MIN_KEY_BYTES` or readable
+by group or others is refused, naming the file and the fix.
+
+A model file is also data of bounded size: before a member is read its declared size is checked
+against a budget (:data:`MAX_DATA_BYTES` for the data part, :data:`MAX_MEMBER_BYTES` for each other
+member, :data:`MAX_ARCHIVE_BYTES` for all of them, :data:`MAX_MEMBERS` members), and it is inflated
+in chunks that stop at the budget. The network the file declares (``net_arch``: at most
+:data:`MAX_LAYERS` layers of at most :data:`MAX_WIDTH` units) is sized without memory (on torch's
+``meta`` device) and refused beyond :data:`MAX_PARAMETERS` parameters, and every tensor's name,
+shape, dtype and finiteness is checked against it, all before the network is built.
 """
 
 from __future__ import annotations
@@ -37,6 +46,9 @@ import json
 import os
 import re
 import secrets
+import stat
+import tempfile
+import threading
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,6 +57,7 @@ from typing import Any
 import numpy as np
 
 from aaai.config import ConfigError
+from aaai.files import write_atomic
 from aaai.scoring.runs import MODULE_PATH, rllib_checkpoint
 
 TRUST_FLAG = "--trust-model"
@@ -124,6 +137,18 @@ COUNTERS = (
     "_current_progress_remaining",
 )
 
+# --- limits on a model file (each refusal names the file, the member and the limit) ------------
+MAX_MEMBERS = 64  # files inside one model .zip (stable-baselines3 writes 4 or 5)
+MAX_DATA_BYTES = 16 << 20  # the JSON data part, inflated (a trained model's is a few kB)
+MAX_MEMBER_BYTES = 640 << 20  # any other member (policy.pth, policy.optimizer.pth), inflated
+MAX_ARCHIVE_BYTES = 1 << 30  # all members together, inflated
+MAX_JSON_DEPTH = 64  # nesting of the data part (stable-baselines3 writes 4 levels)
+MAX_LAYERS = 16  # hidden layers in net_arch (per network, for pi and vf)
+MAX_WIDTH = 4096  # units in one hidden layer (the largest train.net_width)
+MAX_PARAMETERS = 64_000_000  # the policy's parameters (256 MiB as float32; the optimiser holds twice that again)
+MAX_RECORDS = 4096  # tensors in one .pth member (torch.save's zip holds one record per storage)
+CHUNK_BYTES = 1 << 20  # a member is inflated this much at a time, stopping at its budget
+
 _TRUST = contextvars.ContextVar("aaai_trust_model", default=False)
 
 
@@ -154,7 +179,77 @@ def _refuse(path: Path, field: str, why: str) -> UntrustedModel:
     )
 
 
+def _bad(path: Path, problem: str) -> ConfigError:
+    """A model file that is damaged or beyond a limit: one line naming it (trust would not help)."""
+    return ConfigError(f"model file {str(path)!r}: {problem}; refused")
+
+
+def _mib(size: int) -> str:
+    return f"{size / (1 << 20):.1f} MiB"
+
+
 # --- the archive ------------------------------------------------------------------------------
+def _budget(name: str) -> int:
+    return MAX_DATA_BYTES if name == "data" else MAX_MEMBER_BYTES
+
+
+def _size_problem(archive: zipfile.ZipFile) -> str | None:
+    """Why the members' declared sizes are beyond the budgets (None: within them)."""
+    infos = archive.infolist()
+    if len(infos) > MAX_MEMBERS:
+        return f"it holds {len(infos)} members; allowed: at most {MAX_MEMBERS}"
+    for info in infos:
+        if info.file_size > _budget(info.filename):
+            return (
+                f"member {info.filename!r} inflates to {_mib(info.file_size)}; allowed: at most "
+                f"{_mib(_budget(info.filename))}"
+            )
+    total = sum(info.file_size for info in infos)
+    if total > MAX_ARCHIVE_BYTES:
+        return f"its members inflate to {_mib(total)} together; allowed: at most {_mib(MAX_ARCHIVE_BYTES)}"
+    return None
+
+
+def size_problem(path: str | Path) -> str | None:
+    """Why a model .zip is beyond the size budgets, from its members' declared sizes (nothing is
+    inflated), or None when it is within them or is no zip (that is told elsewhere)."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            return _size_problem(archive)
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError):
+        return None
+
+
+def _read_member(path: Path, archive: zipfile.ZipFile, name: str) -> bytes:
+    """A member, inflated in chunks that stop at its budget (a declared size can lie)."""
+    budget = _budget(name)
+    info = archive.getinfo(name)
+    if info.file_size > budget:
+        raise _bad(path, f"member {name!r} inflates to {_mib(info.file_size)}; allowed: at most {_mib(budget)}")
+    parts, size = [], 0
+    with archive.open(info) as handle:
+        while chunk := handle.read(CHUNK_BYTES):
+            size += len(chunk)
+            if size > budget:
+                raise _bad(path, f"member {name!r} inflates beyond {_mib(budget)}, the most allowed")
+            parts.append(chunk)
+    return b"".join(parts)
+
+
+def _depth_problem(value: Any) -> str | None:
+    """Why a parsed data part nests too deep (checked without recursion), or None."""
+    stack = [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if depth > MAX_JSON_DEPTH:
+            return f"its data part nests deeper than {MAX_JSON_DEPTH} levels, the most allowed"
+        if isinstance(item, dict):
+            stack.extend((v, depth + 1) for v in item.values())
+        elif isinstance(item, list):
+            stack.extend((v, depth + 1) for v in item)
+    return None
+
+
 def _strip_pickles(value: Any) -> Any:
     """The value with every ":serialized:" entry removed, unread (at any depth)."""
     if isinstance(value, dict):
@@ -178,21 +273,105 @@ class Archive:
     names: list[str]
 
     def tensors(self, name: str) -> Any:
-        """A .pth member, read with ``torch.load(weights_only=True)`` (tensors and plain containers only)."""
-        import torch
+        """A .pth member, read within its budget with ``torch.load(weights_only=True)`` (tensors and
+        plain containers only), every tensor checked to be finite."""
+        return read_tensors(self.path, name)
 
-        try:
-            with zipfile.ZipFile(self.path) as archive:
-                blob = archive.read(name)
-            return torch.load(io.BytesIO(blob), map_location="cpu", weights_only=True)
-        except KeyError:
-            raise ConfigError(f"model file {str(self.path)!r} lacks {name}") from None
-        except Exception as error:  # noqa: BLE001 - weights_only refuses anything but tensors: the file's fault
-            raise _refuse(
-                self.path,
-                name,
-                f"is not plain tensors ({type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''})",
-            ) from None
+
+def read_tensors(path: str | Path, name: str = "policy.pth", trust_helps: bool = True) -> Any:
+    """A .pth member of a model file: inflated within :data:`MAX_MEMBER_BYTES`, loaded with
+    ``torch.load(weights_only=True)`` and checked (numbers only, every float finite). Only a member
+    that holds objects other than tensors names ``--trust-model`` (what unpickling would read), and
+    only where that flag would load it (``trust_helps``)."""
+    import pickle
+
+    import torch
+
+    path = Path(path)
+    try:
+        with zipfile.ZipFile(path) as archive:
+            blob = _read_member(path, archive, name)
+    except KeyError:
+        raise _bad(path, f"it lacks {name}") from None
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError, NotImplementedError) as error:
+        raise _bad(path, f"member {name!r} cannot be read ({_first_line(error)})") from None
+    except MemoryError:
+        raise _out_of_memory(path, name) from None
+    problem = _torch_format_problem(blob)
+    if problem:
+        raise _bad(path, f"member {name!r} {problem}")
+    try:
+        value = torch.load(io.BytesIO(blob), map_location="cpu", weights_only=True)
+    except pickle.UnpicklingError as error:  # weights_only met an object other than tensors
+        found = re.search(r"WeightsUnpickler error: ([^.\n]*)", str(error))
+        what = f"holds more than plain tensors ({found.group(1) if found else _first_line(error)})"
+        if trust_helps:
+            raise _refuse(path, name, what) from None
+        raise _bad(path, f"member {name!r} {what}") from None
+    except MemoryError:
+        raise _out_of_memory(path, name) from None
+    except Exception as error:  # noqa: BLE001 - any other failure is damage in the file
+        raise _bad(path, f"member {name!r} is damaged ({type(error).__name__}: {_first_line(error)})") from None
+    problem = _tensor_problem(value)
+    if problem:
+        raise _bad(path, f"member {name!r}: {problem}")
+    return value
+
+
+def _torch_format_problem(blob: bytes) -> str | None:
+    """Why a .pth blob is not torch.save's own format, whose tensors can be no larger than the blob:
+    a zip of stored (uncompressed) records. The legacy format sizes storages from its header, and a
+    deflated record would inflate beyond the member's budget inside torch.load."""
+    if not blob.startswith(b"PK\x03\x04"):
+        return "is not in torch.save's format (a zip of records)"
+    try:
+        with zipfile.ZipFile(io.BytesIO(blob)) as inner:
+            records = inner.infolist()
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError) as error:
+        return f"is damaged ({_first_line(error)})"
+    if len(records) > MAX_RECORDS:
+        return f"holds {len(records)} records; allowed: at most {MAX_RECORDS}"
+    for record in records:
+        if record.compress_type != zipfile.ZIP_STORED or record.file_size != record.compress_size:
+            return f"holds a compressed record {record.filename!r} (torch.save writes none)"
+    return None
+
+
+def _out_of_memory(path: Path, name: str) -> ConfigError:
+    """Memory ran out within the budgets: the machine's limit, not the file's trust, is the cause."""
+    with contextlib.suppress(OSError, zipfile.BadZipFile, KeyError):
+        with zipfile.ZipFile(path) as archive:
+            size = _mib(archive.getinfo(name).file_size)
+            return ConfigError(
+                f"model file {str(path)!r}: member {name!r} ({size} inflated) does not fit in the memory this "
+                "process may use; free memory or raise the limit"
+            )
+    return ConfigError(f"model file {str(path)!r}: member {name!r} does not fit in the memory this process may use")
+
+
+def _first_line(error: BaseException) -> str:
+    text = str(error).strip()
+    return text.splitlines()[0][:200] if text else type(error).__name__
+
+
+def _tensor_problem(value: Any) -> str | None:
+    """Why a loaded .pth value is not plain finite numbers (walked without recursion), or None."""
+    import torch
+
+    stack: list[tuple[str, Any]] = [("", value)]
+    while stack:
+        where, item = stack.pop()
+        if isinstance(item, dict):
+            stack.extend((f"{where}.{k}" if where else str(k), v) for k, v in item.items())
+        elif isinstance(item, (list, tuple)):
+            stack.extend((f"{where}[{i}]", v) for i, v in enumerate(item))
+        elif isinstance(item, torch.Tensor):
+            if item.is_complex() or item.dtype in (torch.uint64, torch.uint32, torch.uint16) or item.is_quantized:
+                return f"tensor {where!r} has dtype {item.dtype}; allowed: float, int or bool tensors"
+            if item.is_floating_point() and not bool(torch.isfinite(item).all()):
+                bad = int((~torch.isfinite(item)).sum())
+                return f"tensor {where!r} holds {bad} values that are NaN or infinite; allowed: finite numbers"
+    return None
 
 
 def read_archive(path: str | Path) -> Archive:
@@ -200,20 +379,30 @@ def read_archive(path: str | Path) -> Archive:
     path = Path(path)
     try:
         with zipfile.ZipFile(path) as archive:
+            problem = _size_problem(archive)
+            if problem:
+                raise _bad(path, problem)
             names = archive.namelist()
-            text = archive.read("data").decode("utf-8")
+            text = _read_member(path, archive, "data").decode("utf-8")
     except KeyError:
         raise ConfigError(f"model file {str(path)!r} is not a stable-baselines3 model (it has no data part)") from None
-    except (zipfile.BadZipFile, OSError, EOFError, UnicodeDecodeError) as error:
-        raise ConfigError(f"model file {str(path)!r} cannot be read: {error}") from None
+    except (zipfile.BadZipFile, OSError, EOFError, UnicodeDecodeError, ValueError, NotImplementedError) as error:
+        raise ConfigError(f"model file {str(path)!r} cannot be read: {_first_line(error)}") from None
+    except MemoryError:
+        raise _out_of_memory(path, "data") from None
     try:
         data = json.loads(text)
+    except RecursionError:
+        raise _bad(path, f"its data part nests deeper than {MAX_JSON_DEPTH} levels, the most allowed") from None
     except ValueError as error:
         raise ConfigError(
             f"model file {str(path)!r} cannot be loaded by stable-baselines3: its data part is not JSON ({error})"
         ) from None
     if not isinstance(data, dict):
         raise ConfigError(f"model file {str(path)!r}: its data part is not a JSON object")
+    problem = _depth_problem(data)
+    if problem:
+        raise _bad(path, problem)
     return Archive(path, _strip_pickles(data), names)
 
 
@@ -230,7 +419,7 @@ def policy_class_name(archive: Archive) -> str:
     """The registered policy class the file names (refused if it names another)."""
     entry = archive.data.get("policy_class")
     if not isinstance(entry, dict):
-        raise _refuse(archive.path, "policy_class", "is missing or not the description of a class")
+        raise _bad(archive.path, "its field 'policy_class' is missing or not the description of a class")
     match = re.fullmatch(r"<function (\w+)\.__init__ at 0x[0-9a-fA-F]+>", str(entry.get("__init__", "")))
     if match is None or match.group(1) not in POLICIES or entry.get("__module__") not in POLICY_MODULES:
         shown = match.group(1) if match else entry.get(":type:", "?")
@@ -253,6 +442,16 @@ def _algorithm(archive: Archive):
             f"(pip install {module.replace('_', '-')})"
         ) from None
     return getattr(library, algorithm), alias
+
+
+def _policy_class(archive: Archive):
+    """The policy class the file names, from our registry (its library imported here)."""
+    name = policy_class_name(archive)
+    _algorithm(archive)  # the library is there
+    module = (
+        "sb3_contrib.common.recurrent.policies" if name.startswith("Recurrent") else "stable_baselines3.common.policies"
+    )
+    return getattr(importlib.import_module(module), name)
 
 
 def _named_class(path: Path, field: str, text: Any):
@@ -280,7 +479,7 @@ def policy_kwargs(archive: Archive, fallback: dict | None = None) -> dict:
     if stored is None:
         return dict(fallback or {})
     if not isinstance(stored, dict):
-        raise _refuse(archive.path, "policy_kwargs", "is not a mapping")
+        raise _bad(archive.path, f"its field 'policy_kwargs' is {str(stored)[:60]!r}; allowed: a mapping")
     kwargs = {}
     for key, value in stored.items():
         field = f"policy_kwargs.{key}"
@@ -291,7 +490,9 @@ def policy_kwargs(archive: Archive, fallback: dict | None = None) -> dict:
         elif key in PLAIN_KEYS and _plain(value) and not (_pickled(stored) and isinstance(value, str)):
             kwargs[key] = value
         else:
-            raise _refuse(archive.path, field, f"holds {str(value)[:80]!r}, which is not a plain setting we know")
+            if _pickled(value) or _pickled(stored) or str(value).startswith("<"):  # an object: only its pickle says
+                raise _refuse(archive.path, field, f"holds {str(value)[:80]!r}, which is not a plain setting we know")
+            raise _bad(archive.path, f"field {field!r} holds {str(value)[:80]!r}, not a setting the policy takes")
     net_arch = kwargs.get("net_arch")
     if isinstance(net_arch, list) and net_arch and isinstance(net_arch[0], dict):
         kwargs["net_arch"] = net_arch[0]  # the old format, as stable-baselines3 converts it
@@ -311,7 +512,9 @@ def schedule_constant(archive: Archive, field: str, default: float | None = None
         match = re.fullmatch(r"ConstantSchedule\(val=([-+0-9.eE]+|inf)\)", text)
         if match:
             return float(match.group(1))
-    raise _refuse(archive.path, field, "is a schedule that is not a constant")
+    if _pickled(value):  # a pickled function: only running it tells what it returns
+        raise _refuse(archive.path, field, "is a schedule that is not a constant")
+    raise _bad(archive.path, f"field {field!r} is {str(value)[:60]!r}; allowed: a number or a constant schedule")
 
 
 # --- spaces -------------------------------------------------------------------------------------
@@ -373,6 +576,118 @@ def space_problems(archive: Archive, observation_space, action_space) -> list[st
     return problems
 
 
+# --- the network, sized and checked before it is built ------------------------------------------
+def _layers_problem(field: str, layers: Any) -> str | None:
+    if not isinstance(layers, list):
+        return f"{field} is {str(layers)[:60]!r}; allowed: a list of layer widths"
+    if len(layers) > MAX_LAYERS:
+        return f"{field} has {len(layers)} layers; allowed: at most {MAX_LAYERS}"
+    for width in layers:
+        if isinstance(width, bool) or not isinstance(width, int) or not 1 <= width <= MAX_WIDTH:
+            return f"{field} has a layer of width {repr(width)[:30]}; allowed: whole numbers from 1 to {MAX_WIDTH}"
+    return None
+
+
+def net_arch_problem(kwargs: dict) -> str | None:
+    """Why the network a policy's keyword arguments declare is not allowed (None: it is): ``net_arch``
+    a list of widths or {"pi": [...], "vf": [...]}, at most :data:`MAX_LAYERS` layers of 1 to
+    :data:`MAX_WIDTH` units; an LSTM's size within the same bounds."""
+    arch = kwargs.get("net_arch")
+    if isinstance(arch, dict):
+        extra = sorted(set(arch) - {"pi", "vf"})
+        if extra:
+            return f"policy_kwargs.net_arch names {extra[0]!r}; allowed: pi and vf"
+        for key in sorted(arch):
+            problem = _layers_problem(f"policy_kwargs.net_arch.{key}", arch[key])
+            if problem:
+                return problem
+    elif arch is not None:
+        problem = _layers_problem("policy_kwargs.net_arch", arch)
+        if problem:
+            return problem
+    for key, most in (("lstm_hidden_size", MAX_WIDTH), ("n_lstm_layers", MAX_LAYERS)):
+        value = kwargs.get(key)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= most):
+            return f"policy_kwargs.{key} is {repr(value)[:30]}; allowed: whole numbers from 1 to {most}"
+    return None
+
+
+_META = threading.Lock()
+
+
+def expected_state(path: Path, cls, observation_space, action_space, use_sde: bool, kwargs: dict) -> dict:
+    """{name: (shape, dtype)} of the policy's state dict, made on torch's meta device (no memory, no
+    initialisation); refused when ``net_arch`` is not allowed or the network is larger than
+    :data:`MAX_PARAMETERS`, naming its size."""
+    from unittest import mock
+
+    import torch
+
+    problem = net_arch_problem(kwargs)
+    if problem:
+        raise _bad(path, problem)
+    original = torch.nn.Module.to
+
+    def to(module, *args, **kw):  # stable-baselines3 moves layers to a device; a meta layer stays where it is
+        if any(parameter.is_meta for parameter in module.parameters()):
+            return module
+        return original(module, *args, **kw)
+
+    with _META, torch.device("meta"), mock.patch.object(torch.nn.Module, "to", to):
+        try:
+            policy = cls(observation_space, action_space, _constant(0.0), use_sde=use_sde, **kwargs)
+        except Exception as error:  # noqa: BLE001 - settings read from the file that the policy does not take
+            raise ConfigError(
+                f"model file {str(path)!r}: its policy cannot be built for this environment "
+                f"({type(error).__name__}: {_first_line(error)})"
+            ) from None
+    count = sum(parameter.numel() for parameter in policy.parameters())
+    size = sum(parameter.numel() * parameter.element_size() for parameter in policy.parameters())
+    if count > MAX_PARAMETERS:
+        raise _bad(
+            path,
+            f"its network has {count:,} parameters ({_mib(size)}); allowed: at most {MAX_PARAMETERS:,} "
+            "(see policy_kwargs.net_arch)",
+        )
+    return {name: (tuple(tensor.shape), tensor.dtype) for name, tensor in policy.state_dict().items()}
+
+
+def check_state(path: Path, state: Any, expected: dict, name: str = "policy.pth") -> None:
+    """Refuses weights whose tensors are not the network's: a missing or unknown tensor, or one of
+    another shape or dtype, named with both sides."""
+    import torch
+
+    if not isinstance(state, dict) or not all(isinstance(v, torch.Tensor) for v in state.values()):
+        raise _bad(path, f"member {name!r} is not a mapping of names to tensors")
+    for key in sorted(set(expected) | set(state)):
+        if key not in state:
+            raise _bad(path, f"member {name!r} lacks tensor {key!r}, which its network has")
+        if key not in expected:
+            raise _bad(path, f"member {name!r} holds tensor {str(key)[:80]!r}, which its network does not have")
+        shape, dtype = expected[key]
+        if tuple(state[key].shape) != shape or state[key].dtype != dtype:
+            raise _bad(
+                path,
+                f"tensor {key!r} in {name!r} is {tuple(state[key].shape)} {state[key].dtype}; the network its "
+                f"net_arch and the environment's spaces declare has {shape} {dtype}",
+            )
+
+
+def check_start_weights(path: str | Path, observation_space, action_space, kwargs: dict) -> None:
+    """``aaai train --init-from``: the model's weights (only policy.pth is read, never unpickled)
+    checked within the budgets against the network a new run builds (a stable-baselines3
+    MultiInputPolicy with ``kwargs``), before the run's folder exists."""
+    from stable_baselines3.common.policies import MultiInputActorCriticPolicy
+
+    path = Path(path)
+    problem = size_problem(path)
+    if problem:
+        raise _bad(path, problem)
+    state = read_tensors(path, "policy.pth", trust_helps=False)
+    expected = expected_state(path, MultiInputActorCriticPolicy, observation_space, action_space, False, kwargs)
+    check_state(path, state, expected)
+
+
 # --- loading ------------------------------------------------------------------------------------
 def _constant(value: float):
     return lambda _progress: value
@@ -400,16 +715,15 @@ def load_policy_network(
     """The policy of a model file, for the given spaces, its weights loaded with weights_only."""
     archive = archive or read_archive(path)
     name = policy_class_name(archive)
-    _algorithm(archive)  # the library is there
-    module = (
-        "sb3_contrib.common.recurrent.policies" if name.startswith("Recurrent") else "stable_baselines3.common.policies"
-    )
-    cls = getattr(importlib.import_module(module), name)
+    cls = _policy_class(archive)
     kwargs = policy_kwargs(archive, fallback_kwargs)
     use_sde = archive.data.get("use_sde", False)
     if not isinstance(use_sde, bool):
-        raise _refuse(archive.path, "use_sde", "is not true or false")
+        raise _bad(archive.path, f"field 'use_sde' is {str(use_sde)[:30]!r}; allowed: true or false")
     learning_rate = schedule_constant(archive, "learning_rate", 0.0)
+    expected = expected_state(archive.path, cls, observation_space, action_space, use_sde, kwargs)
+    state = archive.tensors("policy.pth")
+    check_state(archive.path, state, expected)  # all before the network is built
     try:
         policy = cls(observation_space, action_space, _constant(learning_rate), use_sde=use_sde, **kwargs)
     except (TypeError, ValueError, KeyError, AssertionError) as error:
@@ -417,9 +731,6 @@ def load_policy_network(
             f"model file {str(archive.path)!r}: its policy cannot be built for this environment "
             f"({type(error).__name__}: {error})"
         ) from None
-    state = archive.tensors("policy.pth")
-    if not isinstance(state, dict):
-        raise _refuse(archive.path, "policy.pth", "is not a state dict")
     try:
         policy.load_state_dict(state, strict=True)
     except RuntimeError as error:
@@ -461,19 +772,25 @@ def load_for_training(
     hyper["clip_range"] = schedule_constant(archive, "clip_range", 0.2)
     hyper["clip_range_vf"] = schedule_constant(archive, "clip_range_vf", None)
     hyper["stats_window_size"] = archive.data.get("_stats_window_size", 100)
-    model = algorithm(
-        alias,
-        env,
-        policy_kwargs=policy_kwargs(archive, fallback_kwargs),
-        device="cpu",
-        **{k: v for k, v in hyper.items() if v is not None or k == "clip_range_vf"},
-        **overrides,
-    )
+    kwargs = policy_kwargs(archive, fallback_kwargs)
+    use_sde = hyper.get("use_sde", False)
+    if not isinstance(use_sde, bool):
+        raise _bad(path, f"field 'use_sde' is {str(use_sde)[:30]!r}; allowed: true or false")
+    expected = expected_state(path, _policy_class(archive), env.observation_space, env.action_space, use_sde, kwargs)
     params = {
         Path(name).stem: archive.tensors(name)
         for name in archive.names
         if name.endswith(".pth") and name != "pytorch_variables.pth"
     }
+    check_state(path, params.get("policy"), expected)  # all before the network is built
+    model = algorithm(
+        alias,
+        env,
+        policy_kwargs=kwargs,
+        device="cpu",
+        **{k: v for k, v in hyper.items() if v is not None or k == "clip_range_vf"},
+        **overrides,
+    )
     try:
         model.set_parameters(params, exact_match=True, device="cpu")
     except (RuntimeError, ValueError) as error:
@@ -493,19 +810,70 @@ def key_path() -> Path:
     return Path(os.environ.get("AAAI_CHECKPOINT_KEY") or Path.home() / ".config" / "aaai" / "checkpoint.key")
 
 
+MIN_KEY_BYTES = 32  # a signing key shorter than this (an empty file left by a full disk) is refused
+
+
+def _create_key(path: Path) -> None:
+    """Writes a new key whole or not at all: a temporary file (mode 0600) beside it is written and
+    fsync'd, then linked to its name, which fails if another process made the key meanwhile (theirs
+    is kept). A full disk leaves no key, never an empty one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    descriptor, name = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)  # O_EXCL, mode 0600
+    try:
+        with os.fdopen(descriptor, "wb") as handle:
+            handle.write(secrets.token_hex(32).encode())
+            handle.flush()
+            os.fsync(handle.fileno())
+        try:
+            os.link(name, path)
+        except FileExistsError:
+            return  # made by another process meanwhile
+        if hasattr(os, "O_DIRECTORY"):
+            folder = os.open(path.parent, os.O_RDONLY | os.O_DIRECTORY)
+            try:
+                os.fsync(folder)
+            finally:
+                os.close(folder)
+    except OSError as error:
+        raise ConfigError(
+            f"the checkpoint signing key {str(path)!r} cannot be created ({error.strerror or error}); nothing was "
+            "written: free space or fix the folder's permissions and run again"
+        ) from None
+    finally:
+        Path(name).unlink(missing_ok=True)
+
+
+def signing_key() -> bytes:
+    """This machine's signing key (created on first use, owner-only). A key that anyone could guess
+    (shorter than :data:`MIN_KEY_BYTES`) or read (group or others may read it) is refused, naming it."""
+    return _key()
+
+
 def _key() -> bytes:
-    """This machine's signing key (created on first use, owner-only)."""
+    """This machine's signing key (created on first use, owner-only). A key that anyone could guess
+    (shorter than :data:`MIN_KEY_BYTES`) or read (group or others may read it) is refused, naming it."""
     path = key_path()
     if not path.exists():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-        except FileExistsError:
-            pass  # made by another process meanwhile
-        else:
-            with os.fdopen(descriptor, "wb") as handle:
-                handle.write(secrets.token_hex(32).encode())
-    return path.read_bytes().strip()
+        _create_key(path)
+    try:
+        mode = path.stat().st_mode
+        key = path.read_bytes().strip()
+    except OSError as error:
+        raise ConfigError(
+            f"the checkpoint signing key {str(path)!r} cannot be read ({error.strerror or error})"
+        ) from None
+    if os.name == "posix" and mode & (stat.S_IRWXG | stat.S_IRWXO):
+        raise ConfigError(
+            f"the checkpoint signing key {str(path)!r} is open to group or others (mode {stat.S_IMODE(mode):04o}), so "
+            f"another user could forge checkpoint signatures; refused. Fix: chmod 600 {str(path)!r}"
+        )
+    if len(key) < MIN_KEY_BYTES:
+        raise ConfigError(
+            f"the checkpoint signing key {str(path)!r} holds {len(key)} bytes; allowed: at least {MIN_KEY_BYTES} "
+            "(a shorter key lets anyone forge a signature); refused. Delete the file and a new key is made on next "
+            f"use; RLlib checkpoints signed with the old one then load only with {TRUST_FLAG}"
+        )
+    return key
 
 
 def folder_digest(folder: Path) -> str:
@@ -520,7 +888,7 @@ def sign_checkpoint(folder: str | Path) -> Path:
     folder = Path(folder)
     signature = hmac.new(_key(), folder_digest(folder).encode(), hashlib.sha256).hexdigest()
     target = folder.parent / SIGNATURE
-    target.write_text(signature + "\n")
+    write_atomic(target, signature + "\n")
     return target
 
 
@@ -529,11 +897,11 @@ def signed_here(folder: str | Path) -> bool:
     folder = Path(folder)
     try:
         stored = (folder.parent / SIGNATURE).read_text().strip()
-        key = _key() if key_path().exists() else None
     except OSError:
         return False
-    if key is None:
+    if not key_path().exists():
         return False
+    key = _key()  # a key that is too short or open to others is refused here, naming it
     expected = hmac.new(key, folder_digest(folder).encode(), hashlib.sha256).hexdigest()
     return hmac.compare_digest(stored, expected)
 

@@ -124,7 +124,7 @@ def resolve(policy: str, trust: bool = False) -> Policy:
     if path.suffix == ".zip":
         if not path.is_file():
             raise ConfigError(f"--policy: model file {policy!r} does not exist")
-        problem = model_problem(path)
+        problem = _zip_problem(path)
         if problem:
             raise ConfigError(f"--policy: model file {policy!r} cannot be loaded: {problem}")
         return _model(policy, path, None, model_run_config(path), trust)
@@ -162,15 +162,23 @@ def _newest_model(run: RunFolder, policy: str) -> Path:
     newest = run.latest_checkpoint()
     if newest is None:
         raise ConfigError(f"--policy: run folder {policy!r} holds no model (final/ or checkpoints/*/model.zip)")
-    problem = model_problem(newest / "model.zip")
+    problem = _zip_problem(newest / "model.zip")
     if problem:
-        older = next((f for f in run.saved()[1:] if model_problem(f / "model.zip") is None), None)
+        older = next((f for f in run.saved()[1:] if _zip_problem(f / "model.zip") is None), None)
         hint = f"; to score an older one, pass --policy {older / 'model.zip'}" if older else ""
         raise ConfigError(
             f"--policy: the newest model of run {policy!r} ({newest.relative_to(run.path)}) cannot be "
             f"loaded: {problem}{hint}"
         )
     return newest / "model.zip"
+
+
+def _zip_problem(path: Path) -> str | None:
+    """Why a model .zip cannot be loaded: beyond the size budgets (from its declared sizes, before
+    anything is inflated), else not a whole stable-baselines3 archive."""
+    from aaai.scoring.model_io import size_problem
+
+    return size_problem(path) or model_problem(path)
 
 
 def factory(policy: str) -> Callable:

@@ -162,10 +162,8 @@ def start_from(model: PPO, source: str | Path) -> None:
     student of the reference) into a fresh PPO model; only the weights file is read, with
     ``torch.load(weights_only=True)``, so nothing in it can run. Refused, naming both, when the
     networks differ (another action mode, senses or net_width)."""
-    import io
-    import zipfile
-
     from aaai.config import ConfigError
+    from aaai.scoring.model_io import read_tensors
 
     path = Path(source)
     if path.is_dir():
@@ -176,10 +174,9 @@ def start_from(model: PPO, source: str | Path) -> None:
             )
         path = newest / "model.zip"
     try:
-        with zipfile.ZipFile(path) as archive:
-            weights = torch.load(io.BytesIO(archive.read("policy.pth")), map_location="cpu", weights_only=True)
-    except (OSError, KeyError, zipfile.BadZipFile, RuntimeError) as error:
-        raise ConfigError(f"--init-from: {str(path)!r} is not a stable-baselines3 model: {error}") from None
+        weights = read_tensors(path, "policy.pth", trust_helps=False)  # within budgets, weights_only, finite
+    except ConfigError as error:
+        raise ConfigError(f"--init-from: {error}") from None
     own = model.policy.state_dict()
     differ = sorted(
         k for k in set(own) | set(weights) if k not in own or k not in weights or own[k].shape != weights[k].shape

@@ -288,10 +288,12 @@ def train_rllib(
     environments are shared out over them; 0 samples in this process), all sharing the one
     sampler actor. ``progress(n)`` is told the environment steps of each iteration.
     """
+    from aaai.scoring.model_io import signing_key
     from aaai.scoring.ray_session import RaySession
 
     run = RunFolder(run_dir)
     check_writable(run.path, "--resume" if resume else "--run", folder=True)
+    signing_key()  # the key that signs every checkpoint: made, or refused naming the fix, before any work
     checkpoint = state = None
     if resume:
         config = load_config(run.read_config())

@@ -220,8 +220,33 @@ def check_init_from(config: dict) -> None:
     path = Path(source)
     if not path.exists():
         raise ConfigError(f"--init-from: {source!r} does not exist; allowed: a run folder or a model .zip")
-    if not path.is_dir():
-        return
+    if path.is_dir():
+        _check_init_run(config, source, path)
+        newest = RunFolder(path).latest_checkpoint()
+        if newest is None:
+            raise ConfigError(f"--init-from: run folder {source!r} holds no model (final/ or checkpoints/*/model.zip)")
+        path = newest / "model.zip"
+    check_init_weights(config, path)
+
+
+def check_init_weights(config: dict, path: Path) -> None:
+    """The --init-from model's weights, read as start_from reads them and checked against this run's
+    network, before the run folder exists (a bad model leaves nothing behind)."""
+    from aaai.env import AnimalAIEnv
+    from aaai.scoring.model_io import check_start_weights
+
+    env = AnimalAIEnv(config=config)
+    try:
+        width = config["train"]["net_width"]
+        kwargs = {"net_arch": [width, width], "log_std_init": config["train"]["log_std_init"]}
+        check_start_weights(path, env.observation_space, env.action_space, kwargs)
+    except ConfigError as error:
+        raise ConfigError(f"--init-from: {error}") from None
+    finally:
+        env.close()
+
+
+def _check_init_run(config: dict, source: str, path: Path) -> None:
     theirs = load_config(RunFolder(path).read_config())
     keys = [("agent", "action_mode"), ("agent", "body"), ("train", "net_width")] + [
         ("sensors", key) for key in config["sensors"]
