@@ -99,31 +99,6 @@ def test_a_held_lock_refuses_at_once_naming_the_holder_and_is_free_after_release
     assert not path.exists()
 
 
-HOLD_THEN_SLEEP = """
-import sys, time
-from aaai.files import hold
-hold(sys.argv[1], str)
-print("held", flush=True)
-time.sleep(60)
-"""
-
-
-def test_a_lock_of_a_killed_holder_is_free_at_once(tmp_path):
-    path = tmp_path / ".lock"
-    holder = subprocess.Popen([sys.executable, "-c", HOLD_THEN_SLEEP, str(path)], stdout=subprocess.PIPE, text=True)
-    try:
-        assert holder.stdout.readline() == "held\n"
-        with pytest.raises(InUse) as raised:
-            hold(path, refusal)
-        assert raised.value.pid == holder.pid
-    finally:
-        holder.kill()
-        holder.wait()
-    assert path.read_text() == f"{holder.pid}\n"  # a killed holder leaves its file, not its lock
-    with hold(path, refusal):
-        assert path.read_text() == f"{os.getpid()}\n"
-
-
 HOLD_FORK_THEN_SLEEP = """
 import multiprocessing, sys, time
 from aaai.files import hold
@@ -135,16 +110,21 @@ time.sleep(60)
 """
 
 
-def test_a_child_forked_by_a_killed_holder_does_not_keep_its_lock(tmp_path):
+def test_a_lock_of_a_killed_holder_is_free_at_once_even_while_a_child_it_forked_lives_on(tmp_path):
     path = tmp_path / ".lock"
     holder = subprocess.Popen(
         [sys.executable, "-c", HOLD_FORK_THEN_SLEEP, str(path)], stdout=subprocess.PIPE, text=True
     )
     child = int(holder.stdout.readline())
     try:
-        holder.kill()  # the child it forked lives on
+        with pytest.raises(InUse) as raised:
+            hold(path, refusal)
+        assert raised.value.pid == holder.pid
+        holder.kill()
         holder.wait()
+        assert path.read_text() == f"{holder.pid}\n"  # a killed holder leaves its file, not its lock
         with hold(path, refusal):
-            pass
+            assert path.read_text() == f"{os.getpid()}\n"
     finally:
+        holder.kill()
         os.kill(child, signal.SIGKILL)
