@@ -104,8 +104,8 @@ class RunFolder:
         block: one process at a time trains a run (a new one or a resume). Another process on it
         refuses at once, naming the holder's pid. The operating system releases the lock when the
         holder ends, killed or not. Checkpoints a killed holder was writing (``.staging-*``) are
-        removed. A folder this call made that is left empty (a refused config) is removed again."""
-        made = not self.path.exists()
+        removed. Folders this call made that are left empty (a refused config) are removed again."""
+        made = [folder for folder in (self.path, *self.path.parents) if not folder.exists()]  # deepest first
         with naming(self.path):
             self.path.mkdir(parents=True, exist_ok=True)
         try:
@@ -119,16 +119,14 @@ class RunFolder:
                 ),
             )
         except BaseException:
-            if made:
-                _remove_if_empty(self.path)
+            _remove_if_empty(made)
             raise
         try:
             self.remove_staging()
             yield
         finally:
             lock.release()
-            if made:
-                _remove_if_empty(self.path)
+            _remove_if_empty(made)
 
     def remove_staging(self) -> None:
         """Removes checkpoints left half-written (``.staging-*``) by a process killed while saving."""
@@ -271,11 +269,13 @@ class RunFolder:
         return json.loads((checkpoint / "state.json").read_text())
 
 
-def _remove_if_empty(folder: Path) -> None:
-    try:
-        folder.rmdir()
-    except OSError:
-        pass  # not empty: it holds a run
+def _remove_if_empty(folders: list[Path]) -> None:
+    """Removes the folders (deepest first) that are empty: those made for a run that was refused."""
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:
+            return  # not empty: it holds a run
 
 
 def model_problem(path: Path) -> str | None:
