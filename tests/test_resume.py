@@ -252,3 +252,40 @@ def test_a_model_that_cannot_be_saved_leaves_no_staging_folder_and_is_named(tmp_
         run.save_checkpoint(40, {"curriculum": {}}, save_model=failure)
     assert raised.value.filename == str(run.checkpoints / f"step_{40:012d}" / "model.zip")
     assert list(run.checkpoints.iterdir()) == []  # neither the checkpoint nor its staging folder
+
+
+@pytest.mark.long  # needs the right to mount (root in CI's container); about 20 s
+def test_training_on_a_real_full_disk_stops_in_one_line_and_resumes_once_space_is_freed(tmp_path):
+    import shutil
+    import subprocess
+    import sys
+
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(disk)], capture_output=True).returncode:
+        pytest.skip("cannot mount a small filesystem here")
+    try:
+        run = disk / "run"
+        config = tiny_config(tmp_path)
+        config.write_text(config.read_text().replace("checkpoint_every: 60", "checkpoint_every: 200"))
+        full = subprocess.run(
+            [sys.executable, "-m", "aaai_cli.main", "train", "--agent", "random", "--steps", "100000000"]
+            + ["--config", str(config), "--run", str(run)],
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+        lines = full.stderr.strip().splitlines()
+        assert full.returncode == 1 and len(lines) == 1, full.stderr[-3000:]
+        assert re.search(rf"cannot write '{re.escape(str(run))}/[^']+': No space left on device", lines[0]), lines[0]
+        assert not list(run.rglob(".staging-*")) and not (run / ".lock").exists()
+        points = sorted((run / "checkpoints").iterdir())
+        for point in points[:-1]:  # space freed: the older checkpoints go
+            shutil.rmtree(point)
+        last = step_of(points[-1])
+        train(run, resume=True, total_steps=last + 200, asynchronous=False, say=lambda message: None)
+        rows = episode_rows(run)
+        assert len(rows) == sum(json.loads((run / "final" / "state.json").read_text())["curriculum"]["episodes"])
+        assert [int(row[0]) for row in rows] == sorted(int(row[0]) for row in rows)
+    finally:
+        subprocess.run(["umount", str(disk)], capture_output=True)
