@@ -12,6 +12,7 @@ import numpy as np
 
 from aaai.config import ConfigError, describe_ids, load_config, parse_int_set, read_yaml
 from aaai.env import AnimalAIEnv
+from aaai.files import InUse
 from aaai.levels import all_levels, describe_levels, generate, get_level, level_ids
 from aaai.registration import level_env_id
 from aaai.scoring.episodes import play
@@ -416,7 +417,7 @@ def train_command(
     """Train on a curriculum of (level, difficulty) cells; checkpoints and logs go to the run folder."""
     from aaai.scoring.runs import run_backend
     from aaai.train.rllib_learner import train_rllib
-    from aaai.train.training import Progress, train
+    from aaai.train.training import Progress, train, write_failure
 
     ignored = {
         name: value
@@ -521,8 +522,12 @@ def train_command(
                     say=say,
                     on_episodes=report.on_episodes,
                 )
+    except InUse as error:  # another process trains this run: its pid named
+        raise click.ClickException(str(error)) from None
     except (ConfigError, FileExistsError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
+    except OSError as error:  # a full disk, a permission taken away: the file named, the run resumable
+        raise click.ClickException(write_failure(error, run_dir)) from None
     except ImportError as error:
         raise click.UsageError(
             f"{error}. PPO needs the train extra: pip install -e '.[train]' "
@@ -692,6 +697,8 @@ def eval_command(
                 rows = evaluate(
                     policy, cells, output, config, record=record, **replay_hooks(save_replays, policy, on_episode)
                 )
+    except InUse as error:  # another eval writes this scoreboard: its pid named
+        raise click.ClickException(str(error)) from None
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except OSError as error:  # an output that became unwritable midway (its rows so far stay)
@@ -781,6 +788,8 @@ def eval_arenas(
                 record=record,
                 **replay_hooks(save_replays, policy, on_episode, files),
             )
+    except InUse as error:  # another eval writes this scoreboard: its pid named
+        raise click.ClickException(str(error)) from None
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except OSError as error:  # an output that became unwritable midway (its rows so far stay)

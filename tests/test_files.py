@@ -1,11 +1,18 @@
-"""Atomic writing (aaai.files): whole files or nothing, with the permissions open() would give."""
+"""Atomic writing (aaai.files): whole files or nothing, with the permissions open() would give; a failed
+write names its file; one holder at a time of a lock, released when its holder ends, however."""
 
+import errno
 import os
+import signal
 import stat
+import subprocess
+import sys
+import time
 
 import pytest
 
-from aaai.files import atomic_path, write_atomic
+from aaai import files
+from aaai.files import InUse, atomic_path, hold, write_atomic
 from aaai.scoring import runs
 
 
@@ -48,3 +55,76 @@ def test_atomic_path_keeps_the_suffix_and_the_old_file_on_error(tmp_path):
 def test_atomic_path_needs_an_existing_folder(tmp_path):
     with pytest.raises(FileNotFoundError):
         atomic_path(tmp_path / "missing" / "x.png")
+
+
+# --- naming the file of a failed write ------------------------------------------------------------
+def test_a_full_disk_while_writing_names_the_file_not_its_temporary(tmp_path, monkeypatch):
+    path = tmp_path / "state.json"
+    path.write_text("old")
+    real_fsync = os.fsync
+
+    def full(descriptor):
+        raise OSError(errno.ENOSPC, "No space left on device")  # as a write to a full disk: no file named
+
+    monkeypatch.setattr(files.os, "fsync", full)
+    with pytest.raises(OSError) as raised:
+        write_atomic(path, "new")
+    monkeypatch.setattr(files.os, "fsync", real_fsync)
+    assert raised.value.errno == errno.ENOSPC and raised.value.filename == str(path)
+    assert files.os_error_message(raised.value) == f"cannot write {str(path)!r}: No space left on device"
+    assert path.read_text() == "old" and sorted(p.name for p in tmp_path.iterdir()) == ["state.json"]
+    with pytest.raises(PermissionError) as denied:  # a write into the temporary that is refused
+        with atomic_path(path) as temporary:
+            raise PermissionError(errno.EACCES, "Permission denied", str(temporary))
+    assert denied.value.filename == str(path) and path.read_text() == "old"
+
+
+# --- one writer at a time ----------------------------------------------------------------------------
+def refusal(pid):
+    return f"held by {pid}"
+
+
+def test_a_held_lock_refuses_at_once_naming_the_holder_and_is_free_after_release(tmp_path):
+    path = tmp_path / ".lock"
+    lock = hold(path, refusal)
+    assert path.read_text() == f"{os.getpid()}\n"
+    started = time.monotonic()
+    with pytest.raises(InUse, match=f"held by {os.getpid()}") as raised:
+        hold(path, refusal)  # another open of the file: refused as another process would be
+    assert raised.value.pid == os.getpid() and time.monotonic() - started < 0.5
+    lock.release()
+    assert not path.exists()  # no lock file left behind
+    with hold(path, refusal):
+        pass
+    assert not path.exists()
+
+
+HOLD_FORK_THEN_SLEEP = """
+import multiprocessing, sys, time
+from aaai.files import hold
+hold(sys.argv[1], str)
+child = multiprocessing.get_context("fork").Process(target=time.sleep, args=(60,))
+child.start()
+print(child.pid, flush=True)
+time.sleep(60)
+"""
+
+
+def test_a_lock_of_a_killed_holder_is_free_at_once_even_while_a_child_it_forked_lives_on(tmp_path):
+    path = tmp_path / ".lock"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", HOLD_FORK_THEN_SLEEP, str(path)], stdout=subprocess.PIPE, text=True
+    )
+    child = int(holder.stdout.readline())
+    try:
+        with pytest.raises(InUse) as raised:
+            hold(path, refusal)
+        assert raised.value.pid == holder.pid
+        holder.kill()
+        holder.wait()
+        assert path.read_text() == f"{holder.pid}\n"  # a killed holder leaves its file, not its lock
+        with hold(path, refusal):
+            assert path.read_text() == f"{os.getpid()}\n"
+    finally:
+        holder.kill()
+        os.kill(child, signal.SIGKILL)

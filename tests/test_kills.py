@@ -1,10 +1,12 @@
-"""SIGKILL at seeded random moments, from outside, as `kill -9` or the OOM killer would: then the same
-command again (or `--resume`), and what survives is checked.
+"""SIGKILL at seeded random moments, from outside, as `kill -9` or the OOM killer would (and at known
+points, from inside): then the same command again (or `--resume`), and what survives is checked.
 
 - `aaai train` (stable-baselines3 PPO, and RLlib PPO on Ray): killed some time after its first
   checkpoint, it resumes from its newest whole checkpoint with that checkpoint's curriculum
   state, and the episode log has every episode once: none duplicated, none from after the
-  checkpoint (orphaned), no torn row.
+  checkpoint (orphaned), no torn row. Killed before its first checkpoint, it starts again from
+  step 0 with its log emptied to its header; killed while writing a checkpoint, the half-written
+  folder is removed.
 - `aaai eval --backend ray`: the driver killed after some rows, then run again, gives the
   scoreboard of an uninterrupted local run, row for row; no Ray process outlives it.
 """
@@ -229,3 +231,99 @@ def test_ray_eval_driver_killed_at_a_random_moment_then_rerun_equals_an_uninterr
     )
     assert again.returncode == 0, again.stderr[-3000:]
     assert _table(killed) == _table(whole)
+
+
+# `aaai train --agent random` that SIGKILLs itself at a known point (its first argument), as `kill -9`
+# or the OOM killer would there: no clean-up, no finally blocks.
+KILLED_AT = """
+import os, signal, sys
+import aaai.scoring.runs as runs
+from aaai_cli.main import cli
+
+point, replace, calls = sys.argv[1], os.replace, {"replace": 0}
+create, log_episodes = runs.RunFolder.create, runs.RunFolder.log_episodes
+
+def die():
+    os.kill(os.getpid(), signal.SIGKILL)
+
+def create_then_die(self, config):  # config.yaml written, no episode yet
+    create(self, config)
+    if point == "created":
+        die()
+
+def log_then_die(self, step, episodes):  # the first rows logged; the first checkpoint is far off
+    log_episodes(self, step, episodes)
+    if point == "first-rows" or (point == "after-checkpoint" and (self.path / "checkpoints").is_dir()):
+        die()
+
+def replace_or_die(source, target, *args, **kwargs):  # the second checkpoint written, not yet renamed
+    if os.path.basename(source).startswith(runs.STAGING_PREFIX):
+        calls["replace"] += 1
+        if point == "staging" and calls["replace"] == 2:
+            die()
+    return replace(source, target, *args, **kwargs)
+
+runs.RunFolder.create, runs.RunFolder.log_episodes, runs.os.replace = create_then_die, log_then_die, replace_or_die
+cli(sys.argv[2:], prog_name="aaai")
+"""
+
+
+@pytest.mark.parametrize(
+    "point",
+    [
+        "first-rows",  # about 2 s each; the others in make test-long (a staging folder's removal: test_resume.py)
+        pytest.param("staging", marks=pytest.mark.long),
+        pytest.param("created", marks=pytest.mark.long),
+        pytest.param("after-checkpoint", marks=pytest.mark.long),
+    ],
+)
+def test_training_killed_at_each_point_resumes_with_one_log_row_per_counted_episode(tmp_path, point):
+    """Killed before its first row, after its first rows (before any checkpoint), while writing a
+    checkpoint, after one: --resume continues from the newest whole checkpoint (or from step 0, its
+    episode log emptied to its header), and the log ends with exactly the episodes the run counted."""
+    from aaai.train.training import train
+
+    run = tmp_path / "run"
+    config = tmp_path / "tiny.yaml"
+    every = 10**6 if point in ("created", "first-rows") else 60
+    config.write_text(
+        yaml.safe_dump(
+            {
+                "episode": {"max_steps": 20},
+                "curriculum": {"levels": "0", "difficulties": "0"},
+                "train": {"checkpoint_every": every, "heatmap_every": 10**6, "num_envs": 1, "vector": "sync"},
+            }
+        )
+    )
+    killed = subprocess.run(
+        [sys.executable, "-c", KILLED_AT, point, "train", "--agent", "random", "--steps", "10000000"]
+        + ["--config", str(config), "--run", str(run)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert killed.returncode == -signal.SIGKILL, killed.stderr[-3000:]
+    if point == "staging":
+        assert list((run / "checkpoints").glob(".staging-*")), "killed before its second checkpoint was whole"
+    before = RunFolderView(run)
+    train(run, resume=True, total_steps=before.step + 100, asynchronous=False, say=lambda message: None)
+    assert not list(run.rglob(".staging-*")) and not (run / ".lock").exists()
+    final = json.loads((run / "final" / "state.json").read_text())
+    assert final["step"] == before.step + 100
+    text = (run / "episodes.csv").read_text()
+    assert text.count("step,worker") == 1
+    rows = _episode_rows(run)
+    steps = [int(row["step"]) for row in rows]
+    assert steps == sorted(steps), "episodes out of order: rows from before the resumed point were kept"
+    assert len(rows) == sum(final["curriculum"]["episodes"]) > 0, "the episode log does not match the count"
+    assert sum(step <= before.step for step in steps) == before.counted
+
+
+class RunFolderView:
+    """What a killed run left: the step and episode count of its newest whole checkpoint (0 without one)."""
+
+    def __init__(self, run: Path):
+        points = _whole_checkpoints(run)
+        state = json.loads((points[-1] / "state.json").read_text()) if points else None
+        self.step = state["step"] if state else 0
+        self.counted = sum(state["curriculum"]["episodes"]) if state else 0

@@ -1,7 +1,9 @@
-"""Resuming a run: from the newest saved point, past damaged ones, never backwards; and models that
-cannot be loaded refused with the file named."""
+"""Resuming a run: from the newest saved point, past damaged ones, never backwards; models that
+cannot be loaded refused with the file named; a full disk or a refused permission while training is
+one line naming the file, with nothing half-written left."""
 
 import csv
+import errno
 import json
 import re
 import zipfile
@@ -176,3 +178,114 @@ def test_a_model_stable_baselines3_cannot_read_is_a_clear_error(ppo_run, tmp_pat
         archive.writestr("policy.pth", b"nothing")
     with pytest.raises(ConfigError, match="cannot be loaded by stable-baselines3"):
         ModelPolicy(resolve(str(path)).file, env=None)
+
+
+# --- a full disk, a permission refused ---------------------------------------------------------------
+def no_space(*args, **kwargs):
+    raise OSError(errno.ENOSPC, "No space left on device")  # as a write to a full disk: no file named
+
+
+def tiny_config(tmp_path: Path) -> Path:
+    path = tmp_path / "tiny.yaml"
+    path.write_text(
+        "episode: {max_steps: 20}\ncurriculum: {levels: '0', difficulties: '0'}\n"
+        "train: {checkpoint_every: 60, heatmap_every: 1000000, num_envs: 1, vector: sync}\n"
+    )
+    return path
+
+
+def test_a_full_disk_at_a_checkpoint_is_one_line_naming_the_file_and_the_run_resumes(tmp_path, monkeypatch):
+    run, config = tmp_path / "run", tiny_config(tmp_path)
+    write_text, states = Path.write_text, []
+
+    def full_at_state(self, *args, **kwargs):  # state.json of the second checkpoint cannot be written
+        if self.name.startswith(".state."):
+            states.append(self)
+            if len(states) == 2:
+                no_space()
+        return write_text(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "write_text", full_at_state)
+    result = CliRunner().invoke(
+        cli, ["train", "--agent", "random", "--steps", "1000", "--config", str(config), "--run", str(run)]
+    )
+    monkeypatch.setattr(Path, "write_text", write_text)
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 1 and len(lines) == 1 and "Traceback" not in result.output, result.output
+    assert f"cannot write {str(run / 'checkpoints' / f'step_{120:012d}' / 'state.json')!r}: No space left" in lines[0]
+    assert f"aaai train --resume {run}" in lines[0]
+    assert not list(run.rglob(".staging-*")) and not list(run.rglob(".state.*"))  # nothing half-written left
+    assert [p.name for p in (run / "checkpoints").iterdir()] == [f"step_{60:012d}"]
+    (run / "checkpoints" / ".staging-left-by-a-kill").mkdir()  # as a kill while saving leaves it
+    (run / ".staging-left-by-a-kill").mkdir()
+    result = train(run, resume=True, total_steps=200, asynchronous=False, say=lambda message: None)
+    assert result.resumed_from == 60 and not list(run.rglob(".staging-*"))
+    rows = episode_rows(run)
+    assert len(rows) == sum(json.loads((run / "final" / "state.json").read_text())["curriculum"]["episodes"])
+
+
+def test_a_full_disk_while_logging_episodes_names_the_log(tmp_path, monkeypatch):
+    from aaai import files
+
+    monkeypatch.setattr(files.os, "pwrite", no_space)
+    run = tmp_path / "run"
+    result = CliRunner().invoke(
+        cli,
+        ["train", "--agent", "random", "--steps", "1000", "--config", str(tiny_config(tmp_path)), "--run", str(run)],
+    )
+    assert result.exit_code == 1 and len(result.output.strip().splitlines()) == 1, result.output
+    assert f"cannot write {str(run / 'episodes.csv')!r}: No space left on device" in result.output
+    assert (run / "episodes.csv").read_text() == ""  # no torn row left: the failed write is cut back
+
+
+@pytest.mark.parametrize(
+    "failure",
+    [
+        lambda path: no_space(),
+        lambda path: (_ for _ in ()).throw(PermissionError(errno.EACCES, "Permission denied", str(path))),
+    ],
+    ids=["ENOSPC", "EACCES"],
+)
+def test_a_model_that_cannot_be_saved_leaves_no_staging_folder_and_is_named(tmp_path, failure):
+    run = RunFolder(tmp_path / "run")
+    with pytest.raises(OSError) as raised:
+        run.save_checkpoint(40, {"curriculum": {}}, save_model=failure)
+    assert raised.value.filename == str(run.checkpoints / f"step_{40:012d}" / "model.zip")
+    assert list(run.checkpoints.iterdir()) == []  # neither the checkpoint nor its staging folder
+
+
+@pytest.mark.long  # needs the right to mount (root in CI's container); about 20 s
+def test_training_on_a_real_full_disk_stops_in_one_line_and_resumes_once_space_is_freed(tmp_path):
+    import shutil
+    import subprocess
+    import sys
+
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(disk)], capture_output=True).returncode:
+        pytest.skip("cannot mount a small filesystem here")
+    try:
+        run = disk / "run"
+        config = tiny_config(tmp_path)
+        config.write_text(config.read_text().replace("checkpoint_every: 60", "checkpoint_every: 200"))
+        full = subprocess.run(
+            [sys.executable, "-m", "aaai_cli.main", "train", "--agent", "random", "--steps", "100000000"]
+            + ["--config", str(config), "--run", str(run)],
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+        lines = full.stderr.strip().splitlines()
+        assert full.returncode == 1 and len(lines) == 1, full.stderr[-3000:]
+        assert re.search(rf"cannot write '{re.escape(str(run))}/[^']+': No space left on device", lines[0]), lines[0]
+        assert not list(run.rglob(".staging-*")) and not (run / ".lock").exists()
+        points = sorted((run / "checkpoints").iterdir())
+        for point in points[:-1]:  # space freed: the older checkpoints go
+            shutil.rmtree(point)
+        last = step_of(points[-1])
+        train(run, resume=True, total_steps=last + 200, asynchronous=False, say=lambda message: None)
+        rows = episode_rows(run)
+        assert len(rows) == sum(json.loads((run / "final" / "state.json").read_text())["curriculum"]["episodes"])
+        assert [int(row[0]) for row in rows] == sorted(int(row[0]) for row in rows)
+    finally:
+        subprocess.run(["umount", str(disk)], capture_output=True)

@@ -68,7 +68,8 @@ def test_rllib_run_writes_its_folder_and_resumes(tmp_path):
     try:
         with open(tmp_path / "stderr.txt", "w") as stderr:  # a file: a leftover process may hold a pipe open
             child = subprocess.run(
-                [sys.executable, "-c", CHILD, str(run)],
+                [sys.executable, "-c", CHILD, "run"],  # relative, as the default runs/...: RLlib is given it absolute
+                cwd=tmp_path,
                 env=env,
                 stdout=subprocess.PIPE,
                 stderr=stderr,

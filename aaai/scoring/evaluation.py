@@ -22,7 +22,7 @@ import numpy as np
 
 from aaai.config import ConfigError, env_part
 from aaai.env import AnimalAIEnv
-from aaai.files import write_atomic
+from aaai.files import Lock, hold, write_atomic
 from aaai.levels import all_levels, get_level
 from aaai.scoring.episodes import play
 from aaai.scoring.policies import Policy, as_policy
@@ -288,10 +288,37 @@ def score(
     ``record`` (default: the policy on listed seeds) is what the scoreboard is scored with; with
     the environment's config, action mode and the package version added (:func:`scoring_record`)
     it is kept beside it. Returns every row of the scoreboard (those there before, then the new
-    ones as they came), as strings."""
+    ones as they came), as strings. One eval at a time writes a scoreboard (:func:`scoreboard_lock`)."""
     output = Path(output)
     check_writable(output, "--out")
     output.parent.mkdir(parents=True, exist_ok=True)
+    with scoreboard_lock(output):
+        return _score(policy, output, config, plan, play, record, on_episode)
+
+
+def scoreboard_lock(output: Path) -> Lock:
+    """The lock on a scoreboard (``.NAME.lock`` beside it, holding the pid), held while an eval
+    reads and adds to it: another eval of the same file refuses at once, naming the holder."""
+    return hold(
+        output.with_name(f".{output.name}.lock"),
+        lambda pid: (
+            f"--out: scoreboard {str(output)!r} is being written by "
+            + (f"process {pid}" if pid else "another process")
+            + "; allowed: one eval at a time per scoreboard (wait for it to end, or choose another --out)"
+        ),
+    )
+
+
+def _score(
+    policy: Policy,
+    output: Path,
+    config: dict,
+    plan: Callable[[list[dict]], list[Episode]],
+    play: Callable[[list[Episode]], Generator[dict, None, None]],
+    record: dict | None,
+    on_episode: Callable[[dict], None] | None,
+) -> list[dict]:
+    """:func:`score` with the scoreboard locked."""
     record = scoring_record(policy, record, config)
     check_record(output, record)
     rows = scored_episodes(output)

@@ -9,6 +9,7 @@ runs/NAME/
   final/{state.json, model.zip}
   resume.log          what a resume skipped (unreadable checkpoints), one line each
   tb/                 TensorBoard logs (PPO)
+  .lock               while a process trains the run: its lock, holding its pid (see RunFolder.locked)
 """
 
 from __future__ import annotations
@@ -21,18 +22,22 @@ import platform
 import shutil
 import tempfile
 import zipfile
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
 from importlib import metadata
 from pathlib import Path
+from typing import Iterator
 
 import yaml
 
 from aaai.config import ConfigError, read_yaml
-from aaai.files import write_atomic  # also re-exported: some modules import it from here
+from aaai.files import append_rows, hold, naming, sync_file, write_atomic  # write_atomic also re-exported
 
 PACKAGES = ("aaai", "pybullet", "numpy", "gymnasium", "stable-baselines3", "torch", "opencv-python-headless")
 CHECKPOINT_FOLDER = "rllib"  # an RLlib run's Algorithm checkpoint, inside checkpoints/step_N/ and final/
 MODULE_PATH = Path("learner_group", "learner", "rl_module", "default_policy")  # its policy, inside that
+LOCK_FILE = ".lock"  # in a run folder while a process writes it
+STAGING_PREFIX = ".staging-"  # a checkpoint being written, beside its place (renamed onto it when whole)
 
 
 @dataclass
@@ -93,6 +98,42 @@ class RunFolder:
     def config_path(self) -> Path:
         return self.path / "config.yaml"
 
+    @contextmanager
+    def locked(self, option: str) -> Iterator[None]:
+        """Holds the run folder's lock (``.lock`` inside it; the folder is made if need be) for the
+        block: one process at a time trains a run (a new one or a resume). Another process on it
+        refuses at once, naming the holder's pid. The operating system releases the lock when the
+        holder ends, killed or not. Checkpoints a killed holder was writing (``.staging-*``) are
+        removed. Folders this call made that are left empty (a refused config) are removed again."""
+        made = [folder for folder in (self.path, *self.path.parents) if not folder.exists()]  # deepest first
+        with naming(self.path):
+            self.path.mkdir(parents=True, exist_ok=True)
+        try:
+            lock = hold(
+                self.path / LOCK_FILE,
+                lambda pid: (
+                    f"{option}: run folder {str(self.path)!r} is in use by "
+                    + (f"process {pid}" if pid else "another process")
+                    + "; allowed: one process at a time per run folder (wait for it to end or stop it, "
+                    "or choose another folder)"
+                ),
+            )
+        except BaseException:
+            _remove_if_empty(made)
+            raise
+        try:
+            self.remove_staging()
+            yield
+        finally:
+            lock.release()
+            _remove_if_empty(made)
+
+    def remove_staging(self) -> None:
+        """Removes checkpoints left half-written (``.staging-*``) by a process killed while saving."""
+        for parent in (self.path, self.checkpoints):
+            for staging in parent.glob(f"{STAGING_PREFIX}*") if parent.is_dir() else ():
+                shutil.rmtree(staging, ignore_errors=True)
+
     def create(self, config: dict) -> None:
         if self.config_path.exists():
             raise FileExistsError(f"run folder {str(self.path)!r} already holds a run; use --resume to continue it")
@@ -109,41 +150,57 @@ class RunFolder:
         return read_yaml(self.config_path)
 
     # --- episodes -------------------------------------------------------------------
+    @property
+    def episodes_path(self) -> Path:
+        return self.path / "episodes.csv"
+
     def log_episodes(self, step: int, episodes: list[Episode]) -> None:
-        path = self.path / "episodes.csv"
-        new = not path.exists()
-        with open(path, "a", newline="") as handle:
-            writer = csv.writer(handle)
-            if new:
-                writer.writerow(EPISODE_COLUMNS)
-            for episode in episodes:
-                writer.writerow([step] + list(asdict(episode).values()))
-            handle.flush()
+        """Appends finished episodes to episodes.csv (each row whole; on disk at the next checkpoint)."""
+        rows = [[step] + list(asdict(episode).values()) for episode in episodes]
+        append_rows(self.episodes_path, EPISODE_COLUMNS, rows, sync=False)
 
     def trim_episodes(self, last_step: int) -> None:
-        """On resume: forgets episodes logged after the checkpoint the run continues from."""
-        path = self.path / "episodes.csv"
+        """On resume: forgets episodes logged after the checkpoint the run continues from (all of
+        them, to the header, when it starts again from step 0: killed before its first checkpoint),
+        so that the log holds exactly the episodes the checkpoint's curriculum counted."""
+        path = self.episodes_path
         if not path.exists():
             return
         with open(path, newline="") as handle:
             rows = list(csv.reader(handle))
-        kept = [rows[0]] + [row for row in rows[1:] if len(row) == len(EPISODE_COLUMNS) and int(row[0]) <= last_step]
+        whole = [row for row in rows[1:] if len(row) == len(EPISODE_COLUMNS) and row[0].isdigit()]
+        kept = [EPISODE_COLUMNS] + [row for row in whole if int(row[0]) <= last_step]
+        if kept == rows:
+            return
         text = io.StringIO()
         csv.writer(text).writerows(kept)
         write_atomic(path, text.getvalue())
 
     # --- checkpoints ----------------------------------------------------------------
     def save_checkpoint(self, step: int, state: dict, save_model=None, final: bool = False) -> Path:
-        """Writes state.json (and model.zip via ``save_model(path)``) into a folder that appears whole."""
+        """Writes state.json (and model.zip via ``save_model(path)``) into a folder that appears whole,
+        after the episode log it counts is on disk. On an error the half-written folder is removed
+        and an OSError names the file of the checkpoint that could not be written."""
         target = self.final if final else self.checkpoints / f"step_{step:012d}"
-        target.parent.mkdir(parents=True, exist_ok=True)
-        staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=".staging-"))
-        if save_model is not None:
-            save_model(staging / "model.zip")
-        write_atomic(staging / "state.json", json.dumps({"step": step, **state}) + "\n")
-        if target.exists():
-            shutil.rmtree(target)
-        os.replace(staging, target)
+        sync_file(self.episodes_path)
+        with naming(target.parent):
+            target.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=STAGING_PREFIX))
+        except OSError as error:  # it names the staging folder it tried: name the checkpoint
+            raise OSError(error.errno, error.strerror, str(target)) from error
+        try:
+            with naming(target, staging):
+                if save_model is not None:
+                    with naming(target / "model.zip"):
+                        save_model(staging / "model.zip")
+                write_atomic(staging / "state.json", json.dumps({"step": step, **state}) + "\n")
+                if target.exists():
+                    shutil.rmtree(target)
+                os.replace(staging, target)
+        except BaseException:
+            shutil.rmtree(staging, ignore_errors=True)
+            raise
         return target
 
     def saved(self) -> list[Path]:
@@ -210,6 +267,15 @@ class RunFolder:
     @staticmethod
     def read_state(checkpoint: Path) -> dict:
         return json.loads((checkpoint / "state.json").read_text())
+
+
+def _remove_if_empty(folders: list[Path]) -> None:
+    """Removes the folders (deepest first) that are empty: those made for a run that was refused."""
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:
+            return  # not empty: it holds a run
 
 
 def model_problem(path: Path) -> str | None:

@@ -251,7 +251,7 @@ def _train_loop(
         algo.restore_from_path(str((checkpoint / CHECKPOINT_FOLDER).absolute()))
 
     def save_model(model_zip) -> None:  # the Algorithm checkpoint, signed as this machine's
-        algo.save_to_path(str(Path(model_zip).parent / CHECKPOINT_FOLDER))
+        algo.save_to_path(str((Path(model_zip).parent / CHECKPOINT_FOLDER).absolute()))  # pyarrow wants a URI
         sign_checkpoint(Path(model_zip).parent / CHECKPOINT_FOLDER)
 
     agent_state = lambda: {"backend": "rllib"}  # noqa: E731 - the model's state is the rllib/ folder
@@ -286,14 +286,31 @@ def train_rllib(
     an address joins that cluster. ``env_runners``: RLlib EnvRunner processes (default
     ``train.processes``, see :func:`aaai.train.vector.worker_processes`; the ``train.num_envs``
     environments are shared out over them; 0 samples in this process), all sharing the one
-    sampler actor. ``progress(n)`` is told the environment steps of each iteration.
+    sampler actor. ``progress(n)`` is told the environment steps of each iteration. The run
+    folder is locked for the whole call, as in ``train``.
     """
     from aaai.scoring.model_io import signing_key
-    from aaai.scoring.ray_session import RaySession
 
     run = RunFolder(run_dir)
     check_writable(run.path, "--resume" if resume else "--run", folder=True)
     signing_key()  # the key that signs every checkpoint: made, or refused naming the fix, before any work
+    with run.locked("--resume" if resume else "--run"):
+        return _train_rllib(run, config, resume, total_steps, address, env_runners, progress, say)
+
+
+def _train_rllib(
+    run: RunFolder,
+    config: dict | None,
+    resume: bool,
+    total_steps: int | None,
+    address: str | None,
+    env_runners: int | None,
+    progress: Callable[[int], None] | None,
+    say: Callable[[str], None],
+) -> TrainResult:
+    """:func:`train_rllib` in its locked run folder."""
+    from aaai.scoring.ray_session import RaySession
+
     checkpoint = state = None
     if resume:
         config = load_config(run.read_config())
@@ -325,7 +342,7 @@ def train_rllib(
         run.create(config)
     env_runners = worker_processes(config["train"]) if env_runners is None else env_runners
     start_step = state["step"] if state else 0
-    if state:
+    if resume:  # the log back to what the checkpoint counted: to its header if there was none
         run.trim_episodes(start_step)
     progress = progress or (lambda steps: None)
 

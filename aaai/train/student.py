@@ -272,15 +272,21 @@ def _load_data(folder: Path, iterations: int) -> tuple[dict, np.ndarray]:
 def train_student(
     run_dir: str | Path, config: dict | None = None, resume: bool = False, say: Callable[[str], None] = print
 ) -> StudentResult:
-    """Starts a DAgger run in ``run_dir`` with ``config`` (resolved), or resumes the one there."""
+    """Starts a DAgger run in ``run_dir`` with ``config`` (resolved), or resumes the one there;
+    the run folder is locked for the whole call, as in aaai.train.training.train."""
+    run = RunFolder(run_dir)
+    check_writable(run.path, "--resume" if resume else "--run", folder=True)
+    with run.locked("--resume" if resume else "--run"):
+        return _train_student(run, config, resume, say)
+
+
+def _train_student(run: RunFolder, config: dict | None, resume: bool, say: Callable[[str], None]) -> StudentResult:
     import torch
     from stable_baselines3 import PPO
 
     from aaai.env import AnimalAIEnv
     from aaai.train.training import with_proprioception
 
-    run = RunFolder(run_dir)
-    check_writable(run.path, "--resume" if resume else "--run", folder=True)
     done, state = 0, None
     if resume:
         config = load_config(run.read_config())
@@ -288,7 +294,7 @@ def train_student(
         if point is not None:
             state = point[1]
             done = state["agent"]["iterations_done"]
-            run.trim_episodes(state["step"])
+        run.trim_episodes(state["step"] if state else 0)  # to its header when there is no checkpoint
     else:
         config = with_proprioception(config)
         check_teachable(config)

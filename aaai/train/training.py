@@ -15,6 +15,7 @@ from typing import Callable, TextIO
 import numpy as np
 
 from aaai.config import ConfigError, load_config
+from aaai.files import os_error_message
 from aaai.scoring.runs import RunFolder, check_writable
 from aaai.train.curriculum import Curriculum, episode_passed
 from aaai.train.vector import CurriculumVecEnv, Episode
@@ -275,6 +276,16 @@ def move_end(run: RunFolder, config: dict, checkpoint: Path | None, state: dict 
     return config
 
 
+def write_failure(error: OSError, run_dir: str | Path | None) -> str:
+    """One line for an OS error while training (a full disk, a permission taken away): the file,
+    the cause, and that the run resumes from its last checkpoint."""
+    where = f" --resume {run_dir}" if run_dir else ""
+    return (
+        f"{os_error_message(error)}. The run keeps what its last checkpoint saved: free the space or fix "
+        f"the permission, then run aaai train{where}"
+    )
+
+
 def train(
     run_dir: str | Path,
     config: dict | None = None,
@@ -291,9 +302,31 @@ def train(
     skipped and ``say`` is told so. ``total_steps`` (if given) moves the run's end; the run
     folder's config records it. It may not fall below the steps already done. ``progress`` is told
     of every step, ``on_episodes`` of every finished episode (e.g. :class:`Progress`).
+
+    The run folder is locked for the whole call (:meth:`RunFolder.locked`): another process
+    training or resuming it is refused at once, naming this one's pid.
     """
     run = RunFolder(run_dir)
     check_writable(run.path, "--resume" if resume else "--run", folder=True)  # before any work is done
+    if not resume:
+        config = with_proprioception(config)
+        check_trainable(config)  # before the run folder exists: a refused config leaves nothing behind
+        check_init_from(config)
+    with run.locked("--resume" if resume else "--run"):
+        return _train(run, config, resume, progress, asynchronous, total_steps, say, on_episodes)
+
+
+def _train(
+    run: RunFolder,
+    config: dict | None,
+    resume: bool,
+    progress: Callable[[int], None] | None,
+    asynchronous: bool | None,
+    total_steps: int | None,
+    say: Callable[[str], None],
+    on_episodes: Callable[[list[Episode]], None] | None,
+) -> TrainResult:
+    """:func:`train` in its locked run folder (a new run's config checked)."""
     checkpoint = state = None
     if resume:
         config = load_config(run.read_config())
@@ -303,14 +336,12 @@ def train(
         if total_steps is not None:
             config = move_end(run, config, checkpoint, state, total_steps)
     else:
-        config = with_proprioception(config)
-        check_trainable(config)  # before the run folder exists: a refused config leaves nothing behind
-        check_init_from(config)
         run.create(config)
     curriculum = Curriculum.from_config(config)
     start_step = state["step"] if state else 0
     if state:
         curriculum.load_state_dict(state["curriculum"])
+    if resume:  # the log back to what the checkpoint counted: to its header if there was none
         run.trim_episodes(start_step)
     tracker = Tracker(run, curriculum, config, start_step, on_episodes)
     vec = CurriculumVecEnv(config, curriculum, config["train"]["num_envs"], asynchronous=asynchronous)
