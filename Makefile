@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: lint check install install-train install-all test docs play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
+.PHONY: lint check install install-train install-all test test-gym docs play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -53,6 +53,12 @@ install-all: $(VENV)/.installed-all
 test: install-all $(CHROMIUM_BINARIES) check
 	$(BIN)/python -m pytest -q -m "not long" $(PYTEST_ARGS)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --quiet
+
+# The tests of the environment, the scoring and the model files (the committed models included) on
+# the oldest and the newest Gymnasium setup.cfg allows, each in a venv of its own under .nox/
+# (noxfile.py: the dev and train extras, no Ray). CI runs it after `make test`.
+test-gym: install
+	TORCH_SPEC="$(TORCH_SPEC)" $(BIN)/python -m nox -s gym
 
 # The documentation site (docs/ + mkdocs.yml) into site/; a broken link or a page missing from the
 # nav fails it. `$(BIN)/mkdocs serve` shows it at http://127.0.0.1:8000 while you edit.

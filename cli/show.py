@@ -148,7 +148,10 @@ def show(
             difficulty=difficulty,
             config=base,
             camera=True,
-            camera_resolution=CAMERA_RESOLUTION,
+            # a policy that sees the camera films with its own camera; otherwise it is turned on here to draw it
+            camera_resolution=base["sensors"]["camera_resolution"]
+            if chosen is not None and base["sensors"]["camera"]
+            else CAMERA_RESOLUTION,
             arena=arena,
             **({"action_mode": action_mode} if action_mode else {}),
         )

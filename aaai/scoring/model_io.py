@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import dataclasses
 import hashlib
 import hmac
 import importlib
@@ -55,9 +56,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
-from aaai.config import ConfigError
-from aaai.files import write_atomic
+from aaai import safe_yaml
+from aaai.config import ConfigError, load_config
+from aaai.files import atomic_path, write_atomic
 from aaai.scoring.runs import MODULE_PATH, rllib_checkpoint
 
 TRUST_FLAG = "--trust-model"
@@ -406,6 +409,52 @@ def read_archive(path: str | Path) -> Archive:
     return Archive(path, _strip_pickles(data), names)
 
 
+# The environment config a model was trained with, kept in its file beside stable-baselines3's own
+# members (which its loader ignores): a model file is scored in its own environment on its own.
+CONFIG_MEMBER = "aaai_config.yaml"
+
+
+def save_model(model, path: str | Path, config: dict) -> Path:
+    """``model.save`` with ``config`` as the file's :data:`CONFIG_MEMBER`, written whole (a temporary
+    file beside ``path``, renamed onto it when complete)."""
+    path = Path(path)
+    with atomic_path(path) as partial:
+        model.save(partial)
+        with zipfile.ZipFile(partial, "a", compression=zipfile.ZIP_DEFLATED) as archive:
+            archive.writestr(CONFIG_MEMBER, yaml.safe_dump(config, sort_keys=False))
+    return path
+
+
+def model_config(path: str | Path) -> dict | None:
+    """The environment config a model file carries (:data:`CONFIG_MEMBER`, read as YAML data and
+    checked as any config), or None for a file without one. One that does not load is refused,
+    naming the file."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            if CONFIG_MEMBER not in archive.namelist():
+                return None
+            size = archive.getinfo(CONFIG_MEMBER).file_size
+            if size > safe_yaml.MAX_BYTES:
+                raise ConfigError(
+                    f"model file {str(path)!r}: its {CONFIG_MEMBER} inflates to {size} bytes; "
+                    f"allowed: at most {safe_yaml.MAX_BYTES}"
+                )
+            with archive.open(CONFIG_MEMBER) as member:
+                text = member.read(safe_yaml.MAX_BYTES + 1).decode("utf-8")
+    except (zipfile.BadZipFile, OSError, EOFError, UnicodeDecodeError) as error:
+        raise ConfigError(f"model file {str(path)!r}: its {CONFIG_MEMBER} cannot be read: {error}") from None
+    try:
+        data = safe_yaml.parse(text, f"model file {str(path)!r}: its {CONFIG_MEMBER}")[0]
+        if not isinstance(data, dict):
+            raise ConfigError(f"it is {type(data).__name__}, not a mapping")
+        return load_config(data)
+    except ConfigError as error:
+        raise ConfigError(
+            f"model file {str(path)!r}: the config it carries ({CONFIG_MEMBER}) does not load: {error}; "
+            "allowed: a config aaai loads (or score the file with --config)"
+        ) from None
+
+
 def file_sha256(path: str | Path) -> str:
     digest = hashlib.sha256()
     with open(path, "rb") as handle:
@@ -518,19 +567,77 @@ def schedule_constant(archive: Archive, field: str, default: float | None = None
 
 
 # --- spaces -------------------------------------------------------------------------------------
-def _space_parts(text: str) -> dict[str, str]:
-    """A Dict space's repr ``{'a': Box(...), 'b': Box(...)}`` as {key: repr}."""
+# A file keeps its spaces as text: a Box's fields (shape, dtype, its bounds as numpy prints them) and
+# a Dict's sub-spaces as their reprs. Gymnasium has changed what its spaces keep and print (1.4
+# fills ``low_repr`` only when the space is printed), so spaces are compared by value: kind, shape,
+# dtype and bounds, read from whichever form the file has.
+_NUMBER = re.compile(r"[-+]?(?:inf|nan|\d+\.?\d*(?:[eE][-+]?\d+)?|\.\d+(?:[eE][-+]?\d+)?)")
+_BOX = re.compile(r"Box\((?P<low>[^,]+), (?P<high>[^,]+), \((?P<shape>[\d, ]*)\), (?P<dtype>\w+)\)", re.DOTALL)
+
+
+def _bound(text: Any) -> np.ndarray | None:
+    """A bound as numpy printed it (a scalar, or an array without commas); None when it was not
+    kept or was shortened (numpy prints ``...`` for a large array)."""
+    if not isinstance(text, str) or "..." in text:
+        return None
+    numbers = _NUMBER.findall(text)
+    if not numbers or re.sub(r"[\[\]\s]", "", _NUMBER.sub("", text)):
+        return None
+    return np.array([float(n) for n in numbers], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class SpaceValue:
+    """One space by value: its kind, shape, dtype and bounds (for a Box), and the text shown for it."""
+
+    text: str
+    kind: str
+    shape: tuple | None = None
+    dtype: str | None = None
+    low: np.ndarray | None = dataclasses.field(default=None, compare=False)
+    high: np.ndarray | None = dataclasses.field(default=None, compare=False)
+
+    def agrees(self, other: "SpaceValue") -> bool:
+        if self.kind != other.kind:
+            return False
+        if self.kind != "Box":
+            return self.text == other.text
+        if (self.shape, self.dtype) != (other.shape, other.dtype):
+            return False
+        size = int(np.prod(self.shape)) if self.shape is not None else 0
+        for mine, theirs in ((self.low, other.low), (self.high, other.high)):
+            if mine is None or theirs is None:
+                continue  # a bound the file does not keep in full: shape and dtype decide
+            if mine.size not in (1, size) or theirs.size not in (1, size):
+                return False
+            a, b = np.broadcast_to(mine, (size,)), np.broadcast_to(theirs, (size,))
+            if not np.allclose(a, b, rtol=1e-6, atol=1e-7, equal_nan=True):
+                return False
+        return True
+
+
+def _box_text(text: str) -> SpaceValue:
+    """A Box's repr (``Box(low, high, (shape), dtype)``) as a value; another space's as its text."""
+    match = _BOX.fullmatch(text.strip())
+    if match is None:
+        return SpaceValue(text, text.split("(", 1)[0].strip())
+    shape = tuple(int(n) for n in re.findall(r"\d+", match.group("shape")))
+    return SpaceValue(text, "Box", shape, match.group("dtype"), _bound(match.group("low")), _bound(match.group("high")))
+
+
+def _space_parts(text: str) -> dict[str, SpaceValue]:
+    """A Dict space's repr ``{'a': Box(...), 'b': Box(...)}`` as {key: value}."""
     found = list(re.finditer(r"'([^']+)': ", text))
     parts = {}
     for i, match in enumerate(found):
         end = found[i + 1].start() if i + 1 < len(found) else len(text)
-        parts[match.group(1)] = text[match.end() : end].rstrip(" ,}")
+        parts[match.group(1)] = _box_text(text[match.end() : end].rstrip(" ,}"))
     return parts
 
 
-def stored_space(archive: Archive, field: str) -> dict[str, str] | None:
-    """The readable description a file keeps of a space: {key: repr} for a Dict space, {"": repr}
-    for a Box; None when the file keeps none."""
+def stored_space(archive: Archive, field: str) -> dict[str, SpaceValue] | None:
+    """The space a file keeps, by value: {key: value} for a Dict space, {"": value} for a Box or a
+    Discrete; None when the file keeps no readable description of it."""
     entry = archive.data.get(field)
     if not isinstance(entry, dict):
         return None
@@ -538,41 +645,84 @@ def stored_space(archive: Archive, field: str) -> dict[str, str] | None:
     if kind.endswith(".Dict'>") and isinstance(entry.get("spaces"), str):
         return _space_parts(entry["spaces"])
     if kind.endswith(".Box'>") and isinstance(entry.get("_shape"), list):
-        return {
-            "": f"Box({entry.get('low_repr')}, {entry.get('high_repr')}, {tuple(entry['_shape'])}, "
-            f"{entry.get('dtype')})"
-        }
+        shape = tuple(int(n) for n in entry["_shape"])
+        low = entry.get("low_repr") if isinstance(entry.get("low_repr"), str) else entry.get("low")
+        high = entry.get("high_repr") if isinstance(entry.get("high_repr"), str) else entry.get("high")
+        text = f"Box({low}, {high}, {shape}, {entry.get('dtype')})"
+        return {"": SpaceValue(text, "Box", shape, str(entry.get("dtype")), _bound(low), _bound(high))}
     if kind.endswith(".Discrete'>"):
-        return {"": f"Discrete({entry.get('n')})"}
+        start = entry.get("start")
+        shown = "" if start in (None, 0, "0") else f", start={start}"
+        text = f"Discrete({entry.get('n')}{shown})"
+        return {"": SpaceValue(text, "Discrete")}
     return None
 
 
-def describe_space(space) -> dict[str, str]:
+def _live_value(space) -> SpaceValue:
+    from gymnasium import spaces
+
+    if isinstance(space, spaces.Box):
+        low, high = np.asarray(space.low, np.float64).ravel(), np.asarray(space.high, np.float64).ravel()
+        return SpaceValue(repr(space), "Box", tuple(space.shape), str(space.dtype), low, high)
+    return SpaceValue(repr(space), type(space).__name__)
+
+
+def describe_space(space) -> dict[str, SpaceValue]:
     """:func:`stored_space` for a live gymnasium space."""
     from gymnasium import spaces
 
     if isinstance(space, spaces.Dict):
-        return {key: repr(sub) for key, sub in space.spaces.items()}
-    if isinstance(space, spaces.Box):
-        return {"": f"Box({space.low_repr}, {space.high_repr}, {space.shape}, {space.dtype})"}
-    return {"": repr(space)}
+        return {key: _live_value(sub) for key, sub in space.spaces.items()}
+    return {"": _live_value(space)}
+
+
+def compare_spaces(name: str, model: dict[str, SpaceValue], live: dict[str, SpaceValue]) -> list[str]:
+    """How a model's space (``model``) differs from the environment's, by value, one line per key."""
+    problems = []
+    for key in sorted(set(model) | set(live)):
+        label = f"{name} {key!r}" if key else f"{name} space"
+        mine, theirs = model.get(key), live.get(key)
+        if mine is None or theirs is None or not mine.agrees(theirs):
+            shown = [v.text if v is not None else "absent" for v in (mine, theirs)]
+            problems.append(f"{label}: model {shown[0]}, environment {shown[1]}")
+    return problems
+
+
+def as_model_sees(observation_space):
+    """The observation space as stable-baselines3 hands it to its policy: images channel-first (its
+    VecTransposeImage turns an H x W x C image of the environment into C x H x W; the policy
+    transposes each observation likewise as it acts)."""
+    from gymnasium import spaces
+    from stable_baselines3.common.preprocessing import is_image_space, is_image_space_channels_first
+    from stable_baselines3.common.vec_env import VecTransposeImage
+
+    def needs(space) -> bool:
+        return is_image_space(space) and not is_image_space_channels_first(space)
+
+    if isinstance(observation_space, spaces.Dict):
+        if not any(needs(sub) for sub in observation_space.spaces.values()):
+            return observation_space
+        return spaces.Dict(
+            {
+                key: VecTransposeImage.transpose_space(sub, key) if needs(sub) else sub
+                for key, sub in observation_space.spaces.items()
+            }
+        )
+    return VecTransposeImage.transpose_space(observation_space) if needs(observation_space) else observation_space
 
 
 def space_problems(archive: Archive, observation_space, action_space) -> list[str]:
-    """How the file's spaces differ from the environment's, one line each (empty: they agree)."""
+    """How the file's spaces differ from the environment's, by value, one line each (empty: they
+    agree). ``observation_space`` is the environment's own (images as it renders them)."""
     problems = []
-    for field, space, name in (
-        ("observation_space", observation_space, "observation"),
+    for field_name, space, name in (
+        ("observation_space", as_model_sees(observation_space), "observation"),
         ("action_space", action_space, "action"),
     ):
-        stored = stored_space(archive, field)
+        stored = stored_space(archive, field_name)
         if stored is None:
-            raise _refuse(archive.path, field, "keeps no readable description of the space")
-        live = describe_space(space)
-        for key in sorted(set(stored) | set(live)):
-            label = f"{name} {key!r}" if key else f"{name} space"
-            if stored.get(key) != live.get(key):
-                problems.append(f"{label}: model {stored.get(key, 'absent')}, environment {live.get(key, 'absent')}")
+            raise _refuse(archive.path, field_name, "keeps no readable description of the space")
+        problems += compare_spaces(name, stored, describe_space(space))
     return problems
 
 

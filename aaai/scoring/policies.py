@@ -127,7 +127,10 @@ def resolve(policy: str, trust: bool = False) -> Policy:
         problem = _zip_problem(path)
         if problem:
             raise ConfigError(f"--policy: model file {policy!r} cannot be loaded: {problem}")
-        return _model(policy, path, None, model_run_config(path), trust)
+        from aaai.scoring.model_io import model_config
+
+        trained = model_run_config(path)  # a run's saved point: its run's config; else the one the file carries
+        return _model(policy, path, None, trained if trained is not None else model_config(path), trust)
     if path.is_dir():
         run = RunFolder(path)
         config = load_config(run.read_config())
@@ -247,10 +250,7 @@ class ModelPolicy:
         if trust:
             self.model: Any = _trusted_load(path)
             if seen is not None:
-                problems = [
-                    f"{name}: model {model}, environment {live}"
-                    for name, model, live in _space_pairs(self.model.observation_space, self.model.action_space, seen)
-                ]
+                problems = _space_problems(self.model.observation_space, self.model.action_space, seen)
                 if problems:
                     raise ConfigError(_misfit(path, problems, seen))
             self.recurrent = hasattr(self.model, "_last_lstm_states")
@@ -263,7 +263,7 @@ class ModelPolicy:
             raise ConfigError(_misfit(path, problems, seen))
         self.model = model_io.load_policy_network(
             path,
-            seen.observation_space,
+            model_io.as_model_sees(seen.observation_space),  # images channel-first; the policy transposes them
             seen.action_space,
             fallback_kwargs=_run_policy_kwargs(run_config),
             archive=archive,
@@ -323,17 +323,13 @@ class _Seen:
             )
 
 
-def _space_pairs(observation_space, action_space, env: _Seen):
-    from aaai.scoring.model_io import describe_space
+def _space_problems(observation_space, action_space, env: _Seen) -> list[str]:
+    """How a loaded model's spaces differ from the environment's, by value (images as the model sees them)."""
+    from aaai.scoring.model_io import as_model_sees, compare_spaces, describe_space
 
-    for name, model_space, live_space in (
-        ("observation", observation_space, env.observation_space),
-        ("action", action_space, env.action_space),
-    ):
-        model, live = describe_space(model_space), describe_space(live_space)
-        for key in sorted(set(model) | set(live)):
-            if model.get(key) != live.get(key):
-                yield (f"{name} {key!r}" if key else f"{name} space"), model.get(key, "absent"), live.get(key, "absent")
+    return compare_spaces(
+        "observation", describe_space(observation_space), describe_space(as_model_sees(env.observation_space))
+    ) + compare_spaces("action", describe_space(action_space), describe_space(env.action_space))
 
 
 # The config keys a model depends on beyond its spaces: compared with its run's config when the
@@ -401,13 +397,18 @@ def check_model(path: Path, env: AnimalAIEnv, extra_keys: tuple = (), trained: d
         if _dotted(trained, key) != _dotted(env.config, key)
     ]
     if differing:
-        run = Path(path).absolute().parent.parent
-        run = run.parent if run.name == "checkpoints" else run
+        point = Path(path).absolute().parent
+        in_run = point.name == "final" or (point.parent.name == "checkpoints" and point.name.startswith("step_"))
+        run = point.parent.parent if point.parent.name == "checkpoints" else point.parent
+        hint = (
+            f"its run's config (--config {run / 'config.yaml'}, or --policy with the run folder)"
+            if in_run
+            else "the config the file carries (leave out --config)"
+        )
         raise ConfigError(
             f"--policy: model file {str(path)!r} was trained with another environment than this one: "
             + "; ".join(differing)
-            + f". Score it with its run's config (--config {run / 'config.yaml'}, "
-            "or --policy with the run folder)"
+            + f". Score it with {hint}"
         )
 
 

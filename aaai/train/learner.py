@@ -12,6 +12,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 
+from aaai.scoring.model_io import save_model
 from aaai.scoring.runs import RunFolder
 from aaai.train.curriculum import episode_passed
 from aaai.train.vector import CurriculumVecEnv
@@ -66,14 +67,28 @@ class TrackerCallback(BaseCallback):
     and the pass rate (return >= 0.8 x max reward); the pass rate per cell over the curriculum's
     window (``cells/pass_rate_L<level>_d<difficulty>``) and the sampler's p per cell."""
 
-    def __init__(self, env: CurriculumSB3Env, tracker, progress: Callable[[int], None], recent: int = 100):
+    def __init__(
+        self,
+        env: CurriculumSB3Env,
+        tracker,
+        progress: Callable[[int], None],
+        recent: int = 100,
+        config: dict | None = None,
+    ):
         super().__init__()
-        self.env, self.tracker, self.progress = env, tracker, progress
+        self.env, self.tracker, self.progress, self.config = env, tracker, progress, config
         self.recent = deque(maxlen=recent)
+
+    def save(self, path: Path) -> None:
+        """The model file, carrying the run's config when there is one (a model file is scored alone)."""
+        if self.config is None:
+            self.model.save(path)
+        else:
+            save_model(self.model, path, self.config)
 
     def _on_step(self) -> bool:
         finished, self.env.finished = self.env.finished, []
-        self.tracker.update(self.num_timesteps, finished, agent_state=dict, save_model=self.model.save)
+        self.tracker.update(self.num_timesteps, finished, agent_state=dict, save_model=self.save)
         self.progress(self.env.num_envs)
         if finished:
             self.recent.extend(finished)
@@ -149,11 +164,11 @@ def train_ppo(
     if remaining > 0:
         model.learn(
             remaining,
-            callback=TrackerCallback(env, tracker, progress),
+            callback=TrackerCallback(env, tracker, progress, config=config),
             reset_num_timesteps=checkpoint is None,
             tb_log_name="ppo",
         )
-    tracker.save(model.num_timesteps, dict, save_model=model.save, final=True)
+    tracker.save(model.num_timesteps, dict, save_model=lambda path: save_model(model, path, config), final=True)
     return model.num_timesteps
 
 

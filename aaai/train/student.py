@@ -44,6 +44,7 @@ from typing import Callable
 import numpy as np
 
 from aaai.config import ConfigError, env_part, load_config
+from aaai.scoring.model_io import save_model
 from aaai.scoring.runs import RunFolder, check_writable
 from aaai.task.seeds import TRAIN_SEEDS
 from aaai.train.vector import Episode, worker_processes
@@ -386,7 +387,7 @@ def _train_student(run: RunFolder, config: dict | None, resume: bool, say: Calla
             last = iteration + 1 == settings.iterations
 
             def save(path: Path) -> None:
-                model.save(path)
+                save_model(model, path, config)  # the model file carries the run's config
                 torch.save(model.policy.state_dict(), path.with_name("student.pth"))
 
             # No sampler state: the plan of each iteration is a pure function of (seed, iteration).
