@@ -785,7 +785,7 @@ def expected_state(path: Path, cls, observation_space, action_space, use_sde: bo
 
     with _META, torch.device("meta"), mock.patch.object(torch.nn.Module, "to", to):
         try:
-            policy = cls(observation_space, action_space, _constant(0.0), use_sde=use_sde, **kwargs)
+            policy = cls(as_model_sees(observation_space), action_space, _constant(0.0), use_sde=use_sde, **kwargs)
         except Exception as error:  # noqa: BLE001 - settings read from the file that the policy does not take
             raise ConfigError(
                 f"model file {str(path)!r}: its policy cannot be built for this environment "
