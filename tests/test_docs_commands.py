@@ -55,7 +55,7 @@ SMALLER = [
     ("make demo", "make demo", "make -o .venv/.installed -o .venv/.installed-train demo", "the set-up is done"),
     ("aaai train --curriculum --run runs/demo", "--run runs/demo", "--run runs/demo --steps 2000", "make demo's run"),
     ("aaai train --curriculum --levels 0-11", "--steps 20000000", "--steps 1000", "hours of training"),
-    ("aaai train --resume runs/big --steps", "--steps 40000000", "--steps 2000", "hours of training"),
+    ("aaai train --resume runs/big --steps", "--steps 40000000", "--steps 5000", "hours of training"),
     ("aaai experiment curricula --steps 20000", "--steps 20000", "--steps 1000", "minutes per run"),
     ("aaai experiment curricula --steps", "--out /tmp/small", "--out small", "a folder of this copy's own"),
     (

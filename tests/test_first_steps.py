@@ -73,3 +73,30 @@ def test_tuning_the_gait_without_the_tune_extra_says_which_to_install(monkeypatc
     _without(monkeypatch, "cma")
     with pytest.raises(SystemExit, match=r"^tuning the gait needs the tune extra \(cma is not installed\): "):
         tune(1, False, 0, load_parameters())
+
+
+def test_a_camera_model_is_scored_and_resumed(tmp_path):
+    """training.md trains with --camera: its model (camera channel-first, as stable-baselines3 keeps
+    it) is scored and trained on against the environment's channel-last camera."""
+    pytest.importorskip("stable_baselines3", reason="needs the train extra")
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from aaai.config import load_config
+    from aaai.env import AnimalAIEnv
+    from aaai.scoring.model_io import load_for_training
+    from aaai.scoring.policies import resolve
+
+    config = load_config({"episode": {"max_steps": 20}, "sensors": {"camera": True, "camera_resolution": 36}})
+    env = AnimalAIEnv(config=config)
+    try:
+        assert env.observation_space["camera"].shape == (36, 36, 3)
+        model = PPO("MultiInputPolicy", env, n_steps=16, batch_size=16, device="cpu", policy_kwargs={"net_arch": [8]})
+        model.save(tmp_path / "model.zip")
+        policy = resolve(str(tmp_path / "model.zip")).build(env)
+        observation, _ = env.reset(seed=1)
+        assert env.action_space.contains(policy(observation))
+        resumed = load_for_training(tmp_path / "model.zip", DummyVecEnv([lambda: env]))
+        assert resumed.observation_space["camera"].shape == (3, 36, 36)
+    finally:
+        env.close()

@@ -355,11 +355,27 @@ def describe_space(space) -> dict[str, str]:
     return {"": repr(space)}
 
 
+def learned_space(space):
+    """An observation space as stable-baselines3 learns from it: an image channel-last (the camera's
+    H x W x C) is channel-first, as its VecTransposeImage gives it to the policy and as a model file
+    keeps it; the policy transposes each observation itself when it acts."""
+    from gymnasium import spaces
+    from stable_baselines3.common.preprocessing import is_image_space, is_image_space_channels_first
+    from stable_baselines3.common.vec_env import VecTransposeImage
+
+    if isinstance(space, spaces.Dict):
+        return spaces.Dict({key: learned_space(sub) for key, sub in space.spaces.items()})
+    if is_image_space(space) and not is_image_space_channels_first(space):
+        return VecTransposeImage.transpose_space(space)
+    return space
+
+
 def space_problems(archive: Archive, observation_space, action_space) -> list[str]:
-    """How the file's spaces differ from the environment's, one line each (empty: they agree)."""
+    """How the file's spaces differ from the environment's (as the model learns from it, see
+    :func:`learned_space`), one line each (empty: they agree)."""
     problems = []
     for field, space, name in (
-        ("observation_space", observation_space, "observation"),
+        ("observation_space", learned_space(observation_space), "observation"),
         ("action_space", action_space, "action"),
     ):
         stored = stored_space(archive, field)

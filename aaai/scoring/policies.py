@@ -321,10 +321,12 @@ def _trusted_load(path: Path):
 
 class _Seen:
     """An environment as a model sees it: without the observation keys its caller added for itself
-    (``aaai show`` turns the camera on to draw it)."""
+    (``aaai show`` turns the camera on to draw it), its camera channel-first as the model learned it."""
 
     def __init__(self, env: AnimalAIEnv, extra_keys: tuple):
         from gymnasium import spaces
+
+        from aaai.scoring.model_io import learned_space
 
         self.config, self.action_space = env.config, env.action_space
         self.observation_space: Any = env.observation_space
@@ -332,6 +334,7 @@ class _Seen:
             self.observation_space = spaces.Dict(
                 {k: v for k, v in env.observation_space.spaces.items() if k not in extra_keys}
             )
+        self.observation_space = learned_space(self.observation_space)  # as the model was trained on it
 
 
 def _space_pairs(observation_space, action_space, env: _Seen):
