@@ -79,6 +79,7 @@ demo: install-train
 	rm -rf $(DEMO_RUN)
 	$(BIN)/aaai train --curriculum --run $(DEMO_RUN)
 	$(BIN)/aaai eval --seeds reserved --policy $(DEMO_RUN)
+	@echo "aaai is installed in $(VENV): 'source $(BIN)/activate' puts it on your PATH (or call $(BIN)/aaai)"
 
 # The baseline table (docs: Baselines; the README shows it): random actions, the reference controller and the demo's PPO
 # policy on the reserved seeds of all 13 levels x 11 difficulties (10 seeds each); runs the demo

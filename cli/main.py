@@ -12,6 +12,7 @@ import numpy as np
 
 from aaai.config import ConfigError, describe_ids, load_config, parse_int_set, read_yaml
 from aaai.env import AnimalAIEnv
+from aaai.errors import needs_extra
 from aaai.files import InUse
 from aaai.levels import all_levels, describe_levels, generate, get_level, level_ids
 from aaai.registration import level_env_id
@@ -529,10 +530,7 @@ def train_command(
     except OSError as error:  # a full disk, a permission taken away: the file named, the run resumable
         raise click.ClickException(write_failure(error, run_dir)) from None
     except ImportError as error:
-        raise click.UsageError(
-            f"{error}. PPO needs the train extra: pip install -e '.[train]' "
-            "(or make install-train), or use --agent random"
-        ) from None
+        raise click.ClickException(needs_extra(error, "aaai train")) from None
     run_config = result.run.read_config()
     curriculum = run_config["curriculum"]
     click.echo(
@@ -704,10 +702,7 @@ def eval_command(
     except OSError as error:  # an output that became unwritable midway (its rows so far stay)
         raise click.ClickException(f"{str(error.filename or output)!r}: {error.strerror or error}") from None
     except ImportError as error:
-        raise click.UsageError(
-            f"{error}. Loading a model needs the train extra: pip install -e '.[train]'; "
-            "--backend ray and RLlib runs need the ray extra: pip install -e '.[ray]'"
-        ) from None
+        raise click.ClickException(needs_extra(error, "aaai eval")) from None
     summary = summarise(rows)
     summary_path = _write_summary(write_summary, summary, output)
     click.echo(summary_markdown(summary), nl=False)
@@ -795,7 +790,7 @@ def eval_arenas(
     except OSError as error:  # an output that became unwritable midway (its rows so far stay)
         raise click.ClickException(f"{str(error.filename or output)!r}: {error.strerror or error}") from None
     except ImportError as error:
-        raise click.UsageError(f"{error}. Loading a model needs the train extra: pip install -e '.[train]'") from None
+        raise click.ClickException(needs_extra(error, "aaai eval")) from None
     summary = summarise_arenas(rows, categories)
     summary_path = _write_summary(write_summary, summary, output)
     click.echo(summary_markdown(summary), nl=False)
@@ -855,9 +850,11 @@ def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, co
     from aaai.scoring.evaluation import seeds_for
 
     try:
+        import minari  # noqa: F401 (the demos extra: checked before anything is recorded)
+
         from aaai.scoring.demos import dataset_id_for, record
     except ImportError as error:
-        raise click.UsageError(f"{error}. aaai demos needs the demos extra: pip install -e '.[demos]'") from None
+        raise click.ClickException(needs_extra(error, "aaai demos")) from None
     try:
         chosen = resolve(policy)
         config = with_action_mode(chosen.config(config_path), action_mode)
@@ -870,8 +867,10 @@ def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, co
         dataset_id = dataset_id or dataset_id_for(policy)
         with click.progressbar(length=len(plan), label=f"recording {len(plan)} episodes", show_pos=True) as bar:
             record(chosen, plan, Path(out), config, dataset_id, on_episode=lambda index: bar.update(1))
-    except (ConfigError, FileNotFoundError, ImportError) as error:
+    except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai demos")) from None
     click.echo(
         f"dataset {dataset_id} in {out}: {len(plan)} episodes; load it with "
         f"MINARI_DATASETS_PATH={out} python -c \"import minari; minari.load_dataset('{dataset_id}')\""
@@ -1078,8 +1077,10 @@ def plot_command(runs, output, smooth):
 
     try:
         path = plot_runs(list(runs), output, smooth=smooth)
-    except (ConfigError, FileNotFoundError, ImportError) as error:
+    except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai plot")) from None
     click.echo(f"learning curves of {len(runs)} run(s): {path}")
 
 
@@ -1197,7 +1198,7 @@ def curricula_command(
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except ImportError as error:
-        raise click.UsageError(f"{error}. The experiment needs the train extra: pip install -e '.[train]'") from None
+        raise click.ClickException(needs_extra(error, "aaai experiment")) from None
     click.echo((experiment.folder / "table.md").read_text(), nl=False)
     click.echo(f"table {experiment.folder / 'table.md'}, plot {experiment.folder / 'curves.png'}")
 
@@ -1231,6 +1232,8 @@ def competence_command(folder, gait_steps, rotation_steps):
         table = run_experiment(folder, settings, echo=click.echo)
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai experiment")) from None
     click.echo(table.read_text(), nl=False)
 
 

@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from aaai.config import ConfigError, load_config
+from aaai.errors import needs_extra
 from aaai.scoring.policies import Policy
 
 
@@ -186,11 +187,13 @@ def play(
     try:
         from aaai.tools.play.server import Server
     except ImportError as error:
-        raise click.UsageError(f"{error}. aaai play needs the play extra: pip install -e '.[play]'") from None
+        raise click.ClickException(needs_extra(error, "aaai play")) from None
     try:
         server = Server(settings, host, port)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai play")) from None
     episodes = len(settings.episodes())
     click.echo(
         f"aaai play: open {server.url} in a browser ({episodes} episode{'s' * (episodes != 1)} per player, "

@@ -18,9 +18,12 @@ import dataclasses
 import hashlib
 import importlib
 import importlib.util
+import os
+import sys
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -190,7 +193,8 @@ def factory(policy: str) -> Callable:
     if not attribute:
         raise ConfigError(f"--policy: got {policy!r}; allowed: {ALLOWED}")
     try:
-        target: Any = importlib.import_module(module_name)
+        with _cwd_importable():
+            target: Any = importlib.import_module(module_name)
         for part in attribute.split("."):
             target = getattr(target, part)
     except (ImportError, AttributeError) as error:
@@ -198,9 +202,24 @@ def factory(policy: str) -> Callable:
     return target
 
 
+@contextmanager
+def _cwd_importable() -> Iterator[None]:
+    """The current folder importable first, as ``python -m`` makes it, for one import of a policy's module."""
+    cwd = os.getcwd()
+    added = cwd not in sys.path
+    if added:
+        sys.path.insert(0, cwd)
+    try:
+        yield
+    finally:
+        if added and cwd in sys.path:
+            sys.path.remove(cwd)
+
+
 def _module_file(name: str) -> Path | None:
     try:
-        spec = importlib.util.find_spec(name)
+        with _cwd_importable():
+            spec = importlib.util.find_spec(name)
     except (ImportError, ValueError):
         return None
     origin = getattr(spec, "origin", None)

@@ -22,6 +22,7 @@ import numpy as np
 import yaml
 
 from aaai.config import config_dir, load_config
+from aaai.errors import needs_extra
 from aaai.levels import generate
 from aaai.levels.common import arena_walls, sphere
 from aaai.sim.gait import GaitParameters, SineGait, approach, load_parameters, steer
@@ -195,7 +196,10 @@ def score(env, gait: SineGait) -> float:
 
 
 def tune(evaluations: int, drive: bool, seed: int, start: GaitParameters) -> tuple[GaitParameters, dict]:
-    import cma
+    try:
+        import cma
+    except ImportError as error:
+        raise SystemExit(needs_extra(error, "tuning the gait")) from None
 
     from aaai.env import AnimalAIEnv
 
