@@ -17,7 +17,7 @@ from conftest import needs
 from aaai.config import ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
 from aaai.scoring.evaluation import policy_record
-from aaai.scoring.policies import ModelPolicy, Policy, RandomPolicy, check_model, external, resolve
+from aaai.scoring.policies import GRID, ModelPolicy, Policy, RandomPolicy, check_model, external, on_grid, resolve
 from aaai.scoring.runs import RunFolder
 
 SHORT = {"episode": {"max_steps": 20}}
@@ -58,7 +58,7 @@ def test_a_built_in_name_is_its_own_kind_and_record():
     env = AnimalAIEnv(config=load_config(SHORT))
     try:
         assert isinstance(resolve("random").build(env), RandomPolicy)
-        assert type(resolve("reference").build(env)).__name__ == "ReferenceController"
+        assert type(resolve("reference").build(env).policy).__name__ == "ReferenceController"  # on the grid
         assert type(resolve("gait").build(env)).__name__ == "SineGait"
     finally:
         env.close()
@@ -323,13 +323,13 @@ def test_a_recurrent_model_carries_its_memory_through_an_episode_and_forgets_it_
             for _ in range(4):
                 expected, state = model.predict(observation, state=state, episode_start=start, deterministic=True)
                 start = np.array([False])
-                assert np.allclose(policy(observation), expected)
+                assert np.allclose(policy(observation), expected, rtol=0, atol=GRID)  # up to the action grid
                 observation, *_ = env.step(expected)
             policy.reset(3)
             assert policy.state is None and policy.start is True
             observation, _ = env.reset(seed=3)
             expected, _ = model.predict(observation, state=None, episode_start=np.array([True]), deterministic=True)
-            assert np.allclose(policy(observation), expected)
+            assert np.allclose(policy(observation), expected, rtol=0, atol=GRID)
     finally:
         env.close()
 
@@ -345,7 +345,7 @@ def test_a_model_ignores_the_observation_keys_its_caller_added(run):
         observation, _ = env.reset(seed=1)
         assert "camera" in observation
         plain = {k: v for k, v in observation.items() if k != "camera"}
-        assert np.array_equal(policy(observation), policy.model.predict(plain, deterministic=True)[0])
+        assert np.array_equal(policy(observation), on_grid(policy.model.predict(plain, deterministic=True)[0]))
     finally:
         env.close()
 

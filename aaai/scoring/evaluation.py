@@ -514,8 +514,10 @@ def env_record(config: dict) -> dict:
 
 
 def scoring_record(policy: Policy, record: dict | None, config: dict) -> dict:
-    """The whole record of a scoreboard: the policy's (default: on listed seeds) and the environment's."""
-    return {**(record if record is not None else policy_record(policy, "list")), **env_record(config)}
+    """The whole record of a scoreboard: the policy's (default: on listed seeds), the environment's
+    and, for a policy whose actions are put on a grid, how they are computed (``numerics``)."""
+    numerics = {"numerics": policy.numerics} if policy.numerics else {}
+    return {**(record if record is not None else policy_record(policy, "list")), **env_record(config), **numerics}
 
 
 def _flat(tree: Any, prefix: str = "") -> dict[str, Any]:

@@ -33,6 +33,13 @@ from aaai.scoring.runs import RunFolder, model_problem, rllib_checkpoint, run_ba
 from aaai.sim.gait import gait_policy
 
 BUILT_IN = ("random", "reference", "gait")
+# How a scoreboard's actions are computed (recorded with it): a learned policy's forward pass in
+# float64, and the action that a learned policy or the reference hands to the environment put on a
+# grid of 2**-20 (the nearest multiple, then float32, which holds it exactly), so that last-bit
+# differences between CPUs' code paths (MKL's kernels, vector maths) do not reach the physics.
+NUMERICS = "f64-grid2^-20"
+GRID = 2.0**-20
+ON_GRID = ("reference", "model", "rllib")  # the kinds whose actions are put on the grid
 KINDS = (*BUILT_IN, "model", "rllib", "callable", "external")
 ALLOWED = "random, reference, gait, a model .zip, a run folder, module:callable"
 
@@ -80,9 +87,20 @@ class Policy:
         """The same policy with its model read from ``file`` (a worker's copy of the bytes)."""
         return dataclasses.replace(self, file=str(file))
 
+    @property
+    def numerics(self) -> str | None:
+        """How its actions are computed (:data:`NUMERICS`), None for those handed on as they are
+        (random actions, the gait, a callable's, a human's)."""
+        return NUMERICS if self.kind in ON_GRID else None
+
     def build(self, env: Any, extra_keys: tuple = ()) -> Callable:
         """The acting policy for ``env``: ``policy(observation) -> action``. A model is checked
-        against ``env`` first; ``extra_keys``: observation keys the caller added for itself."""
+        against ``env`` first; ``extra_keys``: observation keys the caller added for itself. The
+        actions of the reference and of a learned policy are put on the grid (:class:`OnGrid`)."""
+        acting = self._acting(env, extra_keys)
+        return OnGrid(acting) if self.numerics else acting
+
+    def _acting(self, env: Any, extra_keys: tuple) -> Callable:
         if self.kind == "random":
             return RandomPolicy(env)
         if self.kind == "reference":
@@ -227,6 +245,28 @@ def _module_file(name: str) -> Path | None:
 
 
 # --- the acting policies ----------------------------------------------------------------
+def on_grid(action) -> np.ndarray:
+    """``action`` rounded to the nearest multiple of :data:`GRID`, as float32 (exact: every
+    multiple of 2**-20 below 16 is a float32). Each step is exact arithmetic, the same on any CPU."""
+    return (np.rint(np.asarray(action, np.float64) / GRID) * GRID).astype(np.float32)
+
+
+class OnGrid:
+    """A policy whose actions are put on the grid (:func:`on_grid`); anything else is the policy's own
+    (``reset``, ``end_episode``, a controller's ``command``)."""
+
+    def __init__(self, policy: Callable):
+        self.policy = policy
+
+    def __call__(self, observation):
+        return on_grid(self.policy(observation))
+
+    def __getattr__(self, name: str):
+        if name == "policy":  # not set yet (e.g. while unpickling): no recursion
+            raise AttributeError(name)
+        return getattr(self.policy, name)
+
+
 class RandomPolicy:
     """Uniform random actions, seeded per episode so that a scoreboard repeats exactly."""
 
@@ -241,7 +281,8 @@ class RandomPolicy:
 
 
 class ModelPolicy:
-    """A stable-baselines3 model, acting deterministically.
+    """A stable-baselines3 model, acting deterministically, its forward pass in float64
+    (:func:`aaai.scoring.model_io.in_float64`).
 
     By default the file is read without unpickling anything (aaai.scoring.model_io): its policy is rebuilt
     from our registry and the environment's spaces, its weights read with weights_only. ``trust``
@@ -268,6 +309,7 @@ class ModelPolicy:
             seen = _Seen(env, self.extra_keys)
         if trust:
             self.model: Any = _trusted_load(path)
+            model_io.in_float64(self.model.policy)
             if seen is not None:
                 problems = _space_problems(self.model.observation_space, self.model.action_space, seen)
                 if problems:
@@ -287,6 +329,7 @@ class ModelPolicy:
             fallback_kwargs=_run_policy_kwargs(run_config),
             archive=archive,
         )
+        model_io.in_float64(self.model.policy)
         self.recurrent = self.model.recurrent
 
     def reset(self, seed: int) -> None:

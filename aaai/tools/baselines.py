@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import csv
 import io
+import json
+import math
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -28,6 +30,7 @@ from aaai.scoring.policies import Policy, resolve
 from aaai.train.curriculum import heatmap_panel
 
 SHOWN_DIFFICULTIES = (0, 5, 10)
+PROVENANCE = "provenance.json"  # per scoreboard: how its actions were computed (write_provenance)
 
 
 def one_thread() -> None:
@@ -102,18 +105,44 @@ def run(
         rows.sort(key=lambda r: (int(r["level"]), int(r["difficulty"]), int(r["seed"])))
         scoreboards[name] = out / f"{name}.csv"
         write_atomic(scoreboards[name], _csv_text(rows))
+    write_provenance(out, named)
     wall = time.perf_counter() - started
-    shown = {name: out / f"{name}.csv" for name in ORDER if (out / f"{name}.csv").is_file()}
-    shown.update(scoreboards)
-    boards = {name: _read(path) for name, path in sorted(shown.items(), key=lambda item: _rank(item[0]))}
-    write_atomic(out / "table.md", table_markdown(boards))
-    write_heatmap(boards, levels, difficulties, out / "heatmap.png")
+    tabulate(out, list(scoreboards), levels, difficulties)
     echo(
         f"baselines written to {out} in {wall / 60:.1f} min on {workers} workers ("
         + ", ".join(f"{name} {spent / 60:.1f} min" for name, spent in seconds.items())
         + " of worker time)"
     )
     return scoreboards
+
+
+def tabulate(
+    out: Path,
+    names: tuple[str, ...] | list[str] = (),
+    levels: list[int] | None = None,
+    difficulties: list[int] | None = None,
+):
+    """Writes ``out/table.md`` and ``out/heatmap.png`` from the scoreboards of :data:`ORDER` in
+    ``out`` and those of ``names``."""
+    levels = sorted(all_levels()) if levels is None else levels
+    difficulties = list(range(11)) if difficulties is None else difficulties
+    shown = [name for name in ORDER if (out / f"{name}.csv").is_file()] + [n for n in names if n not in ORDER]
+    boards = {name: _read(out / f"{name}.csv") for name in sorted(shown, key=_rank)}
+    write_atomic(out / "table.md", table_markdown(boards))
+    write_heatmap(boards, levels, difficulties, out / "heatmap.png")
+
+
+def write_provenance(out: Path, named: dict[str, Policy]) -> None:
+    """Records in ``out/provenance.json`` how each scoreboard just scored was computed: its policy's
+    numerics (:data:`aaai.scoring.policies.NUMERICS`, or "none": actions handed on as they are)
+    and the package version; the entries of the other scoreboards stay."""
+    from aaai import __version__
+
+    path = out / PROVENANCE
+    entries = json.loads(path.read_text()) if path.is_file() else {}
+    for name, policy in named.items():
+        entries[name] = {"numerics": policy.numerics or "none", "aaai_version": __version__}
+    write_atomic(path, json.dumps(entries, indent=1, sort_keys=True) + "\n")
 
 
 def _rank(name: str) -> int:
@@ -138,8 +167,8 @@ def passed(row: dict) -> bool:
 
 
 def table_markdown(boards: dict[str, list[dict]]) -> str:
-    """Pass rates (passed or succeeded, ratio >= 0.8) per level and policy: overall and at
-    difficulties 0, 5 and 10."""
+    """Pass rates (passed or succeeded, ratio >= 0.8) per level and policy, each with its 95 %
+    Wilson interval: overall and at difficulties 0, 5 and 10."""
     names = list(boards)
     head = "| level | " + " | ".join(f"{name}: all | d0 / d5 / d10" for name in names) + " |"
     lines = [head, "|---|" + "---:|---:|" * len(names)]
@@ -155,10 +184,21 @@ def table_markdown(boards: dict[str, list[dict]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def wilson(passes: int, episodes: int, z: float = 1.96) -> tuple[float, float]:
+    """The Wilson score interval of a pass rate (95 % for z = 1.96): (low, high), as fractions."""
+    rate, spread = passes / episodes, z * z / episodes
+    centre = (rate + spread / 2) / (1 + spread)
+    half = z * math.sqrt(rate * (1 - rate) / episodes + spread / (4 * episodes)) / (1 + spread)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
 def _rate(rows: list[dict]) -> str:
+    """The pass rate of ``rows`` with its 95 % Wilson interval: "98% (97-99)"."""
     if not rows:
         return "-"
-    return f"{100.0 * sum(map(passed, rows)) / len(rows):.0f}%"
+    passes = sum(map(passed, rows))
+    low, high = wilson(passes, len(rows))
+    return f"{100.0 * passes / len(rows):.0f}% ({100 * low:.0f}-{100 * high:.0f})"
 
 
 def write_heatmap(boards: dict[str, list[dict]], levels: list[int], difficulties: list[int], path: Path) -> None:
@@ -176,3 +216,50 @@ def write_heatmap(boards: dict[str, list[dict]], levels: list[int], difficulties
     with atomic_path(path) as temporary:
         if not cv2.imwrite(str(temporary), picture):
             raise OSError(f"OpenCV could not write {path}")
+
+
+# --- re-scoring committed rows ------------------------------------------------------------------
+# What each committed scoreboard of the table was scored with: --policy and --config, relative to
+# the baselines folder (None: the default config). ppo_demo is left out: the demo's model is not
+# committed (make demo trains it).
+COMMITTED = {
+    "random": ("random", None),
+    "reference": ("reference", None),
+    "student": ("models/student.zip", "models/student.yaml"),
+    "ppo_gait": ("models/ppo_gait.zip", "models/ppo_gait.yaml"),
+}
+UNTIMED = [column for column in COLUMNS if column != "wall_seconds"]  # what a re-score must repeat
+
+
+def committed_policy(folder: Path, name: str) -> Policy:
+    """The policy of a committed scoreboard (:data:`COMMITTED`), scored with its config."""
+    from dataclasses import replace
+
+    from aaai.config import load_config
+
+    policy_name, config_name = COMMITTED[name]
+    policy = resolve(policy_name if policy_name in ("random", "reference") else str(folder / policy_name))
+    return replace(policy, run_config=load_config(str(folder / config_name))) if config_name else policy
+
+
+def rescore(folder: Path, name: str, rows: list[dict]) -> list[dict]:
+    """Plays again the episodes of ``rows`` (committed rows of ``folder/<name>.csv``) with the policy
+    and config they were scored with (:data:`COMMITTED`); their new rows, in order, as strings."""
+    from aaai.config import env_part
+    from aaai.env import AnimalAIEnv
+    from aaai.scoring.evaluation import run_episode
+
+    one_thread()
+    policy = committed_policy(folder, name)
+    env = AnimalAIEnv(config=env_part(policy.config(), shaping=0.0))
+    try:
+        acting = policy.build(env)
+        played = (run_episode(env, acting, int(r["level"]), int(r["difficulty"]), int(r["seed"])) for r in rows)
+        return [{k: str(v) for k, v in row.items()} for row in played]
+    finally:
+        env.close()
+
+
+def differing(committed: list[dict], new: list[dict]) -> list[tuple[dict, dict]]:
+    """The (committed, new) pairs of rows that differ in any column but the timing."""
+    return [(a, b) for a, b in zip(committed, new) if [a[c] for c in UNTIMED] != [b[c] for c in UNTIMED]]

@@ -1,0 +1,106 @@
+"""The committed baseline scoreboards re-score exactly, on this CPU's code path and on another's.
+
+A learned policy acts in float64 and the actions of learned policies and of the reference are put
+on a grid of 2**-20 (aaai.scoring.policies.NUMERICS), so that last-bit differences between CPUs'
+code paths (MKL's kernels, vector maths) do not reach the physics (docs/determinism.md)."""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aaai.scoring.policies import GRID, NUMERICS, on_grid
+from aaai.tools.baselines import COMMITTED, PROVENANCE, differing, rescore
+
+BASELINES = Path(__file__).resolve().parents[1] / "baselines"
+# The code path of a CPU without AVX-512, simulated in one process tree (set before any import).
+OTHER_CPU = {
+    "MKL_CBWR": "AVX2",
+    "ATEN_CPU_CAPABILITY": "avx2",
+    "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
+    "OPENBLAS_CORETYPE": "Haswell",
+}
+
+
+def short_rows(name: str, count: int = 10) -> list[dict]:
+    """The shortest committed episode of each level, the ``count`` shortest of those (fast, and
+    from different levels)."""
+    with open(BASELINES / f"{name}.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    shortest: dict[str, dict] = {}
+    for row in rows:
+        if row["level"] not in shortest or int(row["steps"]) < int(shortest[row["level"]]["steps"]):
+            shortest[row["level"]] = row
+    return sorted(shortest.values(), key=lambda row: int(row["steps"]))[:count]
+
+
+def scored_now(name: str) -> bool:
+    return json.loads((BASELINES / PROVENANCE).read_text())[name]["numerics"] in (NUMERICS, "none")
+
+
+@pytest.mark.parametrize("name", ["reference", "student", "ppo_gait"])
+def test_committed_baseline_rows_rescore_exactly(name):
+    if not scored_now(name):
+        pytest.skip(f"baselines/{name}.csv was scored before {NUMERICS} (baselines/{PROVENANCE}); re-score it")
+    rows = short_rows(name)
+    assert len({row["level"] for row in rows}) == 10
+    assert differing(rows, rescore(BASELINES, name, rows)) == []
+
+
+def test_actions_are_put_on_the_grid_and_an_ulp_does_not_move_them():
+    action = np.array([0.123456789, -0.987654321, 1.0, -1.0, 0.0])
+    gridded = on_grid(action)
+    assert gridded.dtype == np.float32 and np.all(np.abs(gridded - action) <= GRID / 2)
+    assert np.all(gridded.astype(np.float64) / GRID == np.rint(gridded.astype(np.float64) / GRID))  # exact multiples
+    assert np.array_equal(on_grid(np.nextafter(action, 2.0)), gridded)
+    assert np.array_equal(on_grid(np.nextafter(action, -2.0)), gridded)
+
+
+def test_a_learned_policy_acts_in_float64_on_the_grid():
+    from dataclasses import replace
+
+    from aaai.config import env_part, load_config
+    from aaai.env import AnimalAIEnv
+    from aaai.scoring.policies import resolve
+
+    policy = resolve(str(BASELINES / "models" / "student.zip"))
+    policy = replace(policy, run_config=load_config(str(BASELINES / "models" / "student.yaml")))
+    env = AnimalAIEnv(config=env_part(policy.config(), shaping=0.0))
+    try:
+        acting = policy.build(env)
+        observation, _ = env.reset(seed=1, options={"level": 0, "difficulty": 0})
+        action = acting(observation)
+    finally:
+        env.close()
+    assert {p.dtype for p in acting.model.policy.parameters()} == {__import__("torch").float64}
+    assert action.dtype == np.float32 and np.array_equal(action, on_grid(action))
+    assert policy.numerics == NUMERICS
+
+
+@pytest.mark.long
+@pytest.mark.parametrize("name", ["reference", "student", "ppo_gait"])
+def test_a_sample_rescores_identically_on_another_cpus_code_path(name):
+    rows = short_rows(name)
+    here = rescore(BASELINES, name, rows)
+    script = (
+        "import json, sys; from pathlib import Path; from aaai.tools.baselines import rescore; "
+        "print(json.dumps(rescore(Path(sys.argv[1]), sys.argv[2], json.loads(sys.argv[3]))))"
+    )
+    other = subprocess.run(
+        [sys.executable, "-c", script, str(BASELINES), name, json.dumps(rows)],
+        env={**os.environ, **OTHER_CPU},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert differing(here, json.loads(other.stdout)) == []
+
+
+def test_every_committed_scoreboard_has_its_provenance():
+    entries = json.loads((BASELINES / PROVENANCE).read_text())
+    assert set(COMMITTED) <= set(entries) and {"numerics", "aaai_version"} <= set(entries["student"])
