@@ -11,12 +11,14 @@ import textwrap
 import gymnasium as gym
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
 from aaai.config import ConfigError, load_config
 from aaai.env import AnimalAIEnv
 from aaai.levels import all_levels, generate, get_level
 from aaai.registration import register_envs
 from aaai.task import validate
+from aaai_cli.main import cli
 
 GENERATOR = '''
 """A test level: the food straight ahead of the agent, farther with the difficulty."""
@@ -68,6 +70,14 @@ def aaai(*args, cwd):
     return result.stdout
 
 
+def aaai_here(*args):
+    """``aaai(*args)`` in this process (click's runner), where the fixture has put AAAI_LEVELS and the
+    generator's folder on the path: no interpreter and imports to start again for each command."""
+    result = CliRunner().invoke(cli, list(map(str, args)))
+    assert result.exit_code == 0, f"aaai {' '.join(map(str, args))}:\n{result.output}"
+    return result.stdout
+
+
 def test_a_fourteenth_level_runs_in_python(plugin):
     assert sorted(all_levels()) == list(range(14)) and get_level("straight_ahead").id == 13
     spec = generate(13, 4, 99)
@@ -87,17 +97,19 @@ def test_a_fourteenth_level_runs_in_python(plugin):
     made.close()
 
 
-def test_a_fourteenth_level_runs_through_every_command(plugin):
+def test_a_fourteenth_level_runs_through_every_command(plugin, monkeypatch):
+    # a new process finds the level by AAAI_LEVELS and PYTHONPATH alone; the other commands run here
     listing = aaai("levels", cwd=plugin)
     assert "L13" in listing and "aaai/L13-StraightAhead-v0" in listing
-    spec = json.loads(aaai("spec", "L13", "-d", "2", "--json", cwd=plugin))
+    monkeypatch.chdir(plugin)
+    spec = json.loads(aaai_here("spec", "L13", "-d", "2", "--json"))
     assert spec["name"] == "straight_ahead"
-    total = aaai("validate", "--levels", "13", "--seeds", "3", cwd=plugin).splitlines()[-1].split()
+    total = aaai_here("validate", "--levels", "13", "--seeds", "3").splitlines()[-1].split()
     assert total == ["total", "33", "0", "0"]  # 11 difficulties x 3 seeds checked, none regenerated or failed
-    aaai("show", "13", "-o", plugin / "l13.png", cwd=plugin)
+    aaai_here("show", "13", "-o", plugin / "l13.png")
     assert (plugin / "l13.png").stat().st_size > 1000
-    assert "straight_ahead" in aaai("run", "--levels", "13", "--episodes", "1", "--max-steps", "20", cwd=plugin)
-    aaai(
+    assert "straight_ahead" in aaai_here("run", "--levels", "13", "--episodes", "1", "--max-steps", "20")
+    aaai_here(
         "eval",
         "--seeds",
         "reserved",
@@ -111,7 +123,6 @@ def test_a_fourteenth_level_runs_through_every_command(plugin):
         "2",
         "--out",
         plugin / "board.csv",
-        cwd=plugin,
     )
     with open(plugin / "board.csv") as handle:
         rows = list(csv.DictReader(handle))

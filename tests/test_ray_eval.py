@@ -11,8 +11,6 @@ from __future__ import annotations
 import csv
 import os
 import shutil
-import subprocess
-import sys
 import tempfile
 import textwrap
 import time
@@ -284,43 +282,38 @@ def test_without_an_address_a_local_ray_is_started_and_stopped(tmp_path):
     assert before is not None or os.environ.get("RAY_AUTH_MODE") == "disabled"
 
 
-def test_repeated_seeds_score_once_on_both_backends(tmp_path):
+def test_repeated_seeds_score_once_on_both_backends(two_nodes, tmp_path):
     """Guards the episode plan both backends play: seeds [5, 5, 6] are two rows on Ray as locally."""
-    rows = evaluate_on_ray("random", cells((0, 0, [5, 5, 6])), tmp_path / "ray.csv", CONFIG, workers=1)
+    rows = evaluate_on_ray("random", cells((0, 0, [5, 5, 6])), tmp_path / "ray.csv", CONFIG, address=two_nodes.address)
     evaluate("random", cells((0, 0, [5, 5, 6])), tmp_path / "local.csv", CONFIG)
     assert [row["seed"] for row in rows] == ["5", "6"]
     assert table(tmp_path / "ray.csv") == table(tmp_path / "local.csv")
 
 
-def test_the_eval_command_scores_the_same_on_ray(tmp_path):
-    """`aaai eval --backend ray` as a user types it: a local Ray for the eval, the same scoreboard."""
-    args = [
-        sys.executable,
-        "-m",
-        "aaai_cli.main",
-        "eval",
-        "--policy",
-        "random",
-        "-k",
-        "2",
-        "--levels",
-        "0-1",
-        "--difficulty",
-        "0",
-    ]
-    env = {**os.environ, "RAY_AUTH_MODE": "disabled", "RAY_TMPDIR": tempfile.mkdtemp(prefix="aaaicli", dir="/tmp")}
+def test_the_eval_command_scores_the_same_on_ray(two_nodes, tmp_path):
+    """`aaai eval --backend ray` as a user types it, on the cluster by --address: the same scoreboard as
+    --backend local. (Starting and stopping a local Ray is the test above without an address.)"""
+    from click.testing import CliRunner
+
+    from aaai_cli.main import cli
+
+    short = tmp_path / "short.yaml"
+    short.write_text("episode:\n  max_steps: 100\n")  # as CONFIG: these tests compare backends, not policies
+    args = ["eval", "--policy", "random", "-k", "2", "--levels", "0-1", "--difficulty", "0", "--config", str(short)]
     for backend in ("local", "ray"):
-        result = subprocess.run(
-            [*args, "--backend", backend, "--out", str(tmp_path / f"{backend}.csv")],
-            capture_output=True,
-            text=True,
-            env=env,
-            timeout=300,
+        extra = ["--address", two_nodes.address] if backend == "ray" else []
+        result = CliRunner().invoke(
+            cli, [*args, "--backend", backend, *extra, "--out", str(tmp_path / f"{backend}.csv")]
         )
-        assert result.returncode == 0, result.stderr[-3000:]
+        assert result.exit_code == 0, result.output[-3000:]
+    import ray
+
+    assert not ray.is_initialized()  # the eval left the cluster it joined
 
     def rows(name):
         with open(tmp_path / name) as handle:
             return [{k: v for k, v in r.items() if k != "wall_seconds"} for r in csv.DictReader(handle)]
 
     assert rows("ray.csv") == rows("local.csv") and len(rows("ray.csv")) == 4
+    record = (tmp_path / "ray_scored_with.json").read_text()
+    assert record == (tmp_path / "local_scored_with.json").read_text()

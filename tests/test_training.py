@@ -1,4 +1,5 @@
-"""`aaai train` and `aaai eval` as a user runs them: the CLI in subprocesses."""
+"""`aaai train` and `aaai eval` as a user runs them: the CLI in subprocesses where a process of its own
+matters (a kill, a resume, determinism across processes, what a pipe shows), in this process otherwise."""
 
 import csv
 import json
@@ -8,6 +9,7 @@ import signal
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 import yaml
@@ -24,6 +26,17 @@ def aaai(*args, check=True):
     if check and result.returncode != 0:
         raise AssertionError(f"aaai {' '.join(map(str, args))} failed:\n{result.stdout}\n{result.stderr}")
     return result
+
+
+def aaai_here(*args, check=True):
+    """``aaai(*args)`` run in this process by click's runner (no interpreter and imports to start again);
+    the same returncode, stdout and stderr."""
+    result = CliRunner().invoke(cli, list(map(str, args)))
+    if result.exception is not None and not isinstance(result.exception, SystemExit):
+        raise result.exception
+    if check and result.exit_code != 0:
+        raise AssertionError(f"aaai {' '.join(map(str, args))} failed:\n{result.output}")
+    return SimpleNamespace(returncode=result.exit_code, stdout=result.stdout, stderr=result.stderr)
 
 
 def small_config(tmp_path, **train):
@@ -170,22 +183,22 @@ def test_eval_scoreboard_schema_determinism_and_skipping(tmp_path):
     # An interrupted eval: two rows and a torn third line; re-running scores only what is missing.
     lines = out.read_text().splitlines(keepends=True)
     out.write_text("".join(lines[:3]) + lines[3][:10])
-    aaai(*args, "--out", out)
+    aaai_here(*args, "--out", out)
     assert without_time(out) == without_time(second)
 
 
 def test_train_with_ppo_then_eval_end_to_end(tmp_path):
     run = tmp_path / "ppo"
-    aaai("train", "--curriculum", "--steps", 2048, "--config", small_config(tmp_path), "--run", run)
+    aaai("train", "--curriculum", "--steps", 512, "--config", small_config(tmp_path), "--run", run)
     assert (run / "final" / "model.zip").is_file() and (run / "tb").is_dir()
-    assert read_state(run / "final")["step"] >= 2048
-    aaai("eval", "--seeds", "reserved", "--policy", run, "-k", 1, "--difficulty", 0)
+    assert read_state(run / "final")["step"] >= 512  # 4 updates of 2 x 64 steps
+    aaai_here("eval", "--seeds", "reserved", "--policy", run, "-k", 1, "--difficulty", 0)
     with open(run / "scoreboard_reserved.csv") as handle:
         rows = list(csv.DictReader(handle))
     assert [(r["level"], r["difficulty"]) for r in rows] == [("0", "0"), ("1", "0")]
     first = [r["return"] for r in rows]
     (run / "scoreboard_reserved.csv").unlink()
-    aaai("eval", "--seeds", "reserved", "--policy", run, "-k", 1, "--difficulty", 0)
+    aaai_here("eval", "--seeds", "reserved", "--policy", run, "-k", 1, "--difficulty", 0)
     with open(run / "scoreboard_reserved.csv") as handle:
         assert [r["return"] for r in csv.DictReader(handle)] == first  # deterministic policy, same seeds
 
@@ -193,16 +206,16 @@ def test_train_with_ppo_then_eval_end_to_end(tmp_path):
 def test_cli_errors_are_clear(tmp_path):
     result = aaai("train", "--difficulty", "11", "--run", tmp_path / "x", check=False)
     assert result.returncode != 0 and "--difficulty: got '11'" in result.stderr and "0 to 10" in result.stderr
-    result = aaai("train", "--levels", "0-14", "--run", tmp_path / "x", check=False)
+    result = aaai_here("train", "--levels", "0-14", "--run", tmp_path / "x", check=False)
     assert (
         result.returncode != 0
         and "--levels" in result.stderr
         and "got '0-14'" in result.stderr
         and "0 to 12" in result.stderr
     )
-    result = aaai("eval", "--policy", "nope.zip", check=False)
+    result = aaai_here("eval", "--policy", "nope.zip", check=False)
     assert result.returncode != 0 and "nope.zip" in result.stderr
-    result = aaai("eval", "--seeds", "a,b", check=False)
+    result = aaai_here("eval", "--seeds", "a,b", check=False)
     assert result.returncode != 0 and "--seeds" in result.stderr
 
 
@@ -214,7 +227,9 @@ def test_eval_scores_the_task_reward_even_when_the_config_shapes_it(tmp_path):
     boards = []
     for name, config in (("shaped", shaped), ("plain", plain)):
         out = tmp_path / f"{name}.csv"
-        aaai("eval", "--policy", "random", "--levels", 0, "--difficulty", 0, "-k", 2, "--config", config, "--out", out)
+        aaai_here(
+            "eval", "--policy", "random", "--levels", 0, "--difficulty", 0, "-k", 2, "--config", config, "--out", out
+        )
         with open(out) as handle:
             boards.append([row["return"] for row in csv.DictReader(handle)])
     assert boards[0] == boards[1]
@@ -223,8 +238,8 @@ def test_eval_scores_the_task_reward_even_when_the_config_shapes_it(tmp_path):
 def test_eval_on_training_seeds_and_on_a_seed_list(tmp_path):
     config = small_config(tmp_path)
     listed, train = tmp_path / "listed.csv", tmp_path / "train.csv"
-    aaai("eval", "--seeds", "5,6", "--levels", 0, "--difficulty", 0, "--config", config, "--out", listed)
-    aaai("eval", "--seeds", "train", "-k", 2, "--levels", 0, "--difficulty", 0, "--config", config, "--out", train)
+    aaai_here("eval", "--seeds", "5,6", "--levels", 0, "--difficulty", 0, "--config", config, "--out", listed)
+    aaai_here("eval", "--seeds", "train", "-k", 2, "--levels", 0, "--difficulty", 0, "--config", config, "--out", train)
     with open(listed) as handle:
         assert [int(row["seed"]) for row in csv.DictReader(handle)] == [5, 6]
     with open(train) as handle:
@@ -374,7 +389,7 @@ def test_a_non_terminal_train_and_eval_print_progress_lines(tmp_path):
     assert steps == sorted(steps) and steps[-1] == 3000
     assert int(parsed[-1].group(3)) >= 20 and parsed[-1].group(4) != "-"  # 100-step episodes were counted
     board = tmp_path / "board.csv"
-    scored = aaai(
+    scored = aaai_here(
         "eval",
         "--policy",
         "random",
@@ -405,7 +420,7 @@ def test_a_non_terminal_train_and_eval_print_progress_lines(tmp_path):
 
     image = cv2.imread(str(picture))
     assert image is not None and image.std() > 10
-    result = aaai("plot", tmp_path, "--out", tmp_path / "x.png", check=False)
+    result = aaai_here("plot", tmp_path, "--out", tmp_path / "x.png", check=False)
     assert result.returncode == 2 and "config.yaml is missing" in result.stderr
 
 
@@ -501,9 +516,9 @@ def test_curricula_experiment_runs_scores_and_resumes(tmp_path, jobs):
     with open(folder / "table.csv") as handle:
         assert [row["sampler"] for row in csv.DictReader(handle)] == ["paper", "plr"]
     assert "| paper | 1 |" in (folder / "table.md").read_text() and (folder / "curves.png").stat().st_size > 1000
-    again = aaai(*args)
+    again = aaai_here(*args)
     assert again.stdout.count("skipped") == 6  # two runs and four scoreboards, all done
-    other = aaai(*[a if a != 200 else 300 for a in args], check=False)
+    other = aaai_here(*[a if a != 200 else 300 for a in args], check=False)
     assert other.returncode == 2 and "another config" in other.stderr
 
 
