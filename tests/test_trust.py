@@ -632,7 +632,7 @@ OPTIONS = {
         "--levels": small_text,
         "--difficulty": small_text,
         "-k": st.sampled_from(["1", "0", "x"]),
-        "--seeds": st.sampled_from(["reserved", "train", "1,2", "x", ""]),
+        "--seeds": st.sampled_from(["reserved", "train", "1,2", "x", "", "-1", "1,99999999999999999999"]),
         "--policy": st.sampled_from(["random", "json:nothing", "nothing.zip", "x", "reference"]),
         "--backend": st.sampled_from(["local", "cluster"]),
         "--trust-model": None,
@@ -676,6 +676,8 @@ def _command_ends_cleanly(tmp_path: Path, args: list[str]) -> None:
 @settings(max_examples=FUZZ_FAST, **_fuzz)
 @given(args=command_lines())
 @example(args=["validate", "--first-seed", "99999999999999999999"])  # once a traceback (a seed past the limit)
+@example(args=["run", "--seed", "99999999999999999999"])  # once a traceback (found by the long run)
+@example(args=["eval", "--seeds", "-1"])  # once a traceback from Gymnasium
 def test_fuzzed_command_lines_end_cleanly(tmp_path_factory, args):
     _command_ends_cleanly(tmp_path_factory.mktemp("cli"), args)
 
