@@ -577,7 +577,7 @@ def train_command(
 )
 @click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
 @click.option(
-    "--out", "output", type=Output(dir_okay=False), help="Scoreboard CSV (default: scoreboard_<seeds>.csv in the run)."
+    "--out", "output", type=Output(what="file"), help="Scoreboard CSV (default: scoreboard_<seeds>.csv in the run)."
 )
 @click.option(
     "--seed-key-file",
@@ -1040,7 +1040,7 @@ def seeds_command(levels, difficulty, count, seed_key_file):
 @click.option(
     "--out",
     "folder",
-    type=Output(file_okay=False),
+    type=Output(what="folder"),
     default="bench",
     show_default=True,
     help="Folder for bench.json and bench.md.",

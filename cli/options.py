@@ -56,7 +56,12 @@ class SeedList(click.ParamType):
 
 class Output(click.Path):
     """An output's path (click.Path): refused if it is a device or other special file (/dev/null:
-    the files written beside it would land in /dev), or if its parent is a file."""
+    the files written beside it would land in /dev), or if its parent is a file. ``what`` names what is
+    allowed where click's own file and folder checks are left to the command (default: from them)."""
+
+    def __init__(self, *args, what: str | None = None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.what = what
 
     def convert(self, value, param, ctx):
         path = super().convert(value, param, ctx)
@@ -71,4 +76,6 @@ class Output(click.Path):
         return path
 
     def _kind(self) -> str:
+        if self.what:
+            return self.what
         return "folder" if not self.file_okay else "file" if not self.dir_okay else "file or folder"

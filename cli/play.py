@@ -48,7 +48,7 @@ LOOPBACK = ("127.0.0.1", "localhost", "::1")
 @click.option(
     "--out",
     "output",
-    type=Output(dir_okay=False),
+    type=Output(what="file"),
     default="human_{player}.csv",
     show_default=True,
     help="Scoreboard CSV; {player} is replaced by the player's name. Re-run with the same --out to "
