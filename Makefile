@@ -69,8 +69,10 @@ docs: install-all
 play-screenshot: install-all $(CHROMIUM_BINARIES)
 	AAAI_PLAY_SCREENSHOT=docs/play.png $(BIN)/python -m pytest -q tests/test_play.py -k browser
 
+# The long checks (docs: Development, Long checks), about 25 minutes on 2 idle cores; CI runs them
+# after make test. The 20 slowest tests are listed at the end.
 test-long: install-all
-	$(BIN)/python -m pytest -q -m long $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -q -m long --durations=20 $(PYTEST_ARGS)
 
 # The main job on the shipped default config: a short curriculum training run, then its
 # reserved-seed scoreboard. DEMO_RUN is replaced on every `make demo`.

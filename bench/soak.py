@@ -133,7 +133,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("soak.jsonl"))
     args = parser.parse_args()
     records = run(args.steps, args.out, args.chunk, args.seed)
-    print(json.dumps(summary(records)))
+    after_close = {"connections_after_close": records[-1]["connections_after_close"]} if records else {}
+    print(json.dumps({**summary(records), **after_close}))
 
 
 if __name__ == "__main__":

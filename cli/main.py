@@ -14,11 +14,12 @@ from aaai.config import ConfigError, describe_ids, load_config, parse_int_set, r
 from aaai.env import AnimalAIEnv
 from aaai.errors import needs_extra
 from aaai.files import InUse
-from aaai.levels import all_levels, describe_levels, generate, get_level, level_ids
+from aaai.levels import SEED_LIMIT, all_levels, describe_levels, generate, get_level, level_ids
 from aaai.registration import level_env_id
 from aaai.scoring.episodes import play
 from aaai.scoring.policies import resolve
 from aaai.scoring.runs import RunFolder
+from aaai_cli.options import COUNT, DIFFICULTY, MANY, SEED, WORKERS, Finite, Output, SeedList, rule
 
 POLICY_HELP = (
     "random, reference (the privileged reference controller), gait (the example trot), "
@@ -86,8 +87,8 @@ def levels_command():
 
 @cli.command("spec")
 @click.argument("level")
-@click.option("-d", "--difficulty", type=int, default=0, show_default=True)
-@click.option("-s", "--seed", type=int, default=0, show_default=True)
+@click.option("-d", "--difficulty", type=DIFFICULTY, default=0, show_default=True)
+@click.option("-s", "--seed", type=SEED, default=0, show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print the whole spec as JSON.")
 @click.option(
     "--yaml",
@@ -133,11 +134,15 @@ def spec_command(level, difficulty, seed, as_json, as_yaml):
     help="Levels by id, label or name, e.g. '0-1' or 'L2b,L3'.",
 )
 @click.option("--difficulty", "difficulty_text", default="0", show_default=True, help="Difficulties, e.g. '0-4'.")
-@click.option("--episodes", type=click.IntRange(1), default=1, show_default=True, help="Episodes per cell.")
-@click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="First episode seed.")
+@click.option("--episodes", type=COUNT, default=1, show_default=True, help="Episodes per cell.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="First episode seed.")
 @click.option("--policy", default="random", show_default=True, help=POLICY_HELP)
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
-@click.option("--max-steps", type=int, help="Episode length T (overrides the config and the level's time limit).")
+@click.option(
+    "--max-steps",
+    type=rule("episode.max_steps"),
+    help="Episode length T (overrides the config and the level's time limit).",
+)
 @click.option("--camera/--no-camera", default=None, help="Turn the head camera on or off.")
 @click.option("--rays/--no-rays", default=None, help="Turn the rays on or off.")
 @click.option(
@@ -182,6 +187,13 @@ def run_command(
         return run_replay_file(replay, arena)
     levels = parse_levels(levels_text)
     difficulties = parse_range(difficulty_text, "--difficulty", 0, 10)
+    last = seed + episodes * (1 if arena is not None else len(levels) * len(difficulties)) - 1
+    if last >= SEED_LIMIT:  # episode i plays seed --seed + i: each must be one a level takes
+        raise click.BadParameter(
+            f"got {seed} for {last - seed + 1} episodes, whose last seed would be {last}; allowed: seeds up "
+            f"to {SEED_LIMIT - 1} (a first seed of at most {SEED_LIMIT - (last - seed + 1)})",
+            param_hint="--seed",
+        )
     overrides = {
         k: v
         for k, v in dict(max_steps=max_steps, camera=camera, rays=rays, action_mode=action_mode).items()
@@ -336,7 +348,7 @@ def _overrides(**values) -> dict:
 @click.option(
     "--steps",
     "total_steps",
-    type=int,
+    type=rule("train.total_steps"),
     help="Agent decisions in all: env.step calls, one control step (0.02 s) each in the joint modes, "
     "agent.decision_interval (0.1 s, 5 control steps) each in gait mode. The workers step together, so a run "
     "ends at the first multiple of their number at or past it.",
@@ -344,14 +356,14 @@ def _overrides(**values) -> dict:
 @click.option(
     "--envs",
     "num_envs",
-    type=int,
+    type=rule("train.num_envs"),
     help="Workers: environments stepping together (train.num_envs), in this process or one process each "
     "(train.vector).",
 )
-@click.option("--seed", type=int, help="Seeds the sampler and the learner.")
+@click.option("--seed", type=rule("train.seed"), help="Seeds the sampler and the learner.")
 @click.option("--agent", type=click.Choice(["ppo", "random"]), help="ppo (needs the train extra) or random.")
 @click.option("--camera/--no-camera", default=None)
-@click.option("--camera-resolution", type=int)
+@click.option("--camera-resolution", type=rule("sensors.camera_resolution"), help="Camera pixels a side.")
 @click.option("--rays/--no-rays", default=None)
 @click.option("--run", "run_dir", type=click.Path(), help="Run folder (default runs/run-<date>-<time>).")
 @click.option("--resume", "resume_dir", type=click.Path(), help="Continue the run in this folder.")
@@ -545,7 +557,12 @@ def train_command(
 
 @cli.command("eval")
 @click.option(
-    "--seeds", "seeds_mode", default="reserved", show_default=True, help="reserved, train, or a list like 1,2,3."
+    "--seeds",
+    "seeds_mode",
+    type=SeedList(),
+    default="reserved",
+    show_default=True,
+    help="reserved, train, or a list like 1,2,3.",
 )
 @click.option(
     "--policy",
@@ -558,9 +575,13 @@ def train_command(
     help="Levels to score by id, label or name, e.g. '0-3' or 'L2b' (default: the run's or config's curriculum).",
 )
 @click.option("--difficulty", help="Difficulties to score (default: the curriculum's).")
-@click.option("--seeds-per-cell", "-k", type=click.IntRange(1), help="K seeds per cell (default: eval.seeds_per_cell).")
+@click.option(
+    "--seeds-per-cell", "-k", type=rule("eval.seeds_per_cell"), help="K seeds per cell (default: eval.seeds_per_cell)."
+)
 @click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
-@click.option("--out", "output", type=click.Path(), help="Scoreboard CSV (default: scoreboard_<seeds>.csv in the run).")
+@click.option(
+    "--out", "output", type=Output(what="file"), help="Scoreboard CSV (default: scoreboard_<seeds>.csv in the run)."
+)
 @click.option(
     "--seed-key-file",
     type=click.Path(dir_okay=False),
@@ -581,7 +602,7 @@ def train_command(
 )
 @click.option(
     "--workers",
-    type=click.IntRange(1),
+    type=WORKERS,
     default=2,
     show_default=True,
     help="With --backend ray and no --address: CPUs of the local Ray.",
@@ -602,7 +623,7 @@ def train_command(
 @click.option("--progress-every", type=Seconds(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
 @click.option(
     "--save-replays",
-    type=click.Path(file_okay=False),
+    type=Output(file_okay=False),
     help="Save each scored episode's replay (JSON: level, seed, config, actions) in this folder, for "
     "aaai run --replay and aaai show --replay (--backend local only).",
 )
@@ -822,10 +843,11 @@ def summary_markdown_of(summary: list[dict]) -> str:
     "--levels", default="all", show_default=True, help="Levels by id, label or name, e.g. '0-3,5' or 'L2b,L3', or all."
 )
 @click.option("--difficulty", default="0-10", show_default=True)
-@click.option("-k", "--episodes-per-cell", "count", type=click.IntRange(1), default=1, show_default=True)
+@click.option("-k", "--episodes-per-cell", "count", type=rule("eval.seeds_per_cell"), default=1, show_default=True)
 @click.option(
     "--seeds",
     "seeds_mode",
+    type=SeedList(),
     default="train",
     show_default=True,
     help="train (fixed draws from the training range), reserved, or a list like 1,2,3.",
@@ -839,7 +861,7 @@ def summary_markdown_of(summary: list[dict]) -> str:
 @click.option(
     "--out",
     "out",
-    type=click.Path(file_okay=False),
+    type=Output(file_okay=False),
     required=True,
     help="The folder holding the Minari datasets (MINARI_DATASETS_PATH to load them).",
 )
@@ -886,7 +908,7 @@ def demos_command(policy, levels, difficulty, count, seeds_mode, action_mode, co
     help="The policy's scoreboard CSV (aaai eval): its failed episodes are replayed.",
 )
 @click.option("--levels", help="Only these levels, by id, label or name, e.g. '7,8' or 'L8'.")
-@click.option("--limit", type=click.IntRange(1), help="At most this many failed episodes per level.")
+@click.option("--limit", type=click.IntRange(1, MANY), help="At most this many failed episodes per level.")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
 def diagnose_command(policy, scoreboard, levels, limit, config_path):
     """Why a policy fails: its failed episodes replayed, each sorted into a first cause (fell, never
@@ -915,13 +937,13 @@ def diagnose_command(policy, scoreboard, levels, limit, config_path):
     show_default=True,
     help="The trained run scored as ppo_demo (make demo writes it).",
 )
-@click.option("--out", "folder", type=click.Path(file_okay=False), default="baselines", show_default=True)
+@click.option("--out", "folder", type=Output(file_okay=False), default="baselines", show_default=True)
 @click.option(
     "--levels", default="all", show_default=True, help="Levels by id, label or name, e.g. '0-3,5' or 'L2b,L3', or all."
 )
 @click.option("--difficulty", default="0-10", show_default=True)
-@click.option("--seeds-per-cell", "-k", "count", type=click.IntRange(1), default=10, show_default=True)
-@click.option("--workers", type=click.IntRange(1), default=2, show_default=True, help="Worker processes.")
+@click.option("--seeds-per-cell", "-k", "count", type=rule("eval.seeds_per_cell"), default=10, show_default=True)
+@click.option("--workers", type=WORKERS, default=2, show_default=True, help="Worker processes.")
 @click.option(
     "--student-run",
     type=click.Path(file_okay=False),
@@ -967,7 +989,7 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers, stud
     "--levels", default="all", show_default=True, help="Levels by id, label or name, e.g. '0-3,5' or 'L2b,L3', or all."
 )
 @click.option("--difficulty", default="0-10", show_default=True)
-@click.option("-k", "--seeds-per-cell", "count", type=click.IntRange(1), default=10, show_default=True)
+@click.option("-k", "--seeds-per-cell", "count", type=rule("eval.seeds_per_cell"), default=10, show_default=True)
 @click.option(
     "--seed-key-file",
     type=click.Path(dir_okay=False),
@@ -992,37 +1014,44 @@ def seeds_command(levels, difficulty, count, seed_key_file):
 @click.option("--levels", help="Levels to measure by id, label or name (default: all).")
 @click.option(
     "--rounds",
-    type=click.IntRange(1),
+    type=click.IntRange(1, 1000),
     default=5,
     show_default=True,
     help="Alternated rounds: each figure is timed once per round; ratios are medians over rounds.",
 )
-@click.option("--steps", type=click.IntRange(100), default=1000, show_default=True, help="Steps per figure and round.")
-@click.option("--resets", type=click.IntRange(5), default=50, show_default=True, help="Resets timed per level.")
+@click.option(
+    "--steps", type=click.IntRange(100, MANY), default=1000, show_default=True, help="Steps per figure and round."
+)
+@click.option("--resets", type=click.IntRange(5, MANY), default=50, show_default=True, help="Resets timed per level.")
 @click.option(
     "--worker-steps",
-    type=click.IntRange(100),
+    type=click.IntRange(100, MANY),
     default=1000,
     show_default=True,
     help="Steps per worker and round in the 1/2/4-worker runs.",
 )
 @click.option(
     "--train-steps",
-    type=click.IntRange(0),
+    type=rule("train.total_steps", low=0),
     default=4096,
     show_default=True,
     help="Steps per round of PPO, the random agent and the environment alone (0: no training row).",
 )
-@click.option("--train-envs", type=click.IntRange(1, 256), help="Workers of the training row (default: the config's).")
+@click.option("--train-envs", type=rule("train.num_envs"), help="Workers of the training row (default: the config's).")
 @click.option(
     "--config",
     "config_path",
     type=click.Path(),
     help="A YAML overriding configs/default.yaml for the training row (its train and curriculum keys, senses).",
 )
-@click.option("--memory-steps", type=click.IntRange(1000), default=20000, show_default=True)
+@click.option("--memory-steps", type=click.IntRange(1000, MANY), default=20000, show_default=True)
 @click.option(
-    "--out", "folder", type=click.Path(), default="bench", show_default=True, help="Folder for bench.json and bench.md."
+    "--out",
+    "folder",
+    type=Output(what="folder"),
+    default="bench",
+    show_default=True,
+    help="Folder for bench.json and bench.md.",
 )
 def bench_command(
     levels, rounds, steps, resets, worker_steps, train_steps, train_envs, config_path, memory_steps, folder
@@ -1063,13 +1092,17 @@ def bench_command(
 @click.option(
     "--out",
     "output",
-    type=click.Path(dir_okay=False),
+    type=Output(dir_okay=False),
     default="learning_curves.png",
     show_default=True,
     help="The PNG to write.",
 )
 @click.option(
-    "--smooth", type=click.IntRange(1), default=50, show_default=True, help="Episodes in each point's running mean."
+    "--smooth",
+    type=click.IntRange(1, MANY),
+    default=50,
+    show_default=True,
+    help="Episodes in each point's running mean.",
 )
 def plot_command(runs, output, smooth):
     """Draw the learning curves of RUN folders on one figure: task return and pass rate against steps."""
@@ -1107,7 +1140,7 @@ def default_action_mode() -> str:
 @click.option(
     "--steps",
     "total_steps",
-    type=click.IntRange(1),
+    type=rule("train.total_steps"),
     default=500_000,
     show_default=True,
     help="The budget: training steps (agent decisions) of every run.",
@@ -1120,12 +1153,12 @@ def default_action_mode() -> str:
     "-k",
     "--seeds-per-cell",
     "count",
-    type=click.IntRange(1),
+    type=rule("eval.seeds_per_cell"),
     default=10,
     show_default=True,
     help="Episodes per cell on reserved seeds, and on seeds each run trained on.",
 )
-@click.option("--envs", "num_envs", type=click.IntRange(1), default=2, show_default=True, help="Workers per run.")
+@click.option("--envs", "num_envs", type=rule("train.num_envs"), default=2, show_default=True, help="Workers per run.")
 @click.option(
     "--action-mode",
     type=click.Choice(["rotation", "velocity", "gait"]),
@@ -1138,10 +1171,10 @@ def default_action_mode() -> str:
     help="A YAML overriding configs/default.yaml. Default: configs/curricula.yaml, the settings the committed "
     "experiment was run with (PPO's, pinned so that a change of the defaults leaves it continuable).",
 )
-@click.option("--out", "folder", type=click.Path(file_okay=False), default="experiments/curricula", show_default=True)
+@click.option("--out", "folder", type=Output(file_okay=False), default="experiments/curricula", show_default=True)
 @click.option(
     "--jobs",
-    type=click.IntRange(1),
+    type=WORKERS,
     default=2,
     show_default=True,
     help="Runs trained at once, each in its own process (one per core: a run of 2 workers steps them in "
@@ -1204,17 +1237,17 @@ def curricula_command(
 
 
 @experiment_group.command("competence")
-@click.option("--out", "folder", type=click.Path(file_okay=False), default="experiments/competence", show_default=True)
+@click.option("--out", "folder", type=Output(file_okay=False), default="experiments/competence", show_default=True)
 @click.option(
     "--gait-steps",
-    type=click.IntRange(1),
+    type=rule("train.total_steps"),
     default=60_000,
     show_default=True,
     help="Budget of the gait-mode run, in agent decisions (0.1 s each).",
 )
 @click.option(
     "--rotation-steps",
-    type=click.IntRange(1),
+    type=rule("train.total_steps"),
     default=200_000,
     show_default=True,
     help="Budget of the rotation-mode run, in agent decisions (control steps of 0.02 s).",
@@ -1239,10 +1272,10 @@ def competence_command(folder, gait_steps, rotation_steps):
 
 @cli.command("import-animalai")
 @click.argument("source", type=click.Path())
-@click.option("--out", "out", type=click.Path(file_okay=False), required=True, help="Folder for the arena files.")
+@click.option("--out", "out", type=Output(file_okay=False), required=True, help="Folder for the arena files.")
 @click.option(
     "--scale",
-    type=float,
+    type=Finite(0, 1000, min_open=True),
     default=5.0,
     show_default=True,
     help="Units here per Animal-AI unit (its arena is 40 across; our body's footprint 10).",

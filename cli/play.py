@@ -9,19 +9,23 @@ import click
 from aaai.config import ConfigError, load_config
 from aaai.errors import needs_extra
 from aaai.scoring.policies import Policy
+from aaai_cli.options import DIFFICULTY, SEED, Finite, Output, SeedList, rule
 
 
 @click.command("play")
 @click.argument("level", required=False)
-@click.option("-d", "difficulty_text", type=click.IntRange(0), help="One episode: its difficulty [default: 0].")
-@click.option("-s", "--seed", type=click.IntRange(0), help="One episode: its seed [default: 0].")
+@click.option("-d", "difficulty_text", type=DIFFICULTY, help="One episode: its difficulty [default: 0].")
+@click.option("-s", "--seed", type=SEED, help="One episode: its seed [default: 0].")
 @click.option(
     "--arena",
     type=click.Path(exists=True),
     help="Play an arena file (or a folder of them), on seed -s or the --seeds list.",
 )
 @click.option(
-    "--seeds", "seeds_mode", help="A battery: reserved, train or a list like 1,2,3, over --levels x --difficulty."
+    "--seeds",
+    "seeds_mode",
+    type=SeedList(),
+    help="A battery: reserved, train or a list like 1,2,3, over --levels x --difficulty.",
 )
 @click.option("--levels", help="Battery levels by id, label or name, e.g. '0-11,L2b' [default with --seeds: all].")
 @click.option("--difficulty", "difficulties", help="Battery difficulties, e.g. '0,5,10' [default: 0].")
@@ -29,7 +33,7 @@ from aaai.scoring.policies import Policy
     "-k",
     "--seeds-per-cell",
     "count",
-    type=click.IntRange(1),
+    type=rule("eval.seeds_per_cell"),
     default=1,
     show_default=True,
     help="With --seeds reserved or train: episodes per (level, difficulty).",
@@ -43,12 +47,13 @@ from aaai.scoring.policies import Policy
 @click.option(
     "--out",
     "output",
+    type=Output(what="file"),
     default="human_{player}.csv",
     show_default=True,
     help="Scoreboard CSV; {player} is replaced by the player's name. Re-run with the same --out to "
     "resume at the next unplayed episode.",
 )
-@click.option("--replays", type=click.Path(file_okay=False), help="Save each scored episode's replay (JSON) here.")
+@click.option("--replays", type=Output(file_okay=False), help="Save each scored episode's replay (JSON) here.")
 @click.option(
     "--host",
     default="127.0.0.1",
@@ -58,7 +63,11 @@ from aaai.scoring.policies import Policy
 )
 @click.option("--port", type=click.IntRange(0, 65535), default=8000, show_default=True, help="0: any free port.")
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
-@click.option("--max-steps", type=int, help="Episode length in control steps (default: each level's time limit).")
+@click.option(
+    "--max-steps",
+    type=rule("episode.max_steps"),
+    help="Episode length in control steps (default: each level's time limit).",
+)
 @click.option(
     "--camera-resolution",
     type=click.IntRange(8, 512),
@@ -68,14 +77,14 @@ from aaai.scoring.policies import Policy
 )
 @click.option(
     "--fps",
-    type=click.FloatRange(1, 50),
+    type=Finite(1, 50),
     default=30,
     show_default=True,
     help="Frames sent to a page per second, at most (the simulation runs at 50 steps/s regardless).",
 )
 @click.option(
     "--grace",
-    type=click.FloatRange(0),
+    type=Finite(0, 86400),
     default=20,
     show_default=True,
     help="Seconds a page that lost its connection may come back before its episode is abandoned.",

@@ -18,6 +18,7 @@ from aaai.tools.viewer import (
     save_png,
     video_extension_error,
 )
+from aaai_cli.options import DIFFICULTY, SEED, Output
 
 CAMERA_RESOLUTION = 128
 STEP_CAP = 10000  # the longest episode a config allows (episode.max_steps): --video's default cap
@@ -36,15 +37,15 @@ def frame_every(fps: float, control_dt: float) -> int:
     type=click.Path(dir_okay=False),
     help="Draw this arena file (docs, Write your own test) instead of LEVEL, at --seed.",
 )
-@click.option("-d", "--difficulty", type=int, default=0, show_default=True)
-@click.option("-s", "--seed", type=int, default=0, show_default=True)
+@click.option("-d", "--difficulty", type=DIFFICULTY, default=0, show_default=True)
+@click.option("-s", "--seed", type=SEED, default=0, show_default=True)
 @click.option(
     "-o",
     "--output",
-    type=click.Path(dir_okay=False),
+    type=Output(dir_okay=False),
     help="PNG to write [default: <label>_d<D>_s<S>.png, e.g. L1_d0_s0.png; with --video, only if given].",
 )
-@click.option("--video", type=click.Path(dir_okay=False), help="Record an episode to this .mp4 or .avi.")
+@click.option("--video", type=Output(dir_okay=False), help="Record an episode to this .mp4 or .avi.")
 @click.option(
     "--policy",
     default="random",
@@ -53,7 +54,7 @@ def frame_every(fps: float, control_dt: float) -> int:
 )
 @click.option(
     "--steps",
-    type=click.IntRange(1),
+    type=click.IntRange(1, STEP_CAP),
     default=None,
     help=f"Steps to record at most [default: to the episode's end, capped at {STEP_CAP}]; when the cap "
     "cuts the episode, the message says so.",

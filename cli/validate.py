@@ -6,6 +6,7 @@ import click
 
 from aaai.levels import InvalidLevelError, all_levels, generate
 from aaai.task.validate import check
+from aaai_cli.options import COUNT, SEED
 
 ARENA_SEEDS = 10  # seeds an arena file is checked with unless --seeds says otherwise
 
@@ -15,8 +16,8 @@ ARENA_SEEDS = 10  # seeds an arena file is checked with unless --seeds says othe
     "--levels", "levels_text", default=None, help="Levels by id, label or name, e.g. '0-3,5' or 'L2b' (default: all)."
 )
 @click.option("--difficulty", "difficulty_text", default="0-10", show_default=True, help="Difficulties, e.g. '0,5'.")
-@click.option("--seeds", type=click.IntRange(1), default=100, show_default=True, help="Seeds per (level, difficulty).")
-@click.option("--first-seed", type=click.IntRange(0), default=0, show_default=True, help="The first seed checked.")
+@click.option("--seeds", type=COUNT, default=100, show_default=True, help="Seeds per (level, difficulty).")
+@click.option("--first-seed", type=SEED, default=0, show_default=True, help="The first seed checked.")
 @click.option(
     "--arena",
     "arena",

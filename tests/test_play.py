@@ -340,7 +340,7 @@ def test_play_command_refuses_bad_options_and_a_port_in_use(tmp_path):
         (["1", "--levels", "2"], "use one or the other"),
         (["--out", "one.csv"], "without {player}"),
         (["--player", "a b"], "player: got 'a b'"),
-        (["L9", "-d", "11"], "difficulty: got 11"),
+        (["L9", "-d", "11"], "'-d': 11 is not in the range 0<=x<=10"),
         (["--arena", str(ROOT_ARENAS), "--levels", "1"], "an arena file is its own level"),
     ):
         result = runner.invoke(cli, ["play", *args])

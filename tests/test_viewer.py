@@ -190,7 +190,7 @@ def test_reference_video_records_the_episode_to_its_end(tmp_path):
         (["L0", "--video", "x.gif"], ["'x.gif'", ".mp4 or .avi", "GIF"]),
         (["L0", "--video", "x.mov"], ["'x.mov'", ".mp4 or .avi"]),
         (["L99"], ["'L99'", "does not exist", "allowed"]),
-        (["L0", "-d", "11"], ["difficulty: got 11", "0 to 10"]),
+        (["L0", "-d", "11"], ["'--difficulty'", "11", "0<=x<=10"]),
         (["L0", "-o", "no/such/folder/x.png"], ["does not exist"]),
     ],
 )
