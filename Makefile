@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: lint check install install-train install-all test test-gym docs play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
+.PHONY: lint check install install-train install-all test test-gym test-docs docs play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -51,7 +51,7 @@ install-train: $(VENV)/.installed-train
 install-all: $(VENV)/.installed-all
 
 test: install-all $(CHROMIUM_BINARIES) check
-	$(BIN)/python -m pytest -q -m "not long" $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -q -m "not long and not docs_commands" $(PYTEST_ARGS)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --quiet
 
 # The tests of the environment, the scoring and the model files (the committed models included) on
@@ -73,6 +73,11 @@ play-screenshot: install-all $(CHROMIUM_BINARIES)
 # after make test. The 20 slowest tests are listed at the end.
 test-long: install-all
 	$(BIN)/python -m pytest -q -m long --durations=20 $(PYTEST_ARGS)
+
+# Every command of the documentation, run page by page on a fresh copy (tests/test_docs_commands.py;
+# the commands it skips or runs smaller are listed there with their reasons), about 20 minutes.
+test-docs: install-all
+	$(BIN)/python -m pytest -q -m docs_commands $(PYTEST_ARGS)
 
 # The main job on the shipped default config: a short curriculum training run, then its
 # reserved-seed scoreboard. DEMO_RUN is replaced on every `make demo`.

@@ -9,11 +9,11 @@ is a command (`aaai`, `make`, `python`, ...); a trailing backslash continues a l
   `aaai …` code spans of the text), every `make` target is in the Makefile, every `python -m`
   module is importable, and every relative link of a page leads to a file of the repository (as
   the repository's own pages resolve it).
-- Long (`make test-long`, marked `long`): every command that is not a synopsis runs, page by page
+- `make test-docs` (marked `docs_commands`, about 20 minutes): every command that is not a synopsis runs, page by page
   and in order, in a fresh copy of the repository's files with `.venv` active (the README's
   set-up), and must exit 0. `SMALLER` lists the commands run with a smaller budget than written
   and `SKIPPED` the ones not run, each with its reason.
-  `python -m pytest -q -m long tests/test_docs_commands.py` runs it alone (about 10 minutes on 2 cores).
+  `make test-docs` runs it (about 20 minutes on 2 cores, `make demo` included).
 """
 
 from __future__ import annotations
@@ -261,7 +261,7 @@ def fresh_copy(folder: Path) -> Path:
     return folder
 
 
-@pytest.mark.long
+@pytest.mark.docs_commands
 @pytest.mark.parametrize("page", sorted({c.page for c in ALL if not c.synopsis}))
 def test_every_documented_command_runs_on_a_fresh_copy(page, tmp_path):
     copy = fresh_copy(tmp_path / "aaai")
