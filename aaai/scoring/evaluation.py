@@ -226,7 +226,12 @@ def scored_episodes(path: Path) -> list[dict]:
     """Rows already in a scoreboard; a torn last line (an interrupted write) is cut off."""
     if not path.exists():
         return []
-    text = path.read_text()
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError as error:
+        raise ConfigError(
+            f"{str(path)!r} is not a scoreboard: byte {error.start} is not UTF-8 text; allowed: a CSV an eval wrote"
+        ) from None
     if text and not text.endswith("\n"):
         with open(path, "r+") as handle:
             handle.truncate(text.rfind("\n") + 1)
@@ -540,7 +545,7 @@ def record_differences(earlier: Any, record: dict) -> list[str]:
 
 def _has_rows(output: Path) -> bool:
     try:
-        with open(output, newline="") as handle:
+        with open(output, "rb") as handle:  # bytes: any file may be handed in as --out
             return sum(1 for _ in zip(range(2), handle)) > 1
     except FileNotFoundError:
         return False

@@ -70,6 +70,8 @@ def check_writable(path: Path, option: str, folder: bool = False) -> None:
             f"{option}: got {str(path)!r}, which is a {'file' if folder else 'folder'}; "
             f"allowed: {'a folder' if folder else 'a file'} path"
         )
+    if not folder and path.exists() and not path.is_file():  # a pipe would block, a device never end
+        raise ConfigError(f"{option}: got {str(path)!r}, which is a device or a pipe; allowed: a regular file path")
     existing = path if path.exists() else next((p for p in path.absolute().parents if p.exists()), Path("/"))
     if not os.access(existing, os.W_OK) or (existing.is_dir() and not os.access(existing, os.X_OK)):
         raise ConfigError(f"{option}: got {str(path)!r}; {str(existing)!r} cannot be written to")
