@@ -1227,7 +1227,7 @@ def animalai_attacks():
         "import-sparse-2gb",
         g,
         [AAAI, "import-animalai", "big.yaml", "--out", "out"],
-        lambda w: os.truncate(open(w / "big.yaml", "wb").fileno(), 2 << 30),
+        lambda w: ((w / "big.yaml").touch(), os.truncate(w / "big.yaml", 2 << 30)),
         "error",
     )
     attack(
@@ -1529,7 +1529,7 @@ def play_server(w: Path):
             "--host",
             "127.0.0.1",
             "--out",
-            str(w / "play.csv"),
+            str(w / "play_{player}.csv"),
             "--max-sessions",
             "4",
             "--grace",

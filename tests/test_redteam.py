@@ -97,3 +97,55 @@ def test_a_lock_file_that_is_a_link_elsewhere_is_never_written_through(tmp_path)
     with pytest.raises(OSError, match=".lock"):
         hold(tmp_path / "run" / ".lock", lambda pid: "in use")
     assert victim.read_text() == "precious\n"
+
+
+def test_a_model_zip_with_an_encrypted_member_is_refused_naming_it(tmp_path):
+    import zipfile
+
+    from aaai.scoring.runs import model_problem
+
+    path = tmp_path / "m.zip"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("data", "{}")
+        archive.writestr("policy.pth", b"x")
+    raw = bytearray(path.read_bytes())
+    for signature, offset in ((b"PK\x03\x04", 6), (b"PK\x01\x02", 8)):  # set the "encrypted" flag bit
+        at = raw.find(signature)
+        while at >= 0:
+            raw[at + offset] |= 1
+            at = raw.find(signature, at + 4)
+    path.write_bytes(bytes(raw))
+    assert (
+        model_problem(path)
+        == "m.zip has an encrypted member ('data'); allowed: members as stable-baselines3 writes them"
+    )
+
+
+def _arena(tmp_path, body: str) -> Path:
+    path = tmp_path / "a.yaml"
+    path.write_text(
+        "agent: {x: 0, y: -18, yaw: 1.5707963267948966}\n" + body + "objects:\n"
+        "  - {kind: food_green, position: [0, 5, 1.5], size: [3, 3, 3]}\n"
+    )
+    return path
+
+
+@pytest.mark.parametrize(
+    "body",
+    ["heightfield:\n  - [0, 1, 2]\n  - [0]\n", "heightfield:\n  - [0, 1]\n"],
+    ids=["ragged", "one-row"],
+)
+def test_a_heightfield_that_is_not_a_grid_of_heights_is_refused_by_the_arena_check(tmp_path, body):
+    from aaai.task.arena import load_arena
+
+    with pytest.raises(ConfigError, match="heightfield"):
+        load_arena(_arena(tmp_path, body))
+
+
+def test_a_blackout_shorter_than_a_step_is_dark_throughout_not_a_division_by_zero():
+    from aaai.sim.sensors import Blackout
+    from aaai.spec import Blackout as Schedule
+
+    blackout = Blackout(Schedule(1e-300, 1e-300), control_dt=0.02)
+    assert [blackout.dark(step) for step in range(3)] == [True, True, True]
+    assert [Blackout(Schedule(0.04, 0.02), 0.02).dark(step) for step in range(4)] == [False, False, True, False]

@@ -288,10 +288,18 @@ def model_problem(path: Path) -> str | None:
         return f"{path.name} is empty"
     try:
         with zipfile.ZipFile(path) as archive:
+            locked = [info.filename for info in archive.infolist() if info.flag_bits & 0x1]
+            if locked:  # zipfile would ask for a password
+                return (
+                    f"{path.name} has an encrypted member ({locked[0]!r}); "
+                    "allowed: members as stable-baselines3 writes them"
+                )
             broken = archive.testzip()
             names = set(archive.namelist())
     except (zipfile.BadZipFile, OSError, EOFError) as error:
         return f"{path.name} is not a whole zip archive ({error})"
+    except (NotImplementedError, RuntimeError, ValueError) as error:  # a compression zipfile cannot read
+        return f"{path.name} cannot be read as a zip archive ({error})"
     if broken is not None:
         return f"{path.name} is damaged ({broken} fails its checksum)"
     if not {"data", "policy.pth"} <= names:
