@@ -1376,7 +1376,7 @@ def cli_number_attacks():
 HTTP_CLIENT = r"""
 import socket, sys, os
 port = int(os.environ["PORT"])
-request = bytes.fromhex(sys.argv[1]).replace(b"PORT", str(port).encode())
+request = open(sys.argv[1], "rb").read().replace(b"PORT", str(port).encode())
 s = socket.create_connection(("127.0.0.1", port), timeout=10)
 try:
     s.sendall(request)
@@ -1397,7 +1397,7 @@ except socket.timeout:
     pass
 status = data.split(b"\r\n", 1)[0].decode(errors="replace")
 print(status)
-if b"root:" in data or b"def create_app" in data or b"import " in data:
+if b"root:" in data or b"def create_app" in data:
     print("Error: the answer holds a file of this machine", file=sys.stderr); sys.exit(3)
 code = int(status.split()[1]) if status.startswith("HTTP/") else 0
 if code >= 500:
@@ -1435,7 +1435,15 @@ def play_attacks():
     g = "play-http"
 
     def http(name, request: bytes, **env):
-        attack(f"play-{name}", g, [PY, "-c", HTTP_CLIENT, request.hex()], None, "any", timeout=30, **env)
+        attack(
+            f"play-{name}",
+            g,
+            [PY, "-c", HTTP_CLIENT, "request.bin"],
+            text("request.bin", request),
+            "any",
+            timeout=30,
+            **env,
+        )
 
     H = b"Host: 127.0.0.1:PORT\r\n"
     for method in (b"POST", b"PUT", b"DELETE", b"TRACE", b"OPTIONS", b"PATCH", b"FOO", b"get"):
@@ -1653,7 +1661,7 @@ def classify(a: Attack, r: Result, w: Path, before, outside, top) -> tuple[str, 
         return "CLEAN", f"refused: {line}"
     if a.expect == "error":
         return "FAIL", "accepted (exit 0); expected a refusal"
-    return "CLEAN", "ok"
+    return "CLEAN", "ok" + (f": {last_line(r.stdout)}" if a.group == "play-http" else "")
 
 
 def read_rows() -> dict[str, dict]:

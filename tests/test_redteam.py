@@ -149,3 +149,14 @@ def test_a_blackout_shorter_than_a_step_is_dark_throughout_not_a_division_by_zer
     blackout = Blackout(Schedule(1e-300, 1e-300), control_dt=0.02)
     assert [blackout.dark(step) for step in range(3)] == [True, True, True]
     assert [Blackout(Schedule(0.04, 0.02), 0.02).dark(step) for step in range(4)] == [False, False, True, False]
+
+
+def test_init_from_a_pipe_or_a_device_is_refused_not_read(tmp_path):
+    from aaai.config import load_config
+    from aaai.train.training import check_init_from
+
+    os.mkfifo(tmp_path / "m.zip")
+    for source in (tmp_path / "m.zip", "/dev/zero"):
+        config = load_config(train={"agent": "ppo", "init_from": str(source)})
+        with pytest.raises(ConfigError, match="a device or a pipe"):
+            check_init_from(config)
