@@ -229,6 +229,7 @@ def board_file(name, change):
     def make(w: Path):
         raw = (base() / "board.csv").read_bytes()
         (w / name).write_bytes(change(raw))
+        shutil.copy(base() / "board_scored_with.json", w / (Path(name).stem + "_scored_with.json"))
 
     return make
 
@@ -846,7 +847,7 @@ def eval_argv(out="s.csv", policy="random", extra=()):
 
 def folder_attacks():
     g = "run-folders"
-    resume = [AAAI, "train", "--agent", "random", "--steps", "300", "--resume", "run"]
+    resume = [AAAI, "train", "--steps", "300", "--resume", "run"]
     attack(
         "runs-resume-episodes-symlink-out",
         g,
@@ -1249,6 +1250,17 @@ def animalai_attacks():
     )
 
 
+def l11_heightfield(n: int) -> str:
+    """L11's own arena file with its heightfield resampled to n x n heights."""
+    import yaml
+
+    done = subprocess.run([AAAI, "spec", "11", "--yaml"], capture_output=True, text=True, check=True)
+    data = yaml.safe_load(done.stdout)
+    rows = data["heightfield"]
+    data["heightfield"] = [[rows[i * len(rows) // n][j * len(rows[0]) // n] for j in range(n)] for i in range(n)]
+    return yaml.safe_dump(data, default_flow_style=None, width=10**6)
+
+
 def arena_attacks():
     g = "arena-extremes"
     agent = "agent: {x: 0, y: -18, yaw: 1.5707963267948966}\n"
@@ -1257,48 +1269,52 @@ def arena_attacks():
     def arena(body, objects=food, head=agent):
         return head + body + "objects:\n" + objects
 
-    checker = "".join(f"  - [{i}, {j}]\n" for i in range(0, 400, 2) for j in range(0, 400, 2))
+    checker = "".join(  # 10,000 single holes, none near the start (tiles of 2.5 units)
+        f"  - [{i}, {j}]\n" for i in range(0, 400, 4) for j in range(0, 400, 4) if not (150 < i < 250 and 150 < j < 250)
+    )
     many = "".join(
-        f"  - {{kind: food_green, position: [{-450 + (i % 30) * 30}, {-450 + (i // 30) * 30}, 1],"
+        f"  - {{kind: food_green, position: [{-435 + (i % 30) * 30}, {-435 + (i // 30) * 30}, 0.25],"
         " size: [0.5, 0.5, 0.5]}\n"
         for i in range(900)
     )
     movers = "".join(
         f"  - {{kind: food_green, position: [{-40 + (i % 20) * 4}, {-10 + (i // 20) * 4}, 1], size: [1, 1, 1],"
-        " behaviour: {type: wander, speed: 100}}\n"
+        " behaviour: {type: random_walk, speed: 100.0}}\n"
         for i in range(200)
     )
     cases = {
         "huge-arena-checker-holes": arena("arena_size: [1000, 1000]\ntiles: [400, 400]\nholes:\n" + checker),
         "huge-arena-few-tiles": arena("arena_size: [1000, 1000]\ntiles: [1, 1]\n"),
         "tiny-arena": arena("arena_size: [0.001, 0.001]\n", objects=food, head="agent: {x: 0, y: 0}\n"),
-        "heightfield-400x400": arena(
-            "arena_size: [40, 40]\nheightfield:\n"
-            + "".join("  - [" + ",".join(["0.1"] * 400) + "]\n" for _ in range(400))
-        ),
+        "heightfield-300x300": l11_heightfield(300),
         "heightfield-ragged": arena("heightfield:\n  - [0, 1, 2]\n  - [0]\n"),
-        "heightfield-huge-values": arena("heightfield:\n  - [1e300, -1e300]\n  - [0, 1e300]\n"),
+        "heightfield-huge-values": arena("heightfield:\n  - [1.0e+300, -1.0e+300]\n  - [0, 1.0e+300]\n"),
         "900-small-foods": arena("arena_size: [1000, 1000]\n", objects=many),
         "200-fast-movers": arena("", objects=movers),
-        "mass-1e30": arena("", objects=food + "  - {kind: wall, position: [5, 0, 1], size: [1, 1, 1], mass: 1e30}\n"),
-        "yaw-1e300": arena("", objects="  - {kind: food_green, position: [0, 5, 1.5], size: [3, 3, 3], yaw: 1e300}\n"),
+        "mass-1e30": arena(
+            "", objects=food + "  - {kind: wall, position: [5, 0, 1], size: [1, 1, 1], mass: 1.0e+30}\n"
+        ),
+        "yaw-1e300": arena(
+            "", objects="  - {kind: food_green, position: [0, 5, 1.5], size: [3, 3, 3], yaw: 1.0e+300}\n"
+        ),
         "wall-height-tiny": arena("wall_height: 1.0e-9\n"),
         "wall-height-huge": arena("wall_height: 1000\n"),
         "time-limit-200": arena("time_limit: 200\n"),
         "time-limit-0.2": arena("time_limit: 0.2\n"),
         "blackout-tiny": arena("blackout: {light: 1.0e-300, dark: 1.0e-300}\n"),
-        "colours-extreme": arena("colours: {food_green: [1e308, -1e308, .nan, 2]}\n"),
+        "colours-extreme": arena("colours: {food_green: [1.0e+308, -1.0e+308, .nan, 2]}\n"),
         "object-size-1000": arena(
             "arena_size: [1000, 1000]\n",
-            objects=food + "  - {kind: wall, position: [0, 0, -600], size: [1000, 1000, 1]}\n",
+            objects=food + "  - {kind: wall, position: [450, 0, 500], size: [1, 900, 1000]}\n",
         ),
         "agent-corner": arena("", head="agent: {x: 19.99, y: -19.99, yaw: 0}\n"),
-        "agent-yaw-huge": arena("", head="agent: {x: 0, y: -18, yaw: 1.0e300}\n"),
+        "agent-yaw-huge": arena("", head="agent: {x: 0, y: -18, yaw: 1.0e+300}\n"),
         "description-900kb": "description: " + "d" * 900_000 + "\n" + arena(""),
         "inner-seed-huge": arena("inner: {level: 0, name: x, difficulty: 0, seed: 18446744073709551617}\n"),
         "extras-deep": arena("extras: " + "{a: " * 19 + "1" + "}" * 19 + "\n"),
         "uniform-huge-range": arena(
-            "", objects="  - {kind: food_green, position: [{uniform: [-1e308, 1e308]}, 5, 1.5], size: [3, 3, 3]}\n"
+            "",
+            objects="  - {kind: food_green, position: [{uniform: [-1.0e+308, 1.0e+308]}, 5, 1.5], size: [3, 3, 3]}\n",
         ),
         "choice-10000": arena(
             "",
@@ -1306,7 +1322,10 @@ def arena_attacks():
             + ",".join(["1"] * 10000)
             + "]}, 5, 1.5], size: [3, 3, 3]}\n",
         ),
-        "max-food-reward-huge": arena("max_food_reward: 1e308\n"),
+        "max-food-reward-huge": arena("max_food_reward: 1.0e+308\n"),
+        "integers-huge-range": arena(
+            "", objects="  - {kind: food_green, position: [{integers: [-1.0e+30, 1.0e+30]}, 5, 1.5], size: [3, 3, 3]}\n"
+        ),
     }
     for name, content in cases.items():
         attack(
@@ -1316,7 +1335,7 @@ def arena_attacks():
             text("a.yaml", content),
             "any",
         )
-    for name in ("huge-arena-checker-holes", "heightfield-400x400", "900-small-foods", "colours-extreme"):
+    for name in ("huge-arena-checker-holes", "heightfield-300x300", "900-small-foods", "colours-extreme"):
         attack(
             f"arena-{name}-show",
             g,

@@ -160,3 +160,17 @@ def test_init_from_a_pipe_or_a_device_is_refused_not_read(tmp_path):
         config = load_config(train={"agent": "ppo", "init_from": str(source)})
         with pytest.raises(ConfigError, match="a device or a pipe"):
             check_init_from(config)
+
+
+@pytest.mark.parametrize(
+    "form", ["{uniform: [-1.0e+308, 1.0e+308]}", "{integers: [-1.0e+30, 1.0e+30]}"], ids=["uniform", "integers"]
+)
+def test_a_random_form_over_a_span_numpy_cannot_draw_is_refused_by_line(tmp_path, form):
+    from aaai.task.arena import load_arena
+
+    path = tmp_path / "a.yaml"
+    path.write_text(
+        "agent: {x: 0, y: -18}\nobjects:\n  - {kind: food_green, position: [" + form + ", 5, 1.5], size: [3, 3, 3]}\n"
+    )
+    with pytest.raises(ConfigError, match="line 3.*allowed: \\[low, high\\]"):
+        load_arena(path)
