@@ -174,3 +174,52 @@ def test_a_random_form_over_a_span_numpy_cannot_draw_is_refused_by_line(tmp_path
     )
     with pytest.raises(ConfigError, match="line 3.*allowed: \\[low, high\\]"):
         load_arena(path)
+
+
+SCOREBOARD_HEADER = (
+    "level,level_name,difficulty,seed,return,max_reward,ratio,outcome,steps,max_steps,food_eaten,wall_hits,fell,"
+    "arena,wall_seconds\n"
+)
+
+
+@pytest.mark.parametrize(
+    "row, words",
+    [
+        ("," * 14 + "\n", "row 2: level '' is not a number"),
+        ("99,x,0,1,-0.5,3.5,-0.1,failed,20,20,0,0,False,,0.1\n", "row 2: level '99' does not exist"),
+        ("0,food_contact,0,1,x,3.5,-0.1,failed,20,20,0,0,False,,0.1\n", "row 2: return 'x' is not a number"),
+        ("0," + "9" * 200_000 + "\n", "is not a scoreboard .field larger"),
+    ],
+    ids=["empty-row", "level-99", "return-text", "long-field"],
+)
+def test_a_scoreboard_row_an_eval_never_writes_is_refused_naming_its_row(tmp_path, row, words):
+    path = tmp_path / "s.csv"
+    path.write_text(SCOREBOARD_HEADER + row)
+    with pytest.raises(ConfigError, match=words):
+        scored_episodes(path)
+
+
+def test_resume_refuses_an_episode_log_that_is_a_pipe_and_cuts_bytes_that_are_not_text(tmp_path):
+    from aaai.scoring.runs import EPISODE_COLUMNS, RunFolder
+
+    run = RunFolder(tmp_path)
+    os.mkfifo(run.episodes_path)
+    with pytest.raises(ConfigError, match="is not a regular file"):
+        run.trim_episodes(0)
+    run.episodes_path.unlink()
+    run.episodes_path.write_bytes(bytes(range(256)) * 4)
+    run.trim_episodes(0)
+    assert run.episodes_path.read_text().splitlines() == [",".join(EPISODE_COLUMNS)]
+
+
+def test_a_checkpoint_state_nested_too_deep_or_a_pipe_is_skipped_not_a_crash(tmp_path):
+    from aaai.scoring.runs import RunFolder
+
+    run = RunFolder(tmp_path)
+    (tmp_path / "final").mkdir()
+    (tmp_path / "final" / "state.json").write_text("[" * 100_000)
+    assert run.unreadable(tmp_path / "final", needs_model=False) == "state.json nests too deeply"
+    assert run.saved() == [tmp_path / "final"]
+    (tmp_path / "final" / "state.json").unlink()
+    os.mkfifo(tmp_path / "final" / "state.json")
+    assert "not a regular file" in run.unreadable(tmp_path / "final", needs_model=False)
