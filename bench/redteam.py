@@ -697,8 +697,6 @@ def file_flag_attacks():
                 "F",
                 "-k",
                 "1",
-                "--seeds",
-                "train",
                 "--config",
                 str(base() / "short.yaml"),
                 "--out",

@@ -223,3 +223,12 @@ def test_a_checkpoint_state_nested_too_deep_or_a_pipe_is_skipped_not_a_crash(tmp
     (tmp_path / "final" / "state.json").unlink()
     os.mkfifo(tmp_path / "final" / "state.json")
     assert "not a regular file" in run.unreadable(tmp_path / "final", needs_model=False)
+
+
+def test_a_seed_key_file_that_is_not_text_is_refused_naming_it(tmp_path):
+    from aaai.task.seeds import read_seed_key
+
+    path = tmp_path / "k.key"
+    path.write_bytes(bytes(range(256)))
+    with pytest.raises(ValueError, match="'.*k.key' is not text .byte 128"):
+        read_seed_key(path)
