@@ -213,13 +213,14 @@ def test_resume_refuses_an_episode_log_that_is_a_pipe_and_cuts_bytes_that_are_no
 
 
 def test_a_checkpoint_state_nested_too_deep_or_a_pipe_is_skipped_not_a_crash(tmp_path):
-    from aaai.scoring.runs import RunFolder
+    from aaai.scoring.runs import RunFolder, run_backend
 
     run = RunFolder(tmp_path)
     (tmp_path / "final").mkdir()
     (tmp_path / "final" / "state.json").write_text("[" * 100_000)
     assert run.unreadable(tmp_path / "final", needs_model=False) == "state.json nests too deeply"
     assert run.saved() == [tmp_path / "final"]
+    assert run_backend(tmp_path) == "sb3"  # what --resume asks first
     (tmp_path / "final" / "state.json").unlink()
     os.mkfifo(tmp_path / "final" / "state.json")
     assert "not a regular file" in run.unreadable(tmp_path / "final", needs_model=False)

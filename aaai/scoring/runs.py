@@ -330,9 +330,9 @@ def run_backend(run_dir: str | Path) -> str:
         if (folder / CHECKPOINT_FOLDER).is_dir():
             return "rllib"
         try:
-            if json.loads((folder / "state.json").read_text()).get("agent", {}).get("backend") == "rllib":
+            if json.loads(_state_text(folder)).get("agent", {}).get("backend") == "rllib":
                 return "rllib"
-        except (OSError, ValueError, AttributeError):
+        except (OSError, ValueError, AttributeError, RecursionError):
             continue
     return "sb3"
 
