@@ -1066,7 +1066,7 @@ def board_check(w: Path, r: Result) -> str | None:
         rows = list(csv.DictReader(io.StringIO((w / "s.csv").read_text(errors="replace"))))
         base_rows = list(csv.DictReader((base() / "board.csv").open()))
         planned = {(x["level"], x["difficulty"], x["seed"]) for x in base_rows}
-        got = [(x["level"], x["difficulty"], x["seed"]) for x in rows]
+        got = [(x.get("level"), x.get("difficulty"), x.get("seed")) for x in rows]
         if not planned <= set(got):
             return f"the resumed scoreboard lacks {len(planned - set(got))} planned episodes"
     return None
@@ -1606,6 +1606,13 @@ def snapshot(path: Path) -> dict:
 
 
 def execute(a: Attack, extra_env: dict | None = None) -> tuple[str, str, float]:
+    try:
+        return _execute(a, extra_env)
+    except Exception as error:  # a fault of this script, not of the command: shown, never counted clean
+        return "ERROR", f"the attack itself failed: {type(error).__name__}: {error}"[:200], 0.0
+
+
+def _execute(a: Attack, extra_env: dict | None = None) -> tuple[str, str, float]:
     top = BASE / a.id
     shutil.rmtree(top, ignore_errors=True)
     w, outside = top / "work", top / "outside"

@@ -233,3 +233,14 @@ def test_a_seed_key_file_that_is_not_text_is_refused_naming_it(tmp_path):
     path.write_bytes(bytes(range(256)))
     with pytest.raises(ValueError, match="'.*k.key' is not text .byte 128"):
         read_seed_key(path)
+
+
+def test_a_scoreboard_of_blank_lines_starts_afresh_so_its_rows_get_a_header(tmp_path):
+    from aaai.scoring.evaluation import COLUMNS, Scoreboard
+
+    path = tmp_path / "s.csv"
+    path.write_text("\n\n")
+    assert scored_episodes(path) == []
+    with Scoreboard(path, {"policy": "random"}, COLUMNS, [], None) as board:
+        board.append({column: "0" for column in COLUMNS})
+    assert path.read_text().splitlines()[0] == ",".join(COLUMNS)

@@ -232,6 +232,10 @@ def scored_episodes(path: Path) -> list[dict]:
         raise ConfigError(
             f"{str(path)!r} is not a scoreboard: byte {error.start} is not UTF-8 text; allowed: a CSV an eval wrote"
         ) from None
+    if text and not text.strip():  # blank lines only: no header and no rows, so it starts afresh
+        with open(path, "r+") as handle:
+            handle.truncate(0)
+        return []
     if text and not text.endswith("\n"):
         with open(path, "r+") as handle:
             handle.truncate(text.rfind("\n") + 1)
