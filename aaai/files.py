@@ -263,7 +263,7 @@ def hold(path: str | os.PathLike, refusal: Callable[[int | None], str]) -> Lock:
     path = Path(path)
     for _ in range(100):  # a lock file removed by its holder as we opened it is opened again
         with naming(path):
-            descriptor = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, creation_mode())
+            descriptor = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW, creation_mode())
         try:
             fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:

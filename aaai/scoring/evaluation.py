@@ -226,22 +226,61 @@ def scored_episodes(path: Path) -> list[dict]:
     """Rows already in a scoreboard; a torn last line (an interrupted write) is cut off."""
     if not path.exists():
         return []
-    text = path.read_text()
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError as error:
+        raise ConfigError(
+            f"{str(path)!r} is not a scoreboard: byte {error.start} is not UTF-8 text; allowed: a CSV an eval wrote"
+        ) from None
+    if text and not text.strip():  # blank lines only: no header and no rows, so it starts afresh
+        with open(path, "r+") as handle:
+            handle.truncate(0)
+        return []
     if text and not text.endswith("\n"):
         with open(path, "r+") as handle:
             handle.truncate(text.rfind("\n") + 1)
         text = text[: text.rfind("\n") + 1]
-    rows = list(csv.DictReader(text.splitlines()))
+    try:
+        rows = list(csv.DictReader(text.splitlines()))
+    except csv.Error as error:
+        raise ConfigError(f"{str(path)!r} is not a scoreboard ({error}); allowed: a CSV an eval wrote") from None
     whole = [row for row in rows if None not in row and None not in row.values()]
     if len(whole) < len(rows):  # a line torn mid-file (a write cut short, then appended to): played again
         lines = text.splitlines(keepends=True)
         write_atomic(path, lines[0] + "".join(line for line, row in zip(lines[1:], rows) if row in whole))
         rows = whole
     if rows and list(rows[0].keys()) == LEGACY_COLUMNS:
-        return [{**row, "arena": ""} for row in rows]
-    if rows and list(rows[0].keys()) != COLUMNS:
+        rows = [{**row, "arena": ""} for row in rows]
+    elif rows and list(rows[0].keys()) != COLUMNS:
         raise ConfigError(f"{str(path)!r} is not a scoreboard of this version (columns {list(rows[0].keys())})")
+    for number, row in enumerate(rows, 2):
+        _check_row(path, number, row)
     return rows
+
+
+def _check_row(path: Path, number: int, row: dict) -> None:
+    """A row of a scoreboard being continued holds what an eval writes: the level of a level this
+    version has, whole numbers for difficulty, seed and steps, a number for the return."""
+    for key, kind in (
+        ("level", int),
+        ("difficulty", int),
+        ("seed", int),
+        ("steps", int),
+        ("return", float),
+        ("ratio", float),
+    ):
+        try:
+            kind(row[key])
+        except (TypeError, ValueError):
+            raise ConfigError(
+                f"{str(path)!r} row {number}: {key} {row[key]!r} is not a number; allowed: rows an eval wrote "
+                "(delete the row, and the eval plays its episode again)"
+            ) from None
+    if int(row["level"]) not in set(all_levels()):
+        raise ConfigError(
+            f"{str(path)!r} row {number}: level {row['level']!r} does not exist; allowed: rows an eval wrote "
+            "(delete the row, and the eval plays its episode again)"
+        )
 
 
 def columns_of(path: Path) -> list[str]:
@@ -542,7 +581,7 @@ def record_differences(earlier: Any, record: dict) -> list[str]:
 
 def _has_rows(output: Path) -> bool:
     try:
-        with open(output, newline="") as handle:
+        with open(output, "rb") as handle:  # bytes: any file may be handed in as --out
             return sum(1 for _ in zip(range(2), handle)) > 1
     except FileNotFoundError:
         return False

@@ -30,6 +30,7 @@ from aaai.levels import get_level
 FORMAT = "aaai-replay"
 VERSION = 1
 MAX_REPLAY_BYTES = 256 << 20  # a 10 000-step episode of 16 joint actions is a few MB
+MAX_STEPS = 10_000  # the longest episode a configuration allows (episode.max_steps)
 KEYS = (
     "format",
     "version",
@@ -206,6 +207,14 @@ def load_replay(path: str | Path) -> dict:
         data = json.loads(path.read_text())
     except (ValueError, UnicodeDecodeError) as error:
         raise ConfigError(f"replay {str(path)!r} is not valid JSON: {error}") from None
+    except RecursionError:
+        raise ConfigError(f"replay {str(path)!r} nests too deeply; allowed: a replay's own shape") from None
+    try:
+        json.dumps(data, ensure_ascii=False).encode("utf-8")
+    except UnicodeEncodeError:
+        raise ConfigError(
+            f"replay {str(path)!r} holds a lone surrogate (\\ud800 ...); allowed: text as UTF-8"
+        ) from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise ConfigError(f'replay {str(path)!r} is not an aaai replay (no "format": "{FORMAT}")')
     if data.get("version") != VERSION:
@@ -216,6 +225,13 @@ def load_replay(path: str | Path) -> dict:
     for key in ("level", "difficulty", "seed", "steps"):
         if not isinstance(data[key], int) or isinstance(data[key], bool) or data[key] < 0:
             raise _fail(path, key, data[key], "an integer, 0 or more")
+    if data["steps"] > MAX_STEPS:
+        raise _fail(path, "steps", data["steps"], f"at most {MAX_STEPS:,}, the longest episode")
+    for key in ("policy", "level_name", "spec_digest", "config_digest"):
+        if not isinstance(data[key], str):
+            raise _fail(path, key, data[key], "text")
+    if data["end"] is not None and not isinstance(data["end"], str):
+        raise _fail(path, "end", data["end"], "null or text")
     if not _number(data["return"]):
         raise _fail(path, "return", data["return"], "a finite number")
     pose = data["final_pose"]
@@ -294,7 +310,24 @@ def make_env(replay: dict, **overrides):
     what it senses)."""
     from aaai.env import AnimalAIEnv
 
-    return AnimalAIEnv(config=replay["config"], **overrides)
+    env = AnimalAIEnv(config=replay["config"], **overrides)
+    try:
+        check_actions(replay, env)
+    except ConfigError:
+        env.close()
+        raise
+    return env
+
+
+def check_actions(replay: dict, env) -> None:
+    """Every recorded action has as many numbers as the environment's actions, or a ConfigError."""
+    width = int(np.prod(env.action_space.shape))
+    for count, action in replay["actions"]:
+        if len(action) != width:
+            raise ConfigError(
+                f"replay: an action has {len(action)} numbers; allowed: {width}, as the replay's config "
+                f"({replay['config'].get('agent', {}).get('body')!r}, {env.unwrapped.action_mode!r}) acts"
+            )
 
 
 def run_replay(replay: dict, env=None, arena: str | Path | None = None, on_reset=None, on_step=None) -> ReplayResult:
@@ -304,6 +337,8 @@ def run_replay(replay: dict, env=None, arena: str | Path | None = None, on_reset
 
     own = env is None
     env = make_env(replay) if own else env
+    if not own:
+        check_actions(replay, env)
     try:
         options = replay_options(replay, arena)
         policy = ReplayPolicy(replay)

@@ -70,6 +70,8 @@ def check_writable(path: Path, option: str, folder: bool = False) -> None:
             f"{option}: got {str(path)!r}, which is a {'file' if folder else 'folder'}; "
             f"allowed: {'a folder' if folder else 'a file'} path"
         )
+    if not folder and path.exists() and not path.is_file():  # a pipe would block, a device never end
+        raise ConfigError(f"{option}: got {str(path)!r}, which is a device or a pipe; allowed: a regular file path")
     existing = path if path.exists() else next((p for p in path.absolute().parents if p.exists()), Path("/"))
     if not os.access(existing, os.W_OK) or (existing.is_dir() and not os.access(existing, os.X_OK)):
         raise ConfigError(f"{option}: got {str(path)!r}; {str(existing)!r} cannot be written to")
@@ -166,8 +168,13 @@ class RunFolder:
         path = self.episodes_path
         if not path.exists():
             return
-        with open(path, newline="") as handle:
-            rows = list(csv.reader(handle))
+        if not path.is_file():  # a pipe would wait for a writer for ever
+            raise ConfigError(f"--resume: {str(path)!r} is not a regular file; allowed: the run's own episode log")
+        try:  # bytes that are not text spoil only their rows, which are cut as torn ones are
+            with open(path, newline="", errors="replace") as handle:
+                rows = list(csv.reader(handle))
+        except csv.Error as error:
+            raise ConfigError(f"--resume: {str(path)!r} cannot be read as an episode log ({error})") from None
         whole = [row for row in rows[1:] if len(row) == len(EPISODE_COLUMNS) and row[0].isdigit()]
         kept = [EPISODE_COLUMNS] + [row for row in whole if int(row[0]) <= last_step]
         if kept == rows:
@@ -216,8 +223,8 @@ class RunFolder:
     @staticmethod
     def _step_of(folder: Path, unreadable: float = -1.0) -> float:
         try:
-            return int(json.loads((folder / "state.json").read_text())["step"])
-        except (OSError, ValueError, KeyError, TypeError):
+            return int(json.loads(_state_text(folder))["step"])
+        except (OSError, ValueError, KeyError, TypeError, RecursionError):
             if folder.name.startswith("step_") and folder.name[5:].isdigit():
                 return int(folder.name[5:])
             return unreadable
@@ -253,11 +260,13 @@ class RunFolder:
     def unreadable(folder: Path, needs_model: bool) -> str | None:
         """Why a saved point cannot be resumed from, or None when it can."""
         try:
-            state = json.loads((folder / "state.json").read_text())
+            state = json.loads(_state_text(folder))
         except FileNotFoundError:
             return "state.json is missing"
         except (OSError, ValueError) as error:
             return f"state.json cannot be read ({error})"
+        except RecursionError:
+            return "state.json nests too deeply"
         if not isinstance(state, dict) or not isinstance(state.get("step"), int) or "curriculum" not in state:
             return "state.json lacks its step or curriculum"
         if needs_model:
@@ -267,6 +276,14 @@ class RunFolder:
     @staticmethod
     def read_state(checkpoint: Path) -> dict:
         return json.loads((checkpoint / "state.json").read_text())
+
+
+def _state_text(folder: Path) -> str:
+    """A checkpoint's state.json as text; an OSError if it is no regular file (a pipe would block)."""
+    path = folder / "state.json"
+    if path.exists() and not path.is_file():
+        raise OSError(f"{str(path)!r} is not a regular file")
+    return path.read_text()
 
 
 def _remove_if_empty(folders: list[Path]) -> None:
@@ -286,10 +303,18 @@ def model_problem(path: Path) -> str | None:
         return f"{path.name} is empty"
     try:
         with zipfile.ZipFile(path) as archive:
+            locked = [info.filename for info in archive.infolist() if info.flag_bits & 0x1]
+            if locked:  # zipfile would ask for a password
+                return (
+                    f"{path.name} has an encrypted member ({locked[0]!r}); "
+                    "allowed: members as stable-baselines3 writes them"
+                )
             broken = archive.testzip()
             names = set(archive.namelist())
     except (zipfile.BadZipFile, OSError, EOFError) as error:
         return f"{path.name} is not a whole zip archive ({error})"
+    except (NotImplementedError, RuntimeError, ValueError) as error:  # a compression zipfile cannot read
+        return f"{path.name} cannot be read as a zip archive ({error})"
     if broken is not None:
         return f"{path.name} is damaged ({broken} fails its checksum)"
     if not {"data", "policy.pth"} <= names:
@@ -305,9 +330,9 @@ def run_backend(run_dir: str | Path) -> str:
         if (folder / CHECKPOINT_FOLDER).is_dir():
             return "rllib"
         try:
-            if json.loads((folder / "state.json").read_text()).get("agent", {}).get("backend") == "rllib":
+            if json.loads(_state_text(folder)).get("agent", {}).get("backend") == "rllib":
                 return "rllib"
-        except (OSError, ValueError, AttributeError):
+        except (OSError, ValueError, AttributeError, RecursionError):
             continue
     return "sb3"
 

@@ -224,7 +224,8 @@ class Blackout:
         self.steps = None
         if schedule:
             light = round(schedule.light / control_dt)
-            self.steps = light, light + round(schedule.dark / control_dt)
+            # at least one step a cycle (light and dark shorter than half a step: dark throughout)
+            self.steps = light, max(light + round(schedule.dark / control_dt), 1)
 
     def dark(self, step: int) -> bool:
         return self.steps is not None and step % self.steps[1] >= self.steps[0]

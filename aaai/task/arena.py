@@ -81,6 +81,7 @@ INNER_KEYS = ("level", "name", "difficulty", "seed")
 RANDOM_FORMS = ("uniform", "integers", "choice")
 DEFAULT_TIME_LIMIT = 60.0
 MAX_HOLE_TILES = 400 * 400  # tiles the holes list, rects expanded (aaai.task.validate: at most 400 x 400 tiles)
+MAX_DRAWN_INTEGER = 10**15  # {integers: [low, high]}: numpy draws within int64, and no count or seed is larger
 MAX_OBJECTS = 1000  # objects in an arena file (a generated level has at most a few dozen, an imported one 504)
 
 
@@ -250,11 +251,12 @@ class _Reader:
                 and all(_number(a) for a in args)
                 and all(math.isfinite(a) for a in args)
                 and args[0] <= args[1]
+                and math.isfinite(float(args[1]) - float(args[0]))  # numpy draws only over a finite span
             ):
-                self.fail(here, f"got {args!r}; allowed: [low, high], two finite numbers, low <= high")
+                self.fail(here, f"got {args!r}; allowed: [low, high], two finite numbers, low <= high, a finite span")
             if form == "integers":
-                if not all(float(a).is_integer() for a in args):
-                    self.fail(here, f"got {args!r}; allowed: [low, high], two integers")
+                if not all(float(a).is_integer() and abs(a) <= MAX_DRAWN_INTEGER for a in args):
+                    self.fail(here, f"got {args!r}; allowed: [low, high], two integers within ±{MAX_DRAWN_INTEGER:.0e}")
                 return int(self.rng.integers(int(args[0]), int(args[1]) + 1))
             return float(self.rng.uniform(args[0], args[1]))
         return value

@@ -66,13 +66,27 @@ def key_record(key: str | None) -> str:
     return "sha256:" + hashlib.sha256(b"aaai key record\0" + key.encode()).hexdigest()
 
 
+MAX_KEY_FILE_BYTES = 1 << 20  # a key is a line of text; a larger file is no key file
+
+
 def read_seed_key(path: str | Path | None = None) -> str | None:
     """The secret key from a key file (its text, stripped) or else from AAAI_SEED_KEY; None if neither."""
     if path is not None:
         path = Path(path)
         if not path.is_file():
             raise ValueError(f"--seed-key-file: got {str(path)!r}; allowed: a readable file holding the key")
-        key = path.read_text(errors="strict").strip()
+        if path.stat().st_size > MAX_KEY_FILE_BYTES:
+            raise ValueError(
+                f"--seed-key-file: {str(path)!r} is {path.stat().st_size:,} bytes; "
+                f"allowed: a key file of at most {MAX_KEY_FILE_BYTES:,}"
+            )
+        try:
+            key = path.read_text(errors="strict").strip()
+        except UnicodeDecodeError as error:
+            raise ValueError(
+                f"--seed-key-file: {str(path)!r} is not text (byte {error.start} is not UTF-8); "
+                "allowed: a file holding the key as text"
+            ) from None
         source = f"--seed-key-file {str(path)!r}"
     else:
         variable = os.environ.get(SEED_KEY_VARIABLE)

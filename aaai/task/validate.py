@@ -301,6 +301,7 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     return bool(np.any(window & near))
 
 
+MAX_HEIGHTS = 400 * 400  # samples of a heightfield (L11 uses 65 x 65), as many as floor tiles may be
 MAX_ARENA = 1000.0  # units across: far beyond any level, short of a grid that would not fit in memory
 
 
@@ -331,6 +332,20 @@ def malformed(spec: LevelSpec) -> list[str]:
         problems.append(
             f"the time limit {spec.time_limit!r} must lie between 0.2 and 200 seconds, as a level's or an arena file's"
         )
+    if spec.heightfield is not None:
+        rows = spec.heightfield
+        widths = {len(row) for row in rows}
+        if len(rows) < 2 or len(widths) != 1 or not 2 <= min(widths) or len(rows) * min(widths) > MAX_HEIGHTS:
+            problems.append(
+                f"the heightfield has rows of {sorted(widths)} heights in {len(rows)} rows; allowed: 2 or more rows, "
+                f"each of the same number (2 or more) of heights, {MAX_HEIGHTS:,} heights in all"
+            )
+        elif finite([v for row in rows for v in row], "the heightfield") and any(
+            abs(v) > MAX_ARENA for row in rows for v in row
+        ):
+            problems.append(
+                f"a height of the heightfield lies beyond {MAX_ARENA:g} (allowed: -{MAX_ARENA:g} to {MAX_ARENA:g})"
+            )
     nx, ny = spec.tiles
     if not (isinstance(nx, int) and isinstance(ny, int) and 1 <= nx <= 400 and 1 <= ny <= 400):
         problems.append(f"the floor tiles {spec.tiles!r} must be two integers from 1 to 400")

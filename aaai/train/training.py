@@ -227,6 +227,8 @@ def check_init_from(config: dict) -> None:
         if newest is None:
             raise ConfigError(f"--init-from: run folder {source!r} holds no model (final/ or checkpoints/*/model.zip)")
         path = newest / "model.zip"
+    elif not path.is_file():  # a pipe would wait for a writer, a device never end
+        raise ConfigError(f"--init-from: {source!r} is a device or a pipe; allowed: a run folder or a model .zip")
     check_init_weights(config, path)
 
 
