@@ -91,7 +91,7 @@ from aaai_cli.options import DIFFICULTY, SEED, Finite, Output, SeedList, rule
 )
 @click.option(
     "--max-sessions",
-    type=click.IntRange(1),
+    type=click.IntRange(1, 10_000),
     help="Players at once (each holds a simulation); a join beyond is refused "
     "[default: 4 per CPU core, within half the available memory at 50 MB each].",
 )
