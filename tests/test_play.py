@@ -396,8 +396,14 @@ def test_a_battery_of_arena_files_is_played_and_scored_with_its_arena_column(tmp
             page.join("eve")
             for index in (1, 2):
                 page.pump(lambda s, i=index: startable(s) and s["episode"]["index"] == i)
-                page.key(" ")
-                page.key(" ", down=False)
+                for _ in range(3):  # a press seen once lost under a load of 10 on 2 cores: a player presses again
+                    page.key(" ")
+                    page.key(" ", down=False)
+                    try:
+                        page.pump(lambda s: s["phase"] != "ready", timeout=3.0)
+                        break
+                    except AssertionError:
+                        continue
                 status = page.pump(lambda s, i=index: s["scored"] == i)
     finally:
         server.stop()
