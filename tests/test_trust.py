@@ -776,7 +776,7 @@ def soak_script_levels() -> list[int]:
 
 @pytest.mark.long
 def test_a_real_full_disk_keeps_the_rows_and_a_rerun_after_freeing_space_completes(tmp_path):
-    """On a 64 KiB tmpfs filled to two free pages (needs the right to mount, as root in CI's container)."""
+    """On a 64 KiB tmpfs filled to three free pages (needs the right to mount, as root in CI's container)."""
     import subprocess
     import sys
 
@@ -786,14 +786,14 @@ def test_a_real_full_disk_keeps_the_rows_and_a_rerun_after_freeing_space_complet
         pytest.skip("cannot mount a small filesystem here")
     try:
         filler = disk / "filler"
-        with open(filler, "wb", buffering=0) as handle:  # fill it, then give back two pages: the record, a page of rows
+        with open(filler, "wb", buffering=0) as handle:  # fill it, then give back three pages: the lock, the record, rows
             try:
                 while True:
                     handle.write(b"x" * 4096)
             except OSError:
                 pass
         with open(filler, "r+b") as handle:
-            handle.truncate(max(0, filler.stat().st_size - 2 * 4096))
+            handle.truncate(max(0, filler.stat().st_size - 3 * 4096))
         config = _yaml(tmp_path, "short.yaml", {"episode": {"max_steps": 10}})
         out = disk / "board.csv"
         command = [
