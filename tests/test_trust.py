@@ -786,7 +786,9 @@ def test_a_real_full_disk_keeps_the_rows_and_a_rerun_after_freeing_space_complet
         pytest.skip("cannot mount a small filesystem here")
     try:
         filler = disk / "filler"
-        with open(filler, "wb", buffering=0) as handle:  # fill it, then give back three pages: the lock, the record, rows
+        with open(
+            filler, "wb", buffering=0
+        ) as handle:  # fill it, then give back three pages: the lock, the record, rows
             try:
                 while True:
                     handle.write(b"x" * 4096)
