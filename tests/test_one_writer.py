@@ -122,7 +122,8 @@ def test_a_scoreboard_being_written_refuses_a_second_eval_naming_the_holder(tmp_
     board, config = tmp_path / "board.csv", tmp_path / "short.yaml"
     config.write_text(yaml.safe_dump({"episode": {"max_steps": 20}}))
     command = ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0", "--config", str(config)]
-    pytest.importorskip("torch")  # imported by every eval before its work: not counted in "at once" below
+    # imported by every eval before its work: not counted in "at once" below
+    pytest.importorskip("torch", reason="needs the train extra (torch)")
     settings = load_config(str(config))
     cells = cells_for([0], [0], "reserved", 2)
     record = policy_record("random", "reserved")
@@ -163,7 +164,7 @@ def test_a_scoreboard_held_by_another_process_is_refused_and_free_once_it_is_kil
     board, config = tmp_path / "board.csv", tmp_path / "short.yaml"
     config.write_text(yaml.safe_dump({"episode": {"max_steps": 20}}))
     command = ["eval", "--policy", "random", "--levels", "0", "--difficulty", "0", "--config", str(config)]
-    pytest.importorskip("torch")
+    pytest.importorskip("torch", reason="needs the train extra (torch)")
     holder = subprocess.Popen(
         [*AAAI, *command, "-k", "1000", "--out", str(board)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
     )
