@@ -65,11 +65,11 @@ def test_lazy_and_submodule_imports_are_dependencies(tmp_path):
     inside a function, and a submodule import that runs its package first."""
     lazy = tmp_path / "lazy.py"
     lazy.write_text("def f():\n    from aaai.levels import generate\n")
-    assert imported("aaai.task.validate", lazy) == {"aaai.levels"}
+    assert imported("aaai.sim.geometry", lazy) == {"aaai.levels"}
     deep = tmp_path / "deep.py"
     deep.write_text("from aaai.levels.common import sphere\n")
-    assert imported("aaai.task.validate", deep) == {"aaai.levels", "aaai.levels.common"}
-    assert "aaai.task.validate" in imported("aaai.levels", MODULES["aaai.levels"])
+    assert imported("aaai.sim.geometry", deep) == {"aaai.levels", "aaai.levels.common"}
+    assert "aaai.levels.validate" in imported("aaai.levels", MODULES["aaai.levels"])
 
 
 @pytest.mark.parametrize("name", sorted(MODULES))
@@ -130,12 +130,15 @@ def test_scoring_imports_nothing_from_training(module):
 
 
 # The package's map, bottom to top: a module may import its own layer and the layers below, never above.
+# A unit is a folder of aaai (aaai.sim) or a module at its top (aaai.config); DEVELOPERS.md, "Layout", reads the same.
 LAYERS = (
     ("aaai.errors", "aaai.files", "aaai.safe_yaml"),  # what every module may use
     ("aaai.agent",),  # the body: its URDF table and its handle in a client
     ("aaai.config",),  # the configuration and its rules
-    ("aaai.spec", "aaai.sim"),  # a level as plain data; the simulation that builds and senses it
-    ("aaai.task", "aaai.levels"),  # rewards, solvability, seeds, arenas, the reference; the level generators
+    ("aaai.spec",),  # a level as plain data: the spec and its hash, the kinds and moving parts it names
+    ("aaai.sim",),  # the simulation that builds and senses a spec: client, world, geometry, senses, gait
+    ("aaai.levels",),  # the level registry and generators, the solvability checks, the seed ranges
+    ("aaai.task",),  # rewards and the episode's end, arena files, the reference controller
     ("aaai.env", "aaai.registration"),  # the Gymnasium environment and its ids
     ("aaai.scoring",),  # policies, episodes, the scoreboard, run folders, replays
     ("aaai.train",),  # workers, samplers, PPO, DAgger, experiments
@@ -174,3 +177,61 @@ def test_an_upward_import_is_caught(tmp_path):
     found = imported("aaai.sim.sensors", upward)
     assert "aaai.scoring.evaluation" in found
     assert any(layer_of(target) > layer_of("aaai.sim.sensors") for target in found)
+
+
+def unit_of(module: str) -> str:
+    """The folder of aaai a module is in (aaai.sim for aaai.sim.world), or the module itself at the top."""
+    return ".".join(module.split(".")[:2])
+
+
+def unit_graph(graph: dict[str, set[str]]) -> dict[str, dict[str, str]]:
+    """Which unit imports which: for each (unit, other unit), one import that makes the link."""
+    links: dict[str, dict[str, str]] = {}
+    for name, targets in sorted(graph.items()):
+        for target in sorted(targets, key=lambda t: (-t.count("."), t)):  # the module, before its package
+            if target != "aaai" and unit_of(target) != unit_of(name):
+                links.setdefault(unit_of(name), {}).setdefault(unit_of(target), f"{name} imports {target}")
+    return links
+
+
+def mutual(links: dict[str, dict[str, str]]) -> list[str]:
+    """Every pair of units that import each other, with the import each way."""
+    return [
+        f"{a} <-> {b}: {links[a][b]}; {links[b][a]}"
+        for a in sorted(links)
+        for b in sorted(links[a])
+        if a < b and a in links.get(b, {})
+    ]
+
+
+def test_no_two_folders_import_each_other():
+    """Folders (and top-level modules) depend one way: none imports a unit that imports it back,
+    at the top of a file or inside a function."""
+    graph = {name: imported(name, path) for name, path in MODULES.items() if name != "aaai"}
+    found = mutual(unit_graph(graph))
+    assert not found, "units that import each other:\n" + "\n".join(found)
+
+
+def test_no_unit_imports_one_above_it():
+    """Between units, an import goes down the declared order only: each unit's imports, named."""
+    graph = {name: imported(name, path) for name, path in MODULES.items() if name != "aaai"}
+    upward = [
+        f"{unit} (layer {layer_of(unit)}) -> {other} (layer {layer_of(other)}): {why}"
+        for unit, others in unit_graph(graph).items()
+        for other, why in others.items()
+        if layer_of(other) > layer_of(unit)
+    ]
+    assert not upward, "units that import one above them:\n" + "\n".join(upward)
+
+
+def test_a_pair_of_folders_importing_each_other_is_caught(tmp_path):
+    """The check sees a lazy import from a lower folder back up into one that imports it."""
+    back = tmp_path / "__init__.py"
+    back.write_text("def f():\n    from aaai.task.arena import load_arena\n")
+    graph = {name: imported(name, path) for name, path in MODULES.items() if name != "aaai"}
+    graph["aaai.levels"] = graph["aaai.levels"] | imported("aaai.levels", back)
+    found = mutual(unit_graph(graph))
+    assert any(
+        line.startswith("aaai.levels <-> aaai.task:") and "aaai.levels imports aaai.task.arena" in line
+        for line in found
+    )

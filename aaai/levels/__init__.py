@@ -1,7 +1,7 @@
 """The level registry: level files (configs/levels/L*.yaml) joined to their generators.
 
 A level is a pure function of (difficulty, seed, parameters) that returns a LevelSpec. Every
-generated spec is checked (aaai.task.validate); one that fails is generated again from a generator
+generated spec is checked (aaai.levels.validate); one that fails is generated again from a generator
 derived from the same (seed, level, difficulty) and the attempt number, so the result is still a
 pure function of the inputs.
 
@@ -11,6 +11,9 @@ AAAI_LEVELS (separated as PATH is) add their L*.yaml files to the shipped ones. 
 has PARAMETERS (the names its level file's params must give) and ``generate(params, rng)``
 returning the spec's fields; with ``WRAPS_OTHER_LEVELS = True`` it is ``generate(params, rng,
 inner)`` and ``inner(rng)`` makes it a random level that wraps no other.
+
+Beside the generators: the checks every spec passes (aaai.levels.validate) and the seed ranges
+(aaai.levels.seeds); this package imports nothing of aaai.task, which sits above it.
 """
 
 from __future__ import annotations
@@ -26,16 +29,17 @@ from typing import Any
 import numpy as np
 
 from aaai.config import ConfigError, config_dir, read_yaml, use_level_ids
+from aaai.levels import validate
 from aaai.levels.common import PlacementError
 from aaai.levels.params import DIFFICULTIES, resolve
+from aaai.levels.seeds import seed_range
 from aaai.spec import AgentPose, LevelSpec
-from aaai.task import validate
-from aaai.task.seeds import seed_range
 
 LEVEL_FILE_KEYS = ("id", "name", "title", "generator", "params", "time_limit", "label")
 OPTIONAL_KEYS = ("label",)  # label: how the level is shown, default "L<id>" (L2b has id 12)
 SEED_LIMIT = 2**32  # seeds are integers in [0, 2**32)
 MAX_ATTEMPTS = 50  # generations of one (level, difficulty, seed) before it is an error
+HELPERS = ("common", "params", "seeds", "validate")  # modules of this package that are no generator
 
 
 class InvalidLevelError(RuntimeError):
@@ -94,14 +98,14 @@ def _load_level(path) -> Level:
 def _generator(name: str, source: str) -> ModuleType:
     """The generator module a level file names: aaai/levels/<name>.py, or a dotted module path."""
     ours = sorted(p.stem for p in Path(__file__).parent.glob("*.py") if not p.stem.startswith("_"))
-    if name in ("common", "params"):
+    if name in HELPERS:
         name = ""
     try:
         module = importlib.import_module(f"aaai.levels.{name}" if name in ours else name)
     except (ImportError, ValueError, TypeError) as error:
         raise ConfigError(
             f"{source}: generator {name!r} cannot be imported ({error}); allowed: a module of "
-            f"aaai/levels/ ({', '.join(n for n in ours if n not in ('common', 'params'))}) or an "
+            f"aaai/levels/ ({', '.join(n for n in ours if n not in HELPERS)}) or an "
             "importable module path"
         ) from None
     if not callable(getattr(module, "generate", None)) or not hasattr(module, "PARAMETERS"):
@@ -190,7 +194,7 @@ def attempt_rng(level_id: int, difficulty: int, seed: int, attempt: int) -> np.r
 def generate(level: int | str, difficulty: int, seed: int) -> LevelSpec:
     """The level spec for (level, difficulty, seed): the same inputs always give an equal spec.
 
-    A spec that fails aaai.task.validate.check is generated again (its ``regenerated`` counts the
+    A spec that fails aaai.levels.validate.check is generated again (its ``regenerated`` counts the
     failed attempts); after MAX_ATTEMPTS it is an InvalidLevelError.
     """
     lvl = get_level(level)
@@ -241,7 +245,7 @@ def other_level(rng: np.random.Generator, seeds: range) -> LevelSpec:
     """A random level that wraps no other, and cell (for L6, L7): the spec of an rng-drawn
     (level, difficulty, seed).
 
-    The inner seed comes from rng, within ``seeds`` (the outer seed's range: aaai.task.seeds.seed_range),
+    The inner seed comes from rng, within ``seeds`` (the outer seed's range: aaai.levels.seeds.seed_range),
     so the result is a pure function of the outer level's seed and a reserved seed builds only
     from reserved seeds.
     """

@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from aaai.levels.common import AGENT_RADIUS, arena_walls, sample_clear_point, sphere
+from aaai.spec import ObjectSpec
 
 PARAMETERS = ("pieces", "size_min", "size_max", "move_probability", "speed", "min_separation", "agent_clearance")
 ARENA = (50.0, 50.0)
@@ -15,7 +16,7 @@ ARENA = (50.0, 50.0)
 def generate(p: dict, rng: np.random.Generator) -> dict:
     agent_x, agent_y = sample_clear_point(rng, ARENA, AGENT_RADIUS + 1.0, [])
     heading = float(rng.uniform(-math.pi, math.pi))
-    foods = []
+    foods: list[ObjectSpec] = []
     for index in range(int(p["pieces"])):
         size = float(rng.uniform(p["size_min"], p["size_max"]))
         keep_out = [(agent_x, agent_y, AGENT_RADIUS + p["agent_clearance"] + size / 2)]

@@ -12,11 +12,11 @@ from __future__ import annotations
 import ast
 import math
 import operator
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 DIFFICULTIES = range(0, 11)
 
-_BINARY = {
+_BINARY: dict[type[ast.operator], Callable[[Any, Any], Any]] = {
     ast.Add: operator.add,
     ast.Sub: operator.sub,
     ast.Mult: operator.mul,
@@ -26,7 +26,7 @@ _BINARY = {
     ast.Pow: lambda base, exponent: _power(base, exponent),
 }
 MAX_EXPRESSION = 200  # characters: a parameter's expression is a line, never a program
-_FUNCTIONS = {
+_FUNCTIONS: dict[str, Callable[..., Any]] = {
     "round": round,
     "floor": math.floor,
     "ceil": math.ceil,

@@ -8,8 +8,8 @@ from typing import Callable
 
 import numpy as np
 
-from aaai.sim.kinds import COLOURS, OBJECT_KINDS
 from aaai.spec import LevelSpec, generator_fields
+from aaai.spec.kinds import COLOURS, OBJECT_KINDS
 
 PARAMETERS = ("colours", "wall_height")
 WRAPS_OTHER_LEVELS = True  # the registry hands generate() an ``inner`` level maker
@@ -17,13 +17,13 @@ WALL_KINDS = ("wall", "transparent_wall")
 
 
 def generate(p: dict, rng: np.random.Generator, inner: Callable[[np.random.Generator], LevelSpec]) -> dict:
-    inner = inner(rng)
+    spec = inner(rng)
     palette = rng.uniform(0.0, 1.0, (int(p["colours"]), 3))
     # each kind keeps its own opacity, so transparent walls stay see-through
     colours = {kind: (*map(float, palette[int(rng.integers(len(palette)))]), COLOURS[kind][3]) for kind in OBJECT_KINDS}
-    fields = generator_fields(inner)
-    fields["objects"] = [_restyle(obj, colours, p["wall_height"]) for obj in inner.objects]
-    fields["wall_height"] = max(inner.wall_height, float(p["wall_height"]))
+    fields = generator_fields(spec)
+    fields["objects"] = [_restyle(obj, colours, p["wall_height"]) for obj in spec.objects]
+    fields["wall_height"] = max(spec.wall_height, float(p["wall_height"]))
     fields["colours"] = {kind: tuple(rgba) for kind, rgba in colours.items()}
     return fields
 

@@ -4,6 +4,7 @@ missing floor, object footprints."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 from aaai.spec import LevelSpec, ObjectSpec
 
@@ -28,7 +29,8 @@ def merge_tiles(nx: int, ny: int, holes: set[tuple[int, int]]) -> list[tuple[int
                 i += 1
             runs.append((start, i))
         runs_by_row.append(runs)
-    rectangles, open_runs = [], {}  # (i0, i1) -> first row
+    rectangles: list[tuple[int, int, int, int]] = []
+    open_runs: dict[tuple[int, int], int] = {}  # (i0, i1) -> first row
     for j in range(ny + 1):
         row = set(runs_by_row[j]) if j < ny else set()
         for run in [r for r in open_runs if r not in row]:
@@ -71,7 +73,7 @@ def corners(obj: ObjectSpec) -> Quad:
     return tuple((x + u * c - v * s, y + u * s + v * c) for u, v in ((-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)))
 
 
-def footprints_overlap(a: Quad, b: Quad, gap: float = 0.0) -> bool:
+def footprints_overlap(a: Sequence[tuple[float, float]], b: Sequence[tuple[float, float]], gap: float = 0.0) -> bool:
     """Separating-axis test of two convex quadrilaterals: closer than ``gap`` (or overlapping by
     more than TOLERANCE when gap is 0)? Plain floats: this runs at every reset, on a few points."""
     margin = gap if gap > 0 else -TOLERANCE

@@ -11,9 +11,9 @@ from gymnasium import spaces
 from aaai.agent.body import RAY_MASK, Quadruped
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.sim.geometry import missing_floor
-from aaai.sim.kinds import KIND_INDEX, kind_class, ray_channels
 from aaai.spec import Blackout as SpecBlackout
 from aaai.spec import LevelSpec
+from aaai.spec.kinds import KIND_INDEX, kind_class, ray_channels
 
 HOLE = KIND_INDEX["hole"]
 
@@ -27,7 +27,7 @@ class Rays:
     ``down_fan`` > 0 degrees, the same 2n+1 again pitched that far below the plane (rows 2n+1 on),
     for food lower than the head (the level rays pass over it).
 
-    Each ray reports a one-hot of the kind hit (aaai.sim.kinds.KINDS order), a hit-nothing flag,
+    Each ray reports a one-hot of the kind hit (aaai.spec.kinds.KINDS order), a hit-nothing flag,
     and the hit distance over the ray length (1 when nothing is hit).
 
     Holes: rays in the head's plane pass over missing floor, so the level's holes, pits and
@@ -37,7 +37,7 @@ class Rays:
     original's sphere casts of radius 0.5: an object narrower than the gap between two rays at its
     distance can lie unseen between them.
 
-    Kinds (``ray_kinds``, aaai.sim.kinds.ray_channels): ``classic`` has the nine classic channels, a
+    Kinds (``ray_kinds``, aaai.spec.kinds.ray_channels): ``classic`` has the nine classic channels, a
     newer kind seen on its nearest classic one; ``all`` adds a channel per newer kind a policy
     must tell apart. Floor areas (hot and death zones, ``set_zones``) are seen along the ground
     track as holes are.

@@ -1,9 +1,9 @@
 """Builds a LevelSpec into a PyBullet client and runs its moving parts.
 
-Every body carries a kind (aaai.sim.kinds); rays and rewards read it from ``kind_index``.
+Every body carries a kind (aaai.spec.kinds); rays and rewards read it from ``kind_index``.
 The floor is one body made of tiles (holes are tiles left out), or a heightfield for rough
 terrain; a deadly floor far below the arena catches anything that falls. Moving parts (the
-behaviours of aaai.sim.behaviours) advance by simulated time only; one with nothing left to do is dropped,
+behaviours of aaai.spec.behaviours) advance by simulated time only; one with nothing left to do is dropped,
 so a level without moving parts costs nothing per step.
 """
 
@@ -14,11 +14,11 @@ import math
 import numpy as np
 import pybullet as p
 
-from aaai.sim.behaviours import Behaviour, Door, behaviour_class
 from aaai.sim.geometry import footprint, merge_tiles
-from aaai.sim.kinds import CAMERA_HIDDEN, COLOURS, ENDING_KINDS, KIND_INDEX, kind_class
 from aaai.sim.snapshot import Pose
 from aaai.spec import LevelSpec, ObjectSpec
+from aaai.spec.behaviours import Behaviour, Door, behaviour_class
+from aaai.spec.kinds import CAMERA_HIDDEN, COLOURS, ENDING_KINDS, KIND_INDEX, kind_class
 
 FLOOR_THICKNESS = 1.0
 DEADLY_FLOOR_TOP = -6.0
@@ -86,7 +86,7 @@ class World:
         nx, ny = spec.tiles
         tile_x, tile_y = spec.arena_size[0] / nx, spec.arena_size[1] / ny
         boxes = []
-        for i0, j0, i1, j1 in merge_tiles(nx, ny, set(map(tuple, spec.holes))):
+        for i0, j0, i1, j1 in merge_tiles(nx, ny, {(i, j) for i, j in spec.holes}):
             centre = (
                 -spec.arena_size[0] / 2 + (i0 + i1) / 2 * tile_x,
                 -spec.arena_size[1] / 2 + (j0 + j1) / 2 * tile_y,
@@ -186,9 +186,10 @@ class World:
         return self._shapes[key]
 
     def _kind_shape(self, obj: ObjectSpec) -> tuple[int, int]:
-        """Shapes for a newer kind (aaai.sim.kinds): its boxes, its mesh, or its one shape (a floor
+        """Shapes for a newer kind (aaai.spec.kinds): its boxes, its mesh, or its one shape (a floor
         area as a slab ZONE_THICKNESS thick)."""
         cls = kind_class(obj.kind)
+        assert cls is not None  # called for the newer kinds only (build)
         hidden = obj.kind in CAMERA_HIDDEN and self.look == "task"
         key = (obj.kind, obj.shape, obj.size, obj.rgba, hidden)
         if key in self._shapes:
@@ -313,7 +314,8 @@ class World:
         for body, i in self.index.items():
             if body in self.objects:
                 position, orientation = p.getBasePositionAndOrientation(body, physicsClientId=self.client)
-                poses[i] = Pose(*(float(v) for v in position), float(p.getEulerFromQuaternion(orientation)[2]))
+                x, y, z = (float(v) for v in position)
+                poses[i] = Pose(x, y, z, float(p.getEulerFromQuaternion(orientation)[2]))
         return poses, {self.index[body] for body in self.closed_bodies}
 
     def food_positions(self) -> list[tuple[float, float, float]]:

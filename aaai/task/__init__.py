@@ -1,1 +1,1 @@
-"""The task on a spec: rewards and the episode's end, solvability, seeds, arena files, the reference controller."""
+"""The task on a spec: rewards and the episode's end, arena files, the reference controller."""

@@ -29,13 +29,12 @@ the values, which may be any plain data). The draws come, in the file's order, f
 and the same (file name, seed) gives the same spec.
 
 Errors are ConfigErrors naming the file, the line and the object: an unknown key, a wrong type,
-and every problem aaai.task.validate.check finds (overlapping solids, food that cannot be reached, an
+and every problem aaai.levels.validate.check finds (overlapping solids, food that cannot be reached, an
 agent inside a wall). Nothing is run from an invalid file.
 """
 
 from __future__ import annotations
 
-import math
 import re
 import zlib
 from pathlib import Path
@@ -46,10 +45,11 @@ import yaml
 
 from aaai import safe_yaml
 from aaai.config import ConfigError
-from aaai.sim.behaviours import REGISTRY
-from aaai.sim.kinds import ENDING_KINDS, FOOD_KINDS, OBJECT_KINDS, kind_class
-from aaai.spec import SHAPES, AgentPose, Blackout, InnerLevel, LevelSpec, ObjectSpec
-from aaai.task import validate
+from aaai.levels import all_levels, get_level, validate
+from aaai.levels.common import arena_walls
+from aaai.spec import Blackout, InnerLevel, LevelSpec
+from aaai.spec.kinds import ENDING_KINDS, OBJECT_KINDS
+from aaai.task.arena_reader import ArenaProblems, Reader, Source
 
 META_KEYS = ("description", "category", "arena_walls", "pass_mark")
 SPEC_KEYS = (
@@ -74,14 +74,10 @@ SPEC_KEYS = (
     "extras",
 )
 TOP_KEYS = META_KEYS + SPEC_KEYS
-OBJECT_KEYS = ("kind", "shape", "position", "size", "yaw", "colour", "mass", "behaviour", "timing")
-AGENT_KEYS = ("x", "y", "yaw")
 BLACKOUT_KEYS = ("light", "dark")
 INNER_KEYS = ("level", "name", "difficulty", "seed")
-RANDOM_FORMS = ("uniform", "integers", "choice")
 DEFAULT_TIME_LIMIT = 60.0
-MAX_HOLE_TILES = 400 * 400  # tiles the holes list, rects expanded (aaai.task.validate: at most 400 x 400 tiles)
-MAX_DRAWN_INTEGER = 10**15  # {integers: [low, high]}: numpy draws within int64, and no count or seed is larger
+MAX_HOLE_TILES = 400 * 400  # tiles the holes list, rects expanded (aaai.levels.validate: at most 400 x 400 tiles)
 MAX_OBJECTS = 1000  # objects in an arena file (a generated level has at most a few dozen, an imported one 504)
 
 
@@ -112,8 +108,6 @@ FIXED_NOTE = (
 
 def spec_to_arena(spec: LevelSpec, description: str | None = None, category: str | None = None) -> str:
     """The arena file (YAML text) that loads back to ``spec`` (an equal spec, the same digest)."""
-    from aaai.levels import all_levels
-
     known = all_levels().get(spec.level)
     data = spec.to_dict()
     head = {
@@ -144,258 +138,22 @@ def spec_to_arena(spec: LevelSpec, description: str | None = None, category: str
     return "\n".join(lines) + "\n"
 
 
-# --- reading ------------------------------------------------------------------------------
-class _Source:
-    """A parsed file: its name and the line of every key and list item, by path."""
-
-    def __init__(self, path: Path, node: yaml.Node):
-        self.name = path.name
-        self.offset = 0  # spec objects before the file's own (the arena walls)
-        self.lines: dict[tuple, int] = {(): node.start_mark.line + 1}
-        self._walk(node, ())
-
-    def _walk(self, node, where: tuple) -> None:
-        if isinstance(node, yaml.MappingNode):
-            for key, value in node.value:
-                here = where + (key.value,)
-                self.lines[here] = key.start_mark.line + 1
-                self._walk(value, here)
-        elif isinstance(node, yaml.SequenceNode):
-            for index, item in enumerate(node.value):
-                self.lines[where + (index,)] = item.start_mark.line + 1
-                self._walk(item, where + (index,))
-
-    def line(self, where: tuple) -> int:
-        while where not in self.lines:
-            where = where[:-1]
-        return self.lines[where]
-
-    def error(self, where: tuple, message: str) -> ConfigError:
-        return ConfigError(f"{self.name} line {self.line(where)}, {describe(where)}: {message}")
-
-
-def describe(where: tuple) -> str:
-    if not where:
-        return "the file"
-    text = str(where[0])
-    for part in where[1:]:
-        text += f"[{part}]" if isinstance(part, int) else f".{part}"
-    return text
-
-
-def _number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-class ArenaProblems(ConfigError):
-    """Every problem found in an arena file, each naming the file, its line and the key (``problems``);
-    as a message, one per line."""
-
-    def __init__(self, problems: list[str]):
-        self.problems = list(problems)
-        super().__init__("\n".join(self.problems))
-
-
-class _Skip(Exception):
-    """A part of the file that cannot be read; its problem is recorded and reading goes on."""
-
-
-class _Reader:
-    """Turns the parsed YAML into spec fields, drawing the random numbers and checking types.
-    Every problem is recorded (``problems``), and the parts that can still be read are read, so
-    that one pass over a file reports all of them."""
-
-    def __init__(self, source: _Source, rng: np.random.Generator, data: dict):
-        self.source, self.rng, self.data = source, rng, data
-        self.problems: list[str] = []
-
-    def fail(self, where: tuple, message: str):
-        self.problems.append(str(self.source.error(where, message)))
-        raise _Skip
-
-    def attempt(self, make, default=None):
-        """``make()``, or ``default`` when the part it reads has a problem (recorded)."""
-        try:
-            return make()
-        except _Skip:
-            return default
-
-    def keys(self, mapping, allowed: tuple, where: tuple, required: tuple = (), strict: bool = True) -> None:
-        """Records every unknown and missing key; with ``strict``, then skips the part."""
-        if not isinstance(mapping, dict):
-            self.fail(where, f"got {mapping!r}; allowed: a mapping with keys {', '.join(allowed)}")
-        before = len(self.problems)
-        for key in mapping:
-            if key not in allowed:
-                self.problems.append(
-                    str(self.source.error(where + (key,), f"key {key!r} does not exist; allowed: {', '.join(allowed)}"))
-                )
-        for key in required:
-            if key not in mapping:
-                self.problems.append(str(self.source.error(where, f"key {key!r} is missing")))
-        if strict and len(self.problems) > before:
-            raise _Skip
-
-    def draw(self, value, where: tuple):
-        """A value, with a randomisation form replaced by its draw."""
-        if isinstance(value, dict) and len(value) == 1 and next(iter(value)) in RANDOM_FORMS:
-            form, args = next(iter(value.items()))
-            here = where + (form,)
-            if form == "choice":
-                if not isinstance(args, list) or not args:
-                    self.fail(here, f"got {args!r}; allowed: a list of one or more values to choose from")
-                return args[int(self.rng.integers(len(args)))]
-            if not (
-                isinstance(args, list)
-                and len(args) == 2
-                and all(_number(a) for a in args)
-                and all(math.isfinite(a) for a in args)
-                and args[0] <= args[1]
-                and math.isfinite(float(args[1]) - float(args[0]))  # numpy draws only over a finite span
-            ):
-                self.fail(here, f"got {args!r}; allowed: [low, high], two finite numbers, low <= high, a finite span")
-            if form == "integers":
-                if not all(float(a).is_integer() and abs(a) <= MAX_DRAWN_INTEGER for a in args):
-                    self.fail(here, f"got {args!r}; allowed: [low, high], two integers within ±{MAX_DRAWN_INTEGER:.0e}")
-                return int(self.rng.integers(int(args[0]), int(args[1]) + 1))
-            return float(self.rng.uniform(args[0], args[1]))
-        return value
-
-    def number(self, value, where: tuple, integer: bool = False, positive: bool = False):
-        value = self.draw(value, where)
-        ok = _number(value) and math.isfinite(value)
-        if integer:
-            ok = ok and float(value).is_integer()
-        if positive:
-            ok = ok and value > 0
-        if not ok:
-            what = "an integer" if integer else "a finite number"
-            extra = " (or {uniform: [low, high]}, {integers: [low, high]}, {choice: [...]})"
-            self.fail(where, f"got {value!r}; allowed: {what}{' above 0' if positive else ''}{extra}")
-        return int(value) if integer and not isinstance(value, int) else value
-
-    def numbers(self, value, where: tuple, count: int | None, integer: bool = False, positive: bool = False) -> tuple:
-        value = self.draw(value, where)
-        if not isinstance(value, list) or (count is not None and len(value) != count):
-            size = f"{count} numbers" if count is not None else "numbers"
-            self.fail(where, f"got {value!r}; allowed: a list of {size}")
-        return tuple(self.number(v, where + (i,), integer, positive) for i, v in enumerate(value))
-
-    def text(self, value, where: tuple, choices: tuple | None = None) -> str:
-        value = self.draw(value, where)
-        if not isinstance(value, str) or (choices is not None and value not in choices):
-            allowed = "one of " + ", ".join(choices) if choices else "a string"
-            self.fail(where, f"got {value!r}; allowed: {allowed}")
-        return value
-
-    def plain(self, value, where: tuple):
-        """Any plain data, with randomisation forms drawn anywhere inside it."""
-        value = self.draw(value, where)
-        if isinstance(value, dict):
-            return {k: self.plain(v, where + (k,)) for k, v in value.items()}
-        if isinstance(value, list):
-            return [self.plain(v, where + (i,)) for i, v in enumerate(value)]
-        return value
-
-    # --- the parts ------------------------------------------------------------------
-    def agent(self, value) -> AgentPose:
-        where = ("agent",)
-        self.keys(value, AGENT_KEYS, where, required=("x", "y"))
-        return AgentPose(
-            self.number(value["x"], where + ("x",)),
-            self.number(value["y"], where + ("y",)),
-            self.number(value.get("yaw", math.pi / 2), where + ("yaw",)),
-        )
-
-    def obj(self, value, index: int) -> ObjectSpec:
-        where = ("objects", index)
-        before = len(self.problems)
-        self.keys(value, OBJECT_KEYS, where, required=("kind", "position", "size"), strict=False)
-        kind = (
-            self.attempt(lambda: self.text(value["kind"], where + ("kind",), OBJECT_KINDS)) if "kind" in value else None
-        )
-        shape = self.attempt(lambda: self.text(value.get("shape", default_shape(kind)), where + ("shape",), SHAPES))
-        position = (
-            self.attempt(lambda: self.numbers(value["position"], where + ("position",), 3))
-            if "position" in value
-            else None
-        )
-        size = (
-            self.attempt(lambda: self.numbers(value["size"], where + ("size",), 3, positive=True))
-            if "size" in value
-            else None
-        )
-        yaw = self.attempt(lambda: self.number(value.get("yaw", 0.0), where + ("yaw",)), 0.0)
-        colour = self.attempt(lambda: self._colour(value, where))
-        mass = self.attempt(lambda: self.number(value.get("mass", 0.0), where + ("mass",)), 0.0)
-        if mass < 0:
-            self.attempt(lambda: self.fail(where + ("mass",), f"got {mass!r}; allowed: 0 (static) or more"))
-        behaviour = self.attempt(lambda: self._behaviour(value, where))
-        timing = self.attempt(lambda: self.plain(value.get("timing"), where + ("timing",)))
-        if len(self.problems) > before:
-            raise _Skip
-        try:
-            return ObjectSpec(kind, shape, position, size, yaw, colour, mass, behaviour, timing)
-        except ValueError as error:
-            self.fail(where, str(error))
-
-    def _colour(self, value: dict, where: tuple):
-        colour = self.draw(value.get("colour"), where + ("colour",))
-        return None if colour is None else self.numbers(colour, where + ("colour",), 4)
-
-    def _behaviour(self, value: dict, where: tuple):
-        behaviour = self.plain(value.get("behaviour"), where + ("behaviour",))
-        if behaviour is not None:
-            if not isinstance(behaviour, dict) or behaviour.get("type") not in REGISTRY:
-                self.fail(
-                    where + ("behaviour",),
-                    f"got {behaviour!r}; allowed: null or a mapping with type one of "
-                    f"{', '.join(REGISTRY)} and its fields",
-                )
-            fields = REGISTRY[behaviour["type"]].fields
-            for key in behaviour:
-                if key != "type" and key not in fields:
-                    self.fail(
-                        where + ("behaviour", key),
-                        f"key {key!r} does not exist for {behaviour['type']}; allowed: type, {', '.join(fields)}",
-                    )
-            missing = [f for f in fields if f not in behaviour]
-            if missing:
-                self.fail(where + ("behaviour",), f"behaviour {behaviour['type']!r} lacks {', '.join(missing)}")
-        return behaviour
-
-    def optional(self, key: str, make):
-        value = self.draw(self.data.get(key), (key,))
-        return None if value is None else make(value)
-
-
-def default_shape(kind: str | None) -> str:
-    """The shape an object of this kind has when the file does not say: food a sphere, a newer
-    kind its own (aaai.sim.kinds), anything else a box."""
-    cls = kind_class(kind) if kind else None
-    if cls is not None:
-        return cls.shape
-    return "sphere" if kind in FOOD_KINDS else "box"
-
-
-def _category(value, source: _Source):
-    from aaai.levels import get_level
-
+def _category(value, source: Source):
     try:
         return get_level(value)
     except ConfigError as error:
         raise source.error(("category",), str(error)) from None
 
 
-def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Source]:
+def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, Source]:
     """The spec an arena file gives for an episode seed, the file's own keys (description,
     category) and where each key stands; wrong keys and types are errors, validity is not checked."""
     path = Path(path)
     data, node = safe_yaml.load_with_nodes(path, "arena file")  # plain data within limits: size, aliases, depth
     data = {} if data is None else data
-    source = _Source(path, node if node is not None else yaml.MappingNode("tag:yaml.org,2002:map", []))
+    source = Source(path, node if node is not None else yaml.MappingNode("tag:yaml.org,2002:map", []))
     rng = np.random.default_rng([int(seed), zlib.crc32(path.name.encode())])
-    read = _Reader(source, rng, data)
+    read = Reader(source, rng, data)
     if not isinstance(data, dict):
         read.attempt(lambda: read.keys(data, TOP_KEYS, (), required=("agent", "objects")))
         raise ArenaProblems(read.problems)
@@ -448,8 +206,6 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
     if not isinstance(walls, bool):
         attempt(lambda: read.fail(("arena_walls",), f"got {walls!r}; allowed: true or false"))
     if walls is True:  # they come first, so objects[i] of the file is objects[4 + i] of the spec
-        from aaai.levels.common import arena_walls
-
         objects = tuple(arena_walls(fields.get("arena_size", (50.0, 50.0)), fields.get("wall_height", 4.0))) + objects
         source.offset = 4
     if "tiles" in data:
@@ -557,6 +313,7 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, _Sour
         )
     if read.problems:
         raise ArenaProblems(read.problems)
+    assert agent is not None  # a missing or unreadable agent is a problem
     spec = LevelSpec(level, name, difficulty, spec_seed, agent, objects, **fields)
     return spec, meta, source
 
@@ -568,7 +325,7 @@ _OBJECT_REF = re.compile(
 _INDEX_REF = re.compile(r"object (\d+) \((\w+)\)")
 
 
-def _located(spec: LevelSpec, source: _Source, problem: str) -> str:
+def _located(spec: LevelSpec, source: Source, problem: str) -> str:
     """A validate.check message with the file, the line and the objects it names by index."""
     indices: list[int] = []  # the spec's object indices named, in order
 
@@ -611,14 +368,14 @@ def _located(spec: LevelSpec, source: _Source, problem: str) -> str:
     return f"{source.name} line {source.line(())}: {problem}"
 
 
-def check_arena(spec: LevelSpec, source: _Source, require_food: bool = True) -> list[str]:
+def check_arena(spec: LevelSpec, source: Source, require_food: bool = True) -> list[str]:
     """validate.check's problems with the spec, each naming the file, the line and the object."""
     return [_located(spec, source, problem) for problem in validate.check(spec, require_food=require_food)]
 
 
 def load_arena(path: str | Path, seed: int = 0, require_food: bool = True) -> LevelSpec:
     """The level an arena file gives for an episode seed, checked as a generated level is
-    (aaai.task.validate.check): an invalid one is a ConfigError listing its problems by file, line and object."""
+    (aaai.levels.validate.check): an invalid one is a ConfigError listing its problems by file, line and object."""
     spec, _, source = parse_arena(path, seed)
     problems = check_arena(spec, source, require_food)
     if problems:

@@ -1,7 +1,7 @@
 """The reference controller: a privileged policy that shows what this body can do in each level.
 
 It reads what no learning agent is given (the level spec, the live positions of food and
-planks) and plans on the solvability grid of ``aaai.task.validate``; it acts only through the
+planks) and plans on the solvability grid of ``aaai.levels.validate``; it acts only through the
 ordinary action vector, by steering the gait of ``aaai.sim.gait`` (no teleporting, no forces of its
 own). Its tactic is the same in every level, driven by what the level holds:
 
@@ -14,10 +14,10 @@ own). Its tactic is the same in every level, driven by what the level holds:
 - a plank to tip over as a bridge (L10): walk round behind it, push it over, cross on it;
 - everything else (walls, holes, pits, mazes, terrain) is the planner's: the cheapest path on
   the occupancy grid, kept away from walls and edges where there is room;
-- the newer kinds (aaai.sim.kinds): multi food, and food that ripens or decays, is eaten as yellows
+- the newer kinds (aaai.spec.kinds): multi food, and food that ripens or decays, is eaten as yellows
   are (nearest first, whatever its value now); food that grows or shrinks is a green, chosen by
   its best value; bad food and death zones are
-  blocked on the grid (aaai.task.validate), so the body keeps clear of them; a path near a hot zone
+  blocked on the grid (aaai.levels.validate), so the body keeps clear of them; a path near a hot zone
   costs HOT_COST more per unit, so it goes round one where it can; tunnels are walked through.
 
 Use it as any policy: ``aaai eval --policy reference``, ``aaai run --policy reference``,
@@ -33,13 +33,13 @@ import numpy as np
 import pybullet as p
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
-from aaai.sim.behaviours import Sink, behaviour_class
+from aaai.levels import validate
+from aaai.levels.validate import FOOTPRINT_RADIUS
 from aaai.sim.gait import BACK_UP, SineGait, approach, steer
 from aaai.sim.geometry import corners
-from aaai.sim.kinds import ENDING_KINDS, FOOD_KINDS, kind_class
-from aaai.spec import ObjectSpec
-from aaai.task import validate
-from aaai.task.validate import FOOTPRINT_RADIUS
+from aaai.spec import LevelSpec, ObjectSpec
+from aaai.spec.behaviours import Sink, behaviour_class
+from aaai.spec.kinds import ENDING_KINDS, FOOD_KINDS, kind_class
 
 # pieces that do not end the episode (yellow, multi, ripening, decaying food): eaten before the green
 EAT_FIRST = tuple(kind for kind in FOOD_KINDS if kind not in ENDING_KINDS)
@@ -77,10 +77,21 @@ HOT_COST = 20.0  # extra path cost per unit where a foot may touch a hot zone
 class ReferenceController:
     """A policy: ``action = controller(observation)``; ``reset(seed)`` at each episode start."""
 
+    # The episode's plan, made at its first step (_start_episode).
+    level: LevelSpec  # the episode's spec
+    clearance: np.ndarray  # distance to the nearest blocked cell, per cell of the validate grid
+    walk: np.ndarray  # the cells the body may walk
+    crowding: np.ndarray  # the cost of a step through each cell
+    plan: np.ndarray | None  # path costs to the current goal
+    plan_goal: tuple[float, float] | None
+    rest: tuple[float, float] | None  # where it stands with nothing left to eat
+    detour: tuple[float, float] | None  # a point to walk round to before the food
+    approached: set  # goals it has come near (and picked a side for)
+
     def __init__(self, env):
         self.env = env.unwrapped
         self.gait = SineGait.for_env(self.env)
-        self.spec = None
+        self.spec: LevelSpec | None = None
 
     def reset(self, seed: int | None = None) -> None:
         self.spec = None  # plans are made at the first step, from the episode's spec
@@ -88,7 +99,7 @@ class ReferenceController:
     # --- planning -------------------------------------------------------------------
     def _start_episode(self) -> None:
         env = self.env
-        spec = self.spec = env.level_spec
+        spec = self.spec = self.level = env.level_spec
         self.gait.reset()
         self.grid = validate.blocked_grid(spec)
         self.doors_closed = 0
@@ -108,19 +119,19 @@ class ReferenceController:
     def _map(self, start: tuple[float, float] | None = None) -> None:
         """Clearance, the region walkable from ``start`` (default: the agent's start) and crowding
         cost from the occupancy grid."""
-        self.clearance = validate.clearance_map(self.spec, self.grid)
-        walk = validate.walk_region(self.spec, self.clearance, start)
+        self.clearance = validate.clearance_map(self.level, self.grid)
+        walk = validate.walk_region(self.level, self.clearance, start)
         self.walk = walk if walk is not None else self.clearance > HEAD_RADIUS
         self.crowding = (
             1.0
             + CROWDING_COST * np.clip(1.0 - self.clearance / COMFORT, 0.0, 1.0)
             + CLOSE_COST * np.clip((CLOSE - self.clearance) / (CLOSE - FOOTPRINT_RADIUS), 0.0, 1.0)
         )
-        hot = [obj for obj in self.spec.objects if getattr(kind_class(obj.kind), "hot", False)]
+        hot = [obj for obj in self.level.objects if getattr(kind_class(obj.kind), "hot", False)]
         if hot:  # where a foot may touch a hot zone
             zones = np.zeros(self.clearance.shape, np.uint8)
             for obj in hot:
-                validate.fill(zones, self.spec, corners(obj))
+                validate.fill(zones, self.level, corners(obj))
             away = (
                 cv2.distanceTransform((zones == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * validate.GRID
             )
@@ -134,7 +145,7 @@ class ReferenceController:
         if len(closed) == self.doors_closed:
             return
         for door in closed[self.doors_closed :]:
-            validate.fill(self.grid, self.spec, corners(door.obj))
+            validate.fill(self.grid, self.level, corners(door.obj))
         self.doors_closed = len(closed)
         self._map((float(head[0]), float(head[1])))
 
@@ -162,18 +173,20 @@ class ReferenceController:
         if key != self.plan_key or self.plan_goal is None or math.dist(goal, self.plan_goal) > REPLAN_MOVE:
             self.plan = self._costs(goal, reach, avoid)
             self.plan_key, self.plan_goal = key, goal
-        row, col = validate.cell(self.spec, head[0], head[1], self.plan.shape)
+        plan = self.plan
+        assert plan is not None  # made with plan_key, just now or for this key before
+        row, col = validate.cell(self.level, head[0], head[1], plan.shape)
         span = int(LOOKAHEAD / validate.GRID) + 1
         r0, c0 = max(row - span, 0), max(col - span, 0)
         rows, cols = slice(r0, row + span + 1), slice(c0, col + span + 1)
         near = np.hypot(self.cell_x[None, cols] - head[0], self.cell_y[rows, None] - head[1]) <= LOOKAHEAD
-        here = np.where(near, self.plan[rows, cols], np.inf)
+        here = np.where(near, plan[rows, cols], np.inf)
         if np.isfinite(here).any():
             r, c = np.unravel_index(np.argmin(here), here.shape)
             return float(self.cell_x[c0 + c]), float(self.cell_y[r0 + r])
         # off the plan: head for the nearest planned cell
         distance = np.where(
-            np.isfinite(self.plan), np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]), np.inf
+            np.isfinite(plan), np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]), np.inf
         )
         r, c = np.unravel_index(np.argmin(distance), distance.shape)
         return float(self.cell_x[c]), float(self.cell_y[r])
@@ -183,7 +196,7 @@ class ReferenceController:
         steps = max(2, int(math.dist(head[:2], goal) / validate.GRID))
         for t in np.linspace(0.0, 1.0, steps):
             x, y = head[0] + t * (goal[0] - head[0]), head[1] + t * (goal[1] - head[1])
-            row, col = validate.cell(self.spec, x, y, self.clearance.shape)
+            row, col = validate.cell(self.level, x, y, self.clearance.shape)
             if self.clearance[row, col] < 1.0:
                 return False
         return True
@@ -292,7 +305,7 @@ class ReferenceController:
         point = self._waypoint(head, goal, reach, key, avoid)
         remaining = math.dist(head[:2], goal)
         if self.plan is not None and self.plan_key == key:
-            remaining = min(remaining, self.plan[validate.cell(self.spec, head[0], head[1], self.plan.shape)])
+            remaining = min(remaining, self.plan[validate.cell(self.level, head[0], head[1], self.plan.shape)])
         if not self._progress(remaining, now, key):  # stuck: back off, and come at food from another side
             if self._room_behind(head, yaw):
                 self.back_off_until = now + BACK_OFF_SECONDS
@@ -307,7 +320,7 @@ class ReferenceController:
             forward, turn = steer(
                 error, math.dist(head[:2], point), arrive=2.0 if self.detour else 0.0, reverse=remaining < BACK_UP
             )
-            row, col = validate.cell(self.spec, head[0], head[1], self.clearance.shape)
+            row, col = validate.cell(self.level, head[0], head[1], self.clearance.shape)
             room = (self.clearance[row, col] - FOOTPRINT_RADIUS) / (CLOSE - FOOTPRINT_RADIUS)
             self.gait.command(forward * min(1.0, max(SLOW, room)) if forward > 0 else forward, turn)
         return self.gait()
@@ -324,10 +337,10 @@ class ReferenceController:
         for k in range(-8, 8):
             angle = towards + k * math.pi / 8
             cos, sin = math.cos(angle), math.sin(angle)
-            stand = validate.cell(self.spec, food[0] + gap * cos, food[1] + gap * sin, self.clearance.shape)
+            stand = validate.cell(self.level, food[0] + gap * cos, food[1] + gap * sin, self.clearance.shape)
             if not self.walk[stand]:
                 continue
-            eat = validate.cell(self.spec, food[0] + reach * cos, food[1] + reach * sin, self.clearance.shape)
+            eat = validate.cell(self.level, food[0] + reach * cos, food[1] + reach * sin, self.clearance.shape)
             # room where the head will be as it eats (to back out straight), then on the way in
             score = min(self.clearance[eat], COMFORT) + 0.5 * min(self.clearance[stand], CLOSE) - 0.3 * abs(k)
             if score > best_score:
@@ -340,14 +353,14 @@ class ReferenceController:
         """Too near a wall to turn on the spot without a foot touching it (after eating food by a
         wall): walk out toward more room, backward if that is behind, arcing away from a wall
         beside. False when there is room."""
-        row, col = validate.cell(self.spec, head[0], head[1], self.clearance.shape)
+        row, col = validate.cell(self.level, head[0], head[1], self.clearance.shape)
         if self.clearance[row, col] >= FOOTPRINT_RADIUS or math.dist(head[:2], goal) < DIRECT:
             return False
         here = self.clearance[row, col]
         straight = []  # straight out, ahead or behind, turns no leg toward the wall
         for sign in (1.0, -1.0):
             cell = validate.cell(
-                self.spec,
+                self.level,
                 head[0] + sign * 2.0 * math.cos(yaw),
                 head[1] + sign * 2.0 * math.sin(yaw),
                 self.clearance.shape,
@@ -362,7 +375,7 @@ class ReferenceController:
             angle = yaw + k * math.pi / 8
             room = self.clearance[
                 validate.cell(
-                    self.spec, head[0] + 2.0 * math.cos(angle), head[1] + 2.0 * math.sin(angle), self.clearance.shape
+                    self.level, head[0] + 2.0 * math.cos(angle), head[1] + 2.0 * math.sin(angle), self.clearance.shape
                 )
             ]
             if room > roomiest:
@@ -376,7 +389,7 @@ class ReferenceController:
     def _room_behind(self, head: np.ndarray, yaw: float) -> bool:
         """Is there room to back off (no wall within the footprint of a place 2.5 behind)?"""
         x, y = head[0] - 2.5 * math.cos(yaw), head[1] - 2.5 * math.sin(yaw)
-        row, col = validate.cell(self.spec, x, y, self.clearance.shape)
+        row, col = validate.cell(self.level, x, y, self.clearance.shape)
         return bool(self.clearance[row, col] > FOOTPRINT_RADIUS)
 
     def _rest_spot(self, head: np.ndarray) -> tuple[float, float]:

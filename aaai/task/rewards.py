@@ -4,9 +4,9 @@ T is episode.max_steps. Every step costs 0.5/T, and another 0.5/T while the head
 the floor (with ground_penalty off: 1/T flat). Food eaten with the head pays its value
 (green: size, yellow: size/2); with a leg, as agent.limb_food_reward says. Each new
 contact of a body part with a wall costs 1; falling onto the deadly floor costs 1. The newer
-kinds (aaai.sim.kinds): bad food touched by any part pays -size and ends the episode; a death zone
+kinds (aaai.spec.kinds): bad food touched by any part pays -size and ends the episode; a death zone
 touched is a fall; while a hot zone is touched the step term is ten times as large. Food that
-ripens, decays, grows or shrinks pays its value at the time it is eaten (aaai.sim.kinds.TimedFood).
+ripens, decays, grows or shrinks pays its value at the time it is eaten (aaai.spec.kinds.TimedFood).
 Optional potential-based shaping (episode.shaping = k > 0) adds k x (how much nearer the head
 came to the nearest food this step); evaluation always runs with k = 0.
 """
@@ -17,15 +17,15 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable
 
-from aaai.sim.kinds import EDIBLE_KINDS, ENDING_KINDS, HOT_ZONE_FACTOR, KIND_INDEX, KINDS, REGISTRY, TimedFood
 from aaai.spec import LevelSpec, ObjectSpec
+from aaai.spec.kinds import EDIBLE_KINDS, ENDING_KINDS, HOT_ZONE_FACTOR, KIND_INDEX, KINDS, REGISTRY, TimedFood
 
 LIMB_FLAT_REWARD = {"food_green": 1.0, "food_yellow": 0.5, **{k: c.flat_value for k, c in REGISTRY.items() if c.edible}}
 ANY_PART = tuple(k for k, c in REGISTRY.items() if c.any_part)  # eaten by any part of the body (bad food)
 TERMS = ("step", "ground", "food", "wall", "fall", "shaping")
 FLOOR, WALL, DEADLY = KIND_INDEX["floor"], KIND_INDEX["wall"], KIND_INDEX["deadly_floor"]
 FOOD = tuple(KIND_INDEX[kind] for kind in EDIBLE_KINDS)
-NEWER = len(KINDS)  # kind indices from here on are aaai.sim.kinds plug-ins
+NEWER = len(KINDS)  # kind indices from here on are aaai.spec.kinds plug-ins
 NEWER_CLASSES = tuple(REGISTRY.values())
 HEAD = -1  # the head's link index in a contact
 
@@ -132,7 +132,7 @@ class FoodTask:
                 events.fell = True
             elif kind in FOOD:
                 touching[other] = touching.get(other, False) or link == HEAD
-            elif kind >= NEWER:  # a floor area (aaai.sim.kinds): deadly, or hot
+            elif kind >= NEWER:  # a floor area (aaai.spec.kinds): deadly, or hot
                 newer = NEWER_CLASSES[kind - NEWER]
                 events.fell |= newer.deadly
                 events.hot |= newer.hot

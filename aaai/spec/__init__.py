@@ -1,6 +1,9 @@
 """A level as plain data: what a generator returns and the builder turns into PyBullet bodies.
 
-A spec holds no simulator state, so it can be validated, drawn and hashed without physics.
+A spec holds no simulator state, so it can be validated, drawn and hashed without physics. The
+names it is written in live beside it, below the simulation: the object kinds (aaai.spec.kinds) and
+the moving parts (aaai.spec.behaviours); this package imports nothing of aaai.sim, aaai.task or
+aaai.levels.
 Coordinates: metres, z up, the arena centred on the origin with its floor's top at z = 0;
 yaw in radians, 0 facing +x (east), pi/2 facing +y (north).
 """
@@ -11,8 +14,8 @@ import hashlib
 import json
 from dataclasses import asdict, dataclass, field
 
-from aaai.sim.behaviours import names as behaviour_names
-from aaai.sim.kinds import COLOURS, EDIBLE_KINDS, FOOD_KINDS, check_kind, kind_class
+from aaai.spec.behaviours import names as behaviour_names
+from aaai.spec.kinds import COLOURS, EDIBLE_KINDS, FOOD_KINDS, TimedFood, check_kind, kind_class
 
 SHAPES = ("box", "sphere", "cylinder")
 
@@ -38,8 +41,8 @@ class ObjectSpec:
     yaw: float = 0.0
     colour: tuple[float, float, float, float] | None = None  # None: the kind's colour
     mass: float = 0.0  # 0: static
-    behaviour: dict | None = None  # a moving part (aaai.sim.behaviours), e.g. {"type": "random_walk", "speed": 4.0}
-    timing: dict | None = None  # food whose value changes (aaai.sim.kinds.TimedFood): start, end, delay, duration
+    behaviour: dict | None = None  # a moving part (aaai.spec.behaviours), e.g. {"type": "random_walk", "speed": 4.0}
+    timing: dict | None = None  # food whose value changes (aaai.spec.kinds.TimedFood): start, end, delay, duration
 
     def __post_init__(self):
         check_kind(self.kind)
@@ -66,14 +69,14 @@ class ObjectSpec:
     @property
     def food_value(self) -> float:
         """Reward for eating this piece with the head: its size (green) or half its size (yellow);
-        a newer kind's value per unit of size (aaai.sim.kinds) times its size."""
+        a newer kind's value per unit of size (aaai.spec.kinds) times its size."""
         if self.kind == "food_green":
             return self.size[0]
         if self.kind == "food_yellow":
             return self.size[0] / 2
         cls = kind_class(self.kind)
-        if cls is not None and cls.timed:
-            return cls.best_value(self)  # its best; the value when eaten: aaai.sim.kinds.TimedFood.value_at
+        if cls is not None and issubclass(cls, TimedFood):  # the timed kinds (``timed``)
+            return cls.best_value(self)  # its best; the value when eaten: aaai.spec.kinds.TimedFood.value_at
         return cls.value * self.size[0] if cls is not None and cls.edible else 0.0
 
 
@@ -124,7 +127,7 @@ class LevelSpec:
     # Floor again once the pushable plank has tipped over (L10): x0, y0, x1, y1 where it lands.
     bridge: tuple[float, float, float, float] | None = None
     inner: InnerLevel | None = None  # the level a wrapping level (L6, L7) was built from
-    regenerated: int = 0  # attempts that failed aaai.task.validate.check before this one
+    regenerated: int = 0  # attempts that failed aaai.levels.validate.check before this one
     extras: dict = field(default_factory=dict)  # facts about the instance for people and analysis (JSON types)
 
     def to_dict(self) -> dict:

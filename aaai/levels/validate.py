@@ -1,0 +1,411 @@
+"""Solvability checks of a LevelSpec, without physics.
+
+A generated level must have: no two solid objects overlapping; the agent's start and every
+food piece inside the arena, on solid ground and clear of solids; every food piece reachable
+by a body of the agent's footprint. Reachability is a search on an occupancy grid of the
+arena: solids and holes (missing floor tiles: holes, pits, trenches) are blocked, sinking
+pillars and sector doors are passable (a pillar ends flush with the floor; a door is open
+until the agent has gone through it), and a level's ``bridge`` rectangle (where
+the L10 plank lands when pushed over) is floor again. The newer kinds (aaai.spec.kinds): a kind built of
+parts (a tunnel's arch, an L block) is checked part by part (``pieces``), so the body walks through
+a tunnel and food may lie in a U; a ramp is walkable; a death zone and bad food are blocked (the
+body keeps clear of them); a hot zone is walkable (the reference controller avoids it by cost).
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+
+import cv2
+import numpy as np
+
+from aaai.agent.urdf_writer import HEAD_RADIUS
+from aaai.sim.geometry import TOLERANCE, corners, footprints_overlap
+from aaai.spec import LevelSpec, ObjectSpec
+from aaai.spec.behaviours import REGISTRY, behaviour_class
+from aaai.spec.kinds import REGISTRY as REGISTRY_KINDS
+from aaai.spec.kinds import SOLID_KINDS, kind_class
+
+GRID = 0.5  # occupancy grid cell, units
+# The footprint a walking body needs: the resting X reaches 4.5 from the head's centre and the
+# trot's feet sweep out to about 5, so a passage must be wider than 10 for the body to walk
+# through it without a foot touching a wall (a wall touched costs 1).
+FOOTPRINT_RADIUS = 5.0
+# Where the head can be to eat: the same places. A body that leans closer to a wall to reach food
+# lying against it (with the X's front feet 3.7 ahead, it could bring the head that close) touches
+# the wall with a sweeping foot on the way, so food must be reachable from the walking region.
+REACH_CLEARANCE = FOOTPRINT_RADIUS
+
+
+def z_range(obj: ObjectSpec, z: float | None = None) -> tuple[float, float]:
+    centre = obj.position[2] if z is None else z
+    return centre - obj.size[2] / 2, centre + obj.size[2] / 2
+
+
+def pieces(obj: ObjectSpec) -> list[ObjectSpec]:
+    """An object as the boxes it is built of (aaai.spec.kinds parts: a tunnel's arch, an L block), each
+    as an upright box round that part, in world coordinates; the object itself otherwise."""
+    cls = kind_class(obj.kind)
+    parts = cls.parts(obj) if cls is not None else None
+    if not parts:
+        return [obj]
+    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+    boxes = []
+    for (x, y, z), (length, width, thickness), roll in parts:
+        across = width * abs(math.cos(roll)) + thickness * abs(math.sin(roll))
+        up = width * abs(math.sin(roll)) + thickness * abs(math.cos(roll))
+        boxes.append(
+            ObjectSpec(
+                obj.kind,
+                "box",
+                (obj.position[0] + c * x - s * y, obj.position[1] + s * x + c * y, obj.position[2] + z),
+                (length, across, up),
+                obj.yaw,
+            )
+        )
+    return boxes
+
+
+def solids(spec: LevelSpec, owners: list[int] | None = None) -> list[ObjectSpec]:
+    """The solid objects, a newer kind made of parts as its pieces; ``owners`` gets each one's
+    object index."""
+    found = []
+    for index, obj in enumerate(spec.objects):
+        if obj.kind in SOLID_KINDS:
+            for piece in pieces(obj):
+                found.append(piece)
+                if owners is not None:
+                    owners.append(index)
+    return found
+
+
+def overlapping_solids(spec: LevelSpec) -> list[str]:
+    """Pairs of solid objects that overlap (boxes cut into each other), by index and kind."""
+    owners: list[int] = []
+    objs = solids(spec, owners)
+    if len(objs) < 2:
+        return []
+    quads = [corners(obj) for obj in objs]
+    points = np.array(quads)  # (objects, 4 corners, x y)
+    low, high = points.min(axis=1), points.max(axis=1)
+    zs = np.array([z_range(obj) for obj in objs])
+    candidates = (
+        (low[:, None, :] < high[None, :, :] - TOLERANCE).all(axis=2)
+        & (low[None, :, :] < high[:, None, :] - TOLERANCE).all(axis=2)
+        & (zs[:, None, 0] < zs[None, :, 1] - TOLERANCE)
+        & (zs[None, :, 0] < zs[:, None, 1] - TOLERANCE)
+    )
+    problems = []
+    for i, j in zip(*np.nonzero(np.triu(candidates, 1))):
+        if owners[i] != owners[j] and footprints_overlap(quads[i], quads[j]):
+            problems.append(
+                f"solid objects overlap: {objs[i].kind} at {_xy(objs[i].position)} "
+                f"and {objs[j].kind} at {_xy(objs[j].position)}"
+            )
+    return problems
+
+
+def exact_overlaps(spec: LevelSpec) -> list[str]:
+    """Objects of any kind that fill the very same place (same shape, position, size and yaw, within
+    TOLERANCE): a copy-and-paste slip in a hand-made level. Two solids there are reported by
+    :func:`overlapping_solids`; two pieces of food or floor are caught here."""
+    problems: list[str] = []
+    seen: dict[tuple, ObjectSpec] = {}
+    for obj in spec.objects:
+        key = (obj.shape, *(round(float(v) / TOLERANCE) for v in (*obj.position, *obj.size, obj.yaw)))
+        if key in seen and not (obj.kind in SOLID_KINDS and seen[key].kind in SOLID_KINDS):  # (reported below)
+            other = seen[key]
+            problems.append(
+                f"objects overlap exactly: {other.kind} at {_xy(other.position)} and {obj.kind} at {_xy(obj.position)}"
+            )
+        else:
+            seen[key] = obj
+    return problems
+
+
+def food_places(food: ObjectSpec) -> list[tuple[float, float, float]]:
+    """Where a piece of food will be: its start, and where a sliding piece stops."""
+    moving = behaviour_class(food)
+    return [food.position, *(moving.places(food) if moving else [])]
+
+
+def food_problems(spec: LevelSpec, food: ObjectSpec) -> list[str]:
+    """A piece outside the arena, over a hole, floating, or cutting into a solid."""
+    problems = []
+    radius = food.size[0] / 2
+    for x, y, z in food_places(food):
+        where = f"{food.kind} at {_xy((x, y))}"
+        if abs(x) + radius > spec.arena_size[0] / 2 or abs(y) + radius > spec.arena_size[1] / 2:
+            problems.append(f"{where} is outside the arena")
+            continue
+        if spec.heightfield is None and not _supported(spec, x, y, z - radius):
+            problems.append(f"{where} is not on solid ground")
+        bottom, top = z - radius, z + radius
+        quad = corners(ObjectSpec(food.kind, "box", (x, y, z), food.size))
+        for obj in solids(spec):
+            low, high = z_range(obj)
+            if low < top - TOLERANCE and bottom < high - TOLERANCE and footprints_overlap(quad, corners(obj)):
+                problems.append(f"{where} cuts into {obj.kind} at {_xy(obj.position)}")
+    return problems
+
+
+def _supported(spec: LevelSpec, x: float, y: float, bottom: float) -> bool:
+    """Rests on the floor (not over a hole) or on top of a solid object."""
+    if abs(bottom) < TOLERANCE:
+        return tile_at(spec, x, y) not in set(map(tuple, spec.holes))
+    point = tuple((x + dx, y + dy) for dx, dy in ((-0.01, -0.01), (0.01, -0.01), (0.01, 0.01), (-0.01, 0.01)))
+    for obj in solids(spec):
+        if abs(z_range(obj)[1] - bottom) < TOLERANCE and footprints_overlap(corners(obj), point):
+            return True
+    return False
+
+
+def tile_at(spec: LevelSpec, x: float, y: float) -> tuple[int, int]:
+    nx, ny = spec.tiles
+    i = int((x + spec.arena_size[0] / 2) / spec.arena_size[0] * nx)
+    j = int((y + spec.arena_size[1] / 2) / spec.arena_size[1] * ny)
+    return min(max(i, 0), nx - 1), min(max(j, 0), ny - 1)
+
+
+# --- the occupancy grid ------------------------------------------------------------------
+def blocked_grid(spec: LevelSpec) -> np.ndarray:
+    """uint8 (rows along y, columns along x), 1 where the agent cannot stand: solids and holes."""
+    width, height = spec.arena_size
+    cols, rows = math.ceil(width / GRID), math.ceil(height / GRID)
+    grid = np.zeros((rows, cols), np.uint8)
+    bridge = spec.bridge
+    for obj in solids(spec):
+        moving = behaviour_class(obj)
+        if moving and moving.passable:
+            continue
+        if getattr(kind_class(obj.kind), "walkable", False):  # a ramp: the body walks over it
+            continue
+        if bridge and obj.kind == "plank" and obj.mass > 0:  # it becomes the bridge
+            continue
+        if obj.position[2] - obj.size[2] / 2 > 2 * HEAD_RADIUS:  # high above the body (none yet)
+            continue
+        fill(grid, spec, corners(obj))
+    for obj in spec.objects:  # a death zone is missing floor; bad food is to be kept clear of, as a solid
+        cls = kind_class(obj.kind)
+        if cls is not None and (cls.deadly or (cls.edible and cls.value < 0)):
+            fill(grid, spec, corners(obj))
+    if spec.holes:  # every cell whose centre lies over a missing tile
+        nx, ny = spec.tiles
+        missing = np.zeros((ny, nx), bool)
+        i, j = np.array(spec.holes).T
+        missing[j, i] = True
+        tile_col = np.minimum(((np.arange(cols) + 0.5) * GRID / (width / nx)).astype(int), nx - 1)
+        tile_row = np.minimum(((np.arange(rows) + 0.5) * GRID / (height / ny)).astype(int), ny - 1)
+        grid[missing[tile_row][:, tile_col]] = 1
+    if bridge:  # the L10 plank, pushed over, is floor across the trench
+        x0, y0, x1, y1 = bridge
+        fill(grid, spec, np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)]), value=0)
+    return grid
+
+
+def fill(grid: np.ndarray, spec: LevelSpec, quad, value: int = 1) -> None:
+    """Marks the cells whose centres a quadrilateral (world x, y) covers."""
+    shift = 4
+    pixels = (np.asarray(quad) + np.array(spec.arena_size) / 2) / GRID - 0.5  # cell centres at integers
+    points = np.round(pixels * (1 << shift)).astype(np.int32)
+    cv2.fillConvexPoly(grid, points, value, lineType=cv2.LINE_8, shift=shift)
+
+
+def clearance_map(spec: LevelSpec, grid: np.ndarray | None = None) -> np.ndarray:
+    """Distance (units) from each cell's centre to the nearest blocked cell or the arena's edge."""
+    grid = blocked_grid(spec) if grid is None else grid
+    padded = np.pad(grid, 1, constant_values=1)  # the arena's walls
+    clearance = cv2.distanceTransform((padded == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return clearance[1:-1, 1:-1] * GRID
+
+
+def walk_region(spec: LevelSpec, clearance: np.ndarray, start: tuple[float, float] | None = None) -> np.ndarray | None:
+    """Where the body's centre can walk from ``start`` (default: the agent's start) as a bool grid:
+    cells whose disc of FOOTPRINT_RADIUS is clear, in the start's connected region; None if the
+    start is not clear."""
+    free = (clearance > FOOTPRINT_RADIUS).astype(np.uint8)
+    _, labels = cv2.connectedComponents(free, connectivity=8)
+    x, y = (spec.agent.x, spec.agent.y) if start is None else start
+    row, col = cell(spec, x, y, clearance.shape)
+    start = labels[row, col]
+    return None if start == 0 else labels == start
+
+
+def reachable_region(spec: LevelSpec, grid: np.ndarray | None = None) -> tuple[np.ndarray, bool]:
+    """Where the head's centre can get to from the start (a bool grid), and whether the start is clear.
+
+    The body walks where a disc of FOOTPRINT_RADIUS is clear, in the start's connected region;
+    from there it can push its head on to any place with REACH_CLEARANCE.
+    """
+    clearance = clearance_map(spec, grid)
+    walk = walk_region(spec, clearance)
+    if walk is None:
+        return np.zeros_like(clearance, bool), False
+    lean = round((FOOTPRINT_RADIUS - REACH_CLEARANCE) / GRID) + 1
+    leaned = cv2.dilate(
+        walk.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * lean + 1, 2 * lean + 1))
+    )
+    return (leaned > 0) & (clearance > REACH_CLEARANCE), True
+
+
+def path_costs(region: np.ndarray, goals: np.ndarray, cell_cost: np.ndarray | None = None) -> np.ndarray:
+    """Cost of the cheapest 8-connected path inside ``region`` from every cell to the nearest goal
+    cell (inf where none leads there), in units: each move costs its length times the mean
+    ``cell_cost`` (default 1) of its two cells. Dijkstra's algorithm on the occupancy grid."""
+    rows, cols = region.shape
+    cost = np.ones(region.shape) if cell_cost is None else cell_cost
+    inside = region.ravel().tolist()
+    weight = cost.ravel().tolist()
+    best = [math.inf] * (rows * cols)
+    queue = []
+    for index in np.flatnonzero(goals & region).tolist():
+        best[index] = 0.0
+        queue.append((0.0, index))
+    heapq.heapify(queue)
+    moves = [(dr, dc, GRID * math.hypot(dr, dc)) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
+    while queue:
+        here, index = heapq.heappop(queue)
+        if here > best[index]:
+            continue
+        row, col = divmod(index, cols)
+        for dr, dc, length in moves:
+            r, c = row + dr, col + dc
+            if 0 <= r < rows and 0 <= c < cols:
+                other = r * cols + c
+                if inside[other]:
+                    total = here + length * 0.5 * (weight[index] + weight[other])
+                    if total < best[other]:
+                        best[other] = total
+                        heapq.heappush(queue, (total, other))
+    return np.array(best).reshape(rows, cols)
+
+
+def cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
+    """The grid cell (row, column) holding the point (x, y), clamped to the grid."""
+    col = min(max(math.floor((x + spec.arena_size[0] / 2) / GRID), 0), shape[1] - 1)
+    row = min(max(math.floor((y + spec.arena_size[1] / 2) / GRID), 0), shape[0] - 1)
+    return row, col
+
+
+def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> bool:
+    """Can the head, its centre in the agent's region, touch the piece where it comes to rest?"""
+    x, y, _ = food_places(food)[-1]
+    reach = HEAD_RADIUS + food.size[0] / 2 + GRID
+    row0, col0 = cell(spec, x - reach, y - reach, region.shape)
+    row1, col1 = cell(spec, x + reach, y + reach, region.shape)
+    window = region[row0 : row1 + 1, col0 : col1 + 1]
+    cols = (np.arange(col0, col1 + 1) + 0.5) * GRID - spec.arena_size[0] / 2
+    rows = (np.arange(row0, row1 + 1) + 0.5) * GRID - spec.arena_size[1] / 2
+    near = np.hypot(cols[None, :] - x, rows[:, None] - y) <= reach
+    return bool(np.any(window & near))
+
+
+MAX_HEIGHTS = 400 * 400  # samples of a heightfield (L11 uses 65 x 65), as many as floor tiles may be
+MAX_ARENA = 1000.0  # units across: far beyond any level, short of a grid that would not fit in memory
+
+
+def malformed(spec: LevelSpec) -> list[str]:
+    """Numbers and fields no level can be built from: non-finite or non-positive sizes, positions
+    that are not finite, holes outside the tiles, behaviours missing their fields."""
+    problems = []
+
+    def finite(values, what: str) -> bool:
+        try:
+            ok = all(math.isfinite(float(v)) for v in values)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            problems.append(f"{what} is not a list of finite numbers: {values!r}")
+        return ok
+
+    if finite(spec.arena_size, "the arena size") and not all(0 < v <= MAX_ARENA for v in spec.arena_size):
+        problems.append(f"the arena size {spec.arena_size!r} must lie between 0 and {MAX_ARENA:g} on each side")
+    if finite((spec.agent.x, spec.agent.y, spec.agent.yaw), "the agent's pose") and not all(
+        abs(v) <= MAX_ARENA / 2 for v in (spec.agent.x, spec.agent.y)
+    ):
+        problems.append(
+            f"the agent's start ({spec.agent.x:.4g}, {spec.agent.y:.4g}) lies outside any arena "
+            f"(allowed: -{MAX_ARENA / 2:g} to {MAX_ARENA / 2:g} on each axis)"
+        )
+    if finite((spec.time_limit,), "the time limit") and not 0.2 <= spec.time_limit <= 200.0:
+        problems.append(
+            f"the time limit {spec.time_limit!r} must lie between 0.2 and 200 seconds, as a level's or an arena file's"
+        )
+    if spec.heightfield is not None:
+        rows = spec.heightfield
+        widths = {len(row) for row in rows}
+        if len(rows) < 2 or len(widths) != 1 or not 2 <= min(widths) or len(rows) * min(widths) > MAX_HEIGHTS:
+            problems.append(
+                f"the heightfield has rows of {sorted(widths)} heights in {len(rows)} rows; allowed: 2 or more rows, "
+                f"each of the same number (2 or more) of heights, {MAX_HEIGHTS:,} heights in all"
+            )
+        elif finite([v for row in rows for v in row], "the heightfield") and any(
+            abs(v) > MAX_ARENA for row in rows for v in row
+        ):
+            problems.append(
+                f"a height of the heightfield lies beyond {MAX_ARENA:g} (allowed: -{MAX_ARENA:g} to {MAX_ARENA:g})"
+            )
+    nx, ny = spec.tiles
+    if not (isinstance(nx, int) and isinstance(ny, int) and 1 <= nx <= 400 and 1 <= ny <= 400):
+        problems.append(f"the floor tiles {spec.tiles!r} must be two integers from 1 to 400")
+    elif any(not (0 <= i < nx and 0 <= j < ny) for i, j in spec.holes):
+        problems.append(f"a hole lies outside the {nx} x {ny} floor tiles: {spec.holes!r}")
+    for index, obj in enumerate(spec.objects):
+        what = f"object {index} ({obj.kind})"
+        if finite(obj.size, f"{what}'s size") and min(obj.size) <= 0:
+            problems.append(f"{what}'s size {obj.size!r} must be positive")
+        if finite((*obj.position, obj.yaw, obj.mass), f"{what}'s position, yaw and mass") and not all(
+            abs(v) <= MAX_ARENA
+            for v in (*obj.position, *(obj.size if all(isinstance(v, (int, float)) for v in obj.size) else ()))
+        ):
+            problems.append(
+                f"{what}'s position {tuple(float(f'{v:.4g}') for v in obj.position)!r} or size lies "
+                f"far outside any arena (allowed: -{MAX_ARENA:g} to {MAX_ARENA:g})"
+            )
+        if obj.behaviour:
+            name = obj.behaviour.get("type") if isinstance(obj.behaviour, dict) else None
+            moving = REGISTRY.get(name) if isinstance(name, str) else None
+            if moving is None:
+                problems.append(f"{what}'s behaviour {obj.behaviour!r} is not one of {', '.join(REGISTRY)}")
+                continue
+            missing = [f for f in moving.fields if f not in obj.behaviour]
+            if missing:
+                problems.append(f"{what}'s behaviour {obj.behaviour['type']!r} lacks {', '.join(missing)}")
+        cls = kind_class(obj.kind)
+        if obj.timing is not None and not (cls is not None and cls.timed):
+            problems.append(
+                f"{what} has timing {obj.timing!r}; allowed: timing only on "
+                f"{', '.join(k for k, c in REGISTRY_KINDS.items() if c.timed)}"
+            )
+        if cls is not None and not problems:
+            problems += [f"{what}: {problem}" for problem in cls.problems(obj)]
+    return problems
+
+
+def check(spec: LevelSpec, require_food: bool = True) -> list[str]:
+    """Every problem found in a spec; an empty list means the level is valid. A hand-made spec
+    may leave food out (``require_food=False``); a generated level may not."""
+    problems = malformed(spec)
+    if problems:  # nothing else can be measured on it
+        return problems
+    problems = exact_overlaps(spec) + overlapping_solids(spec)
+    for food in spec.foods:
+        problems += food_problems(spec, food)
+    region, clear = reachable_region(spec)
+    if not clear:
+        problems.append(
+            f"the agent's start {_xy((spec.agent.x, spec.agent.y))} is not clear: a body of "
+            f"radius {FOOTPRINT_RADIUS} there meets a solid, a hole or the arena's edge"
+        )
+        return problems
+    for food in spec.foods:
+        if not food_reachable(spec, region, food):
+            problems.append(f"{food.kind} at {_xy(food_places(food)[-1])} cannot be reached from the start")
+    if require_food and not spec.foods:
+        problems.append("the level has no food")
+    return problems
+
+
+def _xy(position) -> str:
+    return f"({position[0]:.1f}, {position[1]:.1f})"
