@@ -235,3 +235,20 @@ def test_a_pair_of_folders_importing_each_other_is_caught(tmp_path):
         line.startswith("aaai.levels <-> aaai.task:") and "aaai.levels imports aaai.task.arena" in line
         for line in found
     )
+
+
+@pytest.mark.parametrize(
+    "older, module",
+    [
+        ("aaai.sim.kinds", "aaai.spec.kinds"),
+        ("aaai.sim.behaviours", "aaai.spec.behaviours"),
+        ("aaai.task.validate", "aaai.levels.validate"),
+        ("aaai.task.seeds", "aaai.levels.seeds"),
+    ],
+)
+def test_an_older_name_is_the_module_itself(older, module):
+    """Code written against a module's older name gets the module itself: one registry, live tables
+    (a kind registered later is in both), and a patch made through either name is seen by both."""
+    import importlib
+
+    assert importlib.import_module(older) is importlib.import_module(module)
