@@ -19,7 +19,7 @@ pytest.importorskip("stable_baselines3", reason="needs the train extra")
 
 from aaai.config import ConfigError, load_config  # noqa: E402
 from aaai.env import AnimalAIEnv  # noqa: E402
-from aaai.scoring import model_io  # noqa: E402
+from aaai.scoring import model_archive, model_io, rllib_checkpoints  # noqa: E402
 from aaai.scoring.evaluation import record_path  # noqa: E402
 from aaai.scoring.policies import ModelPolicy  # noqa: E402
 from aaai.scoring.runs import RunFolder  # noqa: E402
@@ -186,7 +186,7 @@ def test_a_schedule_that_is_not_a_constant_is_refused_for_training_naming_it(tra
 
     path = _rewrite_data(trained / "final" / "model.zip", tmp_path / "schedule.zip", change)
     env = AnimalAIEnv(config=load_config(SHORT))
-    with pytest.raises(model_io.UntrustedModel, match="'learning_rate'.*--trust-model"):
+    with pytest.raises(model_archive.UntrustedModel, match="'learning_rate'.*--trust-model"):
         model_io.load_for_training(path, env)
     env.close()
 
@@ -196,19 +196,19 @@ def test_an_rllib_checkpoint_loads_only_signed_here_or_trusted(tmp_path, monkeyp
     checkpoint = tmp_path / "final" / "rllib"
     (checkpoint / "sub").mkdir(parents=True)
     (checkpoint / "sub" / "module_state.pkl").write_bytes(b"weights")
-    with pytest.raises(model_io.UntrustedModel, match="pickles.*--trust-model"):
-        model_io.check_rllib_checkpoint(checkpoint)
-    model_io.check_rllib_checkpoint(checkpoint, trust=True)
-    model_io.sign_checkpoint(checkpoint)
-    model_io.check_rllib_checkpoint(checkpoint)  # signed here: loads
+    with pytest.raises(model_archive.UntrustedModel, match="pickles.*--trust-model"):
+        rllib_checkpoints.check_rllib_checkpoint(checkpoint)
+    rllib_checkpoints.check_rllib_checkpoint(checkpoint, trust=True)
+    rllib_checkpoints.sign_checkpoint(checkpoint)
+    rllib_checkpoints.check_rllib_checkpoint(checkpoint)  # signed here: loads
     assert oct((tmp_path / "key").stat().st_mode & 0o777) == "0o600"
     (checkpoint / "sub" / "module_state.pkl").write_bytes(b"changed")
-    with pytest.raises(model_io.UntrustedModel):
-        model_io.check_rllib_checkpoint(checkpoint)  # a file changed after signing
-    model_io.sign_checkpoint(checkpoint)
+    with pytest.raises(model_archive.UntrustedModel):
+        rllib_checkpoints.check_rllib_checkpoint(checkpoint)  # a file changed after signing
+    rllib_checkpoints.sign_checkpoint(checkpoint)
     monkeypatch.setenv("AAAI_CHECKPOINT_KEY", str(tmp_path / "another_machine"))
-    with pytest.raises(model_io.UntrustedModel):
-        model_io.check_rllib_checkpoint(checkpoint)  # signed elsewhere
+    with pytest.raises(model_archive.UntrustedModel):
+        rllib_checkpoints.check_rllib_checkpoint(checkpoint)  # signed elsewhere
 
 
 # --- 2. a model is checked against the environment ------------------------------------------
@@ -301,7 +301,7 @@ def test_a_full_disk_names_the_file_keeps_the_rows_and_a_rerun_resumes(tmp_path,
             raise OSError(errno.ENOSPC, "No space left on device", str(out))
         return real_fsync(descriptor)
 
-    monkeypatch.setattr("aaai.scoring.evaluation.os.fsync", fsync)
+    monkeypatch.setattr("aaai.scoring.scoreboard.os.fsync", fsync)
     full = _eval("--policy", "random", "--config", config, "-k", "4", "--out", out)
     assert full.exit_code != 0 and "Traceback" not in full.output
     message = " ".join(full.output.split())
@@ -403,7 +403,7 @@ def test_a_write_refused_midway_names_the_file_and_a_rerun_resumes(tmp_path, mon
                 raise PermissionError(errno.EACCES, "Permission denied", str(out))
             return real_open(file, *args, **kwargs)
 
-        monkeypatch.setattr("aaai.scoring.evaluation.open", refusing, raising=False)
+        monkeypatch.setattr("aaai.scoring.scoreboard.open", refusing, raising=False)
     failed = _eval("--policy", "random", "--config", config, "-k", "2", "--out", out)
     message = " ".join(failed.output.split())
     assert failed.exit_code != 0 and "Traceback" not in failed.output
