@@ -7,6 +7,7 @@ import csv
 import errno
 import json
 import pickle
+import shutil
 import zipfile
 from pathlib import Path
 
@@ -189,6 +190,38 @@ def test_a_schedule_that_is_not_a_constant_is_refused_for_training_naming_it(tra
     with pytest.raises(model_archive.UntrustedModel, match="'learning_rate'.*--trust-model"):
         model_io.load_for_training(path, env)
     env.close()
+
+
+def test_train_resume_unpickles_the_model_only_with_trust_model(trained, tmp_path):
+    """``aaai train --resume`` reads the run's model without unpickling; ``--trust-model`` reaches the
+    loader as an argument, and then stable-baselines3's own loader runs the file's pickles."""
+    marker = tmp_path / "pwned"
+    run = tmp_path / "run"
+    shutil.copytree(trained, run)
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    config["train"].update(num_envs=1, vector="sync")  # one worker in this process: quick to start
+    (run / "config.yaml").write_text(yaml.safe_dump(config))
+    from aaai.train.curriculum import Curriculum
+
+    state = json.loads((run / "final" / "state.json").read_text())
+    state["curriculum"] = Curriculum.from_config(load_config(config)).state_dict()
+    (run / "final" / "state.json").write_text(json.dumps(state))
+
+    def poison_class(data):
+        data["policy_class"] = {
+            ":type:": "<class 'type'>",
+            ":serialized:": _pickle_creating(marker),
+            "__module__": "evil",
+            "__init__": "<function Evil.__init__ at 0x0>",
+        }
+
+    model = run / "final" / "model.zip"
+    _rewrite_data(model, tmp_path / "evil.zip", poison_class).replace(model)
+    refused = CliRunner().invoke(cli, ["train", "--resume", str(run), "--steps", "512"])
+    assert refused.exit_code == 2 and "'policy_class'" in refused.output and "--trust-model" in refused.output
+    assert not marker.exists()
+    CliRunner().invoke(cli, ["train", "--resume", str(run), "--steps", "512", "--trust-model"])
+    assert marker.exists()
 
 
 def test_an_rllib_checkpoint_loads_only_signed_here_or_trusted(tmp_path, monkeypatch):
