@@ -4,11 +4,13 @@ and the lock that lets one process at a time write a run folder or a scoreboard.
 Every file the package writes whole (configs, states, scoreboard summaries, pictures, videos) goes
 through ``atomic_path``: it is written to a temporary file beside its place and renamed onto it
 when complete. Folders that must appear whole (a checkpoint) are staged by aaai.scoring.runs.
+The one SHA-256 of a file (:func:`file_sha256`) and of a folder (:func:`folder_sha256`) are here too.
 """
 
 from __future__ import annotations
 
 import fcntl
+import hashlib
 import os
 import tempfile
 import time
@@ -17,6 +19,25 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 from aaai.errors import ConfigError
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """The SHA-256 of a file's bytes (hex), read a MiB at a time."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def folder_sha256(folder: str | os.PathLike) -> str:
+    """The SHA-256 of a folder's files (hex): over each file's path inside it, a NUL and the file's
+    :func:`file_sha256`, in path order; a renamed, added, removed or changed file changes it."""
+    folder = Path(folder)
+    digest = hashlib.sha256()
+    for file in sorted(f for f in folder.rglob("*") if f.is_file()):
+        digest.update(str(file.relative_to(folder)).encode() + b"\0" + file_sha256(file).encode())
+    return digest.hexdigest()
 
 
 def creation_mode() -> int:

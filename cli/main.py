@@ -508,13 +508,11 @@ def train_command(
                 + f"; score it with: aaai eval --policy {result.run.path}"
             )
             return
-        from aaai.scoring.model_io import trusting
-
         unit_config = load_config(config or RunFolder(run_dir).read_config())
         report = Progress(
             total, done=steps_done(resume_dir), every=progress_every, label=f"training ({step_note(unit_config)})"
         )
-        with trusting(trust_model), progress_output(report) as update:
+        with progress_output(report) as update:
             if use_rllib:
                 result = train_rllib(
                     run_dir,
@@ -524,6 +522,7 @@ def train_command(
                     address=address,
                     total_steps=total_steps if resume_dir else None,
                     say=say,
+                    trust=trust_model,
                 )
             else:
                 result = train(
@@ -534,6 +533,7 @@ def train_command(
                     total_steps=total_steps if resume_dir else None,
                     say=say,
                     on_episodes=report.on_episodes,
+                    trust=trust_model,
                 )
     except InUse as error:  # another process trains this run: its pid named
         raise click.ClickException(str(error)) from None
@@ -1058,7 +1058,7 @@ def bench_command(
 ):
     """Measure steps/s against a bare PyBullet loop and MuJoCo Ant-v5, training against the
     environment alone, resets, workers and memory; alternated rounds, medians and spreads."""
-    from aaai.tools import bench
+    from aaai.tools import bench, bench_report
 
     level_list = parse_levels(levels) if levels else None
     train_config: dict = {}
@@ -1081,8 +1081,8 @@ def bench_command(
         train_config=train_config or None,
         log=lambda text: click.echo(text, err=True),
     )
-    json_path, md_path = bench.write(results, Path(folder))
-    click.echo(bench.markdown(results), nl=False)
+    json_path, md_path = bench_report.write(results, Path(folder))
+    click.echo(bench_report.markdown(results), nl=False)
     click.echo("ratios (medians): " + ", ".join(f"{k} {v:.2f}" for k, v in results["ratios"].items()))
     click.echo(f"written: {json_path}, {md_path}")
 

@@ -25,7 +25,8 @@ from hypothesis import strategies as st  # noqa: E402
 
 from aaai.config import ConfigError, load_config  # noqa: E402
 from aaai.env import AnimalAIEnv  # noqa: E402
-from aaai.scoring import model_io  # noqa: E402
+from aaai.files import folder_sha256  # noqa: E402
+from aaai.scoring import model_archive, rllib_checkpoints  # noqa: E402
 from aaai.scoring.evaluation import record_path  # noqa: E402
 from aaai.scoring.policies import ModelPolicy  # noqa: E402
 from aaai.train.training import with_proprioception  # noqa: E402
@@ -140,31 +141,31 @@ def test_an_empty_key_is_refused_naming_it_and_a_signature_forged_with_it_loads_
     key.parent.mkdir()
     key.touch(mode=0o600)  # what a full disk left behind before keys were written whole
     checkpoint = _checkpoint(tmp_path)
-    forged = hmac.new(b"", model_io.folder_digest(checkpoint).encode(), hashlib.sha256).hexdigest()
-    (checkpoint.parent / model_io.SIGNATURE).write_text(forged + "\n")
+    forged = hmac.new(b"", folder_sha256(checkpoint).encode(), hashlib.sha256).hexdigest()
+    (checkpoint.parent / rllib_checkpoints.SIGNATURE).write_text(forged + "\n")
     with pytest.raises(ConfigError) as refused:
-        model_io.check_rllib_checkpoint(checkpoint)
+        rllib_checkpoints.check_rllib_checkpoint(checkpoint)
     message = str(refused.value)
     assert str(key) in message and "0 bytes" in message and "at least 32" in message and "Delete" in message
     with pytest.raises(ConfigError, match="0 bytes"):
-        model_io.sign_checkpoint(checkpoint)  # nothing is signed with it either
+        rllib_checkpoints.sign_checkpoint(checkpoint)  # nothing is signed with it either
     key.write_bytes(b"x" * 31)
     with pytest.raises(ConfigError, match="31 bytes"):
-        model_io.sign_checkpoint(checkpoint)
+        rllib_checkpoints.sign_checkpoint(checkpoint)
     key.unlink()  # the fix the message gives: a new key is made, and signs
-    model_io.sign_checkpoint(checkpoint)
-    model_io.check_rllib_checkpoint(checkpoint)
+    rllib_checkpoints.sign_checkpoint(checkpoint)
+    rllib_checkpoints.check_rllib_checkpoint(checkpoint)
 
 
 def test_a_key_others_can_read_is_refused_naming_the_chmod_fix(key, tmp_path):
     checkpoint = _checkpoint(tmp_path)
-    model_io.sign_checkpoint(checkpoint)
+    rllib_checkpoints.sign_checkpoint(checkpoint)
     key.chmod(0o644)
     with pytest.raises(ConfigError) as refused:
-        model_io.check_rllib_checkpoint(checkpoint)
+        rllib_checkpoints.check_rllib_checkpoint(checkpoint)
     assert "0644" in str(refused.value) and f"chmod 600 {str(key)!r}" in str(refused.value)
     key.chmod(0o600)
-    model_io.check_rllib_checkpoint(checkpoint)
+    rllib_checkpoints.check_rllib_checkpoint(checkpoint)
 
 
 def test_rllib_training_with_a_key_that_cannot_sign_is_refused_before_its_run_folder(key, tmp_path):
@@ -185,13 +186,13 @@ def test_a_full_disk_while_the_key_is_made_leaves_no_key_and_the_next_run_makes_
 
     monkeypatch.setattr(os, "fsync", full)
     with pytest.raises(ConfigError, match="No space left.*nothing was written"):
-        model_io._key()
+        rllib_checkpoints._key()
     assert list(key.parent.iterdir()) == []  # neither the key nor its temporary file
     monkeypatch.setattr(os, "fsync", real)
-    made = model_io._key()
+    made = rllib_checkpoints._key()
     assert len(made) == 64 and key.stat().st_mode & 0o777 == 0o600
-    model_io._create_key(key)  # another process's late creation keeps the key that is there
-    assert model_io._key() == made and len(list(key.parent.iterdir())) == 1
+    rllib_checkpoints._create_key(key)  # another process's late creation keeps the key that is there
+    assert rllib_checkpoints._key() == made and len(list(key.parent.iterdir())) == 1
 
 
 # --- 2. the size of a model file ----------------------------------------------------------------
@@ -249,15 +250,15 @@ def test_a_real_zip_bomb_is_refused_at_once_by_its_declared_size(model, config_f
 
 
 def test_each_member_is_inflated_within_its_budget(model, config_file, tmp_path, monkeypatch):
-    monkeypatch.setattr(model_io, "MAX_DATA_BYTES", 1000)  # the data part is about 10 kB
+    monkeypatch.setattr(model_archive, "MAX_DATA_BYTES", 1000)  # the data part is about 10 kB
     result = _eval("--policy", model, "--config", config_file, "--out", tmp_path / "d.csv")
     _refused_in_one_line(result, "'data'", "at most 0.0 MiB")
     monkeypatch.undo()
-    monkeypatch.setattr(model_io, "MAX_MEMBER_BYTES", 4000)
+    monkeypatch.setattr(model_archive, "MAX_MEMBER_BYTES", 4000)
     result = _eval("--policy", model, "--config", config_file, "--out", tmp_path / "p.csv")
     _refused_in_one_line(result, "'policy.pth'", "allowed: at most")
     monkeypatch.undo()
-    monkeypatch.setattr(model_io, "MAX_ARCHIVE_BYTES", 10_000)
+    monkeypatch.setattr(model_archive, "MAX_ARCHIVE_BYTES", 10_000)
     result = _eval("--policy", model, "--config", config_file, "--out", tmp_path / "a.csv")
     _refused_in_one_line(result, "together")
 

@@ -371,9 +371,9 @@ def test_an_rllib_run_is_named_by_its_checkpoint_and_the_hash_of_its_files(tmp_p
         str(tmp_path / "run"),
     )
     assert policy.config()["episode"]["max_steps"] == 20
-    digest = hashlib.sha256()
+    digest = hashlib.sha256()  # over each file's path, a NUL and its own SHA-256, in path order
     for name in ("algorithm_state.pkl", "learner_group/learner/rl_module/default_policy/module_state.pkl"):
-        digest.update(name.encode() + (checkpoint / name).read_bytes())
+        digest.update(name.encode() + b"\0" + hashlib.sha256((checkpoint / name).read_bytes()).hexdigest().encode())
     assert policy.record == {
         "policy": str(tmp_path / "run"),
         "model": str(checkpoint),

@@ -15,8 +15,10 @@ from conftest import needs
 
 from aaai.config import ConfigError, load_config
 from aaai.env import AnimalAIEnv
-from aaai.scoring import model_io
-from aaai.scoring.model_io import CONFIG_MEMBER, Archive, model_config, space_problems
+from aaai.scoring import model_spaces
+from aaai.scoring.model_archive import Archive
+from aaai.scoring.model_io import CONFIG_MEMBER, model_config
+from aaai.scoring.model_spaces import space_problems
 from aaai.scoring.policies import resolve
 from aaai.scoring.runs import RunFolder
 from aaai_cli.main import cli
@@ -207,9 +209,9 @@ def test_bounds_a_file_shortened_are_not_compared_but_shape_and_dtype_are():
     from gymnasium import spaces
 
     shortened = "{'big': Box([0. 0. 0. ... 0. 0. 0.], 1.0, (2000,), float32)}"  # numpy prints '...' past 1000
-    stored = model_io.stored_space(_archive({}, shortened), "observation_space")
+    stored = model_spaces.stored_space(_archive({}, shortened), "observation_space")
     assert stored is not None
-    live = model_io.describe_space(spaces.Dict({"big": spaces.Box(0.0, 1.0, (2000,), np.float32)}))
-    assert model_io.compare_spaces("observation", stored, live) == []
-    wider = model_io.describe_space(spaces.Dict({"big": spaces.Box(0.0, 1.0, (2000,), np.float64)}))
-    assert len(model_io.compare_spaces("observation", stored, wider)) == 1
+    live = model_spaces.describe_space(spaces.Dict({"big": spaces.Box(0.0, 1.0, (2000,), np.float32)}))
+    assert model_spaces.compare_spaces("observation", stored, live) == []
+    wider = model_spaces.describe_space(spaces.Dict({"big": spaces.Box(0.0, 1.0, (2000,), np.float64)}))
+    assert len(model_spaces.compare_spaces("observation", stored, wider)) == 1

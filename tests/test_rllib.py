@@ -47,7 +47,7 @@ resumed = train_rllib(run, resume=True, total_steps=1536, env_runners=1, say=pri
 from aaai.config import env_part
 from aaai.env import AnimalAIEnv
 from aaai.scoring.evaluation import run_episode
-from aaai.scoring.model_io import RLlibPolicy
+from aaai.scoring.rllib_policy import RLlibPolicy
 from aaai.scoring.runs import RunFolder
 env = AnimalAIEnv(config=env_part(RunFolder(run).read_config(), shaping=0.0))
 from aaai.scoring.policies import OnGrid

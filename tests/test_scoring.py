@@ -162,7 +162,7 @@ def test_rows_are_durable_the_record_comes_with_the_first_and_a_failed_write_is_
         def full(descriptor):
             raise OSError(28, "No space left on device")
 
-        monkeypatch.setattr("aaai.scoring.evaluation.os.fsync", full)
+        monkeypatch.setattr("aaai.scoring.scoreboard.os.fsync", full)
         with pytest.raises(ConfigError) as caught:
             scores.append({**row, "seed": 3})
         monkeypatch.undo()

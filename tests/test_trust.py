@@ -7,6 +7,7 @@ import csv
 import errno
 import json
 import pickle
+import shutil
 import zipfile
 from pathlib import Path
 
@@ -19,7 +20,7 @@ pytest.importorskip("stable_baselines3", reason="needs the train extra")
 
 from aaai.config import ConfigError, load_config  # noqa: E402
 from aaai.env import AnimalAIEnv  # noqa: E402
-from aaai.scoring import model_io  # noqa: E402
+from aaai.scoring import model_archive, model_io, rllib_checkpoints  # noqa: E402
 from aaai.scoring.evaluation import record_path  # noqa: E402
 from aaai.scoring.policies import ModelPolicy  # noqa: E402
 from aaai.scoring.runs import RunFolder  # noqa: E402
@@ -186,9 +187,41 @@ def test_a_schedule_that_is_not_a_constant_is_refused_for_training_naming_it(tra
 
     path = _rewrite_data(trained / "final" / "model.zip", tmp_path / "schedule.zip", change)
     env = AnimalAIEnv(config=load_config(SHORT))
-    with pytest.raises(model_io.UntrustedModel, match="'learning_rate'.*--trust-model"):
+    with pytest.raises(model_archive.UntrustedModel, match="'learning_rate'.*--trust-model"):
         model_io.load_for_training(path, env)
     env.close()
+
+
+def test_train_resume_unpickles_the_model_only_with_trust_model(trained, tmp_path):
+    """``aaai train --resume`` reads the run's model without unpickling; ``--trust-model`` reaches the
+    loader as an argument, and then stable-baselines3's own loader runs the file's pickles."""
+    marker = tmp_path / "pwned"
+    run = tmp_path / "run"
+    shutil.copytree(trained, run)
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    config["train"].update(num_envs=1, vector="sync")  # one worker in this process: quick to start
+    (run / "config.yaml").write_text(yaml.safe_dump(config))
+    from aaai.train.curriculum import Curriculum
+
+    state = json.loads((run / "final" / "state.json").read_text())
+    state["curriculum"] = Curriculum.from_config(load_config(config)).state_dict()
+    (run / "final" / "state.json").write_text(json.dumps(state))
+
+    def poison_class(data):
+        data["policy_class"] = {
+            ":type:": "<class 'type'>",
+            ":serialized:": _pickle_creating(marker),
+            "__module__": "evil",
+            "__init__": "<function Evil.__init__ at 0x0>",
+        }
+
+    model = run / "final" / "model.zip"
+    _rewrite_data(model, tmp_path / "evil.zip", poison_class).replace(model)
+    refused = CliRunner().invoke(cli, ["train", "--resume", str(run), "--steps", "512"])
+    assert refused.exit_code == 2 and "'policy_class'" in refused.output and "--trust-model" in refused.output
+    assert not marker.exists()
+    CliRunner().invoke(cli, ["train", "--resume", str(run), "--steps", "512", "--trust-model"])
+    assert marker.exists()
 
 
 def test_an_rllib_checkpoint_loads_only_signed_here_or_trusted(tmp_path, monkeypatch):
@@ -196,19 +229,19 @@ def test_an_rllib_checkpoint_loads_only_signed_here_or_trusted(tmp_path, monkeyp
     checkpoint = tmp_path / "final" / "rllib"
     (checkpoint / "sub").mkdir(parents=True)
     (checkpoint / "sub" / "module_state.pkl").write_bytes(b"weights")
-    with pytest.raises(model_io.UntrustedModel, match="pickles.*--trust-model"):
-        model_io.check_rllib_checkpoint(checkpoint)
-    model_io.check_rllib_checkpoint(checkpoint, trust=True)
-    model_io.sign_checkpoint(checkpoint)
-    model_io.check_rllib_checkpoint(checkpoint)  # signed here: loads
+    with pytest.raises(model_archive.UntrustedModel, match="pickles.*--trust-model"):
+        rllib_checkpoints.check_rllib_checkpoint(checkpoint)
+    rllib_checkpoints.check_rllib_checkpoint(checkpoint, trust=True)
+    rllib_checkpoints.sign_checkpoint(checkpoint)
+    rllib_checkpoints.check_rllib_checkpoint(checkpoint)  # signed here: loads
     assert oct((tmp_path / "key").stat().st_mode & 0o777) == "0o600"
     (checkpoint / "sub" / "module_state.pkl").write_bytes(b"changed")
-    with pytest.raises(model_io.UntrustedModel):
-        model_io.check_rllib_checkpoint(checkpoint)  # a file changed after signing
-    model_io.sign_checkpoint(checkpoint)
+    with pytest.raises(model_archive.UntrustedModel):
+        rllib_checkpoints.check_rllib_checkpoint(checkpoint)  # a file changed after signing
+    rllib_checkpoints.sign_checkpoint(checkpoint)
     monkeypatch.setenv("AAAI_CHECKPOINT_KEY", str(tmp_path / "another_machine"))
-    with pytest.raises(model_io.UntrustedModel):
-        model_io.check_rllib_checkpoint(checkpoint)  # signed elsewhere
+    with pytest.raises(model_archive.UntrustedModel):
+        rllib_checkpoints.check_rllib_checkpoint(checkpoint)  # signed elsewhere
 
 
 # --- 2. a model is checked against the environment ------------------------------------------
@@ -301,7 +334,7 @@ def test_a_full_disk_names_the_file_keeps_the_rows_and_a_rerun_resumes(tmp_path,
             raise OSError(errno.ENOSPC, "No space left on device", str(out))
         return real_fsync(descriptor)
 
-    monkeypatch.setattr("aaai.scoring.evaluation.os.fsync", fsync)
+    monkeypatch.setattr("aaai.scoring.scoreboard.os.fsync", fsync)
     full = _eval("--policy", "random", "--config", config, "-k", "4", "--out", out)
     assert full.exit_code != 0 and "Traceback" not in full.output
     message = " ".join(full.output.split())
@@ -403,7 +436,7 @@ def test_a_write_refused_midway_names_the_file_and_a_rerun_resumes(tmp_path, mon
                 raise PermissionError(errno.EACCES, "Permission denied", str(out))
             return real_open(file, *args, **kwargs)
 
-        monkeypatch.setattr("aaai.scoring.evaluation.open", refusing, raising=False)
+        monkeypatch.setattr("aaai.scoring.scoreboard.open", refusing, raising=False)
     failed = _eval("--policy", "random", "--config", config, "-k", "2", "--out", out)
     message = " ".join(failed.output.split())
     assert failed.exit_code != 0 and "Traceback" not in failed.output

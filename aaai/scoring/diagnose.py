@@ -98,7 +98,8 @@ def diagnose(
             if r["outcome"] == "failed" and not r.get("arena") and (levels is None or int(r["level"]) in levels)
         ]
     if limit is not None:
-        kept, count = [], Counter()
+        kept: list[dict] = []
+        count: Counter[str] = Counter()
         for row in rows:
             if count[row["level"]] < limit:
                 kept.append(row)

@@ -35,9 +35,12 @@ from typing import Callable, Generator
 
 from aaai.config import ConfigError, env_part
 from aaai.files import write_atomic
-from aaai.scoring.evaluation import COLUMNS, Cell, columns_of, episode_plan, run_episode, score, write_error
+from aaai.scoring.episodes import run_episode
+from aaai.scoring.evaluation import score
+from aaai.scoring.plan import Cell, episode_plan
 from aaai.scoring.policies import Policy, as_policy
 from aaai.scoring.ray_session import RaySession
+from aaai.scoring.scoreboard import COLUMNS, columns_of, write_error
 
 DEFAULT_RETRIES = 3
 

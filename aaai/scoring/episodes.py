@@ -3,13 +3,25 @@
 A policy is a callable from an observation to an action; one with a ``reset(seed)`` method is
 reset to the episode's seed after the environment, and one with an ``end_episode(result)`` method
 is handed the EpisodeResult when the loop ends (aaai.scoring.replays records episodes so).
+
+:func:`run_episode` plays one episode of a scoreboard's cell (or arena file) and makes its row. An
+episode's ratio is return / max_reward, where max_reward is the best food reward that level
+instance can give minus 0.5 (allowing for step costs). Outcome: failed (ratio < 0.8), passed
+(0.8 <= ratio < 1) or succeeded (ratio >= 1), as in the original build.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Callable
+
+from aaai.env import AnimalAIEnv
+from aaai.task.arena import load_arena
+
+PASS_RATIO, SUCCESS_RATIO = 0.8, 1.0
 
 
 @dataclass(frozen=True)
@@ -70,3 +82,49 @@ def play(
     if hasattr(policy, "end_episode"):
         policy.end_episode(result)
     return result
+
+
+def outcome(ratio: float, episode_return: float | None = None, pass_mark: float | None = None) -> str:
+    """failed, passed or succeeded. With an arena's own ``pass_mark`` (Animal-AI's passMark, as
+    aaai.tools.animalai.passed reads it) the return at or above it passes instead of the 0.8 ratio."""
+    if pass_mark is not None and episode_return is not None:
+        if episode_return < pass_mark:
+            return "failed"
+        return "succeeded" if ratio >= SUCCESS_RATIO else "passed"
+    if ratio >= SUCCESS_RATIO:
+        return "succeeded"
+    return "passed" if ratio >= PASS_RATIO else "failed"
+
+
+def run_episode(
+    env: AnimalAIEnv, policy: Callable, level: int, difficulty: int, seed: int, arena: Path | None = None
+) -> dict:
+    """Plays one episode of the cell (or of the arena file, with the seed) to its end; its scoreboard row."""
+    pass_mark = None
+    options: dict[str, Any]
+    if arena is None:
+        options = {"level": level, "difficulty": difficulty}
+    else:
+        spec = load_arena(arena, seed)
+        options, level, difficulty = {"spec": spec, "check": False}, spec.level, spec.difficulty  # checked on load
+        pass_mark = (spec.extras or {}).get("pass_mark")
+    result = play(env, policy, seed, options=options)
+    total, info = result.episode_return, result.info
+    ratio = total / info["max_reward"] if info["max_reward"] > 0 else math.nan
+    return {
+        "level": level,
+        "level_name": info["level_name"],
+        "difficulty": difficulty,
+        "seed": seed,
+        "return": round(total, 6),
+        "max_reward": round(info["max_reward"], 6),
+        "ratio": round(ratio, 6),
+        "outcome": outcome(ratio, total, pass_mark),
+        "steps": info["steps"],
+        "max_steps": info["max_steps"],
+        "food_eaten": info["food_eaten"],
+        "wall_hits": info["wall_hits"],
+        "fell": info["fell"],
+        "arena": arena.name if arena is not None else "",
+        "wall_seconds": round(result.wall_seconds, 3),
+    }

@@ -14,56 +14,47 @@ pickles are dropped unread, as the file is parsed, and every such field is rebui
   named in text are looked up in registries here), else from the run's config;
 - schedules as constants (``ConstantSchedule(val=...)`` read from the text, else the plain number).
 
-A file that cannot be rebuilt so is refused with :class:`UntrustedModel`, which names the field and
-the ``--trust-model`` flag; with that flag (``trust=True``) stable-baselines3's own loader is used.
-
-RLlib checkpoints are pickles by RLlib's design (``class_and_ctor_args.pkl``, ``module_state.pkl``):
-they are loaded only when trusted, or when their files carry this machine's signature, written when
-this machine's ``aaai train --backend rllib`` saved them (:func:`sign_checkpoint`): an HMAC-SHA256
-over the checkpoint's files with a key kept in ``~/.config/aaai/checkpoint.key`` (or the file named
-by ``AAAI_CHECKPOINT_KEY``), created on first use, readable by its owner only. :class:`RLlibPolicy`
-loads such a checkpoint's policy for scoring. A key shorter than :data:`MIN_KEY_BYTES` or readable
-by group or others is refused, naming the file and the fix.
-
-A model file is also data of bounded size: before a member is read its declared size is checked
-against a budget (:data:`MAX_DATA_BYTES` for the data part, :data:`MAX_MEMBER_BYTES` for each other
-member, :data:`MAX_ARCHIVE_BYTES` for all of them, :data:`MAX_MEMBERS` members), and it is inflated
-in chunks that stop at the budget. The network the file declares (``net_arch``: at most
-:data:`MAX_LAYERS` layers of at most :data:`MAX_WIDTH` units) is sized without memory (on torch's
-``meta`` device) and refused beyond :data:`MAX_PARAMETERS` parameters, and every tensor's name,
-shape, dtype and finiteness is checked against it, all before the network is built.
+A file that cannot be rebuilt so is refused with :class:`~aaai.scoring.model_archive.UntrustedModel`,
+which names the field and the ``--trust-model`` flag; with that flag (``trust=True``)
+stable-baselines3's own loader is used. The file is read within its limits by
+:mod:`aaai.scoring.model_archive` and its spaces compared by :mod:`aaai.scoring.model_spaces`; the
+network it declares (``net_arch``: at most :data:`~aaai.scoring.model_archive.MAX_LAYERS` layers of
+at most :data:`~aaai.scoring.model_archive.MAX_WIDTH` units) is sized here without memory (on torch's
+``meta`` device) and refused beyond :data:`~aaai.scoring.model_archive.MAX_PARAMETERS` parameters,
+and every tensor's name, shape, dtype and finiteness is checked against it, all before the network
+is built. RLlib checkpoints (pickles) are :mod:`aaai.scoring.rllib_checkpoints`' and
+:mod:`aaai.scoring.rllib_policy`'s.
 """
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
-import dataclasses
-import hashlib
-import hmac
 import importlib
-import io
-import json
-import os
 import re
-import secrets
-import stat
-import tempfile
 import threading
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import yaml
 
 from aaai import safe_yaml
 from aaai.config import ConfigError, load_config
-from aaai.files import atomic_path, write_atomic
-from aaai.scoring.runs import MODULE_PATH, rllib_checkpoint
-
-TRUST_FLAG = "--trust-model"
+from aaai.files import atomic_path
+from aaai.scoring.model_archive import (
+    MAX_LAYERS,
+    MAX_PARAMETERS,
+    MAX_WIDTH,
+    Archive,
+    _bad,
+    _first_line,
+    _mib,
+    _pickled,
+    _refuse,
+    read_archive,
+    read_tensors,
+    size_problem,
+)
+from aaai.scoring.model_spaces import as_model_sees, space_problems
 
 # The policy class a file names (its readable ``__init__`` text) -> (module, algorithm, the policy name
 # that algorithm takes). The classes themselves are imported from these libraries, never from the file.
@@ -139,276 +130,6 @@ COUNTERS = (
     "_n_updates",
     "_current_progress_remaining",
 )
-
-# --- limits on a model file (each refusal names the file, the member and the limit) ------------
-MAX_MEMBERS = 64  # files inside one model .zip (stable-baselines3 writes 4 or 5)
-MAX_DATA_BYTES = 16 << 20  # the JSON data part, inflated (a trained model's is a few kB)
-MAX_MEMBER_BYTES = 640 << 20  # any other member (policy.pth, policy.optimizer.pth), inflated
-MAX_ARCHIVE_BYTES = 1 << 30  # all members together, inflated
-MAX_JSON_DEPTH = 64  # nesting of the data part (stable-baselines3 writes 4 levels)
-MAX_LAYERS = 16  # hidden layers in net_arch (per network, for pi and vf)
-MAX_WIDTH = 4096  # units in one hidden layer (the largest train.net_width)
-MAX_PARAMETERS = 64_000_000  # the policy's parameters (256 MiB as float32; the optimiser holds twice that again)
-MAX_RECORDS = 4096  # tensors in one .pth member (torch.save's zip holds one record per storage)
-CHUNK_BYTES = 1 << 20  # a member is inflated this much at a time, stopping at its budget
-
-_TRUST = contextvars.ContextVar("aaai_trust_model", default=False)
-
-
-class UntrustedModel(ConfigError):
-    """A model that cannot be loaded without running code from it (and --trust-model was not given)."""
-
-
-@contextlib.contextmanager
-def trusting(trust: bool = True):
-    """Within the block, loads that are not told otherwise trust model files (``aaai train
-    --trust-model``: the trainers' resume paths read this)."""
-    token = _TRUST.set(bool(trust))
-    try:
-        yield
-    finally:
-        _TRUST.reset(token)
-
-
-def trusted(trust: bool | None = None) -> bool:
-    return _TRUST.get() if trust is None else bool(trust)
-
-
-def _refuse(path: Path, field: str, why: str) -> UntrustedModel:
-    return UntrustedModel(
-        f"model file {str(path)!r}: field {field!r} {why}, so it cannot be loaded without running code from the "
-        f"file; refused. If you trust this file (it executes as you), pass {TRUST_FLAG} to load it with "
-        "stable-baselines3's own loader"
-    )
-
-
-def _bad(path: Path, problem: str) -> ConfigError:
-    """A model file that is damaged or beyond a limit: one line naming it (trust would not help)."""
-    return ConfigError(f"model file {str(path)!r}: {problem}; refused")
-
-
-def _mib(size: int) -> str:
-    return f"{size / (1 << 20):.1f} MiB"
-
-
-# --- the archive ------------------------------------------------------------------------------
-def _budget(name: str) -> int:
-    return MAX_DATA_BYTES if name == "data" else MAX_MEMBER_BYTES
-
-
-def _size_problem(archive: zipfile.ZipFile) -> str | None:
-    """Why the members' declared sizes are beyond the budgets (None: within them)."""
-    infos = archive.infolist()
-    if len(infos) > MAX_MEMBERS:
-        return f"it holds {len(infos)} members; allowed: at most {MAX_MEMBERS}"
-    for info in infos:
-        if info.file_size > _budget(info.filename):
-            return (
-                f"member {info.filename!r} inflates to {_mib(info.file_size)}; allowed: at most "
-                f"{_mib(_budget(info.filename))}"
-            )
-    total = sum(info.file_size for info in infos)
-    if total > MAX_ARCHIVE_BYTES:
-        return f"its members inflate to {_mib(total)} together; allowed: at most {_mib(MAX_ARCHIVE_BYTES)}"
-    return None
-
-
-def size_problem(path: str | Path) -> str | None:
-    """Why a model .zip is beyond the size budgets, from its members' declared sizes (nothing is
-    inflated), or None when it is within them or is no zip (that is told elsewhere)."""
-    try:
-        with zipfile.ZipFile(path) as archive:
-            return _size_problem(archive)
-    except (zipfile.BadZipFile, OSError, EOFError, ValueError):
-        return None
-
-
-def _read_member(path: Path, archive: zipfile.ZipFile, name: str) -> bytes:
-    """A member, inflated in chunks that stop at its budget (a declared size can lie)."""
-    budget = _budget(name)
-    info = archive.getinfo(name)
-    if info.file_size > budget:
-        raise _bad(path, f"member {name!r} inflates to {_mib(info.file_size)}; allowed: at most {_mib(budget)}")
-    parts, size = [], 0
-    with archive.open(info) as handle:
-        while chunk := handle.read(CHUNK_BYTES):
-            size += len(chunk)
-            if size > budget:
-                raise _bad(path, f"member {name!r} inflates beyond {_mib(budget)}, the most allowed")
-            parts.append(chunk)
-    return b"".join(parts)
-
-
-def _depth_problem(value: Any) -> str | None:
-    """Why a parsed data part nests too deep (checked without recursion), or None."""
-    stack = [(value, 1)]
-    while stack:
-        item, depth = stack.pop()
-        if depth > MAX_JSON_DEPTH:
-            return f"its data part nests deeper than {MAX_JSON_DEPTH} levels, the most allowed"
-        if isinstance(item, dict):
-            stack.extend((v, depth + 1) for v in item.values())
-        elif isinstance(item, list):
-            stack.extend((v, depth + 1) for v in item)
-    return None
-
-
-def _strip_pickles(value: Any) -> Any:
-    """The value with every ":serialized:" entry removed, unread (at any depth)."""
-    if isinstance(value, dict):
-        return {k: _strip_pickles(v) for k, v in value.items() if k != ":serialized:"}
-    if isinstance(value, list):
-        return [_strip_pickles(v) for v in value]
-    return value
-
-
-def _pickled(value: Any) -> bool:
-    return isinstance(value, dict) and ":type:" in value
-
-
-@dataclass
-class Archive:
-    """A stable-baselines3 model file, read without unpickling: its data part (pickled fields
-    reduced to the readable text beside them) and its weight files' names."""
-
-    path: Path
-    data: dict
-    names: list[str]
-
-    def tensors(self, name: str) -> Any:
-        """A .pth member, read within its budget with ``torch.load(weights_only=True)`` (tensors and
-        plain containers only), every tensor checked to be finite."""
-        return read_tensors(self.path, name)
-
-
-def read_tensors(path: str | Path, name: str = "policy.pth", trust_helps: bool = True) -> Any:
-    """A .pth member of a model file: inflated within :data:`MAX_MEMBER_BYTES`, loaded with
-    ``torch.load(weights_only=True)`` and checked (numbers only, every float finite). Only a member
-    that holds objects other than tensors names ``--trust-model`` (what unpickling would read), and
-    only where that flag would load it (``trust_helps``)."""
-    import pickle
-
-    import torch
-
-    path = Path(path)
-    try:
-        with zipfile.ZipFile(path) as archive:
-            blob = _read_member(path, archive, name)
-    except KeyError:
-        raise _bad(path, f"it lacks {name}") from None
-    except (zipfile.BadZipFile, OSError, EOFError, ValueError, NotImplementedError) as error:
-        raise _bad(path, f"member {name!r} cannot be read ({_first_line(error)})") from None
-    except MemoryError:
-        raise _out_of_memory(path, name) from None
-    problem = _torch_format_problem(blob)
-    if problem:
-        raise _bad(path, f"member {name!r} {problem}")
-    try:
-        value = torch.load(io.BytesIO(blob), map_location="cpu", weights_only=True)
-    except pickle.UnpicklingError as error:  # weights_only met an object other than tensors
-        found = re.search(r"WeightsUnpickler error: ([^.\n]*)", str(error))
-        what = f"holds more than plain tensors ({found.group(1) if found else _first_line(error)})"
-        if trust_helps:
-            raise _refuse(path, name, what) from None
-        raise _bad(path, f"member {name!r} {what}") from None
-    except MemoryError:
-        raise _out_of_memory(path, name) from None
-    except Exception as error:  # noqa: BLE001 - any other failure is damage in the file
-        raise _bad(path, f"member {name!r} is damaged ({type(error).__name__}: {_first_line(error)})") from None
-    problem = _tensor_problem(value)
-    if problem:
-        raise _bad(path, f"member {name!r}: {problem}")
-    return value
-
-
-def _torch_format_problem(blob: bytes) -> str | None:
-    """Why a .pth blob is not torch.save's own format, whose tensors can be no larger than the blob:
-    a zip of stored (uncompressed) records. The legacy format sizes storages from its header, and a
-    deflated record would inflate beyond the member's budget inside torch.load."""
-    if not blob.startswith(b"PK\x03\x04"):
-        return "is not in torch.save's format (a zip of records)"
-    try:
-        with zipfile.ZipFile(io.BytesIO(blob)) as inner:
-            records = inner.infolist()
-    except (zipfile.BadZipFile, OSError, EOFError, ValueError) as error:
-        return f"is damaged ({_first_line(error)})"
-    if len(records) > MAX_RECORDS:
-        return f"holds {len(records)} records; allowed: at most {MAX_RECORDS}"
-    for record in records:
-        if record.compress_type != zipfile.ZIP_STORED or record.file_size != record.compress_size:
-            return f"holds a compressed record {record.filename!r} (torch.save writes none)"
-    return None
-
-
-def _out_of_memory(path: Path, name: str) -> ConfigError:
-    """Memory ran out within the budgets: the machine's limit, not the file's trust, is the cause."""
-    with contextlib.suppress(OSError, zipfile.BadZipFile, KeyError):
-        with zipfile.ZipFile(path) as archive:
-            size = _mib(archive.getinfo(name).file_size)
-            return ConfigError(
-                f"model file {str(path)!r}: member {name!r} ({size} inflated) does not fit in the memory this "
-                "process may use; free memory or raise the limit"
-            )
-    return ConfigError(f"model file {str(path)!r}: member {name!r} does not fit in the memory this process may use")
-
-
-def _first_line(error: BaseException) -> str:
-    text = str(error).strip()
-    return text.splitlines()[0][:200] if text else type(error).__name__
-
-
-def _tensor_problem(value: Any) -> str | None:
-    """Why a loaded .pth value is not plain finite numbers (walked without recursion), or None."""
-    import torch
-
-    stack: list[tuple[str, Any]] = [("", value)]
-    while stack:
-        where, item = stack.pop()
-        if isinstance(item, dict):
-            stack.extend((f"{where}.{k}" if where else str(k), v) for k, v in item.items())
-        elif isinstance(item, (list, tuple)):
-            stack.extend((f"{where}[{i}]", v) for i, v in enumerate(item))
-        elif isinstance(item, torch.Tensor):
-            if item.is_complex() or item.dtype in (torch.uint64, torch.uint32, torch.uint16) or item.is_quantized:
-                return f"tensor {where!r} has dtype {item.dtype}; allowed: float, int or bool tensors"
-            if item.is_floating_point() and not bool(torch.isfinite(item).all()):
-                bad = int((~torch.isfinite(item)).sum())
-                return f"tensor {where!r} holds {bad} values that are NaN or infinite; allowed: finite numbers"
-    return None
-
-
-def read_archive(path: str | Path) -> Archive:
-    """Opens a model file and parses its data part as JSON only."""
-    path = Path(path)
-    try:
-        with zipfile.ZipFile(path) as archive:
-            problem = _size_problem(archive)
-            if problem:
-                raise _bad(path, problem)
-            names = archive.namelist()
-            text = _read_member(path, archive, "data").decode("utf-8")
-    except KeyError:
-        raise ConfigError(f"model file {str(path)!r} is not a stable-baselines3 model (it has no data part)") from None
-    except (zipfile.BadZipFile, OSError, EOFError, UnicodeDecodeError, ValueError, NotImplementedError) as error:
-        raise ConfigError(f"model file {str(path)!r} cannot be read: {_first_line(error)}") from None
-    except MemoryError:
-        raise _out_of_memory(path, "data") from None
-    try:
-        data = json.loads(text)
-    except RecursionError:
-        raise _bad(path, f"its data part nests deeper than {MAX_JSON_DEPTH} levels, the most allowed") from None
-    except ValueError as error:
-        raise ConfigError(
-            f"model file {str(path)!r} cannot be loaded by stable-baselines3: its data part is not JSON ({error})"
-        ) from None
-    if not isinstance(data, dict):
-        raise ConfigError(f"model file {str(path)!r}: its data part is not a JSON object")
-    problem = _depth_problem(data)
-    if problem:
-        raise _bad(path, problem)
-    return Archive(path, _strip_pickles(data), names)
-
-
 # The environment config a model was trained with, kept in its file beside stable-baselines3's own
 # members (which its loader ignores): a model file is scored in its own environment on its own.
 CONFIG_MEMBER = "aaai_config.yaml"
@@ -453,14 +174,6 @@ def model_config(path: str | Path) -> dict | None:
             f"model file {str(path)!r}: the config it carries ({CONFIG_MEMBER}) does not load: {error}; "
             "allowed: a config aaai loads (or score the file with --config)"
         ) from None
-
-
-def file_sha256(path: str | Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 # --- the fields rebuilt -------------------------------------------------------------------------
@@ -564,166 +277,6 @@ def schedule_constant(archive: Archive, field: str, default: float | None = None
     if _pickled(value):  # a pickled function: only running it tells what it returns
         raise _refuse(archive.path, field, "is a schedule that is not a constant")
     raise _bad(archive.path, f"field {field!r} is {str(value)[:60]!r}; allowed: a number or a constant schedule")
-
-
-# --- spaces -------------------------------------------------------------------------------------
-# A file keeps its spaces as text: a Box's fields (shape, dtype, its bounds as numpy prints them) and
-# a Dict's sub-spaces as their reprs. Gymnasium has changed what its spaces keep and print (1.4
-# fills ``low_repr`` only when the space is printed), so spaces are compared by value: kind, shape,
-# dtype and bounds, read from whichever form the file has.
-_NUMBER = re.compile(r"[-+]?(?:inf|nan|\d+\.?\d*(?:[eE][-+]?\d+)?|\.\d+(?:[eE][-+]?\d+)?)")
-_BOX = re.compile(r"Box\((?P<low>[^,]+), (?P<high>[^,]+), \((?P<shape>[\d, ]*)\), (?P<dtype>\w+)\)", re.DOTALL)
-
-
-def _bound(text: Any) -> np.ndarray | None:
-    """A bound as numpy printed it (a scalar, or an array without commas); None when it was not
-    kept or was shortened (numpy prints ``...`` for a large array)."""
-    if not isinstance(text, str) or "..." in text:
-        return None
-    numbers = _NUMBER.findall(text)
-    if not numbers or re.sub(r"[\[\]\s]", "", _NUMBER.sub("", text)):
-        return None
-    return np.array([float(n) for n in numbers], dtype=np.float64)
-
-
-@dataclass(frozen=True)
-class SpaceValue:
-    """One space by value: its kind, shape, dtype and bounds (for a Box), and the text shown for it."""
-
-    text: str
-    kind: str
-    shape: tuple | None = None
-    dtype: str | None = None
-    low: np.ndarray | None = dataclasses.field(default=None, compare=False)
-    high: np.ndarray | None = dataclasses.field(default=None, compare=False)
-
-    def agrees(self, other: "SpaceValue") -> bool:
-        if self.kind != other.kind:
-            return False
-        if self.kind != "Box":
-            return self.text == other.text
-        if (self.shape, self.dtype) != (other.shape, other.dtype):
-            return False
-        size = int(np.prod(self.shape)) if self.shape is not None else 0
-        for mine, theirs in ((self.low, other.low), (self.high, other.high)):
-            if mine is None or theirs is None:
-                continue  # a bound the file does not keep in full: shape and dtype decide
-            if mine.size not in (1, size) or theirs.size not in (1, size):
-                return False
-            a, b = np.broadcast_to(mine, (size,)), np.broadcast_to(theirs, (size,))
-            if not np.allclose(a, b, rtol=1e-6, atol=1e-7, equal_nan=True):
-                return False
-        return True
-
-
-def _box_text(text: str) -> SpaceValue:
-    """A Box's repr (``Box(low, high, (shape), dtype)``) as a value; another space's as its text."""
-    match = _BOX.fullmatch(text.strip())
-    if match is None:
-        return SpaceValue(text, text.split("(", 1)[0].strip())
-    shape = tuple(int(n) for n in re.findall(r"\d+", match.group("shape")))
-    return SpaceValue(text, "Box", shape, match.group("dtype"), _bound(match.group("low")), _bound(match.group("high")))
-
-
-def _space_parts(text: str) -> dict[str, SpaceValue]:
-    """A Dict space's repr ``{'a': Box(...), 'b': Box(...)}`` as {key: value}."""
-    found = list(re.finditer(r"'([^']+)': ", text))
-    parts = {}
-    for i, match in enumerate(found):
-        end = found[i + 1].start() if i + 1 < len(found) else len(text)
-        parts[match.group(1)] = _box_text(text[match.end() : end].rstrip(" ,}"))
-    return parts
-
-
-def stored_space(archive: Archive, field: str) -> dict[str, SpaceValue] | None:
-    """The space a file keeps, by value: {key: value} for a Dict space, {"": value} for a Box or a
-    Discrete; None when the file keeps no readable description of it."""
-    entry = archive.data.get(field)
-    if not isinstance(entry, dict):
-        return None
-    kind = str(entry.get(":type:", ""))
-    if kind.endswith(".Dict'>") and isinstance(entry.get("spaces"), str):
-        return _space_parts(entry["spaces"])
-    if kind.endswith(".Box'>") and isinstance(entry.get("_shape"), list):
-        shape = tuple(int(n) for n in entry["_shape"])
-        low = entry.get("low_repr") if isinstance(entry.get("low_repr"), str) else entry.get("low")
-        high = entry.get("high_repr") if isinstance(entry.get("high_repr"), str) else entry.get("high")
-        text = f"Box({low}, {high}, {shape}, {entry.get('dtype')})"
-        return {"": SpaceValue(text, "Box", shape, str(entry.get("dtype")), _bound(low), _bound(high))}
-    if kind.endswith(".Discrete'>"):
-        start = entry.get("start")
-        shown = "" if start in (None, 0, "0") else f", start={start}"
-        text = f"Discrete({entry.get('n')}{shown})"
-        return {"": SpaceValue(text, "Discrete")}
-    return None
-
-
-def _live_value(space) -> SpaceValue:
-    from gymnasium import spaces
-
-    if isinstance(space, spaces.Box):
-        low, high = np.asarray(space.low, np.float64).ravel(), np.asarray(space.high, np.float64).ravel()
-        return SpaceValue(repr(space), "Box", tuple(space.shape), str(space.dtype), low, high)
-    return SpaceValue(repr(space), type(space).__name__)
-
-
-def describe_space(space) -> dict[str, SpaceValue]:
-    """:func:`stored_space` for a live gymnasium space."""
-    from gymnasium import spaces
-
-    if isinstance(space, spaces.Dict):
-        return {key: _live_value(sub) for key, sub in space.spaces.items()}
-    return {"": _live_value(space)}
-
-
-def compare_spaces(name: str, model: dict[str, SpaceValue], live: dict[str, SpaceValue]) -> list[str]:
-    """How a model's space (``model``) differs from the environment's, by value, one line per key."""
-    problems = []
-    for key in sorted(set(model) | set(live)):
-        label = f"{name} {key!r}" if key else f"{name} space"
-        mine, theirs = model.get(key), live.get(key)
-        if mine is None or theirs is None or not mine.agrees(theirs):
-            shown = [v.text if v is not None else "absent" for v in (mine, theirs)]
-            problems.append(f"{label}: model {shown[0]}, environment {shown[1]}")
-    return problems
-
-
-def as_model_sees(observation_space):
-    """The observation space as stable-baselines3 hands it to its policy: images channel-first (its
-    VecTransposeImage turns an H x W x C image of the environment into C x H x W; the policy
-    transposes each observation likewise as it acts)."""
-    from gymnasium import spaces
-    from stable_baselines3.common.preprocessing import is_image_space, is_image_space_channels_first
-    from stable_baselines3.common.vec_env import VecTransposeImage
-
-    def needs(space) -> bool:
-        return is_image_space(space) and not is_image_space_channels_first(space)
-
-    if isinstance(observation_space, spaces.Dict):
-        if not any(needs(sub) for sub in observation_space.spaces.values()):
-            return observation_space
-        return spaces.Dict(
-            {
-                key: VecTransposeImage.transpose_space(sub, key) if needs(sub) else sub
-                for key, sub in observation_space.spaces.items()
-            }
-        )
-    return VecTransposeImage.transpose_space(observation_space) if needs(observation_space) else observation_space
-
-
-def space_problems(archive: Archive, observation_space, action_space) -> list[str]:
-    """How the file's spaces differ from the environment's, by value, one line each (empty: they
-    agree). ``observation_space`` is the environment's own (images as it renders them)."""
-    problems = []
-    for field_name, space, name in (
-        ("observation_space", as_model_sees(observation_space), "observation"),
-        ("action_space", action_space, "action"),
-    ):
-        stored = stored_space(archive, field_name)
-        if stored is None:
-            raise _refuse(archive.path, field_name, "keeps no readable description of the space")
-        problems += compare_spaces(name, stored, describe_space(space))
-    return problems
 
 
 # --- the network, sized and checked before it is built ------------------------------------------
@@ -892,7 +445,7 @@ def load_policy_network(
     use_sde = archive.data.get("use_sde", False)
     if not isinstance(use_sde, bool):
         raise _bad(archive.path, f"field 'use_sde' is {str(use_sde)[:30]!r}; allowed: true or false")
-    learning_rate = schedule_constant(archive, "learning_rate", 0.0)
+    learning_rate = schedule_constant(archive, "learning_rate", 0.0) or 0.0  # a number: its default is one
     expected = expected_state(archive.path, cls, observation_space, action_space, use_sde, kwargs)
     state = archive.tensors("policy.pth")
     check_state(archive.path, state, expected)  # all before the network is built
@@ -914,13 +467,11 @@ def load_policy_network(
     return SafePolicy(policy, recurrent=name.startswith("Recurrent"))
 
 
-def load_for_training(
-    path: str | Path, env, fallback_kwargs: dict | None = None, trust: bool | None = None, **overrides
-):
+def load_for_training(path: str | Path, env, fallback_kwargs: dict | None = None, trust: bool = False, **overrides):
     """A whole model (weights, optimiser state, step counters) to go on training in ``env``; the
     same as ``PPO.load(path, env=env, **overrides)`` but without unpickling (unless trusted)."""
     path = Path(path)
-    if trusted(trust):
+    if trust:
         from stable_baselines3 import PPO
 
         return PPO.load(path, env=env, device="cpu", **overrides)
@@ -972,155 +523,3 @@ def load_for_training(
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             setattr(model, key, value)
     return model
-
-
-# --- RLlib checkpoints ---------------------------------------------------------------------------
-SIGNATURE = "rllib.hmac"  # beside the rllib/ folder of a saved point
-
-
-def key_path() -> Path:
-    return Path(os.environ.get("AAAI_CHECKPOINT_KEY") or Path.home() / ".config" / "aaai" / "checkpoint.key")
-
-
-MIN_KEY_BYTES = 32  # a signing key shorter than this (an empty file left by a full disk) is refused
-
-
-def _create_key(path: Path) -> None:
-    """Writes a new key whole or not at all: a temporary file (mode 0600) beside it is written and
-    fsync'd, then linked to its name, which fails if another process made the key meanwhile (theirs
-    is kept). A full disk leaves no key, never an empty one."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    descriptor, name = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)  # O_EXCL, mode 0600
-    try:
-        with os.fdopen(descriptor, "wb") as handle:
-            handle.write(secrets.token_hex(32).encode())
-            handle.flush()
-            os.fsync(handle.fileno())
-        try:
-            os.link(name, path)
-        except FileExistsError:
-            return  # made by another process meanwhile
-        if hasattr(os, "O_DIRECTORY"):
-            folder = os.open(path.parent, os.O_RDONLY | os.O_DIRECTORY)
-            try:
-                os.fsync(folder)
-            finally:
-                os.close(folder)
-    except OSError as error:
-        raise ConfigError(
-            f"the checkpoint signing key {str(path)!r} cannot be created ({error.strerror or error}); nothing was "
-            "written: free space or fix the folder's permissions and run again"
-        ) from None
-    finally:
-        Path(name).unlink(missing_ok=True)
-
-
-def signing_key() -> bytes:
-    """This machine's signing key (created on first use, owner-only). A key that anyone could guess
-    (shorter than :data:`MIN_KEY_BYTES`) or read (group or others may read it) is refused, naming it."""
-    return _key()
-
-
-def _key() -> bytes:
-    """This machine's signing key (created on first use, owner-only). A key that anyone could guess
-    (shorter than :data:`MIN_KEY_BYTES`) or read (group or others may read it) is refused, naming it."""
-    path = key_path()
-    if not path.exists():
-        _create_key(path)
-    try:
-        mode = path.stat().st_mode
-        key = path.read_bytes().strip()
-    except OSError as error:
-        raise ConfigError(
-            f"the checkpoint signing key {str(path)!r} cannot be read ({error.strerror or error})"
-        ) from None
-    if os.name == "posix" and mode & (stat.S_IRWXG | stat.S_IRWXO):
-        raise ConfigError(
-            f"the checkpoint signing key {str(path)!r} is open to group or others (mode {stat.S_IMODE(mode):04o}), so "
-            f"another user could forge checkpoint signatures; refused. Fix: chmod 600 {str(path)!r}"
-        )
-    if len(key) < MIN_KEY_BYTES:
-        raise ConfigError(
-            f"the checkpoint signing key {str(path)!r} holds {len(key)} bytes; allowed: at least {MIN_KEY_BYTES} "
-            "(a shorter key lets anyone forge a signature); refused. Delete the file and a new key is made on next "
-            f"use; RLlib checkpoints signed with the old one then load only with {TRUST_FLAG}"
-        )
-    return key
-
-
-def folder_digest(folder: Path) -> str:
-    digest = hashlib.sha256()
-    for file in sorted(f for f in Path(folder).rglob("*") if f.is_file()):
-        digest.update(str(file.relative_to(folder)).encode() + b"\0" + file_sha256(file).encode())
-    return digest.hexdigest()
-
-
-def sign_checkpoint(folder: str | Path) -> Path:
-    """Signs an RLlib checkpoint folder this machine wrote (the signature goes beside it)."""
-    folder = Path(folder)
-    signature = hmac.new(_key(), folder_digest(folder).encode(), hashlib.sha256).hexdigest()
-    target = folder.parent / SIGNATURE
-    write_atomic(target, signature + "\n")
-    return target
-
-
-def signed_here(folder: str | Path) -> bool:
-    """Whether an RLlib checkpoint carries this machine's signature over its present files."""
-    folder = Path(folder)
-    try:
-        stored = (folder.parent / SIGNATURE).read_text().strip()
-    except OSError:
-        return False
-    if not key_path().exists():
-        return False
-    key = _key()  # a key that is too short or open to others is refused here, naming it
-    expected = hmac.new(key, folder_digest(folder).encode(), hashlib.sha256).hexdigest()
-    return hmac.compare_digest(stored, expected)
-
-
-def check_rllib_checkpoint(folder: str | Path, trust: bool | None = None) -> None:
-    """Refuses to load an RLlib checkpoint (pickles) that is neither trusted nor signed here."""
-    if trusted(trust) or signed_here(folder):
-        return
-    raise UntrustedModel(
-        f"RLlib checkpoint {str(folder)!r} is made of pickles, which run code as they load, and it does not carry "
-        f"this machine's signature ({SIGNATURE}, written when aaai train --backend rllib saved it here); refused. "
-        f"If you trust it, pass {TRUST_FLAG}"
-    )
-
-
-class RLlibPolicy:
-    """A policy trained by ``aaai train --backend rllib``, acting deterministically (the mean
-    action), as the scoreboard's policies do: ``policy(observation) -> action`` for an environment
-    with the run's observations. The observation is flattened as RLlib's FlattenObservations
-    connector does it."""
-
-    def __init__(self, checkpoint: str | Path, env, trust: bool | None = None):
-        import torch
-        from ray.rllib.core.rl_module.rl_module import RLModule
-        from ray.rllib.utils.spaces.space_utils import get_base_struct_from_space
-
-        self.torch = torch
-        folder = rllib_checkpoint(checkpoint)
-        check_rllib_checkpoint(folder, trust)  # pickles: only trusted or signed on this machine
-        self.module = RLModule.from_checkpoint(str((folder / MODULE_PATH).absolute()))
-        self.dtype = np.float32
-        if isinstance(self.module, torch.nn.Module):
-            self.module.eval()  # inference: as RLlib's own inference does
-            in_float64(self.module)
-            self.dtype = np.float64
-        self.structure = get_base_struct_from_space(env.observation_space)
-        self.space = env.action_space
-
-    def reset(self, seed: int) -> None:
-        pass
-
-    def __call__(self, observation):
-        from ray.rllib.utils.numpy import flatten_inputs_to_1d_tensor
-
-        flat = flatten_inputs_to_1d_tensor(observation, spaces_struct=self.structure, batch_axis=False)
-        with self.torch.no_grad():
-            out = self.module.forward_inference({"obs": self.torch.as_tensor(np.asarray(flat, self.dtype)[None])})
-        mean = out["action_dist_inputs"][0].numpy()[: self.space.shape[0]]  # a diagonal Gaussian: means, log stds
-        squashed = np.clip(mean, -1.0, 1.0)  # RLlib's unsquash_action: [-1, 1] onto the space's bounds
-        return self.space.low + (squashed + 1.0) * (self.space.high - self.space.low) / 2.0  # float64: put on the grid

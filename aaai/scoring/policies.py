@@ -15,7 +15,6 @@ A model file is read without unpickling anything (:mod:`aaai.scoring.model_io`) 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import importlib
 import importlib.util
 import os
@@ -29,6 +28,7 @@ import numpy as np
 
 from aaai.config import ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
+from aaai.files import file_sha256, folder_sha256
 from aaai.scoring.runs import RunFolder, model_problem, rllib_checkpoint, run_backend
 from aaai.sim.gait import gait_policy
 
@@ -112,7 +112,7 @@ class Policy:
         if self.kind == "model":
             return ModelPolicy(Path(str(self.file)), env, self.trust, extra_keys, self.run_config)
         if self.kind == "rllib":
-            from aaai.scoring.model_io import RLlibPolicy
+            from aaai.scoring.rllib_policy import RLlibPolicy
 
             return RLlibPolicy(str(self.file), env, trust=self.trust)
         if self.kind == "callable":
@@ -157,10 +157,7 @@ def resolve(policy: str, trust: bool = False) -> Policy:
         config = load_config(run.read_config())
         if run_backend(path) == "rllib":
             checkpoint = rllib_checkpoint(path)
-            digest = hashlib.sha256()
-            for file in sorted(f for f in checkpoint.rglob("*") if f.is_file()):
-                digest.update(str(file.relative_to(checkpoint)).encode() + file.read_bytes())
-            identity = {"policy": policy, "model": str(checkpoint), "model_sha256": digest.hexdigest()}
+            identity = {"policy": policy, "model": str(checkpoint), "model_sha256": folder_sha256(checkpoint)}
             return Policy(policy, "rllib", str(checkpoint), policy, config, identity, trust)
         if config["train"]["agent"] == "random":  # a run of the random agent: scored with random actions
             return Policy(policy, "random", None, policy, config, {"policy": policy}, trust)
@@ -171,12 +168,12 @@ def resolve(policy: str, trust: bool = False) -> Policy:
     record: dict[str, Any] = {"policy": policy}
     source = _module_file(policy.partition(":")[0])
     if source is not None:  # the identity of its source file, where it has one
-        record["policy_source_sha256"] = hashlib.sha256(source.read_bytes()).hexdigest()
+        record["policy_source_sha256"] = file_sha256(source)
     return Policy(policy, "callable", record=record, trust=trust)
 
 
 def _model(policy: str, path: Path, run: str | None, run_config: dict | None, trust: bool) -> Policy:
-    record = {"policy": policy, "model": str(path), "model_sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
+    record = {"policy": policy, "model": str(path), "model_sha256": file_sha256(path)}
     return Policy(policy, "model", str(path), run, run_config, record, trust)
 
 
@@ -200,7 +197,7 @@ def _newest_model(run: RunFolder, policy: str) -> Path:
 def _zip_problem(path: Path) -> str | None:
     """Why a model .zip cannot be loaded: beyond the size budgets (from its declared sizes, before
     anything is inflated), else not a whole stable-baselines3 archive."""
-    from aaai.scoring.model_io import size_problem
+    from aaai.scoring.model_archive import size_problem
 
     return size_problem(path) or model_problem(path)
 
@@ -298,7 +295,7 @@ class ModelPolicy:
         extra_keys: tuple = (),
         run_config: dict | None = None,
     ):
-        from aaai.scoring import model_io
+        from aaai.scoring import model_archive, model_io, model_spaces
 
         path = Path(path)
         self.state: Any = None
@@ -316,15 +313,15 @@ class ModelPolicy:
                     raise ConfigError(_misfit(path, problems, seen))
             self.recurrent = hasattr(self.model, "_last_lstm_states")
             return
-        archive = model_io.read_archive(path)
+        archive = model_archive.read_archive(path)
         if seen is None:
             raise ConfigError(f"--policy: model file {str(path)!r}: an environment is needed to load it")
-        problems = model_io.space_problems(archive, seen.observation_space, seen.action_space)
+        problems = model_spaces.space_problems(archive, seen.observation_space, seen.action_space)
         if problems:
             raise ConfigError(_misfit(path, problems, seen))
         self.model = model_io.load_policy_network(
             path,
-            model_io.as_model_sees(seen.observation_space),  # images channel-first; the policy transposes them
+            model_spaces.as_model_sees(seen.observation_space),  # images channel-first; the policy transposes them
             seen.action_space,
             fallback_kwargs=_run_policy_kwargs(run_config),
             archive=archive,
@@ -353,10 +350,11 @@ def _trusted_load(path: Path):
     from stable_baselines3 import PPO
 
     from aaai.scoring import model_io
+    from aaai.scoring.model_archive import read_archive
 
     algorithm: Any = PPO
     try:
-        if model_io.policy_class_name(model_io.read_archive(path)).startswith("Recurrent"):
+        if model_io.policy_class_name(read_archive(path)).startswith("Recurrent"):
             from sb3_contrib import RecurrentPPO
 
             algorithm = RecurrentPPO
@@ -387,7 +385,7 @@ class _Seen:
 
 def _space_problems(observation_space, action_space, env: _Seen) -> list[str]:
     """How a loaded model's spaces differ from the environment's, by value (images as the model sees them)."""
-    from aaai.scoring.model_io import as_model_sees, compare_spaces, describe_space
+    from aaai.scoring.model_spaces import as_model_sees, compare_spaces, describe_space
 
     return compare_spaces(
         "observation", describe_space(observation_space), describe_space(as_model_sees(env.observation_space))

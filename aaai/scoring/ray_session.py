@@ -42,14 +42,18 @@ class RaySession:
 
         if ray.is_initialized():
             return self
-        options = dict(include_dashboard=False, log_to_driver=False, configure_logging=False)
         if self.address is None:
             # "local": always a new instance; never one found in RAY_ADDRESS or /tmp/ray/ray_current_cluster.
-            ray.init(address="local", num_cpus=self.workers, **options)
+            ray.init(
+                address="local",
+                num_cpus=self.workers,
+                include_dashboard=False,
+                log_to_driver=False,
+                configure_logging=False,
+            )
         else:
             check_reachable(self.address)
-            options.pop("include_dashboard")  # only for a new cluster
-            ray.init(address=self.address, **options)
+            ray.init(address=self.address, log_to_driver=False, configure_logging=False)  # no dashboard: not ours
         self.owned = True
         return self
 

@@ -24,7 +24,7 @@ from typing import Any, Callable
 import numpy as np
 
 from aaai.config import TRAINING_SECTIONS, ConfigError
-from aaai.files import write_atomic
+from aaai.files import file_sha256, write_atomic
 from aaai.levels import get_level
 
 FORMAT = "aaai-replay"
@@ -74,10 +74,6 @@ def encode_actions(actions: list[list[float]]) -> list[list]:
 
 def decode_actions(runs: list[list]) -> list[list[float]]:
     return [action for count, action in runs for _ in range(count)]
-
-
-def file_digest(path: str | Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 class Recorder:
@@ -135,7 +131,7 @@ def with_arena(replay: dict, arena: str | Path | None) -> dict:
         return replay
     return {
         **replay,
-        "arena": {"name": Path(arena).name, "path": str(Path(arena).resolve()), "sha256": file_digest(arena)},
+        "arena": {"name": Path(arena).name, "path": str(Path(arena).resolve()), "sha256": file_sha256(arena)},
     }
 
 
@@ -178,7 +174,10 @@ class ReplaySaver:
         return self.recorder
 
     def on_episode(self, row: dict) -> None:
-        replay = with_arena(self.recorder.last, self.arenas.get(row.get("arena") or ""))
+        recorder = self.recorder
+        if recorder is None or recorder.last is None:  # make_policy and the episode's end come before its row
+            raise RuntimeError(f"the row of seed {row.get('seed')} came before its episode was recorded")
+        replay = with_arena(recorder.last, self.arenas.get(row.get("arena") or ""))
         self.folder.mkdir(parents=True, exist_ok=True)
         self.written.append(write_replay(replay, self.folder / replay_name(replay, self.prefix)))
         if self.then is not None:
@@ -290,10 +289,10 @@ def replay_options(replay: dict, arena: str | Path | None = None) -> dict:
     path = Path(arena) if arena is not None else Path(replay["arena"]["path"])
     if not path.is_file():
         raise ConfigError(f"replay: arena file {str(path)!r} does not exist; pass its path (--arena)")
-    if file_digest(path) != replay["arena"]["sha256"]:
+    if file_sha256(path) != replay["arena"]["sha256"]:
         raise ConfigError(
             f"replay: arena file {str(path)!r} has changed since the episode was recorded "
-            f"(SHA-256 {file_digest(path)[:12]}..., recorded {replay['arena']['sha256'][:12]}...)"
+            f"(SHA-256 {file_sha256(path)[:12]}..., recorded {replay['arena']['sha256'][:12]}...)"
         )
     return {"spec": load_arena(path, replay["seed"]), "check": False}
 

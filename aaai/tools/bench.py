@@ -18,28 +18,29 @@ a factor of two; the load average before and after every part is recorded with t
   (the same vector env, workers and sensors, random actions, nothing else), for the shipped config;
 - the peer: Gymnasium's MuJoCo Ant-v5 with random actions (needs the `bench` extra);
 - peak memory, and memory growth over 20,000 steps with a reset every 200.
+
+The figures are measured here (:func:`run`); :mod:`aaai.tools.bench_report` writes them as
+``bench.json`` and the markdown table ``bench.md``.
 """
 
 from __future__ import annotations
 
-import json
 import os
 import platform
 import resource
 import tempfile
 import time
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 import pybullet as p
 
 from aaai.env import AnimalAIEnv
-from aaai.files import write_atomic
 from aaai.levels import all_levels, get_level
 from aaai.scoring.runs import package_versions
 
-SENSOR_SETTINGS = {
+SENSOR_SETTINGS: dict[str, dict[str, Any]] = {
     "joints": dict(rays=False, camera=False),
     "joints+rays": dict(rays=True, rays_per_side=8, camera=False),
     "joints+cam64rgb": dict(rays=False, camera=True, camera_resolution=64, camera_grayscale=False),
@@ -156,8 +157,11 @@ def _env(level: int, sensors: dict, difficulty: int = 5) -> AnimalAIEnv:
 
 def _without_hole_casting(env: AnimalAIEnv) -> AnimalAIEnv:
     """The rays as they were before they saw holes: never told of the level's missing floor."""
-    env.rays.set_holes = lambda rectangles: None
-    env.rays._holes = None
+    rays = env.rays
+    if rays is None:
+        raise ValueError("the rays without hole casting need an environment with rays")
+    setattr(rays, "set_holes", lambda rectangles: None)  # on this instance only: the level's holes never reach it
+    rays._holes = None
     return env
 
 
@@ -268,7 +272,7 @@ class _AntLoop(EnvLoop):
         env = gym.make("Ant-v5")
         env.action_space.seed(0)
         super().__init__(env, steps)
-        self.actions = [env.action_space.sample() for _ in range(steps)]
+        self.actions = np.array([env.action_space.sample() for _ in range(steps)])
 
 
 def ant_rates(steps: int, rounds: int) -> dict | None:
@@ -301,7 +305,7 @@ class _VecLoop:
         self.tracker = _tracker(config, curriculum, tracker_folder) if tracker_folder else None
         self.steps, self.done = steps, 0
         self.rng = np.random.default_rng(config["train"]["seed"])
-        self.shape = (self.vec.num_envs, *self.vec.single_action_space.shape)
+        self.shape = (self.vec.num_envs, *(self.vec.single_action_space.shape or ()))
         self.vec.reset()
 
     def __call__(self, steps: int | None = None) -> float:
@@ -513,110 +517,3 @@ def _machine() -> dict:
         "cpus": os.cpu_count(),
         "versions": package_versions(),
     }
-
-
-def _rate(figure: dict) -> str:
-    return f"{figure['median']:.0f}"
-
-
-def _ratio(figure: dict, percent: bool = False) -> str:
-    """A median with its spread: 0.52 (0.48..0.55), or +61% (+55..+70%)."""
-    if percent:
-        return f"{100 * figure['median']:+.0f}% ({100 * figure['min']:+.0f}..{100 * figure['max']:+.0f}%)"
-    return f"{figure['median']:.2f} ({figure['min']:.2f}..{figure['max']:.2f})"
-
-
-def markdown(results: dict) -> str:
-    m, settings = results["machine"], results["settings"]
-    lines = [
-        f"Machine: {m['platform']}, {m['cpus']} CPUs; Python {m['versions']['python']}, "
-        f"pybullet {m['versions']['pybullet']}. Settings: {settings}. Load average (1, 5, 15 min): "
-        f"{results['load']['before']} before, {results['load']['after']} after.",
-        "",
-        f"Steps per second (medians over {settings['rounds']} alternated rounds); ratios as median "
-        "(min..max) of the per-round ratios.",
-        "",
-        "| level | limit | joints | joints / limit | +rays | rays overhead | rays overhead, rayTestBatch on 2 "
-        "threads | +cam 64 RGB | +cam 84 gray | reset median ms | reset p95 ms |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
-    ]
-    holes = []
-    for label, level in results["levels"].items():
-        rates, level_ratios = level["rates"], level["ratios"]
-        lines.append(
-            f"| {label} | {_rate(rates['limit'])} | {_rate(rates['joints'])} | "
-            f"{_ratio(level_ratios['joints / limit'])} | {_rate(rates['joints+rays'])} | "
-            f"{_ratio(level_ratios['rays overhead'], True)} | "
-            f"{_ratio(level_ratios['rays overhead, 2 threads'], True)} | {_rate(rates['joints+cam64rgb'])} | "
-            f"{_rate(rates['joints+cam84gray'])} | {level['reset_ms']['median']:.1f} | "
-            f"{level['reset_ms']['p95']:.1f} |"
-        )
-        if "cost of seeing holes" in level_ratios:
-            holes.append(
-                f"- {label} rays seeing holes: {_rate(rates['joints+rays'])} steps/s; the same rays without "
-                f"the hole casting: {_rate(rates[NO_HOLE_CASTING])} steps/s "
-                f"({_ratio(level_ratios['cost of seeing holes'], True)} for seeing holes)"
-            )
-    lines += [""] + holes + ([""] if holes else [])
-    wide = [
-        f"{label} {_ratio(level['ratios']['wide rays overhead'], True)}"
-        for label, level in results["levels"].items()
-        if "wide rays overhead" in level["ratios"]
-    ]
-    if wide:
-        lines += [
-            "- Rays 1.0 wide (sensors.ray_width 1.0, three casts a ray), overhead over joints-only: " + ", ".join(wide),
-            "",
-        ]
-    workers = results["workers"]
-    w_rates, w_ratios = workers["rates"], workers["ratios"]
-    lines += [
-        f"- Workers (L0 joints, AsyncVectorEnv): 1: {_rate(w_rates['1'])}, 2: {_rate(w_rates['2'])}, "
-        f"4: {_rate(w_rates['4'])} steps/s; 2 in-process (SyncVectorEnv): {_rate(w_rates['2 in-process'])}; "
-        f"2 / 1 = {_ratio(w_ratios['2 workers / 1'])}, 4 / 1 = {_ratio(w_ratios['4 workers / 1'])}, "
-        f"2 in-process / 2 workers = {_ratio(w_ratios['2 in-process / 2 workers'])}"
-    ]
-    training = results.get("training")
-    if training:
-        c, t_rates, t_ratios = training["config"], training["rates"], training["ratios"]
-        lines += [
-            "",
-            f"Training ({c['num_envs']} workers x n_steps {c['n_steps']}, train.vector {c['vector']}: "
-            f"{c['runs']}; PPO {c.get('n_epochs', '?')} epochs of batch {c.get('batch_size', '?')}, "
-            f"net_width {c.get('net_width', '?')}; levels {c['levels']}, difficulties {c['difficulties']}; sensors "
-            f"{', '.join(c['sensors'])}; load {training['load']['before']} -> {training['load']['after']}):",
-            "",
-            "| | steps/s (median, min..max) | / env alone, same vector env | / env alone, the faster |",
-            "|---|---:|---:|---:|",
-        ]
-        for name, figure in t_rates.items():
-            same = t_ratios.get(f"{name} / env alone")
-            best = t_ratios.get(f"{name} / env alone (best)")
-            lines.append(
-                f"| {name} | {figure['median']:.0f} ({figure['min']:.0f}..{figure['max']:.0f}) | "
-                f"{_ratio(same) if same else ''} | {_ratio(best) if best else ''} |"
-            )
-    ant = results["ant_v5"]
-    memory = results["memory"]
-    lines += [
-        "",
-        "- Ant-v5 (MuJoCo, random actions): "
-        + (
-            f"{_rate(ant['rates']['Ant-v5'])} steps/s; "
-            f"L0 joints / Ant-v5 = {_ratio(ant['ratios']['L0 joints / Ant-v5'])}"
-            if ant
-            else "not measured (install the bench extra)"
-        ),
-        f"- Memory: peak {memory['peak_mb']:.0f} MB; RSS {memory['rss_before_mb']:.1f} -> "
-        f"{memory['rss_after_mb']:.1f} MB over {settings['memory_steps']} steps with a reset "
-        f"every 200 ({100 * memory['growth']:+.1f}%)",
-    ]
-    return "\n".join(lines) + "\n"
-
-
-def write(results: dict, folder: Path) -> tuple[Path, Path]:
-    folder.mkdir(parents=True, exist_ok=True)
-    json_path, md_path = folder / "bench.json", folder / "bench.md"
-    write_atomic(json_path, json.dumps(results, indent=2) + "\n")
-    write_atomic(md_path, markdown(results))
-    return json_path, md_path

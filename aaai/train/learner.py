@@ -142,6 +142,7 @@ def train_ppo(
     run: RunFolder,
     checkpoint: Path | None,
     progress: Callable[[int], None],
+    trust: bool = False,
 ) -> int:
     lean_torch()
     env = CurriculumSB3Env(vec)
@@ -155,6 +156,7 @@ def train_ppo(
             monitored,
             tensorboard_log=str(run.path / "tb"),
             fallback_kwargs={"net_arch": [width, width], "log_std_init": config["train"]["log_std_init"]},
+            trust=trust,
         )
     else:
         model = ppo_from_config(monitored, config, run)
@@ -178,7 +180,7 @@ def start_from(model: PPO, source: str | Path) -> None:
     ``torch.load(weights_only=True)``, so nothing in it can run. Refused, naming both, when the
     networks differ (another action mode, senses or net_width)."""
     from aaai.config import ConfigError
-    from aaai.scoring.model_io import read_tensors
+    from aaai.scoring.model_archive import read_tensors
 
     path = Path(source)
     if path.is_dir():

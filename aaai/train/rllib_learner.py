@@ -245,7 +245,7 @@ def _train_loop(
 ) -> int:
     import ray
 
-    from aaai.scoring.model_io import sign_checkpoint
+    from aaai.scoring.rllib_checkpoints import sign_checkpoint
 
     if checkpoint is not None:
         algo.restore_from_path(str((checkpoint / CHECKPOINT_FOLDER).absolute()))
@@ -278,6 +278,7 @@ def train_rllib(
     env_runners: int | None = None,
     progress: Callable[[int], None] | None = None,
     say: Callable[[str], None] = print,
+    trust: bool = False,
 ) -> TrainResult:
     """:func:`aaai.train.training.train` with RLlib PPO: starts a run in ``run_dir`` with ``config`` (a
     resolved config) or resumes the run there (``total_steps`` moves its end, as in ``train``).
@@ -289,13 +290,13 @@ def train_rllib(
     sampler actor. ``progress(n)`` is told the environment steps of each iteration. The run
     folder is locked for the whole call, as in ``train``.
     """
-    from aaai.scoring.model_io import signing_key
+    from aaai.scoring.rllib_checkpoints import signing_key
 
     run = RunFolder(run_dir)
     check_writable(run.path, "--resume" if resume else "--run", folder=True)
     signing_key()  # the key that signs every checkpoint: made, or refused naming the fix, before any work
     with run.locked("--resume" if resume else "--run"):
-        return _train_rllib(run, config, resume, total_steps, address, env_runners, progress, say)
+        return _train_rllib(run, config, resume, total_steps, address, env_runners, progress, say, trust)
 
 
 def _train_rllib(
@@ -307,8 +308,9 @@ def _train_rllib(
     env_runners: int | None,
     progress: Callable[[int], None] | None,
     say: Callable[[str], None],
+    trust: bool = False,
 ) -> TrainResult:
-    """:func:`train_rllib` in its locked run folder."""
+    """:func:`train_rllib` in its locked run folder (``trust``: its checkpoint loads unsigned, --trust-model)."""
     from aaai.scoring.ray_session import RaySession
 
     checkpoint = state = None
@@ -322,9 +324,9 @@ def _train_rllib(
                     f"--resume: {str(checkpoint)!r} is not a checkpoint of an RLlib run "
                     f"(no {CHECKPOINT_FOLDER}/ beside state.json)"
                 )
-            from aaai.scoring.model_io import check_rllib_checkpoint
+            from aaai.scoring.rllib_checkpoints import check_rllib_checkpoint
 
-            check_rllib_checkpoint(checkpoint / CHECKPOINT_FOLDER)  # pickles: signed here, or train --trust-model
+            check_rllib_checkpoint(checkpoint / CHECKPOINT_FOLDER, trust)  # pickles: signed here, or --trust-model
         if total_steps is not None:
             config = move_end(run, config, checkpoint, state, total_steps)
     else:

@@ -297,13 +297,15 @@ def train(
     total_steps: int | None = None,
     say: Callable[[str], None] = print,
     on_episodes: Callable[[list[Episode]], None] | None = None,
+    trust: bool = False,
 ) -> TrainResult:
     """Starts a run in ``run_dir`` with ``config`` (a resolved config), or resumes the run there.
 
     A resume continues from the newest readable saved point (``final/`` included); a damaged one is
     skipped and ``say`` is told so. ``total_steps`` (if given) moves the run's end; the run
     folder's config records it. It may not fall below the steps already done. ``progress`` is told
-    of every step, ``on_episodes`` of every finished episode (e.g. :class:`Progress`).
+    of every step, ``on_episodes`` of every finished episode (e.g. :class:`Progress`). ``trust``
+    (``--trust-model``): a resumed model file is loaded with code from it.
 
     The run folder is locked for the whole call (:meth:`RunFolder.locked`): another process
     training or resuming it is refused at once, naming this one's pid.
@@ -315,7 +317,7 @@ def train(
         check_trainable(config)  # before the run folder exists: a refused config leaves nothing behind
         check_init_from(config)
     with run.locked("--resume" if resume else "--run"):
-        return _train(run, config, resume, progress, asynchronous, total_steps, say, on_episodes)
+        return _train(run, config, resume, progress, asynchronous, total_steps, say, on_episodes, trust)
 
 
 def _train(
@@ -327,6 +329,7 @@ def _train(
     total_steps: int | None,
     say: Callable[[str], None],
     on_episodes: Callable[[list[Episode]], None] | None,
+    trust: bool = False,
 ) -> TrainResult:
     """:func:`train` in its locked run folder (a new run's config checked)."""
     checkpoint = state = None
@@ -354,7 +357,7 @@ def _train(
         else:
             from aaai.train.learner import train_ppo
 
-            steps = train_ppo(vec, tracker, config, run, checkpoint, progress)
+            steps = train_ppo(vec, tracker, config, run, checkpoint, progress, trust)
     finally:
         vec.close()
     curriculum.write_heatmap(run.path / "curriculum.png")
