@@ -18,7 +18,7 @@ from collections import deque
 import pytest
 
 from aaai.levels import generate
-from aaai.sim.behaviours import behaviour_class
+from aaai.sim.behaviours import Door, Sink, behaviour_class
 
 SEEDS = range(12)
 DIFFICULTIES = range(11)
@@ -59,7 +59,7 @@ class FakeWorld:
 
     def __init__(self, time: float):
         self.time = time
-        self.placed = None
+        self.placed: tuple[float, float, float] = (math.nan, math.nan, math.nan)
 
     def place(self, body, position, yaw):
         self.placed = position
@@ -179,7 +179,8 @@ def test_l2b_pillar_sinks_to_the_floor_over_the_papers_time(difficulty):
         for part in (pillar, yellow):
             assert part.behaviour["type"] == "sink" and part.behaviour["duration"] == seconds
         # a hair before the sink time the yellow is still above the floor; at it, it rests on the floor
-        mover = behaviour_class(yellow)(yellow)
+        assert behaviour_class(yellow) is Sink
+        mover = Sink(yellow)
         for at, resting in ((seconds - 1e-3, False), (seconds, True), (seconds + 1.0, True)):
             world = FakeWorld(at)
             mover.advance(world, 0, 0.02, None)
@@ -468,7 +469,8 @@ def test_l9_each_door_closes_once_the_head_has_entered_its_sector(difficulty):
             # shins 3.5 out) and 1 more, so no foot is under the door: 9 + 4.5 + 1 = 14.5 from the centre.
             trigger = 14.5
             assert door.position[0] * ux + door.position[1] * uy == pytest.approx(8.5)
-            gate = behaviour_class(door)(door)
+            assert behaviour_class(door) is Door
+            gate = Door(door)
             assert not gate.entered((trigger - 1e-6) * ux, (trigger - 1e-6) * uy)
             assert gate.entered((trigger + 1e-6) * ux, (trigger + 1e-6) * uy)
             # "The agent must enter a sector and collect all the food within it": no piece before the line

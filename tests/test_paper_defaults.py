@@ -6,6 +6,7 @@ configs/default.yaml, so a default that drifts from the paper fails here and not
 
 from __future__ import annotations
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -35,9 +36,11 @@ def test_the_default_rays_are_the_papers_fan(config):
     assert setting(config, "sensors", "ray_length") == 15
     env = AnimalAIEnv()
     try:
-        assert env.observation_space["rays"].shape[0] == 2 * 8 + 1
+        spaces = env.observation_space
+        assert isinstance(spaces, gym.spaces.Dict)
+        assert spaces["rays"].shape is not None and spaces["rays"].shape[0] == 2 * 8 + 1
         # paper, The Agent: "four thighs and four legs, totaling eight joints"
-        assert env.observation_space["joints"].shape == (8,)
+        assert spaces["joints"].shape == (8,)
         # notes, Body: "Physics step 0.02 s, one decision per physics step"
         assert env.control_dt == pytest.approx(0.02)
     finally:
