@@ -125,9 +125,9 @@ def test_l1_food_is_still_at_low_difficulty_and_moves_at_high():
     # paper, Test Bench L1: "At lower difficulty levels, the food is mostly stationary, but it begins
     # to move as the difficulty increases"; notes, L1: "each moves (random walk, speed 4) with probability 0.5"
     assert not any(f.behaviour for s in specs(1, 0, range(40)) for f in s.foods)
-    moving = [f.behaviour for s in specs(1, 10, range(40)) for f in s.foods]
+    moving = [f.behaviour for s in specs(1, 10, range(100)) for f in s.foods]
     share = sum(b is not None for b in moving) / len(moving)
-    assert 0.35 < share < 0.65, share  # 200 pieces at p = 0.5
+    assert abs(share - 0.5) <= 3 * math.sqrt(0.25 / len(moving)), share  # 500 pieces at p = 0.5: 3 sigma
     assert all(b == {"type": "random_walk", "speed": 4} for b in moving if b is not None)
 
 
