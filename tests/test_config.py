@@ -11,18 +11,18 @@ from aaai.levels.params import LevelParamError, resolve, resolve_value
 
 def test_defaults_load_and_keywords_override():
     config = load_config(camera=True, camera_resolution=64, sensors={"rays_per_side": 3})
-    assert config["sensors"]["camera"] is True
-    assert config["sensors"]["camera_resolution"] == 64
-    assert config["sensors"]["rays_per_side"] == 3
-    assert config["physics"]["timestep"] * config["physics"]["action_repeat"] == pytest.approx(0.02)
+    assert config.sensors.camera is True
+    assert config.sensors.camera_resolution == 64
+    assert config.sensors.rays_per_side == 3
+    assert config.physics.timestep * config.physics.action_repeat == pytest.approx(0.02)
 
 
 def test_user_yaml_overrides_defaults(tmp_path):
     path = tmp_path / "mine.yaml"
     path.write_text("episode:\n  max_steps: 500\nagent:\n  body: quadruped16\n")
     config = load_config(path)
-    assert config["episode"]["max_steps"] == 500
-    assert config["agent"]["body"] == "quadruped16"
+    assert config.episode.max_steps == 500
+    assert config.agent.body == "quadruped16"
 
 
 @pytest.mark.parametrize(
@@ -214,5 +214,5 @@ def test_a_config_that_is_neither_a_path_nor_a_mapping_is_refused():
 def test_an_option_of_the_rays_with_the_rays_off_is_refused_not_ignored(key, value):
     with pytest.raises(ConfigError, match=rf"'sensors.{key}': got {value!r} with 'sensors.rays': false"):
         load_config(sensors={"rays": False, key: value})
-    assert load_config(sensors={"rays": True, key: value})["sensors"][key] == value
-    assert load_config(sensors={"rays": False, key: 0})["sensors"]["rays"] is False
+    assert getattr(load_config(sensors={"rays": True, key: value}).sensors, key) == value
+    assert load_config(sensors={"rays": False, key: 0}).sensors.rays is False

@@ -20,7 +20,7 @@ from typing import Any, Callable, Generator
 
 import numpy as np
 
-from aaai.config import ConfigError, env_part
+from aaai.config import Config, ConfigError, env_part
 from aaai.env import AnimalAIEnv
 from aaai.files import Lock, hold, write_atomic
 from aaai.levels import all_levels, get_level
@@ -314,7 +314,7 @@ Episode = tuple  # (level, difficulty, seed), or (level, difficulty, seed, arena
 def score(
     policy: Policy,
     output: Path,
-    config: dict,
+    config: Config,
     plan: Callable[[list[dict]], list[Episode]],
     play: Callable[[list[Episode]], Generator[dict, None, None]],
     record: dict | None = None,
@@ -351,7 +351,7 @@ def scoreboard_lock(output: Path) -> Lock:
 def _score(
     policy: Policy,
     output: Path,
-    config: dict,
+    config: Config,
     plan: Callable[[list[dict]], list[Episode]],
     play: Callable[[list[Episode]], Generator[dict, None, None]],
     record: dict | None,
@@ -371,7 +371,7 @@ def _score(
 
 def play_here(
     policy: Policy,
-    config: dict,
+    config: Config,
     episodes: list[Episode],
     make_policy: Callable[[AnimalAIEnv], Callable] | None = None,
 ) -> Generator[dict, None, None]:
@@ -391,7 +391,7 @@ def evaluate(
     policy: Policy | str,
     cells: list[Cell],
     output: Path,
-    config: dict,
+    config: Config,
     on_episode: Callable[[dict], None] | None = None,
     record: dict | None = None,
     make_policy: Callable[[AnimalAIEnv], Callable] | None = None,
@@ -417,7 +417,7 @@ def evaluate_arenas(
     arenas: list[Path],
     seeds: list[int],
     output: Path,
-    config: dict,
+    config: Config,
     on_episode: Callable[[dict], None] | None = None,
     record: dict | None = None,
     make_policy: Callable[[AnimalAIEnv], Callable] | None = None,
@@ -535,13 +535,13 @@ def record_path(output: Path) -> Path:
     return output.with_name(output.stem + "_scored_with.json")
 
 
-def env_record(config: dict) -> dict:
+def env_record(config: Config) -> dict:
     """What a scoreboard records of the environment it was scored in: the whole environment config
     (the level and difficulty defaults aside: each row names its own), its digest, the action mode
     and the package's version."""
     from aaai import __version__
 
-    part = {k: v for k, v in env_part(config, shaping=0.0).items() if k not in ("level", "difficulty")}
+    part = {k: v for k, v in env_part(config, shaping=0.0).env_dict().items() if k not in ("level", "difficulty")}
     part = json.loads(json.dumps(part, sort_keys=True, default=str))  # as it reads back from the file
     digest = hashlib.sha256(json.dumps(part, sort_keys=True).encode()).hexdigest()
     return {
@@ -552,7 +552,7 @@ def env_record(config: dict) -> dict:
     }
 
 
-def scoring_record(policy: Policy, record: dict | None, config: dict) -> dict:
+def scoring_record(policy: Policy, record: dict | None, config: Config) -> dict:
     """The whole record of a scoreboard: the policy's (default: on listed seeds), the environment's
     and, for a policy whose actions are put on a grid, how they are computed (``numerics``)."""
     numerics = {"numerics": policy.numerics} if policy.numerics else {}
