@@ -1,7 +1,9 @@
 """Loads and validates configuration: configs/default.yaml, then a user YAML, then keywords.
 
 Every value is checked against RULES; a bad key or value raises ConfigError with one
-message that names the key, the value and what is allowed.
+message that names the key, the value and what is allowed. ``load_config`` gives back one frozen,
+typed ``Config`` (a dataclass per section: ``config.train.num_envs``); its ``to_yaml()`` is the
+dotted-key YAML that run folders and model files hold.
 """
 
 from __future__ import annotations

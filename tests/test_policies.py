@@ -461,7 +461,7 @@ def test_sensor_settings_count_only_for_senses_that_are_on():
         check_model(Path("m.zip"), env, ("rays",), load_config({"sensors": {"rays": True, "camera": False}}))
         with pytest.raises(ConfigError, match="sensors.rays: model True, environment False"):
             check_model(Path("m.zip"), env, (), load_config({"sensors": {"rays": True, "camera": False}}))
-        older = json.loads(json.dumps(load_config(rays_off)))
+        older = json.loads(json.dumps(load_config(rays_off).to_dict()))
         older["sensors"]["retired_sense"] = 1
         with pytest.raises(ConfigError, match=r"sensors.retired_sense: model 1, environment 'absent'"):
             check_model(Path("m.zip"), env, (), older)
