@@ -680,9 +680,9 @@ def eval_command(
         policy = resolve(policy, trust_model)
         run_folder = Path(policy.run) if policy.run else None
         config = with_action_mode(policy.config(config_path), action_mode)
-        level_list = parse_levels(levels) if levels else config.curriculum.levels
+        level_list = parse_levels(levels) if levels else list(config.curriculum.levels)
         difficulty_list = (
-            parse_range(difficulty, "--difficulty", 0, 10) if difficulty else config.curriculum.difficulties
+            parse_range(difficulty, "--difficulty", 0, 10) if difficulty else list(config.curriculum.difficulties)
         )
         count = seeds_per_cell or config.eval.seeds_per_cell
         cells = cells_for(level_list, difficulty_list, seeds_mode, count, key)
