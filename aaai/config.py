@@ -1,16 +1,20 @@
 """Loads and validates configuration: configs/default.yaml, then a user YAML, then keywords.
 
 Every value is checked against RULES; a bad key or value raises ConfigError with one
-message that names the key, the value and what is allowed.
+message that names the key, the value and what is allowed. ``load_config`` gives back one frozen,
+typed ``Config`` (a dataclass per section: ``config.train.num_envs``); its ``to_yaml()`` is the
+dotted-key YAML that run folders and model files hold.
 """
 
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from importlib import resources
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Literal, Mapping
+
+import yaml
 
 from aaai import safe_yaml
 from aaai.agent.urdf_writer import BODIES
@@ -72,6 +76,7 @@ class Rule:
 
     def _check(self, key: str, value: Any) -> Any:
         if self.kind == "set":
+            assert self.low is not None and self.high is not None, "a set rule has its bounds"
             return parse_int_set(value, key, int(self.low), int(self.high))
         if self.kind == "path":
             if value is None or (isinstance(value, str) and value.strip() and len(value) <= 4096 and "\0" not in value):
@@ -195,14 +200,236 @@ RULES: dict[str, Rule] = {
 }
 
 
+ActionMode = Literal["rotation", "velocity", "gait"]  # what the env's actions mean (agent.action_mode)
+
+
+# --- the typed configuration: one frozen dataclass per section of configs/default.yaml ----------
+# The fields run in the order of configs/default.yaml, so that Config.to_yaml() writes the file
+# as it was always written (run folders, model files and provenance hashes depend on its bytes).
+
+
+@dataclass(frozen=True)
+class AgentConfig:
+    """``agent.*``: the body and how actions drive it."""
+
+    body: str
+    action_mode: ActionMode
+    decision_interval: float
+    max_force: float
+    position_gain: float
+    velocity_gain: float
+    max_joint_velocity: float
+    friction: float
+    limb_food_reward: str
+
+
+@dataclass(frozen=True)
+class SensorsConfig:
+    """``sensors.*``: the senses and the observation's keys."""
+
+    rays: bool
+    rays_per_side: int
+    ray_max_angle: float
+    ray_length: float
+    ray_down_fan: float
+    ray_memory: int
+    rays_flat: bool
+    ray_kinds: str
+    ray_width: float
+    camera: bool
+    camera_resolution: int
+    camera_grayscale: bool
+    camera_look: str
+    joint_velocities: bool
+    head_orientation: bool
+    foot_contacts: bool
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """``episode.*``: its length and the reward's optional terms."""
+
+    max_steps: int | str  # "auto" or a number of steps
+    ground_penalty: bool
+    shaping: float
+    shaping_gamma: float
+
+
+@dataclass(frozen=True)
+class PhysicsConfig:
+    """``physics.*``: the PyBullet client's settings."""
+
+    timestep: float
+    action_repeat: int
+    solver_iterations: int
+    gravity: float
+    blowup_speed: float
+
+    @property
+    def control_dt(self) -> float:
+        """Simulated seconds per control step (``timestep x action_repeat``)."""
+        return self.timestep * self.action_repeat
+
+
+@dataclass(frozen=True)
+class CurriculumConfig:
+    """``curriculum.*``: which cells training draws, and how."""
+
+    mode: str
+    sampler: str
+    warmup: int
+    plr_temperature: float
+    plr_staleness: float
+    levels: tuple[int, ...]
+    difficulties: tuple[int, ...]
+    window: int
+    c: float
+    spread: str
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """``train.*``: the learner and its run."""
+
+    agent: str
+    total_steps: int
+    num_envs: int
+    vector: str
+    processes: int
+    seed: int
+    checkpoint_every: int
+    heatmap_every: int
+    learning_rate: float
+    n_steps: int
+    batch_size: int
+    n_epochs: int
+    gamma: float
+    gae_lambda: float
+    ent_coef: float
+    net_width: int
+    log_std_init: float
+    proprioception: bool
+    reward_shaping: float
+    init_from: str | None
+    teacher: str
+    dagger_iterations: int
+    dagger_episodes: int
+    dagger_beta: float
+    dagger_epochs: int
+    dagger_episode_cap: int
+
+
+@dataclass(frozen=True)
+class EvalConfig:
+    """``eval.*``: scoring."""
+
+    seeds_per_cell: int
+
+
+SECTIONS: dict[str, type] = {
+    "agent": AgentConfig,
+    "sensors": SensorsConfig,
+    "episode": EpisodeConfig,
+    "physics": PhysicsConfig,
+    "curriculum": CurriculumConfig,
+    "train": TrainConfig,
+    "eval": EvalConfig,
+}
+
+
+@dataclass(frozen=True)
+class Config:
+    """The whole configuration, checked: ``load_config(...)`` builds it (configs/default.yaml, then a
+    user YAML, then keywords) and every part reads its values as attributes,
+    ``config.train.num_envs``, ``config.sensors.camera``. It is frozen: ``config.replace(num_envs=2)``
+    (keywords as ``load_config`` takes them) gives a checked copy. The file format stays the dotted
+    keys' YAML: ``to_dict()``, ``flat()`` and ``to_yaml()`` give it back as it is written."""
+
+    level: int
+    difficulty: int
+    agent: AgentConfig
+    sensors: SensorsConfig
+    episode: EpisodeConfig
+    physics: PhysicsConfig
+    curriculum: CurriculumConfig
+    train: TrainConfig
+    eval: EvalConfig
+
+    @classmethod
+    def from_flat(cls, flat: Mapping[str, Any]) -> Config:
+        """A Config of checked values by dotted key (``"train.seed"``); lists become tuples."""
+        parts = {
+            name: section(**{f.name: _frozen(flat[f"{name}.{f.name}"]) for f in fields(section)})
+            for name, section in SECTIONS.items()
+        }
+        return cls(level=flat["level"], difficulty=flat["difficulty"], **parts)
+
+    def flat(self) -> dict[str, Any]:
+        """Every value by its dotted key, in the order of configs/default.yaml (sets as lists)."""
+        out: dict[str, Any] = {"level": self.level, "difficulty": self.difficulty}
+        for name in SECTIONS:
+            section = getattr(self, name)
+            out.update({f"{name}.{f.name}": _plain(getattr(section, f.name)) for f in fields(section)})
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """The nested mapping of sections and keys, as written to a run's config file."""
+        tree: dict[str, Any] = {}
+        for key, value in self.flat().items():
+            section, _, leaf = key.rpartition(".")
+            (tree.setdefault(section, {}) if section else tree)[leaf] = value
+        return tree
+
+    def env_dict(self) -> dict[str, Any]:
+        """The environment's part of ``to_dict()``: every section but the training ones."""
+        return {key: value for key, value in self.to_dict().items() if key not in TRAINING_SECTIONS}
+
+    def to_yaml(self) -> str:
+        """The YAML of ``to_dict()``, as the run folder's ``config.yaml`` and a model's carried
+        ``aaai_config.yaml`` hold it."""
+        return yaml.safe_dump(self.to_dict(), sort_keys=False)
+
+    def replace(self, config: Mapping[str, Any] | None = None, **keywords: Any) -> Config:
+        """A checked copy with these values changed: a nested mapping and/or keywords as
+        ``load_config`` takes them (``replace(num_envs=2)``, ``replace({"train": {"seed": 3}})``)."""
+        if config is None:
+            return load_config(self, **keywords)
+        return load_config(_deep_merge(self.to_dict(), config), **keywords)
+
+
+def _frozen(value: Any) -> Any:
+    return tuple(value) if isinstance(value, list) else value
+
+
+def _plain(value: Any) -> Any:
+    return list(value) if isinstance(value, tuple) else value
+
+
+def _deep_merge(tree: Mapping[str, Any], overrides: Mapping[str, Any]) -> dict[str, Any]:
+    merged = dict(tree)
+    for key, value in overrides.items():
+        if isinstance(value, Mapping) and isinstance(merged.get(key), Mapping):
+            merged[key] = _deep_merge(merged[key], value)
+        else:
+            merged[key] = value
+    return merged
+
+
+_TYPED_KEYS = [
+    "level",
+    "difficulty",
+    *(f"{name}.{f.name}" for name, section in SECTIONS.items() for f in fields(section)),
+]
+assert sorted(_TYPED_KEYS) == sorted(RULES), "the Config's fields and RULES name different keys"
+
+
 TRAINING_SECTIONS = ("curriculum", "train", "eval")
 
 
-def env_part(config: dict, shaping: float) -> dict:
-    """The environment's part of a resolved config (no training sections), with this reward shaping."""
-    part = {key: value for key, value in config.items() if key not in TRAINING_SECTIONS}
-    part["episode"] = {**part["episode"], "shaping": shaping}
-    return part
+def env_part(config: Config, shaping: float) -> Config:
+    """The configuration an environment of a run gets: the same, with this reward shaping
+    (``episode.shaping``); the environment reads no training section."""
+    return load_config(config, shaping=shaping)
 
 
 def env_keywords() -> set[str]:
@@ -259,32 +486,25 @@ def _merge(flat: dict[str, Any], overrides: Mapping, source: str) -> None:
         flat[key] = RULES[key].check(key, value)
 
 
-def _unflatten(flat: Mapping[str, Any]) -> dict:
-    tree: dict = {}
-    for key, value in flat.items():
-        *sections, leaf = key.split(".")
-        node = tree
-        for section in sections:
-            node = node.setdefault(section, {})
-        node[leaf] = value
-    return tree
+def load_config(config: str | Path | Mapping[str, Any] | Config | None = None, **keywords: Any) -> Config:
+    """The resolved configuration, built and checked once: a frozen ``Config``.
 
-
-def load_config(config: str | Path | Mapping | None = None, **keywords: Any) -> dict:
-    """The resolved configuration as a nested dict.
-
-    ``config`` is a YAML path or a nested mapping of overrides. ``keywords`` use either
-    the short name of a key (``camera_resolution=64``) or, for a whole section, its name
-    with a mapping (``sensors={"camera": True}``).
+    ``config`` is a YAML path, a nested mapping of overrides, or a ``Config`` to start from (its
+    values are already checked). ``keywords`` use either the short name of a key
+    (``camera_resolution=64``) or, for a whole section, its name with a mapping
+    (``sensors={"camera": True}``).
     """
     flat: dict[str, Any] = {}
-    _merge(flat, read_yaml(config_dir() / "default.yaml"), "default.yaml")
-    if set(flat) != set(RULES):
-        missing = sorted(set(RULES) - set(flat))
-        raise ConfigError(f"default.yaml lacks the keys {', '.join(missing)}")
-    if config is not None:
-        overrides = copy.deepcopy(dict(config)) if isinstance(config, Mapping) else read_yaml(config)
-        _merge(flat, overrides, "config" if isinstance(config, Mapping) else str(config))
+    if isinstance(config, Config):
+        flat = config.flat()
+    else:
+        _merge(flat, read_yaml(config_dir() / "default.yaml"), "default.yaml")
+        if set(flat) != set(RULES):
+            missing = sorted(set(RULES) - set(flat))
+            raise ConfigError(f"default.yaml lacks the keys {', '.join(missing)}")
+        if config is not None:
+            overrides = copy.deepcopy(dict(config)) if isinstance(config, Mapping) else read_yaml(config)
+            _merge(flat, overrides, "config" if isinstance(config, Mapping) else str(config))
     leaves = _leaf_names()
     sections = _section_names()
     for name, value in keywords.items():
@@ -296,7 +516,7 @@ def load_config(config: str | Path | Mapping | None = None, **keywords: Any) -> 
             allowed = ", ".join(sorted(set(leaves) | sections))
             raise ConfigError(f"config key '{name}' (keyword) does not exist; allowed: {allowed}")
     _check_ray_options(flat)
-    return _unflatten(flat)
+    return Config.from_flat(flat)
 
 
 RAY_OPTIONS = ("sensors.ray_memory", "sensors.ray_down_fan", "sensors.ray_width")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping, TypedDict, Unpack
 
 import gymnasium as gym
 import numpy as np
@@ -17,7 +17,7 @@ import pybullet as p
 from gymnasium import spaces
 
 from aaai.agent.body import Quadruped
-from aaai.config import ConfigError, env_keywords, load_config
+from aaai.config import ActionMode, Config, ConfigError, env_keywords, load_config
 from aaai.levels import check_difficulty, episode_rngs, generate, get_level
 from aaai.sim.gait import SineGait
 from aaai.sim.sensors import Senses, render_rgb
@@ -51,6 +51,60 @@ def hold_steps(decision_interval: float, control_dt: float) -> int:
     return int(round(steps))
 
 
+def _point(values: Any) -> tuple[float, float, float]:
+    x, y, z = (float(v) for v in values)
+    return x, y, z
+
+
+class EnvKeywords(TypedDict, total=False):
+    """The environment's configuration keywords (``AnimalAIEnv(camera=True)``, ``gym.make(..., camera=True)``):
+    each key of configs/default.yaml's environment sections by its short name, or a section by its
+    name with a mapping. Checked against the key's rule on construction (aaai.config.RULES)."""
+
+    # agent
+    body: str
+    action_mode: ActionMode
+    decision_interval: float
+    max_force: float
+    position_gain: float
+    velocity_gain: float
+    max_joint_velocity: float
+    friction: float
+    limb_food_reward: str
+    agent: Mapping[str, Any]  # the whole section
+    # sensors
+    rays: bool
+    rays_per_side: int
+    rays_flat: bool
+    ray_kinds: str
+    ray_max_angle: float
+    ray_length: float
+    ray_memory: int
+    ray_down_fan: float
+    ray_width: float
+    camera: bool
+    camera_resolution: int
+    camera_grayscale: bool
+    camera_look: str
+    joint_velocities: bool
+    head_orientation: bool
+    foot_contacts: bool
+    sensors: Mapping[str, Any]  # the whole section
+    # episode
+    max_steps: int | str
+    ground_penalty: bool
+    shaping: float
+    shaping_gamma: float
+    episode: Mapping[str, Any]  # the whole section
+    # physics
+    timestep: float
+    action_repeat: int
+    solver_iterations: int
+    gravity: float
+    blowup_speed: float
+    physics: Mapping[str, Any]  # the whole section
+
+
 class AnimalAIEnv(gym.Env):
     """A limbed agent that must find food in a seeded, difficulty-scaled level.
 
@@ -72,16 +126,98 @@ class AnimalAIEnv(gym.Env):
     is left; truncated at T steps (``max_steps``; "auto": the level's time limit) or on a physics
     blow-up (``info["blew_up"]``).
 
-    Args:
-        level: level id 0..12, label ("L1", "L2b") or name ("food_retrieval").
-        difficulty: 0..10.
-        arena: an arena file (aaai.task.arena, docs/writing-levels.md): every reset loads it with
-            the episode's seed instead of generating ``level`` (a reset with ``options={"spec": …}``
-            still runs that spec).
-        config: a YAML path or nested mapping overriding configs/default.yaml.
-        render_mode: None, "rgb_array" (a third-person view) or "human" (PyBullet's GUI).
-        **overrides: any configuration key by its short name, e.g. ``camera=True``,
-            ``camera_resolution=64``, ``max_steps=500``, ``body="quadruped16"``.
+    Arguments: every configuration key of the environment is a keyword, by its short name, typed
+    (``EnvKeywords``) and checked against its rule (aaai.config); a whole section may be given as
+    a mapping (``sensors={"camera": True}``). They pass through ``gymnasium.make`` unchanged:
+
+    ```python
+    gymnasium.make("aaai/AnimalAI-v0", level=3, difficulty=5, action_mode="gait", camera=True)
+    ```
+
+    Level and files:
+
+    - ``level`` (int or str, default ``0``): level id 0..12, label ("L1", "L2b") or name ("food_retrieval")
+    - ``difficulty`` (int, default ``0``): 0..10
+    - ``arena`` (str, default ``None``): an arena file (aaai.task.arena, docs/writing-levels.md): every reset loads
+      it with the episode's seed instead of generating ``level`` (a reset with ``options={"spec": ...}`` still runs
+      that spec)
+    - ``config`` (str, Path, mapping or Config, default ``None``): a YAML path, a nested mapping or a ``Config``
+      (``aaai.config.load_config``) overriding configs/default.yaml; the keywords override it in turn
+    - ``render_mode`` (str, default ``None``): None, "rgb_array" (a third-person view) or "human" (PyBullet's GUI)
+
+    Agent (``agent.*``): the body and what an action means.
+
+    - ``body`` (str, default ``quadruped``): quadruped (8 axes) or quadruped16 (16 axes) (one of quadruped,
+      quadruped16)
+    - ``action_mode`` (str, default ``rotation``): rotation: action -> target angle; velocity: action -> target
+      speed (8 joints, each control step); gait: action -> forward, turn, crouch of the tuned steerable gait
+      (aaai/sim/gait.py), held for decision_interval (one of rotation, velocity, gait)
+    - ``decision_interval`` (float, default ``0.1``): gait mode: seconds each action is held (a whole number of
+      control steps of physics.timestep x action_repeat = 0.02 s); 0.1 = 5 steps (a number from 0.0001 to 10000)
+    - ``max_force`` (float, default ``93.58``): motor force limit per axis (N m) (a number from 0.001 to 100000)
+    - ``position_gain`` (float, default ``0.0798``): rotation mode: the motor's gain on the angle error (PyBullet's
+      kp) (a number from 0.0001 to 10)
+    - ``velocity_gain`` (float, default ``0.8606``): rotation mode: the motor's gain on the speed error (PyBullet's
+      kd) (a number from 0 to 10)
+    - ``max_joint_velocity`` (float, default ``10.0``): rad/s at abs(action) = 1 in velocity mode (a number from
+      0.001 to 100)
+    - ``friction`` (float, default ``1.0``): lateral friction of the body parts (a number from 0 to 10)
+    - ``limb_food_reward`` (str, default ``none``): food touched by a leg: none (legs do not eat) or flat (+1 green,
+      +0.5 yellow, as the original build) or size (as the head) (one of flat, size, none)
+
+    Sensors (``sensors.*``): the observation's keys.
+
+    - ``rays`` (bool, default ``true``): rayTestBatch vision from the head (true or false)
+    - ``rays_per_side`` (int, default ``8``): 1..20, plus one forward ray (an integer from 1 to 20)
+    - ``rays_flat`` (bool, default ``false``): rays as one vector ((2k+1) x 11) instead of a (2k+1, 11) grid, for
+      libraries whose checkers want 1-D vectors (true or false)
+    - ``ray_kinds`` (str, default ``classic``): classic: the 9 kind channels of 11-wide rays (a newer kind is seen
+      on its nearest classic kind's channel, docs: Levels, Object kinds) or all: one channel per kind a policy must
+      tell apart (one of classic, all)
+    - ``ray_max_angle`` (float, default ``45.0``): degrees per side, 5..180 (180 = all round) (a number from 5 to
+      180)
+    - ``ray_length`` (float, default ``15.0``): how far a ray sees (a number from 1 to 100)
+    - ``ray_memory`` (int, default ``0``): 0..10: n earlier sightings of food in the rays, 1, 2, 4 .. 2^(n-1) steps
+      back (observation key ray_memory: n x rays x 3: green, yellow, distance) (an integer from 0 to 10)
+    - ``ray_down_fan`` (float, default ``0.0``): degrees, 0..45: the same fan again, pitched this far below the
+      head's plane (0: none). The head walks about 2.3 high, so level rays pass over food smaller than that; a fan 8
+      degrees down sees size-2 food 2 to 16 away (a number from 0 to 45)
+    - ``ray_width`` (float, default ``0.0``): 0: thin lines or w (0..5): each ray also cast w/2 to its left and
+      right, the nearest hit wins (Animal-AI's 0.5 sphere casts: 1.0); 3x the rays' cost (a number from 0 to 5)
+    - ``camera`` (bool, default ``false``): TinyRenderer camera in the head (true or false)
+    - ``camera_resolution`` (int, default ``84``): square, 8..512 (an integer from 8 to 512)
+    - ``camera_grayscale`` (bool, default ``false``):  (true or false)
+    - ``camera_look`` (str, default ``task``): task: the camera agrees with the task (transparent walls unseen,
+      L11's terrain in the floor's colour) or classic: as before this key (a transparent wall drawn solid, the
+      terrain in a checker texture) (one of classic, task)
+    - ``joint_velocities`` (bool, default ``false``): extra proprioception, off by default (true or false)
+    - ``head_orientation`` (bool, default ``false``): gravity in the head's frame (true or false)
+    - ``foot_contacts`` (bool, default ``false``):  (true or false)
+
+    Episode (``episode.*``): its length and the reward's optional terms.
+
+    - ``max_steps`` (int or "auto", default ``auto``): T: auto (the level's own time limit, configs/levels/*.yaml)
+      or 10..10000 (auto or an integer from 10 to 10000)
+    - ``ground_penalty`` (bool, default ``true``): extra -0.5/T per step while the head touches the floor (true or
+      false)
+    - ``shaping`` (float, default ``0.0``): k > 0 adds k x (how much nearer the nearest food came): a training aid;
+      evaluation always uses 0 (see train.reward_shaping) (a number from 0 to 1000)
+    - ``shaping_gamma`` (float, default ``1.0``): shaping = k x (distance before - shaping_gamma x distance now); 1:
+      the shaping of an episode adds up to k x (start distance - end distance) (a number from 0 to 1)
+
+    Physics (``physics.*``): the simulation's clock and solver.
+
+    - ``timestep`` (float, default ``0.01``): seconds per physics step (a number from 0.0001 to 0.05)
+    - ``action_repeat`` (int, default ``2``): physics steps per control step (0.02 s by default) (an integer from 1
+      to 50)
+    - ``solver_iterations`` (int, default ``10``): PyBullet's solver iterations per physics step (an integer from 1
+      to 500)
+    - ``gravity`` (float, default ``9.81``): the downward pull, m/s^2 (a number from 0 to 100)
+    - ``blowup_speed`` (float, default ``60.0``): a head faster than this (units/s) counts as a blow-up (walking: <
+      12) (a number from 1 to 100000)
+
+    The training sections (``curriculum``, ``train``, ``eval``) are no keywords of the environment;
+    they come in a ``config``.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50}
@@ -90,10 +226,10 @@ class AnimalAIEnv(gym.Env):
         self,
         level: int | str | None = None,
         difficulty: int | None = None,
-        config: Any = None,
+        config: str | Path | Mapping[str, Any] | Config | None = None,
         render_mode: str | None = None,
         arena: str | None = None,
-        **overrides: Any,
+        **overrides: Unpack[EnvKeywords],
     ):
         unexpected = sorted(set(overrides) - env_keywords())
         if unexpected:  # worded as Python's own error, which libraries that probe keywords expect
@@ -101,11 +237,13 @@ class AnimalAIEnv(gym.Env):
                 f"AnimalAIEnv.__init__() got an unexpected keyword argument '{unexpected[0]}'; allowed: "
                 + ", ".join(["config", "render_mode", "arena", *sorted(env_keywords() | {"level", "difficulty"})])
             )
+        keywords: dict[str, Any] = dict(overrides)
         if level is not None:
-            overrides["level"] = get_level(level).id
+            keywords["level"] = get_level(level).id
         if difficulty is not None:
-            overrides["difficulty"] = check_difficulty(difficulty)
-        self.config = cfg = load_config(config, **overrides)
+            keywords["difficulty"] = check_difficulty(difficulty)
+        self.config: Config = load_config(config, **keywords)
+        cfg = self.config
         self.arena = None
         if arena is not None:  # checked now (its seed-0 instance), so that a bad file fails here
             if not isinstance(arena, (str, Path)):
@@ -117,40 +255,41 @@ class AnimalAIEnv(gym.Env):
         self.render_mode = render_mode
         # Instance metadata lists the modes this machine can show: no "human" without a display.
         self.metadata = {**self.metadata, "render_modes": ["rgb_array"] + (["human"] if display_available() else [])}
-        self.level, self.difficulty = cfg["level"], cfg["difficulty"]
-        self._blowup_speed_sq = cfg["physics"]["blowup_speed"] ** 2
-        self.sim = Simulation(cfg["physics"], gui=render_mode == "human")
-        self.client, self.control_dt = self.sim.client, self.sim.control_dt  # simulated s per step
-        agent = cfg["agent"]
-        self.action_mode = agent["action_mode"]
+        self.level, self.difficulty = cfg.level, cfg.difficulty
+        self._blowup_speed_sq = cfg.physics.blowup_speed**2
+        self.sim = Simulation(cfg.physics, gui=render_mode == "human")
+        self.client: int | None = self.sim.client  # None once closed
+        self.control_dt = self.sim.control_dt  # simulated s per step
+        client = self._live_client()
+        agent = cfg.agent
+        self.action_mode: ActionMode = agent.action_mode
         # visual shapes only if anything draws ("": none), and the camera's look (aaai.sim.world.World)
-        self.visuals = cfg["sensors"]["camera_look"] if cfg["sensors"]["camera"] or render_mode is not None else ""
-        drive = "rotation" if self.action_mode == "gait" else self.action_mode  # the gait sends joint angles
+        self.visuals = cfg.sensors.camera_look if cfg.sensors.camera or render_mode is not None else ""
         self.body = Quadruped(
-            self.client,
-            agent["body"],
-            drive,
-            agent["max_force"],
-            agent["max_joint_velocity"],
-            agent["friction"],
-            self.visuals,
-            agent["position_gain"],
-            agent["velocity_gain"],
+            client,
+            agent.body,
+            drive="velocity" if self.action_mode == "velocity" else "angle",  # the gait sends joint angles
+            max_force=agent.max_force,
+            max_joint_velocity=agent.max_joint_velocity,
+            friction=agent.friction,
+            visuals=self.visuals != "",
+            position_gain=agent.position_gain,
+            velocity_gain=agent.velocity_gain,
         )
-        self.senses = Senses(self.client, cfg["sensors"], self.body)
+        self.senses = Senses(client, cfg.sensors, self.body)
         self.rays, self.camera = self.senses.rays, self.senses.camera
-        self.task = FoodTask(cfg["episode"], agent["limb_food_reward"], self.control_dt)
+        self.task = FoodTask(cfg.episode, agent.limb_food_reward, self.control_dt)
         if self.action_mode == "gait":
             self.gait: SineGait | None = SineGait(self.body.joint_names, control_dt=self.control_dt)
-            self.hold = hold_steps(agent["decision_interval"], self.control_dt)
+            self.hold = hold_steps(agent.decision_interval, self.control_dt)
             self.action_space = spaces.Box(np.array(GAIT_LOW, np.float32), np.array(GAIT_HIGH, np.float32))
         else:
             self.gait, self.hold = None, 1
             self.action_space = spaces.Box(-1.0, 1.0, (self.body.n_axes,), np.float32)
         self._low = self.action_space.low.astype(np.float64)
         self._high = self.action_space.high.astype(np.float64)
-        self.observation_space = self.senses.space
-        self.level_spec = None  # the LevelSpec of the current episode
+        self.observation_space: spaces.Dict = self.senses.space
+        self.level_spec: LevelSpec | None = None  # the LevelSpec of the current episode
         self.world: World | None = None
         self.steps = 0
 
@@ -185,7 +324,7 @@ class AnimalAIEnv(gym.Env):
         self.level_spec = spec
         _, motion_rng = episode_rngs(spec.level, spec.difficulty, spec.seed)
         self.sim.reset()
-        self.world = World(self.client, spec, motion_rng, self.visuals)
+        self.world = World(self._live_client(), spec, motion_rng, self.visuals)
         self.senses.start(spec, self.control_dt)
         self.body.load(spec.agent.x, spec.agent.y, spec.agent.yaw)
         self.steps = 0
@@ -239,20 +378,21 @@ class AnimalAIEnv(gym.Env):
 
     def _control_step(self, action: np.ndarray, observe: bool):
         """One control step with joint action ``action``; the observation only if ``observe``."""
+        world = self._live_world()
         self.body.apply(action)
-        self.world.advance(self.control_dt, self._head[:2])  # the head as the last step left it
+        world.advance(self.control_dt, self._head[:2])  # the head as the last step left it
         self.sim.step()
         self.steps += 1
 
         contacts = self.body.contacts()
-        events = self.task.after_step(contacts, self.world.kind_index, self.world.food)
-        self.world.eat(events.eaten)
+        events = self.task.after_step(contacts, world.kind_index, world.food)
+        world.eat(events.eaten)
         self.senses.feel(contacts)
         angles, speeds = self.body.joint_state()
         position, orientation = p.getBasePositionAndOrientation(self.body.id, physicsClientId=self.client)
         blew_up = self.body.blew_up(speeds, position, self._bound, self._blowup_speed_sq)
-        terms = self.task.get_reward(events, position, self.world.food_positions)
-        terminated = self.task.should_terminate(events, self.world.all_eaten())
+        terms = self.task.get_reward(events, position, world.food_positions)
+        terminated = self.task.should_terminate(events, world.all_eaten())
         truncated = not terminated and self.task.should_truncate(self.steps, blew_up)
         self._head = position
         self._state = (angles, speeds, position, orientation)
@@ -276,10 +416,12 @@ class AnimalAIEnv(gym.Env):
         return self.senses.blackout.dark(self.steps)
 
     def _observe(self, angles, speeds, position, orientation) -> dict[str, np.ndarray]:
-        return self.senses.observe(angles, speeds, position, orientation, self.world.kind_index, self.dark)
+        return self.senses.observe(angles, speeds, position, orientation, self._live_world().kind_index, self.dark)
 
     def _info(self, terms: dict[str, float], fell: bool, blew_up: bool) -> dict[str, Any]:
         spec = self.level_spec
+        if spec is None:
+            raise gym.error.ResetNeeded("no episode yet: call reset() to build a level first")
         return {
             "level": spec.level,
             "level_name": spec.name,
@@ -309,7 +451,7 @@ class AnimalAIEnv(gym.Env):
         width, height = RENDER_SIZE
         view = p.computeViewMatrix(eye.tolist(), head_pos.tolist(), [0, 0, 1])
         projection = p.computeProjectionMatrixFOV(60.0, width / height, 0.1, 200.0)
-        return render_rgb(self.client, width, height, view, projection)
+        return render_rgb(self._live_client(), width, height, view, projection)
 
     def snapshot(self) -> Snapshot:
         """The episode as it is now, as plain data (aaai.sim.snapshot) to draw with ``level_spec``: the
@@ -319,13 +461,25 @@ class AnimalAIEnv(gym.Env):
         if self.world is None:
             raise gym.error.ResetNeeded("snapshot() before reset(): call reset() to build a level first")
         position, rotation = self.body.head_pose()
-        head = Pose(*(float(v) for v in position), math.atan2(rotation[1, 0], rotation[0, 0]))
-        legs = tuple(Leg(*(tuple(float(v) for v in point) for point in leg)) for leg in self.body.leg_points())
+        x, y, z = (float(v) for v in position)
+        head = Pose(x, y, z, math.atan2(rotation[1, 0], rotation[0, 0]))
+        legs = tuple(Leg(*(_point(point) for point in leg)) for leg in self.body.leg_points())
         objects, closed_doors = self.world.object_poses()
         return Snapshot(self.steps * self.control_dt, head, legs, tuple(objects), frozenset(closed_doors))
 
     def _check_open(self) -> None:
         self.sim.check_open()
+
+    def _live_client(self) -> int:
+        """The PyBullet client, or the closed environment's error."""
+        self.sim.check_open()
+        assert self.client is not None, "an open simulation has its client"
+        return self.client
+
+    def _live_world(self) -> World:
+        if self.world is None:
+            raise gym.error.ResetNeeded("step() before reset(): call reset() to build a level first")
+        return self.world
 
     # --- copies ---------------------------------------------------------------------
     def __getstate__(self) -> dict:
@@ -340,7 +494,8 @@ class AnimalAIEnv(gym.Env):
         }
 
     def __setstate__(self, state: dict) -> None:
-        self.__init__(
+        AnimalAIEnv.__init__(
+            self,
             level=state["level"],
             difficulty=state["difficulty"],
             config=state["config"],

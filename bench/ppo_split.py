@@ -66,12 +66,12 @@ def main() -> None:
             rows.append(row)
         loop.close()
     load_after = os.getloadavg()
-    train = config["train"]
+    train = config.train
     lines = [
         "# Where a PPO training step goes (shipped config)",
         "",
-        f"`bench/ppo_split.py`: {train['num_envs']} environments x n_steps {train['n_steps']},"
-        f" {train['n_epochs']} epochs, batch {train['batch_size']}; {args.rounds} rounds of {args.steps}"
+        f"`bench/ppo_split.py`: {train.num_envs} environments x n_steps {train.n_steps},"
+        f" {train.n_epochs} epochs, batch {train.batch_size}; {args.rounds} rounds of {args.steps}"
         f" steps; load average {[round(v, 1) for v in load_before]} before,"
         f" {[round(v, 1) for v in load_after]} after. Microseconds per environment step, median over"
         " rounds (min..max), and the share of the whole.",

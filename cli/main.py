@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from aaai.config import ConfigError, describe_ids, load_config, parse_int_set, read_yaml
+from aaai.config import Config, ConfigError, describe_ids, load_config, parse_int_set, read_yaml
 from aaai.env import AnimalAIEnv
 from aaai.errors import needs_extra
 from aaai.files import InUse
@@ -250,29 +250,29 @@ def run_episode(env: AnimalAIEnv, level: int, difficulty: int, seed: int, policy
     )
 
 
-def with_action_mode(config: dict, action_mode: str | None) -> dict:
+def with_action_mode(config: Config, action_mode: str | None) -> Config:
     """``config`` scored in ``action_mode`` (unchanged for None). A model trained in another mode
     is refused when it is loaded."""
     if action_mode is not None:
-        config = {**config, "agent": {**config["agent"], "action_mode": action_mode}}
+        config = config.replace(action_mode=action_mode)
     return config
 
 
-def step_note(config: dict) -> str:
+def step_note(config: Config) -> str:
     """The unit of a progress line's steps: 'steps: gait decisions of 0.1 s' or 'steps: control steps of 0.02 s'."""
-    agent, physics = config["agent"], config["physics"]
-    if agent["action_mode"] == "gait":
-        return f"steps: gait decisions of {agent['decision_interval']:g} s"
-    return f"steps: control steps of {physics['timestep'] * physics['action_repeat']:g} s"
+    agent, physics = config.agent, config.physics
+    if agent.action_mode == "gait":
+        return f"steps: gait decisions of {agent.decision_interval:g} s"
+    return f"steps: control steps of {physics.timestep * physics.action_repeat:g} s"
 
 
-def step_unit(config: dict) -> str:
+def step_unit(config: Config) -> str:
     """What a training step counts in a run of this config: agent decisions or control steps."""
-    agent = config["agent"]
-    if agent["action_mode"] == "gait":
-        return f"agent decisions (of {agent['decision_interval']:g} s each)"
-    physics = config["physics"]
-    return f"agent decisions (control steps of {physics['timestep'] * physics['action_repeat']:g} s)"
+    agent = config.agent
+    if agent.action_mode == "gait":
+        return f"agent decisions (of {agent.decision_interval:g} s each)"
+    physics = config.physics
+    return f"agent decisions (control steps of {physics.timestep * physics.action_repeat:g} s)"
 
 
 class Seconds(click.FloatRange):
@@ -488,10 +488,10 @@ def train_command(
                 ),
             )
             run_dir = run_dir or time.strftime("runs/run-%Y%m%d-%H%M%S")
-        total = total_steps or (config or RunFolder(run_dir).read_config())["train"]["total_steps"]
+        total = total_steps or (config or load_config(RunFolder(run_dir).read_config())).train.total_steps
         use_rllib = (run_backend(resume_dir) if resume_dir else backend) == "rllib"
         say = lambda message: click.echo(message, err=True)  # noqa: E731
-        if (config or RunFolder(run_dir).read_config())["train"].get("teacher", "none") != "none":
+        if (config or load_config(RunFolder(run_dir).read_config())).train.teacher != "none":
             if use_rllib:
                 raise click.UsageError("--teacher: a student is trained with stable-baselines3 (--backend sb3)")
             if total_steps is not None:
@@ -543,14 +543,14 @@ def train_command(
         raise click.ClickException(write_failure(error, run_dir)) from None
     except ImportError as error:
         raise click.ClickException(needs_extra(error, "aaai train")) from None
-    run_config = result.run.read_config()
-    curriculum = run_config["curriculum"]
+    run_config = load_config(result.run.read_config())
+    curriculum = run_config.curriculum
     click.echo(
         f"run {result.run.path}: {result.steps} {step_unit(run_config)}, {result.episodes} episodes"
         + (f" (resumed at step {result.resumed_from})" if resume_dir else "")
     )
     click.echo(
-        f"cells: levels {curriculum['levels']} x difficulties {curriculum['difficulties']}; "
+        f"cells: levels {list(curriculum.levels)} x difficulties {list(curriculum.difficulties)}; "
         f"heatmap {result.run.path / 'curriculum.png'}"
     )
 
@@ -680,11 +680,11 @@ def eval_command(
         policy = resolve(policy, trust_model)
         run_folder = Path(policy.run) if policy.run else None
         config = with_action_mode(policy.config(config_path), action_mode)
-        level_list = parse_levels(levels) if levels else config["curriculum"]["levels"]
+        level_list = parse_levels(levels) if levels else list(config.curriculum.levels)
         difficulty_list = (
-            parse_range(difficulty, "--difficulty", 0, 10) if difficulty else config["curriculum"]["difficulties"]
+            parse_range(difficulty, "--difficulty", 0, 10) if difficulty else list(config.curriculum.difficulties)
         )
-        count = seeds_per_cell or config["eval"]["seeds_per_cell"]
+        count = seeds_per_cell or config.eval.seeds_per_cell
         cells = cells_for(level_list, difficulty_list, seeds_mode, count, key)
         label = seeds_mode if seeds_mode in ("reserved", "train") else "list"
         output = Path(output) if output else (run_folder or Path(".")) / f"scoreboard_{label}.csv"
@@ -771,7 +771,7 @@ def eval_arenas(
         policy = resolve(policy, trust_model)
         run_folder = Path(policy.run) if policy.run else None
         config = with_action_mode(policy.config(config_path), action_mode)
-        count = seeds_per_cell or config["eval"]["seeds_per_cell"]
+        count = seeds_per_cell or config.eval.seeds_per_cell
         if seeds_mode == "reserved":  # the default: an arena's seeds are 0..K-1
             seeds, label = list(range(count)), f"0-{count - 1}"
         elif seeds_mode == "train":
@@ -1224,7 +1224,7 @@ def curricula_command(
         raise click.UsageError(str(error)) from None
     click.echo(
         f"experiment {experiment.folder}: samplers {experiment.samplers}, seeds {experiment.seeds}, "
-        f"{total_steps} steps each, action mode {config['agent']['action_mode']}"
+        f"{total_steps} steps each, action mode {config.agent.action_mode}"
     )
     try:
         run_experiment(experiment, echo=click.echo, progress_every=progress_every, jobs=jobs)

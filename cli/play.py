@@ -150,8 +150,8 @@ def play(
         if max_steps is not None:
             overrides["max_steps"] = max_steps
         config = load_config(config_path, **overrides)
-        physics = config["physics"]  # one control step per action: each env.step is 1/50 s of play
-        config = load_config(config, decision_interval=physics["timestep"] * physics["action_repeat"])
+        physics = config.physics  # one control step per action: each env.step is 1/50 s of play
+        config = load_config(config, decision_interval=physics.control_dt)
         settings = PlaySettings(
             config=config,
             output=output,

@@ -150,14 +150,14 @@ def show(
             config=base,
             camera=True,
             # a policy that sees the camera films with its own camera; otherwise it is turned on here to draw it
-            camera_resolution=base["sensors"]["camera_resolution"]
-            if chosen is not None and base["sensors"]["camera"]
+            camera_resolution=base.sensors.camera_resolution
+            if chosen is not None and base.sensors.camera
             else CAMERA_RESOLUTION,
             arena=arena,
             **({"action_mode": action_mode} if action_mode else {}),
         )
         # the camera is turned on here to draw it: a model that was not trained with it does not see it
-        extra = () if base["sensors"]["camera"] else ("camera",)
+        extra = () if base.sensors.camera else ("camera",)
         actor = chosen.build(env, extra_keys=extra) if chosen is not None else None
     except ConfigError as error:
         raise click.UsageError(str(error)) from None

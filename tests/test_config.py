@@ -11,18 +11,18 @@ from aaai.levels.params import LevelParamError, resolve, resolve_value
 
 def test_defaults_load_and_keywords_override():
     config = load_config(camera=True, camera_resolution=64, sensors={"rays_per_side": 3})
-    assert config["sensors"]["camera"] is True
-    assert config["sensors"]["camera_resolution"] == 64
-    assert config["sensors"]["rays_per_side"] == 3
-    assert config["physics"]["timestep"] * config["physics"]["action_repeat"] == pytest.approx(0.02)
+    assert config.sensors.camera is True
+    assert config.sensors.camera_resolution == 64
+    assert config.sensors.rays_per_side == 3
+    assert config.physics.timestep * config.physics.action_repeat == pytest.approx(0.02)
 
 
 def test_user_yaml_overrides_defaults(tmp_path):
     path = tmp_path / "mine.yaml"
     path.write_text("episode:\n  max_steps: 500\nagent:\n  body: quadruped16\n")
     config = load_config(path)
-    assert config["episode"]["max_steps"] == 500
-    assert config["agent"]["body"] == "quadruped16"
+    assert config.episode.max_steps == 500
+    assert config.agent.body == "quadruped16"
 
 
 @pytest.mark.parametrize(
@@ -214,5 +214,74 @@ def test_a_config_that_is_neither_a_path_nor_a_mapping_is_refused():
 def test_an_option_of_the_rays_with_the_rays_off_is_refused_not_ignored(key, value):
     with pytest.raises(ConfigError, match=rf"'sensors.{key}': got {value!r} with 'sensors.rays': false"):
         load_config(sensors={"rays": False, key: value})
-    assert load_config(sensors={"rays": True, key: value})["sensors"][key] == value
-    assert load_config(sensors={"rays": False, key: 0})["sensors"]["rays"] is False
+    assert getattr(load_config(sensors={"rays": True, key: value}).sensors, key) == value
+    assert load_config(sensors={"rays": False, key: 0}).sensors.rays is False
+
+
+def test_the_config_is_typed_and_frozen_and_read_by_attribute():
+    from dataclasses import FrozenInstanceError
+
+    config = load_config(num_envs=3, levels="0-2,5", action_mode="gait")
+    assert config.train.num_envs == 3 and config.agent.action_mode == "gait"
+    assert config.curriculum.levels == (0, 1, 2, 5)  # a set of ids, immutable
+    with pytest.raises(TypeError):
+        config["train"]  # no string keys: every read is an attribute a type checker follows
+    with pytest.raises(FrozenInstanceError):
+        config.train.num_envs = 4
+    again = config.replace(num_envs=5)
+    assert (again.train.num_envs, config.train.num_envs) == (5, 3)
+    assert config.replace({"train": {"seed": 9}}).train.seed == 9
+    with pytest.raises(ConfigError, match="train.num_envs.*0.*1 to 256"):
+        config.replace(num_envs=0)  # a copy is checked as a new config is
+
+
+def test_the_config_file_keeps_its_format():
+    """Run folders, model files and provenance digests hold ``to_yaml()``: the dotted keys in the order
+    of configs/default.yaml, plain YAML data, read back to the same config."""
+    import yaml
+
+    from aaai.config import read_yaml
+
+    def dotted(tree, prefix=""):
+        for key, value in tree.items():
+            yield from dotted(value, f"{prefix}{key}.") if isinstance(value, dict) else [f"{prefix}{key}"]
+
+    config = load_config(levels="0-3,5", difficulties=[4, 1], camera=True, init_from="runs/x")
+    assert list(config.flat()) == list(dotted(read_yaml(config_dir() / "default.yaml")))
+    assert list(dotted(config.to_dict())) == list(config.flat())
+    text = config.to_yaml()
+    assert text == yaml.safe_dump(config.to_dict(), sort_keys=False)
+    assert "  levels:\n  - 0\n  - 1\n  - 2\n  - 3\n  - 5\n" in text  # a plain list, as before
+    assert load_config(yaml.safe_load(text)) == config
+    assert set(config.env_dict()) == set(config.to_dict()) - {"curriculum", "train", "eval"}
+
+
+def test_the_envs_keywords_are_typed_and_listed_in_its_docstring():
+    from aaai.config import env_keywords
+    from aaai.env import EnvKeywords
+
+    assert set(EnvKeywords.__annotations__) == env_keywords() - {"level", "difficulty"}  # named arguments
+    for name in env_keywords() - {"agent", "sensors", "episode", "physics"}:
+        assert f"- ``{name}`` (" in AnimalAIEnv.__doc__, name
+
+
+@pytest.mark.parametrize("action_mode, drive", [("rotation", "angle"), ("gait", "angle"), ("velocity", "velocity")])
+def test_the_body_drive_is_named_apart_from_the_action_mode(action_mode, drive):
+    env = AnimalAIEnv(action_mode=action_mode, rays=False)
+    try:
+        assert env.body.drive == drive and env.action_mode == action_mode
+    finally:
+        env.close()
+
+
+def test_the_body_has_visual_shapes_only_when_something_draws():
+    bare, seen = (
+        AnimalAIEnv(rays=False),
+        AnimalAIEnv(rays=False, camera=True, camera_resolution=8, camera_look="classic"),
+    )
+    try:
+        assert bare.body.path == str(urdf_path("quadruped", visuals=False))
+        assert seen.body.path == str(urdf_path("quadruped", visuals=True)) != bare.body.path
+    finally:
+        bare.close()
+        seen.close()

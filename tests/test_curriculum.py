@@ -114,7 +114,7 @@ def test_curriculum_config_is_validated():
 
     with pytest.raises(ConfigError, match="curriculum.difficulties.*'0-11'.*0 to 10"):
         load_config(difficulties="0-11")
-    assert math.isclose(config["curriculum"]["c"], 0.05)
+    assert math.isclose(config.curriculum.c, 0.05)
 
 
 def test_heatmap_colours_each_cell_by_its_mean_return(tmp_path):

@@ -56,7 +56,7 @@ def test_no_cell_and_an_inactive_cell_are_refused():
 
 def test_every_config_key_reaches_the_curriculum():
     config = load_config(levels="0-1", difficulties="0,2", window=4, c=0.2, spread="variance", seed=7)
-    config["curriculum"].update(warmup=2, plr_temperature=0.7, plr_staleness=0.4, sampler="learnability")
+    config = config.replace(warmup=2, plr_temperature=0.7, plr_staleness=0.4, sampler="learnability")
     curriculum = Curriculum.from_config(config)
     assert curriculum.cells == [(0, 0), (0, 2), (1, 0), (1, 2)]
     assert (curriculum.mode, curriculum.window, curriculum.c, curriculum.spread, curriculum.sampler) == (
@@ -70,7 +70,7 @@ def test_every_config_key_reaches_the_curriculum():
     assert curriculum.returns[(0, 0)].maxlen == 4 and curriculum.passes[(0, 0)].maxlen == 4
     same = Curriculum([0, 1], [0, 2], seed=7, sampler="learnability", warmup=2)
     assert [curriculum.sample() for _ in range(4)] == [same.sample() for _ in range(4)]  # the train seed
-    config["curriculum"]["mode"] = "random"
+    config = config.replace(mode="random")
     assert Curriculum.from_config(config).mode == "random"
 
 

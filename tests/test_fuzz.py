@@ -39,8 +39,7 @@ def test_any_value_for_any_key_is_taken_or_refused_naming_the_key(key, value):
     except ConfigError as error:
         assert short in str(error)
     else:
-        section, _, leaf = key.rpartition(".")
-        taken = config[section][leaf] if section else config[leaf]
+        taken = config.flat()[key]
         assert taken is not None or RULES[key].kind == "path"  # a path key's null means "none" (train.init_from)
 
 

@@ -26,7 +26,7 @@ def test_every_level_is_registered_with_its_label_and_gymnasium_id():
     assert [all_levels()[i].label for i in LEVELS] == [f"L{i}" for i in range(12)] + ["L2b"]
     assert get_level("L2b").name == "delayed_gratification" and get_level("y_maze").id == 2
     assert "aaai/L2b-DelayedGratification-v0" in gym.registry and "aaai/L11-BodyAwareness-v0" in gym.registry
-    assert load_config(level=12)["level"] == 12
+    assert load_config(level=12).level == 12
     with pytest.raises(
         ConfigError,
         match="config key 'level': got 13, and level 13 does not exist; allowed: registered level ids 0 to 12",

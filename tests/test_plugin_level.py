@@ -84,7 +84,7 @@ def test_a_fourteenth_level_runs_in_python(plugin):
     assert spec == generate(13, 4, 99) and validate.check(spec) == []
     food = next(o for o in spec.objects if o.is_food)
     assert np.hypot(*food.position[:2]) == pytest.approx(12.0)  # "8 + d" at d = 4
-    assert load_config(level=13)["level"] == 13
+    assert load_config(level=13).level == 13
     env = AnimalAIEnv(level=13, difficulty=4)
     try:
         _, info = env.reset(seed=5)

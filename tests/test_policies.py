@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from conftest import needs
 
-from aaai.config import ConfigError, env_part, load_config
+from aaai.config import Config, ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
 from aaai.scoring.evaluation import policy_record
 from aaai.scoring.policies import GRID, ModelPolicy, Policy, RandomPolicy, check_model, external, on_grid, resolve
@@ -23,7 +23,7 @@ from aaai.scoring.runs import RunFolder
 SHORT = {"episode": {"max_steps": 20}}
 
 
-def _save_model(config: dict, path: Path) -> None:
+def _save_model(config: Config, path: Path) -> None:
     from stable_baselines3 import PPO
 
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))
@@ -74,8 +74,8 @@ def test_a_run_folder_names_its_newest_model_with_its_hash_and_its_config(run):
         "model_sha256": hashlib.sha256(model.read_bytes()).hexdigest(),
     }
     assert policy.key == policy.record["model_sha256"]
-    assert policy.config()["sensors"]["rays_per_side"] == 4  # the run's own senses by default
-    assert policy.config()["episode"]["max_steps"] == 20
+    assert policy.config().sensors.rays_per_side == 4  # the run's own senses by default
+    assert policy.config().episode.max_steps == 20
     assert policy.config(None) == policy.config()
     assert policy_record(policy, "reserved")["model_sha256"] == policy.record["model_sha256"]
 
@@ -83,14 +83,14 @@ def test_a_run_folder_names_its_newest_model_with_its_hash_and_its_config(run):
 def test_an_explicit_config_wins_over_the_runs(run, tmp_path):
     config = tmp_path / "other.yaml"
     config.write_text("sensors:\n  rays_per_side: 6\n")
-    assert resolve(str(run)).config(str(config))["sensors"]["rays_per_side"] == 6
+    assert resolve(str(run)).config(str(config)).sensors.rays_per_side == 6
     bare = resolve(str(run / "checkpoints" / "step_000000000100" / "model.zip"))
     assert bare.run is None and bare.file.endswith("step_000000000100/model.zip")
-    assert bare.config()["sensors"]["rays_per_side"] == 4  # a checkpoint's file: scored with its run's senses
-    assert bare.config(str(config))["sensors"]["rays_per_side"] == 6  # unless a config is given
+    assert bare.config().sensors.rays_per_side == 4  # a checkpoint's file: scored with its run's senses
+    assert bare.config(str(config)).sensors.rays_per_side == 6  # unless a config is given
     alone = tmp_path / "alone.zip"
     shutil.copy(bare.file, alone)
-    assert resolve(str(alone)).config()["sensors"]["rays_per_side"] == 8  # a file outside a run: the defaults
+    assert resolve(str(alone)).config().sensors.rays_per_side == 8  # a file outside a run: the defaults
 
 
 def test_the_value_pickles_and_builds_the_same_policy_from_a_copy_of_its_file(run, tmp_path):
@@ -213,7 +213,7 @@ def test_a_run_of_the_random_agent_is_scored_with_random_actions(tmp_path):
     RunFolder(folder).create(load_config({**SHORT, "train": {"agent": "random"}}))
     policy = resolve(str(folder))
     assert (policy.kind, policy.run, policy.record) == ("random", str(folder), {"policy": str(folder)})
-    assert policy.config()["episode"]["max_steps"] == 20
+    assert policy.config().episode.max_steps == 20
 
 
 def test_module_callable_is_recorded_by_its_source_and_called_with_the_env(tmp_path, monkeypatch):
@@ -370,7 +370,7 @@ def test_an_rllib_run_is_named_by_its_checkpoint_and_the_hash_of_its_files(tmp_p
         str(checkpoint),
         str(tmp_path / "run"),
     )
-    assert policy.config()["episode"]["max_steps"] == 20
+    assert policy.config().episode.max_steps == 20
     digest = hashlib.sha256()  # over each file's path, a NUL and its own SHA-256, in path order
     for name in ("algorithm_state.pkl", "learner_group/learner/rl_module/default_policy/module_state.pkl"):
         digest.update(name.encode() + b"\0" + hashlib.sha256((checkpoint / name).read_bytes()).hexdigest().encode())
@@ -461,7 +461,7 @@ def test_sensor_settings_count_only_for_senses_that_are_on():
         check_model(Path("m.zip"), env, ("rays",), load_config({"sensors": {"rays": True, "camera": False}}))
         with pytest.raises(ConfigError, match="sensors.rays: model True, environment False"):
             check_model(Path("m.zip"), env, (), load_config({"sensors": {"rays": True, "camera": False}}))
-        older = json.loads(json.dumps(load_config(rays_off)))
+        older = json.loads(json.dumps(load_config(rays_off).to_dict()))
         older["sensors"]["retired_sense"] = 1
         with pytest.raises(ConfigError, match=r"sensors.retired_sense: model 1, environment 'absent'"):
             check_model(Path("m.zip"), env, (), older)

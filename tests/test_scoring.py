@@ -383,7 +383,7 @@ def test_the_loop_plays_what_the_hooks_make_and_reports_each_row(tmp_path):
     shapings, steps, rows = [], [], []
 
     def make_policy(env):
-        shapings.append(env.config["episode"]["shaping"])
+        shapings.append(env.config.episode.shaping)
         space = env.action_space
 
         def act(observation):
@@ -424,7 +424,7 @@ def test_a_row_is_the_episode_of_its_cell_scored_against_its_best_reward(tmp_pat
 
     config = load_config(None, max_steps=30)
     row = evaluate("random", [Cell(4, 2, [11])], tmp_path / "b.csv", config)[0]
-    env = AnimalAIEnv(config={**config, "episode": {**config["episode"], "shaping": 0.0}})
+    env = AnimalAIEnv(config=config, shaping=0.0)
     try:
         result = play(env, RandomPolicy(env), 11, options={"level": 4, "difficulty": 2})
     finally:

@@ -2,6 +2,7 @@
 them: each ray's kind flag and distance, the down fan, floor areas, the camera, its blackout, the
 rays' memory of food, joints, tilt and feet."""
 
+import dataclasses
 import math
 from types import SimpleNamespace
 
@@ -9,6 +10,7 @@ import numpy as np
 import pybullet as p
 import pytest
 
+from aaai.config import SensorsConfig, load_config
 from aaai.sim.kinds import KIND_INDEX
 from aaai.sim.sensors import EYE_OFFSET, Blackout, Camera, RayMemory, Rays, Senses
 from aaai.spec import Blackout as Schedule
@@ -228,6 +230,11 @@ class Body:
     foot_slot = {4: 0, 7: 1}
 
 
+def _typed(sensors: dict) -> SensorsConfig:
+    """A sensors section: the defaults with these values (no cross-checks: the senses are tested alone)."""
+    return dataclasses.replace(load_config().sensors, **sensors)
+
+
 SENSORS = dict(
     rays=True,
     rays_per_side=1,
@@ -244,12 +251,14 @@ SENSORS = dict(
 
 
 def test_the_senses_make_the_observation_the_config_asks_for(world):
-    bare = Senses(world.client, SENSORS, Body())
+    bare = Senses(world.client, _typed(SENSORS), Body())
     assert sorted(bare.space) == ["joints", "rays"]
     assert bare.rays.n_kinds == 9 and bare.rays.n_rays == 3 and bare.rays.width == 0.0  # the defaults
     assert bare.memory is None and bare.camera is None
     full = dict(SENSORS, camera=True, joint_velocities=True, head_orientation=True, foot_contacts=True)
-    senses = Senses(world.client, dict(full, ray_memory=2, ray_kinds="all", ray_down_fan=10.0, ray_width=0.5), Body())
+    senses = Senses(
+        world.client, _typed(dict(full, ray_memory=2, ray_kinds="all", ray_down_fan=10.0, ray_width=0.5)), Body()
+    )
     assert sorted(senses.space) == [
         "camera",
         "foot_contacts",
@@ -266,14 +275,14 @@ def test_the_senses_make_the_observation_the_config_asks_for(world):
     assert (senses.space["joints"].low == -1.0).all() and (senses.space["head_orientation"].high == 1.0).all()
     assert np.isinf(senses.space["joint_velocities"].high).all()
     assert (senses.space["foot_contacts"].low == 0.0).all() and (senses.space["foot_contacts"].high == 1.0).all()
-    blind = Senses(world.client, dict(SENSORS, rays=False, ray_memory=2), Body())
+    blind = Senses(world.client, _typed(dict(SENSORS, rays=False, ray_memory=2)), Body())
     assert sorted(blind.space) == ["joints"] and blind.memory is None
 
 
 def test_each_observed_value(world):
     world.box(5.0, 0.0)
     full = dict(SENSORS, camera=True, joint_velocities=True, head_orientation=True, foot_contacts=True, ray_memory=1)
-    senses = Senses(world.client, full, Body())
+    senses = Senses(world.client, _typed(full), Body())
     angles, speeds = np.array([0.1, -0.2, 0.3]), np.array([1.5, 0.0, -2.5])
     senses.feel([(0, 0, 0, 7, -1), (0, 0, 0, 2, -1)])  # foot 7 touches; link 2 is no foot
     pitched = p.getQuaternionFromEuler([0.0, math.radians(30.0), 0.0])  # nose down 30 degrees
@@ -294,9 +303,11 @@ def test_each_observed_value(world):
     senses.feel([])
     assert senses.observe(angles, speeds, (0, 0, 0), (0, 0, 0, 1), np.array([WALL]), False)["foot_contacts"].sum() == 0
     for alone in (dict(SENSORS), dict(SENSORS, rays=False, head_orientation=True), dict(SENSORS, rays=False)):
-        one = Senses(world.client, alone, Body()).observe(angles, speeds, (0, 0, 0), pitched, np.array([WALL]), True)
-        assert sorted(one) == sorted(Senses(world.client, alone, Body()).space)
-    unfelt = Senses(world.client, SENSORS, Body())
+        one = Senses(world.client, _typed(alone), Body()).observe(
+            angles, speeds, (0, 0, 0), pitched, np.array([WALL]), True
+        )
+        assert sorted(one) == sorted(Senses(world.client, _typed(alone), Body()).space)
+    unfelt = Senses(world.client, _typed(SENSORS), Body())
     unfelt.feel([(0, 0, 0, 7, -1)])
     assert unfelt.feet.tolist() == [0.0, 0.0]  # feet not observed: not worked out
 
@@ -307,7 +318,7 @@ def test_a_new_level_clears_the_feet_and_the_memory_and_learns_its_blackout_and_
     from aaai.spec import ObjectSpec
 
     full = dict(SENSORS, foot_contacts=True, ray_memory=1)
-    senses = Senses(world.client, full, Body())
+    senses = Senses(world.client, _typed(full), Body())
     senses.feel([(0, 0, 0, 4, -1)])
     senses.memory.recall(food_rays(senses.rays, {1: (GREEN, 0.5)}))
     zone = ObjectSpec("hot_zone", "box", (5.0, 0.0, 0.0), (2.0, 2.0, 0.1))

@@ -46,7 +46,7 @@ def test_the_labels_are_the_teachers_actions_and_the_inputs_only_the_agents_obse
     config = load_config(TINY)
     episodes = ((0, 0, 3), (0, 1, 4))
     gathered = play_job(Job(config, None, 32, 1.0, 0, episodes))
-    env = AnimalAIEnv(config={k: v for k, v in config.items() if k not in ("curriculum", "train", "eval")})
+    env = AnimalAIEnv(config=config.env_dict())
     teacher = ReferenceController(env)
     try:
         assert set(gathered["observations"]) == set(env.observation_space.spaces)  # nothing privileged
@@ -216,7 +216,7 @@ def test_the_committed_student_fails_l8_for_want_of_object_permanence(tmp_path):
     from aaai.scoring.policies import resolve
 
     config = load_config(str(MODELS / "student.yaml"))
-    env = AnimalAIEnv(config={k: v for k, v in config.items() if k not in ("curriculum", "train", "eval")})
+    env = AnimalAIEnv(config=config.env_dict())
     try:
         row = {"level": "8", "difficulty": "0", "seed": "1429051819"}
         failure = replay_failure(env, resolve(str(MODELS / "student.zip")).build(env), row)

@@ -622,7 +622,9 @@ def test_make_curricula_continues_the_committed_experiment(tmp_path, monkeypatch
     (experiment,) = continued
     assert experiment.samplers == committed["samplers"] and experiment.seeds == committed["seeds"]
     run = experiment.run_config("paper", 0)
-    assert {key: run["train"][key] for key in PPO_KEYS} == {key: committed["config"]["train"][key] for key in PPO_KEYS}
+    assert {key: getattr(run.train, key) for key in PPO_KEYS} == {
+        key: committed["config"]["train"][key] for key in PPO_KEYS
+    }
 
 
 def test_curricula_experiment_refused_names_what_differs_and_what_to_do(tmp_path):
@@ -645,7 +647,9 @@ def test_curricula_experiment_refused_names_what_differs_and_what_to_do(tmp_path
     message = str(refused.value)
     assert "K (-k, seeds per cell): 5 in the folder, 4 now" in message
     assert message.count(" in the folder, ") == 5 and "and 3 more" in message  # 8 differences, 5 listed
-    assert yaml.safe_load((tmp_path / "experiment.yaml").read_text())["config"] == load_config(base)  # not rewritten
+    assert (
+        yaml.safe_load((tmp_path / "experiment.yaml").read_text())["config"] == load_config(base).to_dict()
+    )  # not rewritten
 
 
 def test_curricula_experiment_continues_whatever_the_base_sampler_and_seed(tmp_path):
@@ -657,8 +661,8 @@ def test_curricula_experiment_continues_whatever_the_base_sampler_and_seed(tmp_p
     plan(tmp_path, ["paper", "plr"], [0], load_config(base, sampler="paper", seed=0), 5)
     experiment = plan(tmp_path, ["uniform"], [1], load_config(base, sampler="uniform", seed=7), 5)
     assert experiment.samplers == ["paper", "plr", "uniform"] and experiment.seeds == [0, 1]
-    assert experiment.run_config("plr", 1)["curriculum"]["sampler"] == "plr"
-    assert experiment.run_config("plr", 1)["train"]["seed"] == 1
+    assert experiment.run_config("plr", 1).curriculum.sampler == "plr"
+    assert experiment.run_config("plr", 1).train.seed == 1
 
 
 def test_make_curricula_on_a_clone_skips_the_committed_runs_it_has_no_model_of(tmp_path, monkeypatch):

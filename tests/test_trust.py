@@ -457,10 +457,8 @@ MORE_EXTREMES = EXTREMES + [-1e308, 10**30, -(10**30), float("-inf"), "0x10", 1e
 
 
 def _config_sweep(values) -> int:
-    from aaai.config import _flatten
-
     tried = 0
-    for key in _flatten(load_config(None)):
+    for key in load_config(None).flat():
         section, _, leaf = key.rpartition(".")
         for value in values:
             tried += 1
@@ -603,9 +601,7 @@ def test_fuzzed_arena_files_end_cleanly_long(tmp_path_factory, data, seed):
 
 
 def _config_keys():
-    from aaai.config import _flatten
-
-    return sorted(_flatten(load_config(None)))
+    return sorted(load_config(None).flat())
 
 
 configs = st.dictionaries(

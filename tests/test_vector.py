@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 
-from aaai.config import env_part, load_config
+from aaai.config import Config, env_part, load_config
 from aaai.env import AnimalAIEnv
 from aaai.train.curriculum import Curriculum
 from aaai.train.vector import EPISODE_INFO_KEYS, CurriculumVecEnv
 
 
-def replay(config: dict, shaping: float, episode, actions) -> float:
+def replay(config: Config, shaping: float, episode, actions) -> float:
     """The return of ``actions`` in a plain environment on the episode's level, seed and cell."""
     env = AnimalAIEnv(config=env_part(config, shaping))
     try:
@@ -144,9 +144,9 @@ def test_processes_are_apart_from_num_envs():
     from aaai.train.vector import worker_processes
 
     many = load_config(num_envs=16, vector="sync")
-    assert worker_processes(many["train"], cores=2) == 2
-    assert worker_processes(load_config(num_envs=2)["train"], cores=8) == 2
-    assert worker_processes(load_config(num_envs=16, processes=3)["train"], cores=2) == 3
+    assert worker_processes(many.train, cores=2) == 2
+    assert worker_processes(load_config(num_envs=2).train, cores=8) == 2
+    assert worker_processes(load_config(num_envs=16, processes=3).train, cores=2) == 3
     assert DaggerSettings.from_config(load_config(num_envs=16, processes=3)).workers == 3
     with pytest.raises(ConfigError, match="processes"):
         load_config(processes=-1)
@@ -160,7 +160,7 @@ def test_rllib_env_runners_follow_processes():
     from aaai.train.vector import worker_processes
 
     config = load_config(num_envs=16, processes=2, n_steps=128)
-    runners = worker_processes(config["train"])
+    runners = worker_processes(config.train)
     rl = ppo_config(config, "sampler", runners)
     assert (rl.num_env_runners, rl.num_envs_per_env_runner) == (2, 8)
     assert rl.train_batch_size_per_learner == 128 * 16

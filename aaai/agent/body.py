@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import pybullet as p
@@ -26,14 +27,21 @@ def urdf_path(body: str, visuals: bool = True) -> Path:
     return path
 
 
+Drive = Literal["angle", "velocity"]  # the motors' control: target angles (PyBullet's position control) or speeds
+
+
 class Quadruped:
-    """One body in one client. Load it with ``load`` after every resetSimulation."""
+    """One body in one client. Load it with ``load`` after every resetSimulation.
+
+    ``drive`` is how an action reaches the motors: ``"angle"`` (each axis to a target angle) or
+    ``"velocity"`` (each axis at a target speed). It is the body's own setting, distinct from the
+    environment's ``agent.action_mode``: both ``rotation`` and ``gait`` drive the body by angle."""
 
     def __init__(
         self,
         client: int,
         body: str,
-        action_mode: str,
+        drive: Drive,
         max_force: float,
         max_joint_velocity: float,
         friction: float,
@@ -43,7 +51,7 @@ class Quadruped:
     ):
         self.client = client
         self.path = str(urdf_path(body, visuals))
-        self.action_mode = action_mode
+        self.drive: Drive = drive  # how an action drives the axes: target angles or target speeds
         self.max_force = max_force
         self.max_joint_velocity = max_joint_velocity
         self.friction = friction
@@ -85,16 +93,16 @@ class Quadruped:
         for link in self.links:
             p.setCollisionFilterGroupMask(self.id, link, AGENT_GROUP, 0xFFFF, physicsClientId=c)
             p.changeDynamics(self.id, link, lateralFriction=self.friction, physicsClientId=c)
-        self.apply(np.zeros(self.n_axes) if self.action_mode == "velocity" else self.rest_action())
+        self.apply(np.zeros(self.n_axes) if self.drive == "velocity" else self.rest_action())
         return self.id
 
     def rest_action(self) -> np.ndarray:
-        """The action that holds every axis at its rest angle (0) in rotation mode."""
+        """The action that holds every axis at its rest angle (0) with the angle drive."""
         return (-self.lower - self.upper) / (self.upper - self.lower)
 
     def apply(self, action: np.ndarray) -> None:
-        """Sends one control step's commands: target angles (rotation) or speeds (velocity)."""
-        if self.action_mode == "rotation":
+        """Sends one control step's commands: target angles (``drive="angle"``) or speeds (``"velocity"``)."""
+        if self.drive == "angle":
             targets = self._middle + action * self._half_range
             p.setJointMotorControlArray(
                 self.id,

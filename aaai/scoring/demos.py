@@ -23,7 +23,7 @@ from typing import Callable, Iterator
 import gymnasium as gym
 import numpy as np
 
-from aaai.config import ConfigError, env_part
+from aaai.config import Config, ConfigError, env_part
 from aaai.scoring.episodes import play
 from aaai.scoring.policies import Policy, as_policy
 
@@ -91,7 +91,7 @@ def record(
     policy: Policy | str,
     episodes: list[tuple[int, int, int]],
     out: Path,
-    config: dict,
+    config: Config,
     dataset_id: str | None = None,
     on_episode: Callable[[int], None] | None = None,
 ) -> str:
@@ -103,7 +103,7 @@ def record(
     policy = as_policy(policy)
     policy_name = policy.name
     dataset_id = dataset_id or dataset_id_for(policy_name)
-    env_config = env_part(config, shaping=0.0)  # the task's own reward
+    env_config = env_part(config, shaping=0.0).env_dict()  # the task's own reward; plain data in the env spec
     env = gym.make("aaai/AnimalAI-v0", config=env_config, disable_env_checker=True)
     out.mkdir(parents=True, exist_ok=True)
     try:

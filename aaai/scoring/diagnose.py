@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aaai.config import env_part
+from aaai.config import Config, env_part
 from aaai.env import AnimalAIEnv
 from aaai.scoring.episodes import play
 from aaai.scoring.policies import Policy, as_policy
@@ -85,7 +85,7 @@ def replay_failure(env: AnimalAIEnv, policy, row: dict) -> Failure:
 
 
 def diagnose(
-    policy: Policy | str, scoreboard: Path, config: dict, levels: list[int] | None = None, limit: int | None = None
+    policy: Policy | str, scoreboard: Path, config: Config, levels: list[int] | None = None, limit: int | None = None
 ) -> list[Failure]:
     """Replays the failed rows of ``scoreboard`` (of ``levels``; at most ``limit`` per level) with
     ``policy`` (a Policy, or a --policy string)."""

@@ -33,7 +33,7 @@ from collections import deque
 from pathlib import Path
 from typing import Callable, Generator
 
-from aaai.config import ConfigError, env_part
+from aaai.config import Config, ConfigError, env_part
 from aaai.files import write_atomic
 from aaai.scoring.episodes import run_episode
 from aaai.scoring.evaluation import score
@@ -51,8 +51,8 @@ Key = tuple[int, int, int]  # (level, difficulty, seed)
 _WORKER: dict = {}  # the environment and policy of this worker process, kept between tasks
 
 
-def _worker_env_and_policy(policy: Policy, model: list, config: dict):
-    key = (policy.key, json.dumps(config, sort_keys=True, default=str))
+def _worker_env_and_policy(policy: Policy, model: list, config: Config):
+    key = (policy.key, json.dumps(config.to_dict(), sort_keys=True, default=str))
     if _WORKER.get("key") != key:
         from aaai.env import AnimalAIEnv
 
@@ -75,7 +75,7 @@ def _worker_env_and_policy(policy: Policy, model: list, config: dict):
     return _WORKER["env"], _WORKER["policy"]
 
 
-def play_episodes(policy: Policy, model: list, config: dict, episodes: list[Key]) -> tuple[list[dict], dict]:
+def play_episodes(policy: Policy, model: list, config: Config, episodes: list[Key]) -> tuple[list[dict], dict]:
     """The body of a Ray task: plays ``episodes`` with the worker's environment and policy (the
     model's bytes, if any, come in ``model`` as [ObjectRef]: Ray resolves bare refs); returns their
     rows and where they ran (node id, host, pid)."""
@@ -90,7 +90,7 @@ def play_episodes(policy: Policy, model: list, config: dict, episodes: list[Key]
 
 
 # --- in the driver --------------------------------------------------------------------------
-def _check_policy(policy: Policy, config: dict) -> None:
+def _check_policy(policy: Policy, config: Config) -> None:
     """Loads a model policy once here, against the environment, so that a model that does not fit is
     refused before Ray starts and before any file is written."""
     if policy.kind != "model":
@@ -117,7 +117,7 @@ def evaluate_on_ray(
     policy: Policy | str,
     cells: list[Cell],
     output: Path,
-    config: dict,
+    config: Config,
     address: str | None = None,
     workers: int = 2,
     on_episode: Callable[[dict], None] | None = None,

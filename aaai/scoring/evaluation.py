@@ -16,7 +16,7 @@ from contextlib import closing
 from pathlib import Path
 from typing import Callable, Generator
 
-from aaai.config import ConfigError, env_part
+from aaai.config import Config, ConfigError, env_part
 from aaai.env import AnimalAIEnv
 from aaai.scoring.episodes import PASS_RATIO, SUCCESS_RATIO, outcome, run_episode
 from aaai.scoring.plan import TRAIN_EVAL_KEY, Cell, Episode, cells_for, episode_plan, seeds_for
@@ -80,7 +80,7 @@ __all__ = [
 def score(
     policy: Policy,
     output: Path,
-    config: dict,
+    config: Config,
     plan: Callable[[list[dict]], list[Episode]],
     play: Callable[[list[Episode]], Generator[dict, None, None]],
     record: dict | None = None,
@@ -104,7 +104,7 @@ def score(
 def _score(
     policy: Policy,
     output: Path,
-    config: dict,
+    config: Config,
     plan: Callable[[list[dict]], list[Episode]],
     play: Callable[[list[Episode]], Generator[dict, None, None]],
     record: dict | None,
@@ -124,7 +124,7 @@ def _score(
 
 def play_here(
     policy: Policy,
-    config: dict,
+    config: Config,
     episodes: list[Episode],
     make_policy: Callable[[AnimalAIEnv], Callable] | None = None,
 ) -> Generator[dict, None, None]:
@@ -144,7 +144,7 @@ def evaluate(
     policy: Policy | str,
     cells: list[Cell],
     output: Path,
-    config: dict,
+    config: Config,
     on_episode: Callable[[dict], None] | None = None,
     record: dict | None = None,
     make_policy: Callable[[AnimalAIEnv], Callable] | None = None,
@@ -170,7 +170,7 @@ def evaluate_arenas(
     arenas: list[Path],
     seeds: list[int],
     output: Path,
-    config: dict,
+    config: Config,
     on_episode: Callable[[dict], None] | None = None,
     record: dict | None = None,
     make_policy: Callable[[AnimalAIEnv], Callable] | None = None,

@@ -35,10 +35,8 @@ import zipfile
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from aaai import safe_yaml
-from aaai.config import ConfigError, load_config
+from aaai.config import Config, ConfigError, load_config
 from aaai.files import atomic_path
 from aaai.scoring.model_archive import (
     MAX_LAYERS,
@@ -135,18 +133,18 @@ COUNTERS = (
 CONFIG_MEMBER = "aaai_config.yaml"
 
 
-def save_model(model, path: str | Path, config: dict) -> Path:
+def save_model(model, path: str | Path, config: Config) -> Path:
     """``model.save`` with ``config`` as the file's :data:`CONFIG_MEMBER`, written whole (a temporary
     file beside ``path``, renamed onto it when complete)."""
     path = Path(path)
     with atomic_path(path) as partial:
         model.save(partial)
         with zipfile.ZipFile(partial, "a", compression=zipfile.ZIP_DEFLATED) as archive:
-            archive.writestr(CONFIG_MEMBER, yaml.safe_dump(config, sort_keys=False))
+            archive.writestr(CONFIG_MEMBER, config.to_yaml())
     return path
 
 
-def model_config(path: str | Path) -> dict | None:
+def model_config(path: str | Path) -> Config | None:
     """The environment config a model file carries (:data:`CONFIG_MEMBER`, read as YAML data and
     checked as any config), or None for a file without one. One that does not load is refused,
     naming the file."""

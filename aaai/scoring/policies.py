@@ -22,11 +22,11 @@ import sys
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import Any, Callable, Iterator, Mapping
 
 import numpy as np
 
-from aaai.config import ConfigError, env_part, load_config
+from aaai.config import Config, ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
 from aaai.files import file_sha256, folder_sha256
 from aaai.scoring.runs import RunFolder, model_problem, rllib_checkpoint, run_backend
@@ -60,11 +60,11 @@ class Policy:
     kind: str
     file: str | None = None
     run: str | None = None
-    run_config: dict | None = field(default=None, compare=False, repr=False)
+    run_config: Config | None = field(default=None, compare=False, repr=False)
     record: dict = field(default_factory=dict, compare=False)
     trust: bool = False
 
-    def config(self, config_path: str | None = None) -> dict:
+    def config(self, config_path: str | None = None) -> Config:
         """The config the policy is scored with: ``config_path`` if given, else its run's own (the
         senses it was trained with: the run folder named, or the run a model file sits in, e.g. a
         checkpoint's model.zip), else the defaults."""
@@ -72,7 +72,7 @@ class Policy:
             return load_config(config_path)
         return self.run_config
 
-    def play_config(self, config_path: str | None = None) -> dict:
+    def play_config(self, config_path: str | None = None) -> Config:
         """The config ``aaai run`` and ``aaai show`` play the policy in: :meth:`config`, and for a
         trained run's policy its environment part without shaping, as scores count its reward."""
         config = self.config(config_path)
@@ -159,7 +159,7 @@ def resolve(policy: str, trust: bool = False) -> Policy:
             checkpoint = rllib_checkpoint(path)
             identity = {"policy": policy, "model": str(checkpoint), "model_sha256": folder_sha256(checkpoint)}
             return Policy(policy, "rllib", str(checkpoint), policy, config, identity, trust)
-        if config["train"]["agent"] == "random":  # a run of the random agent: scored with random actions
+        if config.train.agent == "random":  # a run of the random agent: scored with random actions
             return Policy(policy, "random", None, policy, config, {"policy": policy}, trust)
         return _model(policy, _newest_model(run, policy), policy, config, trust)
     if ":" not in policy:  # not module:callable, so a path that is not there
@@ -172,7 +172,7 @@ def resolve(policy: str, trust: bool = False) -> Policy:
     return Policy(policy, "callable", record=record, trust=trust)
 
 
-def _model(policy: str, path: Path, run: str | None, run_config: dict | None, trust: bool) -> Policy:
+def _model(policy: str, path: Path, run: str | None, run_config: Config | None, trust: bool) -> Policy:
     record = {"policy": policy, "model": str(path), "model_sha256": file_sha256(path)}
     return Policy(policy, "model", str(path), run, run_config, record, trust)
 
@@ -293,7 +293,7 @@ class ModelPolicy:
         env: AnimalAIEnv | None = None,
         trust: bool = False,
         extra_keys: tuple = (),
-        run_config: dict | None = None,
+        run_config: Config | None = None,
     ):
         from aaai.scoring import model_archive, model_io, model_spaces
 
@@ -397,7 +397,7 @@ def _space_problems(observation_space, action_space, env: _Seen) -> list[str]:
 MODEL_KEYS = ("agent.body", "agent.action_mode", "agent.decision_interval", "physics.action_repeat", "physics.timestep")
 
 
-def model_run_config(path: Path) -> dict | None:
+def model_run_config(path: Path) -> Config | None:
     """The config of the run a model file belongs to (RUN/final/model.zip or
     RUN/checkpoints/step_*/model.zip beside RUN/config.yaml), or None for a file outside a run
     folder. A run config that cannot be read is refused, naming it: the model is scored with it."""
@@ -423,28 +423,33 @@ def model_run_config(path: Path) -> dict | None:
         ) from None
 
 
-def _dotted(config: dict, key: str):
+def _dotted(config: Mapping[str, Any], key: str) -> Any:
     value: Any = config
     for part in key.split("."):
-        if not isinstance(value, dict) or part not in value:
+        if not isinstance(value, Mapping) or part not in value:
             return "absent"
         value = value[part]
     return value
 
 
-def check_model(path: Path, env: AnimalAIEnv, extra_keys: tuple = (), trained: dict | None = None) -> None:
+def check_model(
+    path: Path, env: AnimalAIEnv, extra_keys: tuple = (), trained: Config | Mapping[str, Any] | None = None
+) -> None:
     """Refuses, before any episode, a model whose run (config ``trained``) was trained with another
     action mode, body or sensor config than ``env`` has (each differing key named with both values).
     The settings of a sensor that is off on both sides, or that the caller added for itself
     (``extra_keys``), do not count."""
     if trained is None:
         return
-    sensors = sorted(set(trained.get("sensors", {})) | set(env.config.get("sensors", {})))
+    if isinstance(trained, Config):
+        trained = trained.to_dict()
+    seen = env.config.to_dict()  # compared key by dotted key, as the message names them
+    sensors = sorted(set(trained.get("sensors", {})) | set(seen["sensors"]))
     off = {
         name
         for name in ("camera", "rays")
         if name in extra_keys
-        or not (_dotted(trained, f"sensors.{name}") is True or _dotted(env.config, f"sensors.{name}") is True)
+        or not (_dotted(trained, f"sensors.{name}") is True or _dotted(seen, f"sensors.{name}") is True)
     }
     keys = list(MODEL_KEYS) + [
         f"sensors.{key}"
@@ -452,9 +457,9 @@ def check_model(path: Path, env: AnimalAIEnv, extra_keys: tuple = (), trained: d
         if ("camera" if key.startswith("camera") else "rays" if key.startswith("ray") else key) not in off
     ]
     differing = [
-        f"{key}: model {_dotted(trained, key)!r}, environment {_dotted(env.config, key)!r}"
+        f"{key}: model {_dotted(trained, key)!r}, environment {_dotted(seen, key)!r}"
         for key in keys
-        if _dotted(trained, key) != _dotted(env.config, key)
+        if _dotted(trained, key) != _dotted(seen, key)
     ]
     if differing:
         point = Path(path).absolute().parent
@@ -473,7 +478,7 @@ def check_model(path: Path, env: AnimalAIEnv, extra_keys: tuple = (), trained: d
 
 
 def _misfit(path: Path, problems: list[str], env: _Seen) -> str:
-    mode = env.config.get("agent", {}).get("action_mode")
+    mode = env.config.agent.action_mode
     return (
         f"--policy: model file {str(path)!r} does not fit this environment (action mode {mode!r}): "
         + "; ".join(problems)
@@ -481,9 +486,9 @@ def _misfit(path: Path, problems: list[str], env: _Seen) -> str:
     )
 
 
-def _run_policy_kwargs(config: dict | None) -> dict | None:
+def _run_policy_kwargs(config: Config | None) -> dict | None:
     """policy_kwargs as our trainer builds them from its run's config (for a file that lacks them)."""
     if config is None:
         return None
-    train = config["train"]
-    return {"net_arch": [train["net_width"], train["net_width"]], "log_std_init": train["log_std_init"]}
+    train = config.train
+    return {"net_arch": [train.net_width, train.net_width], "log_std_init": train.log_std_init}

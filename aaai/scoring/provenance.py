@@ -10,7 +10,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from aaai.config import ConfigError, env_part
+from aaai.config import Config, ConfigError, env_part
 from aaai.scoring.policies import Policy, as_policy
 from aaai.task.seeds import key_record
 
@@ -25,13 +25,13 @@ def record_path(output: Path) -> Path:
     return output.with_name(output.stem + "_scored_with.json")
 
 
-def env_record(config: dict) -> dict:
+def env_record(config: Config) -> dict:
     """What a scoreboard records of the environment it was scored in: the whole environment config
     (the level and difficulty defaults aside: each row names its own), its digest, the action mode
     and the package's version."""
     from aaai import __version__
 
-    part = {k: v for k, v in env_part(config, shaping=0.0).items() if k not in ("level", "difficulty")}
+    part = {k: v for k, v in env_part(config, shaping=0.0).env_dict().items() if k not in ("level", "difficulty")}
     part = json.loads(json.dumps(part, sort_keys=True, default=str))  # as it reads back from the file
     digest = hashlib.sha256(json.dumps(part, sort_keys=True).encode()).hexdigest()
     return {
@@ -42,7 +42,7 @@ def env_record(config: dict) -> dict:
     }
 
 
-def scoring_record(policy: Policy, record: dict | None, config: dict) -> dict:
+def scoring_record(policy: Policy, record: dict | None, config: Config) -> dict:
     """The whole record of a scoreboard: the policy's (default: on listed seeds), the environment's
     and, for a policy whose actions are put on a grid, how they are computed (``numerics``)."""
     numerics = {"numerics": policy.numerics} if policy.numerics else {}

@@ -23,7 +23,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from aaai.config import TRAINING_SECTIONS, ConfigError
+from aaai.config import ConfigError
 from aaai.files import file_sha256, write_atomic
 from aaai.levels import get_level
 
@@ -58,7 +58,7 @@ def config_digest(config: dict) -> str:
 
 def env_config(env) -> dict:
     """The environment's own part of its resolved configuration (no training sections)."""
-    return {key: value for key, value in env.unwrapped.config.items() if key not in TRAINING_SECTIONS}
+    return env.unwrapped.config.env_dict()
 
 
 def encode_actions(actions: list[list[float]]) -> list[list]:

@@ -28,9 +28,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Iterator
 
-import yaml
-
-from aaai.config import ConfigError, read_yaml
+from aaai.config import Config, ConfigError, read_yaml
 from aaai.files import append_rows, hold, naming, sync_file, write_atomic  # write_atomic also re-exported
 
 PACKAGES = ("aaai", "pybullet", "numpy", "gymnasium", "stable-baselines3", "torch", "opencv-python-headless")
@@ -136,15 +134,15 @@ class RunFolder:
             for staging in parent.glob(f"{STAGING_PREFIX}*") if parent.is_dir() else ():
                 shutil.rmtree(staging, ignore_errors=True)
 
-    def create(self, config: dict) -> None:
+    def create(self, config: Config) -> None:
         if self.config_path.exists():
             raise FileExistsError(f"run folder {str(self.path)!r} already holds a run; use --resume to continue it")
         self.path.mkdir(parents=True, exist_ok=True)
-        write_atomic(self.config_path, yaml.safe_dump(config, sort_keys=False))
+        write_atomic(self.config_path, config.to_yaml())
         write_atomic(self.path / "versions.json", json.dumps(package_versions(), indent=2) + "\n")
 
-    def update_config(self, config: dict) -> None:
-        write_atomic(self.config_path, yaml.safe_dump(config, sort_keys=False))
+    def update_config(self, config: Config) -> None:
+        write_atomic(self.config_path, config.to_yaml())
 
     def read_config(self) -> dict:
         if not self.config_path.is_file():

@@ -10,6 +10,7 @@ from gymnasium import spaces
 
 from aaai.agent.body import RAY_MASK, Quadruped
 from aaai.agent.urdf_writer import HEAD_RADIUS
+from aaai.config import SensorsConfig
 from aaai.sim.geometry import missing_floor
 from aaai.spec import Blackout as SpecBlackout
 from aaai.spec import LevelSpec
@@ -269,24 +270,22 @@ class RayMemory:
 class Senses:
     """The body's senses as the config's ``sensors`` section sets them, and their Dict space."""
 
-    def __init__(self, client: int, sensors: dict, body: Quadruped):
+    def __init__(self, client: int, sensors: SensorsConfig, body: Quadruped):
         self.rays = (
             Rays(
                 client,
-                sensors["rays_per_side"],
-                sensors["ray_max_angle"],
-                sensors["ray_length"],
-                sensors["rays_flat"],
-                sensors.get("ray_kinds", "classic"),
-                sensors.get("ray_down_fan", 0.0),
-                sensors.get("ray_width", 0.0),
+                sensors.rays_per_side,
+                sensors.ray_max_angle,
+                sensors.ray_length,
+                sensors.rays_flat,
+                sensors.ray_kinds,
+                sensors.ray_down_fan,
+                sensors.ray_width,
             )
-            if sensors["rays"]
+            if sensors.rays
             else None
         )
-        self.camera = (
-            Camera(client, sensors["camera_resolution"], sensors["camera_grayscale"]) if sensors["camera"] else None
-        )
+        self.camera = Camera(client, sensors.camera_resolution, sensors.camera_grayscale) if sensors.camera else None
         self.blackout = Blackout()
         self.foot_slot = body.foot_slot
         self.feet = np.zeros(len(body.foot_links), np.float32)
@@ -294,17 +293,17 @@ class Senses:
         space: dict[str, spaces.Space] = {"joints": spaces.Box(-1.0, 1.0, (n,), np.float32)}
         if self.rays:
             space["rays"] = self.rays.space
-        depth = sensors.get("ray_memory", 0)
+        depth = sensors.ray_memory
         self.memory = RayMemory(self.rays, depth) if self.rays and depth else None
         if self.memory:
             space["ray_memory"] = self.memory.space
         if self.camera:
             space["camera"] = self.camera.space
-        if sensors["joint_velocities"]:
+        if sensors.joint_velocities:
             space["joint_velocities"] = spaces.Box(-np.inf, np.inf, (n,), np.float32)
-        if sensors["head_orientation"]:
+        if sensors.head_orientation:
             space["head_orientation"] = spaces.Box(-1.0, 1.0, (3,), np.float32)
-        if sensors["foot_contacts"]:
+        if sensors.foot_contacts:
             space["foot_contacts"] = spaces.Box(0.0, 1.0, (len(self.feet),), np.float32)
         self.space = spaces.Dict(space)
         self.joint_velocities = "joint_velocities" in space

@@ -8,6 +8,8 @@ import sys
 import gymnasium as gym
 import pybullet as p
 
+from aaai.config import PhysicsConfig
+
 
 def display_available() -> bool:
     return os.name != "posix" or sys.platform == "darwin" or bool(os.environ.get("DISPLAY"))
@@ -20,9 +22,9 @@ class Simulation:
     ``stepSimulation`` call; ``control_dt`` is its length in simulated seconds.
     """
 
-    def __init__(self, physics: dict, gui: bool = False):
+    def __init__(self, physics: PhysicsConfig, gui: bool = False):
         self.physics = physics
-        self.control_dt = physics["timestep"] * physics["action_repeat"]
+        self.control_dt = physics.control_dt
         if gui and not display_available():
             raise RuntimeError(
                 "render_mode='human' opens PyBullet's GUI window, which needs a display, and none was "
@@ -34,11 +36,11 @@ class Simulation:
         """Empties the client and sets gravity, the step and the solver; build the level after it."""
         c, physics = self.client, self.physics
         p.resetSimulation(physicsClientId=c)
-        p.setGravity(0, 0, -physics["gravity"], physicsClientId=c)
+        p.setGravity(0, 0, -physics.gravity, physicsClientId=c)
         p.setPhysicsEngineParameter(
             fixedTimeStep=self.control_dt,
-            numSubSteps=physics["action_repeat"],
-            numSolverIterations=physics["solver_iterations"],
+            numSubSteps=physics.action_repeat,
+            numSolverIterations=physics.solver_iterations,
             deterministicOverlappingPairs=1,
             physicsClientId=c,
         )

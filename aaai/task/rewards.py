@@ -17,6 +17,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable
 
+from aaai.config import EpisodeConfig
 from aaai.spec import LevelSpec, ObjectSpec
 from aaai.spec.kinds import EDIBLE_KINDS, ENDING_KINDS, HOT_ZONE_FACTOR, KIND_INDEX, KINDS, REGISTRY, TimedFood
 
@@ -87,10 +88,10 @@ class FoodTask:
     It keeps the episode's counts: food eaten, wall hits, the walls touched now.
     """
 
-    def __init__(self, episode: dict, limb_food_reward: str, control_dt: float):
-        self.max_steps_setting = episode["max_steps"]  # "auto": the level's own time limit
-        self.ground_penalty = episode["ground_penalty"]
-        self.shaping, self.shaping_gamma = episode["shaping"], episode["shaping_gamma"]
+    def __init__(self, episode: EpisodeConfig, limb_food_reward: str, control_dt: float):
+        self.max_steps_setting = episode.max_steps  # "auto": the level's own time limit
+        self.ground_penalty = episode.ground_penalty
+        self.shaping, self.shaping_gamma = episode.shaping, episode.shaping_gamma
         self.limb_food_reward = limb_food_reward
         self.control_dt = control_dt
         self.max_steps = 0  # T of the current episode
@@ -101,7 +102,7 @@ class FoodTask:
 
     def episode_steps(self, spec: LevelSpec) -> int:
         """T for a level instance: episode.max_steps, or with "auto" the level's time limit in steps."""
-        if self.max_steps_setting != "auto":
+        if isinstance(self.max_steps_setting, int):  # else "auto"
             return self.max_steps_setting
         return max(1, round(spec.time_limit / self.control_dt))
 

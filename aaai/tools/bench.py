@@ -31,11 +31,12 @@ import resource
 import tempfile
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 import numpy as np
 import pybullet as p
 
+from aaai.config import Config
 from aaai.env import AnimalAIEnv
 from aaai.levels import all_levels, get_level
 from aaai.scoring.runs import package_versions
@@ -296,15 +297,15 @@ class _VecLoop:
     """The training vector env alone: random actions, nothing else (``tracker`` None), or the
     random agent of ``aaai train --agent random`` (its loop: the tracker logs every episode)."""
 
-    def __init__(self, config: dict, asynchronous: bool | None, steps: int, tracker_folder: Path | None = None):
+    def __init__(self, config: Config, asynchronous: bool | None, steps: int, tracker_folder: Path | None = None):
         from aaai.train.curriculum import Curriculum
         from aaai.train.vector import CurriculumVecEnv
 
         curriculum = Curriculum.from_config(config)
-        self.vec = CurriculumVecEnv(config, curriculum, config["train"]["num_envs"], asynchronous=asynchronous)
+        self.vec = CurriculumVecEnv(config, curriculum, config.train.num_envs, asynchronous=asynchronous)
         self.tracker = _tracker(config, curriculum, tracker_folder) if tracker_folder else None
         self.steps, self.done = steps, 0
-        self.rng = np.random.default_rng(config["train"]["seed"])
+        self.rng = np.random.default_rng(config.train.seed)
         self.shape = (self.vec.num_envs, *(self.vec.single_action_space.shape or ()))
         self.vec.reset()
 
@@ -326,7 +327,7 @@ def vec_steps(steps: int, num_envs: int) -> int:
     return max(1, steps // num_envs)
 
 
-def _tracker(config: dict, curriculum, folder: Path):
+def _tracker(config: Config, curriculum, folder: Path):
     from aaai.scoring.runs import RunFolder
     from aaai.train.training import Tracker
 
@@ -339,7 +340,7 @@ class _PPOLoop:
     """PPO (stable-baselines3) as ``aaai train`` runs it: rollouts and updates; each call learns
     ``steps`` more steps (whole rollouts)."""
 
-    def __init__(self, config: dict, steps: int, folder: Path):
+    def __init__(self, config: Config, steps: int, folder: Path):
         from stable_baselines3.common.vec_env import VecMonitor
 
         from aaai.train.curriculum import Curriculum
@@ -348,12 +349,12 @@ class _PPOLoop:
 
         lean_torch()  # as train_ppo
         curriculum = Curriculum.from_config(config)
-        vec = CurriculumVecEnv(config, curriculum, config["train"]["num_envs"])
+        vec = CurriculumVecEnv(config, curriculum, config.train.num_envs)
         self.tracker = _tracker(config, curriculum, folder)
         self.env = CurriculumSB3Env(vec)
         self.model = ppo_from_config(VecMonitor(self.env), config, self.tracker.run)
         self.callback = TrackerCallback(self.env, self.tracker, lambda steps: None)
-        self.rollout = config["train"]["n_steps"] * vec.num_envs
+        self.rollout = config.train.n_steps * vec.num_envs
         self.steps, self.started = steps, False
 
     def __call__(self, steps: int | None = None) -> float:
@@ -368,7 +369,7 @@ class _PPOLoop:
         self.env.close()
 
 
-def training_config(config: dict | None = None) -> dict:
+def training_config(config: Mapping[str, Any] | None = None) -> Config:
     """The config ``aaai train`` runs by default: the shipped one with training's extra senses."""
     from aaai.config import load_config
     from aaai.train.training import with_proprioception
@@ -376,24 +377,24 @@ def training_config(config: dict | None = None) -> dict:
     return with_proprioception(load_config(config))
 
 
-def training_rates(steps: int, rounds: int, config: dict | None = None, ppo: bool = True) -> dict:
+def training_rates(steps: int, rounds: int, config: Mapping[str, Any] | None = None, ppo: bool = True) -> dict:
     """PPO and the random agent (the training loop, the tracker logging episodes) against the
     environment alone (the same vector env of the same config, random actions, nothing else),
     in-process and in worker processes, alternated. ``steps`` per round; PPO rounds are whole
     rollouts of n_steps x num_envs."""
     from aaai.train.vector import runs_in_process
 
-    config = training_config(config)
-    train = config["train"]
-    in_process = runs_in_process(train["vector"], train["num_envs"])
+    settings = training_config(config)
+    train = settings.train
+    in_process = runs_in_process(train.vector, train.num_envs)
     with tempfile.TemporaryDirectory(prefix="aaai-bench-") as folder:
         runners: dict = {
-            "env alone, in-process": _VecLoop(config, False, steps),
-            "env alone, worker processes": _VecLoop(config, True, steps),
-            "random agent": _VecLoop(config, None, steps, Path(folder) / "random"),
+            "env alone, in-process": _VecLoop(settings, False, steps),
+            "env alone, worker processes": _VecLoop(settings, True, steps),
+            "random agent": _VecLoop(settings, None, steps, Path(folder) / "random"),
         }
         if ppo:
-            runners["PPO"] = _PPOLoop(config, steps, Path(folder) / "ppo")
+            runners["PPO"] = _PPOLoop(settings, steps, Path(folder) / "ppo")
         rates, machine_load = _run_group(runners, rounds)
     same = "env alone, in-process" if in_process else "env alone, worker processes"
     best = [max(a, b) for a, b in zip(rates["env alone, in-process"], rates["env alone, worker processes"])]
@@ -404,18 +405,18 @@ def training_rates(steps: int, rounds: int, config: dict | None = None, ppo: boo
     if ppo:
         ratios["PPO / env alone"] = per_round(rates["PPO"], rates[same])
         ratios["PPO / env alone (best)"] = per_round(rates["PPO"], best)
-    sensors = [name for name, on in config["sensors"].items() if on is True]
+    sensors = [key.split(".")[1] for key, on in settings.flat().items() if key.startswith("sensors.") and on is True]
     return {
         "config": {
-            "num_envs": train["num_envs"],
-            "vector": train["vector"],
+            "num_envs": train.num_envs,
+            "vector": train.vector,
             "runs": "in-process" if in_process else "worker processes",
-            "n_steps": train["n_steps"],
-            "n_epochs": train["n_epochs"],
-            "batch_size": train["batch_size"],
-            "net_width": train["net_width"],
-            "levels": sorted(config["curriculum"]["levels"]),
-            "difficulties": sorted(config["curriculum"]["difficulties"]),
+            "n_steps": train.n_steps,
+            "n_epochs": train.n_epochs,
+            "batch_size": train.batch_size,
+            "net_width": train.net_width,
+            "levels": sorted(settings.curriculum.levels),
+            "difficulties": sorted(settings.curriculum.difficulties),
             "sensors": sensors,
         },
         "rates": {name: summary(values) for name, values in rates.items()},
@@ -459,7 +460,7 @@ def run(
     worker_steps: int = 1000,
     train_steps: int = 4096,
     memory_steps: int = 20000,
-    train_config: dict | None = None,
+    train_config: Mapping[str, Any] | None = None,
     log=print,
 ) -> dict:
     """Every figure; ``steps`` (per figure and round), ``worker_steps`` (per worker and round) and

@@ -214,10 +214,10 @@ def tune(evaluations: int, drive: bool, seed: int, start: GaitParameters) -> tup
         }
         return GaitParameters(**{**start.to_dict(), **gait}), drive_values
 
-    agent = load_config(None)["agent"]
+    agent = load_config(None).agent
     start_values = {
         **start.to_dict(),
-        **{k: math.log10(agent[k]) if k != "velocity_gain" else agent[k] for k in DRIVE_RANGES},
+        **{k: math.log10(getattr(agent, k)) if k != "velocity_gain" else getattr(agent, k) for k in DRIVE_RANGES},
     }
     start_z = [(start_values[k] - lo) / (hi - lo) for k, (lo, hi) in ranges.items()]
     envs: dict = {}
@@ -267,12 +267,12 @@ def main(argv=None) -> int:
         parameters, drive_values = tune(args.evaluations, args.drive, args.seed, parameters)
     env = AnimalAIEnv(rays=False, max_steps=10000, **drive_values)
     try:
-        agent = load_config(None, **drive_values)["agent"]
+        agent = load_config(None, **drive_values).agent
         print(
             yaml.safe_dump(
                 {
                     "gait": {k: round(v, 4) for k, v in parameters.to_dict().items()},
-                    "drive": {k: agent[k] for k in ("max_force", "position_gain", "velocity_gain")},
+                    "drive": {k: getattr(agent, k) for k in ("max_force", "position_gain", "velocity_gain")},
                 },
                 sort_keys=False,
             )

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from aaai.config import load_config
+from aaai.config import Config, load_config
 from aaai.files import write_atomic
 from aaai.scoring.evaluation import cells_for, evaluate
 from aaai.scoring.runs import RunFolder
@@ -46,7 +46,7 @@ class CompetenceSettings:
     target: float = TARGET
 
 
-def run_config(settings: CompetenceSettings, mode: str) -> dict:
+def run_config(settings: CompetenceSettings, mode: str) -> Config:
     return load_config(
         None,
         action_mode=mode,
@@ -73,7 +73,7 @@ def train_mode(folder: Path, settings: CompetenceSettings, mode: str, echo: Call
 
 def checkpoints(run: RunFolder) -> list[tuple[int, Path]]:
     """(step, folder) of every saved point with a model, oldest first; final/ only if it is newer."""
-    points = {}
+    points: dict[int, Path] = {}
     for folder in run.saved():
         if (folder / "model.zip").is_file():
             step = run._step_of(folder)
@@ -83,14 +83,11 @@ def checkpoints(run: RunFolder) -> list[tuple[int, Path]]:
 
 def score_mode(run: RunFolder, settings: CompetenceSettings, mode: str, echo: Callable[[str], None]) -> list[dict]:
     config = load_config(run.read_config())
-    cells = cells_for(
-        config["curriculum"]["levels"], config["curriculum"]["difficulties"], "reserved", settings.seeds_per_cell
-    )
+    cur = config.curriculum
+    cells = cells_for(list(cur.levels), list(cur.difficulties), "reserved", settings.seeds_per_cell)
     started = os.stat(run.config_path).st_mtime
     hold = (
-        round(
-            config["agent"]["decision_interval"] / (config["physics"]["timestep"] * config["physics"]["action_repeat"])
-        )
+        round(config.agent.decision_interval / (config.physics.timestep * config.physics.action_repeat))
         if mode == "gait"
         else 1
     )

@@ -34,6 +34,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from aaai.config import Config
 from aaai.files import atomic_path
 from aaai.levels import get_level
 from aaai.task.seeds import training_seed
@@ -104,20 +105,20 @@ class Curriculum:
         self.rng = np.random.default_rng(seed)
 
     @classmethod
-    def from_config(cls, config: dict) -> "Curriculum":
-        cur = config["curriculum"]
+    def from_config(cls, config: Config) -> "Curriculum":
+        cur = config.curriculum
         return cls(
-            cur["levels"],
-            cur["difficulties"],
-            cur["mode"],
-            cur["window"],
-            cur["c"],
-            cur["spread"],
-            seed=config["train"]["seed"],
-            sampler=cur["sampler"],
-            warmup=cur["warmup"],
-            plr_temperature=cur["plr_temperature"],
-            plr_staleness=cur["plr_staleness"],
+            list(cur.levels),
+            list(cur.difficulties),
+            cur.mode,
+            cur.window,
+            cur.c,
+            cur.spread,
+            seed=config.train.seed,
+            sampler=cur.sampler,
+            warmup=cur.warmup,
+            plr_temperature=cur.plr_temperature,
+            plr_staleness=cur.plr_staleness,
         )
 
     # --- statistics -----------------------------------------------------------------

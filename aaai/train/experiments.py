@@ -43,7 +43,7 @@ from typing import Callable
 import numpy as np
 import yaml
 
-from aaai.config import ConfigError, load_config
+from aaai.config import Config, ConfigError, load_config
 from aaai.files import atomic_path, write_atomic
 from aaai.scoring.runs import RunFolder
 from aaai.train.curriculum import SAMPLERS, episode_passed
@@ -57,10 +57,10 @@ class Experiment:
     folder: Path
     samplers: list[str]
     seeds: list[int]
-    config: dict  # the resolved base config: cells, budget, action mode; sampler and seed set per run
+    config: Config  # the resolved base config: cells, budget, action mode; sampler and seed set per run
     seeds_per_cell: int
 
-    def run_config(self, sampler: str, seed: int) -> dict:
+    def run_config(self, sampler: str, seed: int) -> Config:
         return load_config(self.config, mode="curriculum", sampler=sampler, seed=seed)
 
     def run_dir(self, sampler: str, seed: int) -> Path:
@@ -71,11 +71,11 @@ class Experiment:
             "samplers": self.samplers,
             "seeds": self.seeds,
             "seeds_per_cell": self.seeds_per_cell,
-            "config": self.config,
+            "config": self.config.to_dict(),
         }
 
 
-def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: dict, seeds_per_cell: int) -> Experiment:
+def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: Config, seeds_per_cell: int) -> Experiment:
     """The experiment in ``folder``; refused if the folder holds another experiment."""
     bad = [s for s in samplers if s not in SAMPLERS]
     if bad or not samplers:
@@ -105,21 +105,10 @@ PER_RUN_KEYS = ("curriculum.sampler", "train.seed")
 LISTED_DIFFERENCES = 5
 
 
-def flat_keys(tree: dict, prefix: str = "") -> dict:
-    """A nested config as {"section.key": value}."""
-    flat = {}
-    for key, value in tree.items():
-        if isinstance(value, dict):
-            flat.update(flat_keys(value, f"{prefix}{key}."))
-        else:
-            flat[f"{prefix}{key}"] = value
-    return flat
-
-
-def config_differences(earlier: dict, now: dict) -> list[tuple[str, object, object]]:
+def config_differences(earlier: Config, now: Config) -> list[tuple[str, object, object]]:
     """(key, value in the folder, value now) for each key of two resolved configs that differs,
     leaving out the keys each run sets (PER_RUN_KEYS)."""
-    before, after = flat_keys(earlier), flat_keys(now)
+    before, after = earlier.flat(), now.flat()
     keys = [key for key in dict.fromkeys([*before, *after]) if key not in PER_RUN_KEYS]
     return [(key, before.get(key), after.get(key)) for key in keys if before.get(key) != after.get(key)]
 
@@ -143,7 +132,7 @@ def refusal(folder: Path, differences: list[tuple[str, object, object]]) -> str:
 def finished(run: RunFolder, total_steps: int) -> bool:
     """Has the run saved its final point at or past ``total_steps`` (with its model, for PPO)?"""
     try:
-        needs_model = run.read_config()["train"]["agent"] == "ppo"
+        needs_model = load_config(run.read_config()).train.agent == "ppo"
         done = RunFolder.unreadable(run.final, needs_model) is None
         return done and int(RunFolder.read_state(run.final)["step"]) >= total_steps
     except (OSError, ValueError, KeyError, ConfigError):
@@ -157,7 +146,7 @@ def train_run(experiment: Experiment, sampler: str, seed: int, echo: Callable[[s
 
     config = experiment.run_config(sampler, seed)
     run = RunFolder(experiment.run_dir(sampler, seed))
-    total = config["train"]["total_steps"]
+    total = config.train.total_steps
     if finished(run, total):
         echo(f"{run.path}: trained ({total} steps), skipped")
         return run
@@ -190,9 +179,9 @@ def scoreboards(experiment: Experiment, run: RunFolder) -> dict[str, tuple[list,
     """The run's two scoreboards: name -> (cells and seeds, file, seeds mode of its record)."""
     from aaai.scoring.evaluation import Cell, cells_for
 
-    cur = load_config(run.read_config())["curriculum"]
+    cur = load_config(run.read_config()).curriculum
     k = experiment.seeds_per_cell
-    reserved = cells_for(cur["levels"], cur["difficulties"], "reserved", k)
+    reserved = cells_for(list(cur.levels), list(cur.difficulties), "reserved", k)
     own = trained_seeds(run, [(c.level, c.difficulty) for c in reserved], k)
     trained = [Cell(level, d, seeds) for (level, d), seeds in own.items() if seeds]
     return {
@@ -251,7 +240,7 @@ def run_one(
     report = None
     if progress_every is not None:
         report = Progress(
-            experiment.config["train"]["total_steps"],
+            experiment.config.train.total_steps,
             label=f"training {name}",
             every=progress_every,
             write=print_lines(sys.stdout),
@@ -337,14 +326,15 @@ RUN_COLUMNS = [
 
 def run_row(experiment: Experiment, sampler: str, seed: int) -> dict:
     run = RunFolder(experiment.run_dir(sampler, seed))
-    cur = experiment.config["curriculum"]
-    cells = [(level, d) for level in cur["levels"] for d in cur["difficulties"]]
+    cur = experiment.config.curriculum
+    cells = [(level, d) for level in cur.levels for d in cur.difficulties]
     episodes = read_episodes(run.path)
     counts = [sum(1 for e in episodes if (int(e["level"]), int(e["difficulty"])) == cell) for cell in cells]
     reserved = read_board(run.path / "scoreboard_reserved.csv")
     trained = read_board(run.path / "scoreboard_trained.csv")
     state = RunFolder.read_state(run.final) if (run.final / "state.json").is_file() else {"step": 0}
-    row = {
+    reserved_pass, trained_pass = pass_pct(reserved), pass_pct(trained)
+    row: dict[str, object] = {
         "sampler": sampler,
         "seed": seed,
         "steps": state["step"],
@@ -352,12 +342,12 @@ def run_row(experiment: Experiment, sampler: str, seed: int) -> dict:
         "cells_played": sum(c > 0 for c in counts),
         "fewest_episodes_per_cell": min(counts),
         "reserved_episodes": len(reserved),
-        "reserved_pass_pct": pass_pct(reserved),
+        "reserved_pass_pct": reserved_pass,
         "reserved_mean_return": float(np.mean([float(r["return"]) for r in reserved])) if reserved else math.nan,
         "trained_episodes": len(trained),
-        "trained_pass_pct": pass_pct(trained),
+        "trained_pass_pct": trained_pass,
+        "gap_pct": trained_pass - reserved_pass,
     }
-    row["gap_pct"] = row["trained_pass_pct"] - row["reserved_pass_pct"]
     return row
 
 
@@ -407,15 +397,15 @@ def table(rows: list[dict]) -> list[dict]:
 
 
 def table_markdown(summary: list[dict], experiment: Experiment) -> str:
-    cur, train = experiment.config["curriculum"], experiment.config["train"]
+    cur, train = experiment.config.curriculum, experiment.config.train
 
     def pm(mean, std):
         return "-" if math.isnan(mean) else f"{mean:.1f}" + ("" if math.isnan(std) else f" ± {std:.1f}")
 
     lines = [
-        f"Levels {cur['levels']} x difficulties {cur['difficulties']}, "
-        f"{train['total_steps']} steps per run, action mode {experiment.config['agent']['action_mode']}, "
-        f"warm-up {cur['warmup']}, seeds {experiment.seeds}, K = {experiment.seeds_per_cell} seeds per cell. "
+        f"Levels {list(cur.levels)} x difficulties {list(cur.difficulties)}, "
+        f"{train.total_steps} steps per run, action mode {experiment.config.agent.action_mode}, "
+        f"warm-up {cur.warmup}, seeds {experiment.seeds}, K = {experiment.seeds_per_cell} seeds per cell. "
         "Pass rates in %, mean ± standard deviation over the training seeds.",
         "",
         "| sampler | runs | reserved seeds: pass % | mean return | trained seeds: pass % | gap (trained - reserved) "
@@ -460,21 +450,21 @@ def cell_pass_curve(episodes: list[dict], cells: list[tuple[int, int]], steps: n
 
 
 def curves(experiment: Experiment) -> tuple[np.ndarray, list[dict]]:
-    cur = experiment.config["curriculum"]
-    cells = [(level, d) for level in cur["levels"] for d in cur["difficulties"]]
+    cur = experiment.config.curriculum
+    cells = [(level, d) for level in cur.levels for d in cur.difficulties]
     runs = {
         (sampler, seed): read_episodes(experiment.run_dir(sampler, seed))
         for sampler in experiment.samplers
         for seed in experiment.seeds
     }
     last = max((int(e["step"]) for episodes in runs.values() for e in episodes), default=0)
-    total = max(experiment.config["train"]["total_steps"], last)  # PPO ends on a whole rollout
+    total = max(experiment.config.train.total_steps, last)  # PPO ends on a whole rollout
     steps = np.linspace(0, total, CURVE_POINTS + 1)[1:].round().astype(np.int64)
     rows = []
     for sampler in experiment.samplers:
         for seed in experiment.seeds:
             episodes = runs[(sampler, seed)]
-            curve = cell_pass_curve(episodes, cells, steps, cur["window"])
+            curve = cell_pass_curve(episodes, cells, steps, cur.window)
             rows += [
                 {"sampler": sampler, "seed": seed, "step": int(s), "cell_pass_rate": float(v)}
                 for s, v in zip(steps, curve)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections import deque
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 import torch
@@ -12,8 +12,9 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 
+from aaai.config import Config
 from aaai.scoring.model_io import save_model
-from aaai.scoring.runs import RunFolder
+from aaai.scoring.runs import Episode, RunFolder
 from aaai.train.curriculum import episode_passed
 from aaai.train.vector import CurriculumVecEnv
 
@@ -24,7 +25,7 @@ class CurriculumSB3Env(VecEnv):
     def __init__(self, vec: CurriculumVecEnv):
         self.vec = vec  # first: the base class asks the workers for their render_mode
         super().__init__(vec.num_envs, vec.single_observation_space, vec.single_action_space)
-        self.finished = []
+        self.finished: list[Episode] = []
         self._actions = None
 
     def reset(self):
@@ -37,7 +38,7 @@ class CurriculumSB3Env(VecEnv):
         observation, rewards, terminated, truncated, finished, final = self.vec.step(self._actions)
         self.finished.extend(finished)
         dones = np.logical_or(terminated, truncated)
-        infos = [{} for _ in range(self.num_envs)]
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         for i, last in final.items():
             infos[i] = {"terminal_observation": last, "TimeLimit.truncated": bool(truncated[i] and not terminated[i])}
         return observation, rewards.astype(np.float32), dones, infos
@@ -73,11 +74,11 @@ class TrackerCallback(BaseCallback):
         tracker,
         progress: Callable[[int], None],
         recent: int = 100,
-        config: dict | None = None,
+        config: Config | None = None,
     ):
         super().__init__()
         self.env, self.tracker, self.progress, self.config = env, tracker, progress, config
-        self.recent = deque(maxlen=recent)
+        self.recent: deque[Episode] = deque(maxlen=recent)
 
     def save(self, path: Path) -> None:
         """The model file, carrying the run's config when there is one (a model file is scored alone)."""
@@ -105,22 +106,22 @@ class TrackerCallback(BaseCallback):
         return True
 
 
-def ppo_from_config(env, config: dict, run: RunFolder) -> PPO:
-    train = config["train"]
-    width = train["net_width"]
+def ppo_from_config(env, config: Config, run: RunFolder) -> PPO:
+    train = config.train
+    width = train.net_width
     return PPO(
         "MultiInputPolicy",
         env,
-        learning_rate=train["learning_rate"],
-        n_steps=train["n_steps"],
-        batch_size=train["batch_size"],
-        n_epochs=train["n_epochs"],
-        gamma=train["gamma"],
-        gae_lambda=train["gae_lambda"],
-        ent_coef=train["ent_coef"],
-        policy_kwargs={"net_arch": [width, width], "log_std_init": train["log_std_init"]},
+        learning_rate=train.learning_rate,
+        n_steps=train.n_steps,
+        batch_size=train.batch_size,
+        n_epochs=train.n_epochs,
+        gamma=train.gamma,
+        gae_lambda=train.gae_lambda,
+        ent_coef=train.ent_coef,
+        policy_kwargs={"net_arch": [width, width], "log_std_init": train.log_std_init},
         tensorboard_log=str(run.path / "tb"),
-        seed=train["seed"],
+        seed=train.seed,
         device="cpu",
         verbose=0,
     )
@@ -138,7 +139,7 @@ def lean_torch() -> None:
 def train_ppo(
     vec: CurriculumVecEnv,
     tracker,
-    config: dict,
+    config: Config,
     run: RunFolder,
     checkpoint: Path | None,
     progress: Callable[[int], None],
@@ -150,19 +151,19 @@ def train_ppo(
     if checkpoint is not None:
         from aaai.scoring.model_io import load_for_training  # without unpickling, unless train --trust-model
 
-        width = config["train"]["net_width"]
+        width = config.train.net_width
         model = load_for_training(
             checkpoint / "model.zip",
             monitored,
             tensorboard_log=str(run.path / "tb"),
-            fallback_kwargs={"net_arch": [width, width], "log_std_init": config["train"]["log_std_init"]},
+            fallback_kwargs={"net_arch": [width, width], "log_std_init": config.train.log_std_init},
             trust=trust,
         )
     else:
         model = ppo_from_config(monitored, config, run)
-        if config["train"].get("init_from"):
-            start_from(model, config["train"]["init_from"])
-    remaining = config["train"]["total_steps"] - model.num_timesteps
+        if config.train.init_from:
+            start_from(model, config.train.init_from)
+    remaining = config.train.total_steps - model.num_timesteps
     if remaining > 0:
         model.learn(
             remaining,

@@ -24,12 +24,12 @@ import uuid
 from contextlib import contextmanager
 from dataclasses import asdict
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import gymnasium as gym
 import numpy as np
 
-from aaai.config import ConfigError, env_part, load_config
+from aaai.config import Config, ConfigError, env_part, load_config
 from aaai.scoring.runs import CHECKPOINT_FOLDER, RunFolder, check_writable
 from aaai.train.curriculum import Curriculum
 from aaai.train.training import Tracker, TrainResult, check_trainable, move_end, with_proprioception
@@ -45,7 +45,7 @@ class CurriculumService:
     the next (level, difficulty, seed), records finished episodes, and keeps them until the trainer
     collects them for episodes.csv."""
 
-    def __init__(self, config: dict, state: dict | None = None):
+    def __init__(self, config: Config, state: dict | None = None):
         self.curriculum = Curriculum.from_config(config)
         if state is not None:
             self.curriculum.load_state_dict(state)
@@ -72,12 +72,13 @@ class CurriculumService:
         return [float(p) for p in self.curriculum.probabilities()]
 
 
-def start_curriculum_actor(config: dict, state: dict | None = None, name: str | None = None):
+def start_curriculum_actor(config: Config, state: dict | None = None, name: str | None = None):
     """The one sampler actor of a run (named, so that environments in other processes can find it)."""
     import ray
 
     name = name or f"aaai-curriculum-{uuid.uuid4().hex[:12]}"
-    actor = ray.remote(num_cpus=0, max_restarts=0)(CurriculumService).options(name=name).remote(config, state)
+    service: Any = ray.remote(num_cpus=0, max_restarts=0)(CurriculumService)  # an actor class, made by Ray
+    actor = service.options(name=name).remote(config, state)
     ray.get(actor.state_dict.remote())  # up and running before any environment asks it
     return actor, name
 
@@ -85,7 +86,7 @@ def start_curriculum_actor(config: dict, state: dict | None = None, name: str | 
 class CurriculumProxy:
     """What :class:`aaai.train.training.Tracker` needs of a curriculum, read from the actor."""
 
-    def __init__(self, actor, config: dict):
+    def __init__(self, actor, config: Config):
         self.actor, self.config = actor, config
 
     def state_dict(self) -> dict:
@@ -111,17 +112,21 @@ class CurriculumEnv(gym.Env):
         from aaai.env import AnimalAIEnv
 
         config = env_config["aaai_config"]
-        self.env = AnimalAIEnv(config=env_part(config, config["train"]["reward_shaping"]))
+        self.env = AnimalAIEnv(config=env_part(config, config.train.reward_shaping))
         self.observation_space, self.action_space = self.env.observation_space, self.env.action_space
         self.sampler = ray.get_actor(env_config["sampler"])
         runner = getattr(env_config, "worker_index", 0)
         self.worker = runner * 1000 + CurriculumEnv._made
         CurriculumEnv._made += 1
-        self.assigned = None
+        self.assigned: tuple[int, int, int] | None = None
+        self.episode_return, self.shaping, self.length = 0.0, 0.0, 0
 
     def reset(self, *, seed=None, options=None):
         import ray
 
+        level: int
+        difficulty: int
+        episode_seed: int
         level, difficulty, episode_seed = ray.get(self.sampler.sample.remote())  # RLlib's seed is not used
         self.assigned = (level, difficulty, episode_seed)
         self.episode_return, self.shaping, self.length = 0.0, 0.0, 0
@@ -135,6 +140,7 @@ class CurriculumEnv(gym.Env):
         self.shaping += float(info["reward_terms"]["shaping"])
         self.length += 1
         if terminated or truncated:
+            assert self.assigned is not None, "reset() assigns the episode's cell before any step"
             level, difficulty, seed = self.assigned
             episode = Episode(
                 self.worker,
@@ -161,14 +167,15 @@ def make_env(env_config) -> CurriculumEnv:
     return CurriculumEnv(env_config)
 
 
-def flatten_observations(env, spaces, device):
+def flatten_observations(env: Any, spaces: Any = None, device: Any = None) -> Any:
+    """The EnvRunners' env-to-module connector (RLlib calls it with the env, its spaces and the device)."""
     from ray.rllib.connectors.env_to_module import FlattenObservations
 
     return FlattenObservations()
 
 
 # --- the algorithm --------------------------------------------------------------------------
-def ppo_config(config: dict, sampler: str, env_runners: int):
+def ppo_config(config: Config, sampler: str, env_runners: int):
     """RLlib's PPOConfig from the run's train section (the stable-baselines3 learner's settings where
     RLlib has them: one iteration = n_steps per environment, minibatches of batch_size, n_epochs,
     lr, gamma, GAE lambda, entropy coefficient, two hidden layers of net_width; no KL term, clip 0.2,
@@ -176,10 +183,10 @@ def ppo_config(config: dict, sampler: str, env_runners: int):
     from ray.rllib.algorithms.ppo import PPOConfig
     from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
 
-    train = config["train"]
-    num_envs = train["num_envs"]
+    train = config.train
+    num_envs = train.num_envs
     per_runner = max(1, math.ceil(num_envs / max(1, env_runners)))
-    width = train["net_width"]
+    width = train.net_width
     return (
         PPOConfig()
         .environment(ENV_NAME, env_config={"aaai_config": config, "sampler": sampler})
@@ -191,13 +198,13 @@ def ppo_config(config: dict, sampler: str, env_runners: int):
         )
         .learners(num_learners=0)
         .training(
-            train_batch_size_per_learner=train["n_steps"] * num_envs,
-            minibatch_size=train["batch_size"],
-            num_epochs=train["n_epochs"],
-            lr=train["learning_rate"],
-            gamma=train["gamma"],
-            lambda_=train["gae_lambda"],
-            entropy_coeff=train["ent_coef"],
+            train_batch_size_per_learner=train.n_steps * num_envs,
+            minibatch_size=train.batch_size,
+            num_epochs=train.n_epochs,
+            lr=train.learning_rate,
+            gamma=train.gamma,
+            lambda_=train.gae_lambda,
+            entropy_coeff=train.ent_coef,
             use_kl_loss=False,
             clip_param=0.2,
             vf_loss_coeff=0.5,
@@ -207,7 +214,7 @@ def ppo_config(config: dict, sampler: str, env_runners: int):
         .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=[width, width], vf_share_layers=False))
         # An EnvRunner that dies (its node lost, its process killed) is replaced and training goes on.
         .fault_tolerance(restart_failed_env_runners=True, max_num_env_runner_restarts=MAX_RUNNER_RESTARTS)
-        .debugging(seed=train["seed"])
+        .debugging(seed=train.seed)
     )
 
 
@@ -238,7 +245,7 @@ def _train_loop(
     algo,
     actor,
     tracker: Tracker,
-    config: dict,
+    config: Config,
     checkpoint: Path | None,
     start_step: int,
     progress: Callable[[int], None],
@@ -255,7 +262,7 @@ def _train_loop(
         sign_checkpoint(Path(model_zip).parent / CHECKPOINT_FOLDER)
 
     agent_state = lambda: {"backend": "rllib"}  # noqa: E731 - the model's state is the rllib/ folder
-    step, total = start_step, config["train"]["total_steps"]
+    step, total = start_step, config.train.total_steps
     while step < total:
         result = algo.train()
         sampled = _sampled(result)
@@ -271,7 +278,7 @@ def _train_loop(
 
 def train_rllib(
     run_dir: str | Path,
-    config: dict | None = None,
+    config: Config | None = None,
     resume: bool = False,
     total_steps: int | None = None,
     address: str | None = None,
@@ -301,7 +308,7 @@ def train_rllib(
 
 def _train_rllib(
     run: RunFolder,
-    config: dict | None,
+    config: Config | None,
     resume: bool,
     total_steps: int | None,
     address: str | None,
@@ -330,19 +337,23 @@ def _train_rllib(
         if total_steps is not None:
             config = move_end(run, config, checkpoint, state, total_steps)
     else:
-        if config["train"]["agent"] != "ppo":
+        if config is None:
             raise ConfigError(
-                f"config key 'train.agent': got {config['train']['agent']!r}; allowed with the rllib backend: ppo"
+                "train_rllib: a new run needs a config (aaai.config.load_config); a resumed one reads its own"
+            )
+        if config.train.agent != "ppo":
+            raise ConfigError(
+                f"config key 'train.agent': got {config.train.agent!r}; allowed with the rllib backend: ppo"
             )
         config = with_proprioception(config)
         check_trainable(config)
-        if config["sensors"]["camera"]:
+        if config.sensors.camera:
             raise ConfigError(
                 "config key 'sensors.camera': got true; allowed with the rllib backend: false "
                 "(FlattenObservations feeds an MLP; no CNN encoder is set up)"
             )
         run.create(config)
-    env_runners = worker_processes(config["train"]) if env_runners is None else env_runners
+    env_runners = worker_processes(config.train) if env_runners is None else env_runners
     start_step = state["step"] if state else 0
     if resume:  # the log back to what the checkpoint counted: to its header if there was none
         run.trim_episodes(start_step)

@@ -43,7 +43,7 @@ from typing import Callable
 
 import numpy as np
 
-from aaai.config import ConfigError, env_part, load_config
+from aaai.config import Config, ConfigError, env_part, load_config
 from aaai.scoring.model_io import save_model
 from aaai.scoring.runs import RunFolder, check_writable
 from aaai.task.seeds import TRAIN_SEEDS
@@ -70,18 +70,18 @@ class DaggerSettings:
     seed: int  # train.seed
 
     @classmethod
-    def from_config(cls, config: dict) -> "DaggerSettings":
-        train = config["train"]
+    def from_config(cls, config: Config) -> "DaggerSettings":
+        train = config.train
         return cls(
-            train["dagger_iterations"],
-            train["dagger_episodes"],
-            train["dagger_beta"],
-            train["dagger_epochs"],
-            train["dagger_episode_cap"],
-            train["net_width"],
-            train["log_std_init"],
+            train.dagger_iterations,
+            train.dagger_episodes,
+            train.dagger_beta,
+            train.dagger_epochs,
+            train.dagger_episode_cap,
+            train.net_width,
+            train.log_std_init,
             worker_processes(train),
-            train["seed"],
+            train.seed,
         )
 
 
@@ -115,7 +115,7 @@ def mean_actions(policy, observations: dict):
 # --- playing episodes -------------------------------------------------------------------
 @dataclass(frozen=True)
 class Job:
-    config: dict
+    config: Config
     weights: dict | None  # the student's state dict; None: the teacher acts alone
     net_width: int
     beta: float  # the probability that the teacher's action is taken
@@ -235,12 +235,12 @@ class StudentResult:
     resumed_from: int
 
 
-def check_teachable(config: dict) -> None:
-    if config["train"]["teacher"] != "reference":
+def check_teachable(config: Config) -> None:
+    if config.train.teacher != "reference":
         raise ConfigError(
-            f"config key 'train.teacher': got {config['train']['teacher']!r}; allowed for a student run: reference"
+            f"config key 'train.teacher': got {config.train.teacher!r}; allowed for a student run: reference"
         )
-    if config["agent"]["action_mode"] == "velocity":
+    if config.agent.action_mode == "velocity":
         raise ConfigError(
             "config key 'agent.action_mode': got 'velocity'; allowed for a student of the reference: "
             "gait or rotation (the reference steers the gait by joint angles)"
@@ -271,7 +271,7 @@ def _load_data(folder: Path, iterations: int) -> tuple[dict, np.ndarray]:
 
 
 def train_student(
-    run_dir: str | Path, config: dict | None = None, resume: bool = False, say: Callable[[str], None] = print
+    run_dir: str | Path, config: Config | None = None, resume: bool = False, say: Callable[[str], None] = print
 ) -> StudentResult:
     """Starts a DAgger run in ``run_dir`` with ``config`` (resolved), or resumes the one there;
     the run folder is locked for the whole call, as in aaai.train.training.train."""
@@ -281,7 +281,7 @@ def train_student(
         return _train_student(run, config, resume, say)
 
 
-def _train_student(run: RunFolder, config: dict | None, resume: bool, say: Callable[[str], None]) -> StudentResult:
+def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Callable[[str], None]) -> StudentResult:
     import torch
     from stable_baselines3 import PPO
 
@@ -297,6 +297,10 @@ def _train_student(run: RunFolder, config: dict | None, resume: bool, say: Calla
             done = state["agent"]["iterations_done"]
         run.trim_episodes(state["step"] if state else 0)  # to its header when there is no checkpoint
     else:
+        if config is None:
+            raise ConfigError(
+                "train_student: a new run needs a config (aaai.config.load_config); a resumed one reads its own"
+            )
         config = with_proprioception(config)
         check_teachable(config)
         run.create(config)
@@ -309,9 +313,9 @@ def _train_student(run: RunFolder, config: dict | None, resume: bool, say: Calla
         "MultiInputPolicy",
         env,
         policy_kwargs={"net_arch": [settings.net_width] * 2, "log_std_init": settings.log_std_init},
-        learning_rate=config["train"]["learning_rate"],
-        n_steps=config["train"]["n_steps"],
-        batch_size=config["train"]["batch_size"],
+        learning_rate=config.train.learning_rate,
+        n_steps=config.train.n_steps,
+        batch_size=config.train.batch_size,
         seed=settings.seed,
         device="cpu",
         verbose=0,
@@ -320,10 +324,14 @@ def _train_student(run: RunFolder, config: dict | None, resume: bool, say: Calla
     data_folder = run.path / DATA_FOLDER
     if done:
         observations, labels = _load_data(data_folder, done)
-        model.policy.load_state_dict(torch.load(run.latest_checkpoint() / "student.pth", weights_only=True))
+        latest = run.latest_checkpoint()
+        assert latest is not None, "a resumed student's iterations were read from its checkpoint"
+        model.policy.load_state_dict(torch.load(latest / "student.pth", weights_only=True))
     else:
-        observations, labels = {}, np.zeros((0, *model.action_space.shape), np.float32)
-    cells = [(level, d) for level in config["curriculum"]["levels"] for d in config["curriculum"]["difficulties"]]
+        action_shape = model.action_space.shape
+        assert action_shape is not None, "a Box action space has a shape"
+        observations, labels = {}, np.zeros((0, *action_shape), np.float32)
+    cells = [(level, d) for level in config.curriculum.levels for d in config.curriculum.difficulties]
     episodes_logged = 0
     context = get_context("spawn")  # workers start clean: no copy of this process's torch or PyBullet state
     with ProcessPoolExecutor(max_workers=settings.workers, mp_context=context) as pool:

@@ -6,15 +6,16 @@ random`` runs the same loop with uniform random actions and no torch.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, TextIO
+from typing import Callable, Protocol, TextIO
 
 import numpy as np
 
-from aaai.config import ConfigError, load_config
+from aaai.config import Config, ConfigError, load_config
 from aaai.files import os_error_message
 from aaai.scoring.runs import RunFolder, check_writable
 from aaai.train.curriculum import Curriculum, episode_passed
@@ -135,6 +136,14 @@ def print_lines(stream: TextIO) -> Callable[[str], None]:
     return write
 
 
+class CurriculumState(Protocol):
+    """What the Tracker needs of a curriculum: a Curriculum, or the RLlib run's proxy of one in a Ray actor."""
+
+    def state_dict(self) -> dict: ...
+
+    def write_heatmap(self, path: Path) -> None: ...
+
+
 class Tracker:
     """Logs finished episodes and writes heatmaps and checkpoints as the step count passes their marks.
     ``on_episodes`` (if set) is told of every finished episode too (a progress report)."""
@@ -142,14 +151,14 @@ class Tracker:
     def __init__(
         self,
         run: RunFolder,
-        curriculum: Curriculum,
-        config: dict,
+        curriculum: CurriculumState,
+        config: Config,
         start_step: int,
         on_episodes: Callable[[list[Episode]], None] | None = None,
     ):
         self.run, self.curriculum, self.on_episodes = run, curriculum, on_episodes
-        self.checkpoint_every = config["train"]["checkpoint_every"]
-        self.heatmap_every = config["train"]["heatmap_every"]
+        self.checkpoint_every = config.train.checkpoint_every
+        self.heatmap_every = config.train.heatmap_every
         self.next_checkpoint = (start_step // self.checkpoint_every + 1) * self.checkpoint_every
         self.next_heatmap = (start_step // self.heatmap_every + 1) * self.heatmap_every
         self.episodes = 0
@@ -181,7 +190,7 @@ class Tracker:
 PROPRIOCEPTION = ("joint_velocities", "head_orientation", "foot_contacts")
 
 
-def with_proprioception(config: dict) -> dict:
+def with_proprioception(config: Config) -> Config:
     """The run's config with the extra body senses on when train.proprioception asks for them.
 
     The environment leaves them off by default; a learner without joint speeds, body tilt and foot
@@ -189,34 +198,34 @@ def with_proprioception(config: dict) -> dict:
     training turns them on.
     The run folder's config records the result, and evaluation reads it from there.
     """
-    if not config["train"]["proprioception"]:
+    if not config.train.proprioception:
         return config
     return load_config(config, sensors={name: True for name in PROPRIOCEPTION})
 
 
-def check_trainable(config: dict) -> None:
+def check_trainable(config: Config) -> None:
     """What a new run refuses before its folder exists (a resumed or scored run is read as it is)."""
-    curriculum = config["curriculum"]
-    if curriculum["mode"] == "random" and curriculum["sampler"] != "uniform":
+    curriculum = config.curriculum
+    if curriculum.mode == "random" and curriculum.sampler != "uniform":
         raise ConfigError(
-            f"config key 'curriculum.sampler': got {curriculum['sampler']!r} with 'curriculum.mode': random "
+            f"config key 'curriculum.sampler': got {curriculum.sampler!r} with 'curriculum.mode': random "
             "(--random), which samples cells uniformly; allowed: uniform with mode random, or mode curriculum"
         )
-    sensors = config["sensors"]
-    if config["train"]["agent"] == "ppo" and sensors["camera"] and sensors["camera_resolution"] < MIN_CNN_RESOLUTION:
+    sensors = config.sensors
+    if config.train.agent == "ppo" and sensors.camera and sensors.camera_resolution < MIN_CNN_RESOLUTION:
         raise ConfigError(
-            f"config key 'sensors.camera_resolution': got {sensors['camera_resolution']}; allowed for PPO "
+            f"config key 'sensors.camera_resolution': got {sensors.camera_resolution}; allowed for PPO "
             f"training: {MIN_CNN_RESOLUTION} or more (the smallest image the CNN accepts)"
         )
 
 
-def check_init_from(config: dict) -> None:
+def check_init_from(config: Config) -> None:
     """``train.init_from`` a run folder: its action mode, body, senses and network width must be this
     run's, or its weights cannot fit (a model .zip is checked when its weights are loaded)."""
-    source = config["train"].get("init_from")
+    source = config.train.init_from
     if not source:
         return
-    if config["train"]["agent"] != "ppo":
+    if config.train.agent != "ppo":
         raise ConfigError("--init-from: only a PPO run starts from another's weights (train.agent: ppo)")
     path = Path(source)
     if not path.exists():
@@ -232,7 +241,7 @@ def check_init_from(config: dict) -> None:
     check_init_weights(config, path)
 
 
-def check_init_weights(config: dict, path: Path) -> None:
+def check_init_weights(config: Config, path: Path) -> None:
     """The --init-from model's weights, read as start_from reads them and checked against this run's
     network, before the run folder exists (a bad model leaves nothing behind)."""
     from aaai.env import AnimalAIEnv
@@ -240,8 +249,8 @@ def check_init_weights(config: dict, path: Path) -> None:
 
     env = AnimalAIEnv(config=config)
     try:
-        width = config["train"]["net_width"]
-        kwargs = {"net_arch": [width, width], "log_std_init": config["train"]["log_std_init"]}
+        width = config.train.net_width
+        kwargs = {"net_arch": [width, width], "log_std_init": config.train.log_std_init}
         check_start_weights(path, env.observation_space, env.action_space, kwargs)
     except ConfigError as error:
         raise ConfigError(f"--init-from: {error}") from None
@@ -249,14 +258,13 @@ def check_init_weights(config: dict, path: Path) -> None:
         env.close()
 
 
-def _check_init_run(config: dict, source: str, path: Path) -> None:
+def _check_init_run(config: Config, source: str, path: Path) -> None:
     theirs = load_config(RunFolder(path).read_config())
-    keys = [("agent", "action_mode"), ("agent", "body"), ("train", "net_width")] + [
-        ("sensors", key) for key in config["sensors"]
+    keys = ["agent.action_mode", "agent.body", "train.net_width"] + [
+        f"sensors.{field.name}" for field in dataclasses.fields(config.sensors)
     ]
-    differ = [
-        f"{a}.{b}: {theirs[a][b]!r} there, {config[a][b]!r} here" for a, b in keys if theirs[a][b] != config[a][b]
-    ]
+    there, here = theirs.flat(), config.flat()  # the keys compared by their dotted names, as the message says
+    differ = [f"{key}: {there[key]!r} there, {here[key]!r} here" for key in keys if there[key] != here[key]]
     if differ:
         raise ConfigError(
             f"--init-from: run {source!r} was trained with another env or network ({'; '.join(differ)}); "
@@ -264,7 +272,7 @@ def _check_init_run(config: dict, source: str, path: Path) -> None:
         )
 
 
-def move_end(run: RunFolder, config: dict, checkpoint: Path | None, state: dict | None, total_steps: int) -> dict:
+def move_end(run: RunFolder, config: Config, checkpoint: Path | None, state: dict | None, total_steps: int) -> Config:
     """On resume: the run's config with its end moved to ``total_steps`` (recorded in the run
     folder); refused at or below the steps the run has done."""
     done = state["step"] if state else 0
@@ -290,7 +298,7 @@ def write_failure(error: OSError, run_dir: str | Path | None) -> str:
 
 def train(
     run_dir: str | Path,
-    config: dict | None = None,
+    config: Config | None = None,
     resume: bool = False,
     progress: Callable[[int], None] | None = None,
     asynchronous: bool | None = None,
@@ -313,6 +321,8 @@ def train(
     run = RunFolder(run_dir)
     check_writable(run.path, "--resume" if resume else "--run", folder=True)  # before any work is done
     if not resume:
+        if config is None:
+            raise ConfigError("train: a new run needs a config (aaai.config.load_config); a resumed one reads its own")
         config = with_proprioception(config)
         check_trainable(config)  # before the run folder exists: a refused config leaves nothing behind
         check_init_from(config)
@@ -322,7 +332,7 @@ def train(
 
 def _train(
     run: RunFolder,
-    config: dict | None,
+    config: Config | None,
     resume: bool,
     progress: Callable[[int], None] | None,
     asynchronous: bool | None,
@@ -335,12 +345,13 @@ def _train(
     checkpoint = state = None
     if resume:
         config = load_config(run.read_config())
-        point = run.resume_point(needs_model=config["train"]["agent"] == "ppo", say=say)
+        point = run.resume_point(needs_model=config.train.agent == "ppo", say=say)
         if point is not None:
             checkpoint, state = point
         if total_steps is not None:
             config = move_end(run, config, checkpoint, state, total_steps)
     else:
+        assert config is not None, "train() refuses a new run without a config"
         run.create(config)
     curriculum = Curriculum.from_config(config)
     start_step = state["step"] if state else 0
@@ -349,10 +360,10 @@ def _train(
     if resume:  # the log back to what the checkpoint counted: to its header if there was none
         run.trim_episodes(start_step)
     tracker = Tracker(run, curriculum, config, start_step, on_episodes)
-    vec = CurriculumVecEnv(config, curriculum, config["train"]["num_envs"], asynchronous=asynchronous)
+    vec = CurriculumVecEnv(config, curriculum, config.train.num_envs, asynchronous=asynchronous)
     progress = progress or (lambda steps: None)
     try:
-        if config["train"]["agent"] == "random":
+        if config.train.agent == "random":
             steps = _train_random(vec, tracker, config, start_step, state, progress)
         else:
             from aaai.train.learner import train_ppo
@@ -367,17 +378,19 @@ def _train(
 def _train_random(
     vec: CurriculumVecEnv,
     tracker: Tracker,
-    config: dict,
+    config: Config,
     start_step: int,
     state: dict | None,
     progress: Callable[[int], None],
 ) -> int:
-    rng = np.random.default_rng(config["train"]["seed"])
+    rng = np.random.default_rng(config.train.seed)
     if state:
         rng.bit_generator.state = state["agent"]["rng"]
     agent_state = lambda: {"rng": rng.bit_generator.state}  # noqa: E731
-    shape = (vec.num_envs, *vec.single_action_space.shape)
-    step, total = start_step, config["train"]["total_steps"]
+    action_shape = vec.single_action_space.shape
+    assert action_shape is not None, "a Box action space has a shape"
+    shape = (vec.num_envs, *action_shape)
+    step, total = start_step, config.train.total_steps
     vec.reset()
     while step < total:
         _, _, _, _, finished, _ = vec.step(rng.uniform(-1.0, 1.0, shape).astype(np.float32))

@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv
 
-from aaai.config import env_part
+from aaai.config import Config, TrainConfig, env_part
 from aaai.scoring.runs import Episode
 from aaai.train.curriculum import Curriculum
 
@@ -48,15 +48,15 @@ def runs_in_process(mode: str, num_envs: int, cores: int | None = None) -> bool:
     return num_envs == 1 or num_envs > free
 
 
-def worker_processes(train: dict, cores: int | None = None) -> int:
+def worker_processes(train: TrainConfig, cores: int | None = None) -> int:
     """Processes the rllib backend (EnvRunners) and the student (episode workers) start:
     ``train.processes``, or with 0 ``train.num_envs`` but no more than the usable cores. Apart from
     ``num_envs`` so that stable-baselines3 can step many environments in this process
     (``train.vector: sync``) without the other learners starting one process per environment."""
-    asked = int(train.get("processes", 0))
+    asked = int(train.processes)
     if asked > 0:
         return asked
-    return max(1, min(int(train["num_envs"]), usable_cores() if cores is None else cores))
+    return max(1, min(int(train.num_envs), usable_cores() if cores is None else cores))
 
 
 class AssignedCell(gym.Wrapper):
@@ -93,24 +93,25 @@ class AssignedCell(gym.Wrapper):
         )
 
 
-def _make_worker(index: int, config: dict) -> gym.Env:
+def _make_worker(index: int, config: Config) -> gym.Env:
     from aaai.env import AnimalAIEnv
 
-    return AssignedCell(AnimalAIEnv(config=env_part(config, config["train"]["reward_shaping"])), index)
+    return AssignedCell(AnimalAIEnv(config=env_part(config, config.train.reward_shaping)), index)
 
 
 class CurriculumVecEnv:
     """``num_envs`` environments stepping together; every episode's cell and seed come from ``curriculum``."""
 
-    def __init__(self, config: dict, curriculum: Curriculum, num_envs: int, asynchronous: bool | None = None):
+    def __init__(self, config: Config, curriculum: Curriculum, num_envs: int, asynchronous: bool | None = None):
         """``asynchronous``: worker processes (True) or this process (False); None: as
         ``train.vector`` in ``config`` says (see ``runs_in_process``)."""
         self.curriculum = curriculum
         self.num_envs = num_envs
         makers = [partial(_make_worker, i, config) for i in range(num_envs)]
         if asynchronous is None:
-            asynchronous = not runs_in_process(config["train"]["vector"], num_envs)
+            asynchronous = not runs_in_process(config.train.vector, num_envs)
         self.asynchronous = asynchronous
+        self.envs: AsyncVectorEnv | SyncVectorEnv
         if asynchronous:
             self.envs = AsyncVectorEnv(makers, autoreset_mode=AutoresetMode.DISABLED, context="forkserver", copy=False)
         else:
@@ -123,6 +124,7 @@ class CurriculumVecEnv:
 
     def reset(self):
         self.assigned = [self.curriculum.sample() for _ in range(self.num_envs)]
+        observation: dict[str, np.ndarray]
         observation, _ = self.envs.reset(
             seed=[seed for *_, seed in self.assigned], options={"cells": [cell[:2] for cell in self.assigned]}
         )
@@ -136,6 +138,10 @@ class CurriculumVecEnv:
         ``final obs`` maps a finished worker's index to the last observation of its episode; its entry
         in ``obs`` is already the first observation of its next episode.
         """
+        observation: dict[str, np.ndarray]
+        rewards: np.ndarray
+        terminated: np.ndarray
+        truncated: np.ndarray
         observation, rewards, terminated, truncated, infos = self.envs.step(actions)
         self.returns += rewards
         self.lengths += 1

@@ -30,7 +30,7 @@ from typing import Callable
 import cv2
 import numpy as np
 
-from aaai.config import ConfigError
+from aaai.config import Config, ConfigError
 from aaai.files import append_row
 from aaai.levels import get_level
 from aaai.scoring.evaluation import Cell, evaluate, evaluate_arenas, policy_record, scored_episodes
@@ -148,7 +148,7 @@ def task_of(level: int, arena: Path | None = None) -> str:
 class PlaySettings:
     """What a server's sessions play and where their results go."""
 
-    config: dict  # the resolved config (gait mode, one control step per action, the camera on)
+    config: Config  # the resolved config (gait mode, one control step per action, the camera on)
     cells: list[Cell] = field(default_factory=list)  # the battery of generated levels ...
     arenas: list[Path] = field(default_factory=list)  # ... or of arena files, on arena_seeds
     arena_seeds: list[int] = field(default_factory=list)
