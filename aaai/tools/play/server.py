@@ -92,8 +92,9 @@ class Registry:
         self.sessions: dict[str, Session] = {}
         self.generation: dict[str, int] = {}  # bumped on every attach, so that a stale expiry does nothing
 
-    def join(self, player: str, token: str | None, notify) -> Session:
-        player = check_player(player)
+    def join(self, name: object, token: str | None, notify) -> Session:
+        """The session of the player a page names (``name``, any value from the page: checked here)."""
+        player = check_player(name)
         if self.settings.player is not None and player != self.settings.player:
             raise InputError(f"player: got {player!r}; this server plays only {self.settings.player!r} (--player)")
         with self.lock:

@@ -227,7 +227,8 @@ class Session:
         self.last: dict | None = None  # the last scored row
         self.rows: list[dict] = []
         self.version = 0  # bumped on every change a page should see
-        self.frame_no, self.frame_data, self.acked, self.next_frame_at = 0, None, 0, 0.0
+        self.frame_data: list[bytes] | None = None  # the last frame's camera PNG and map JPEG
+        self.frame_no, self.acked, self.next_frame_at = 0, 0, 0.0
         self.delivered: list[float] = []  # monotonic times of acknowledged frames (the last second's)
         self.force_frame = False
         self.thread = threading.Thread(target=self._run, name=f"aaai-play-{player}", daemon=True)
