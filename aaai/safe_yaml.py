@@ -238,7 +238,7 @@ class _Constructor(SafeConstructor):
     """PyYAML's safe constructor with numbers checked: no integer of thousands of digits, no float
     that overflows, no date that does not exist; each refused at its line."""
 
-    def construct_object(self, node, deep=False):
+    def construct_object(self, node: Node, deep: bool = False) -> Any:
         try:
             return super().construct_object(node, deep)
         except (ValueError, OverflowError) as error:
@@ -247,7 +247,7 @@ class _Constructor(SafeConstructor):
                 node.start_mark, f"{text!r} cannot be read as {node.tag.rsplit(':', 1)[-1]} ({error})"
             ) from None
 
-    def construct_checked_int(self, node):
+    def construct_checked_int(self, node: ScalarNode) -> int:
         text = str(node.value).replace("_", "").lstrip("+-")
         if len(text) > MAX_DIGITS:
             raise _Refusal(
@@ -256,7 +256,7 @@ class _Constructor(SafeConstructor):
             )
         return self.construct_yaml_int(node)
 
-    def construct_checked_float(self, node):
+    def construct_checked_float(self, node: ScalarNode) -> float:
         value = self.construct_yaml_float(node)
         if math.isinf(value) and "inf" not in str(node.value).lower():
             raise _Refusal(
@@ -266,7 +266,7 @@ class _Constructor(SafeConstructor):
             )
         return value
 
-    def construct_value(self, node):
+    def construct_value(self, node: ScalarNode) -> str:
         return self.construct_scalar(node)
 
     yaml_constructors = {  # the safe ones, with numbers checked (as add_constructor would set them)

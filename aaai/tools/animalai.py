@@ -14,6 +14,7 @@ import re
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import yaml
@@ -132,7 +133,9 @@ def animalai_files(path: Path) -> list[Path]:
     return [path]
 
 
-def import_animalai(source: Path, out: Path, scale: float = DEFAULT_SCALE, echo=print) -> list[Converted]:
+def import_animalai(
+    source: Path, out: Path, scale: float = DEFAULT_SCALE, echo: Callable[[str], object] = print
+) -> list[Converted]:
     """Converts a file or a folder of them into ``out`` (one aaai arena file per arena), printing
     each skipped arena's reason and a summary; returns every arena's result, and one (``refused``)
     for each file that could not be read. Every file is written inside ``out``: a name leading

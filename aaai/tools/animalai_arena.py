@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 import reprlib
-from typing import TypeGuard
+from typing import Any, TypeGuard
 
 import numpy as np
 
@@ -152,22 +152,22 @@ class _Arena:
         return f"{self.source}, arena {self.key}, item {index} ({name if len(name) <= 60 else name[:57] + '...'})"
 
     # numbers
-    def _xy(self, value, low: float, high: float):
+    def _xy(self, value: object, low: float, high: float) -> float | dict:
         """An Animal-AI horizontal coordinate as ours, or a uniform draw for -1."""
         if not is_number(value) or value == -1:
             return {"uniform": [round(low, 3), round(high, 3)]}
         return round(self.scale * (value - AAI_ARENA / 2), 4)
 
-    def _size(self, value, low: float, high: float) -> float:
+    def _size(self, value: object, low: float, high: float) -> float:
         if not is_number(value) or value == -1:
             value = float(self.rng.uniform(low, high))
         return round(self.scale * max(float(value), 1e-3), 4)
 
     @staticmethod
-    def _entry(values, index: int):
+    def _entry(values: object, index: int) -> Any:
         return values[index] if isinstance(values, list) and index < len(values) else None
 
-    def _yaw(self, rotation, offset: float = 0.0):
+    def _yaw(self, rotation: object, offset: float = 0.0) -> float | dict:
         if not is_number(rotation) or rotation == -1:
             return {"uniform": [round(-math.pi, 6), round(math.pi, 6)]}
         return round((offset - math.radians(rotation) + math.pi) % (2 * math.pi) - math.pi, 6)
@@ -245,7 +245,7 @@ class _Arena:
         position = self._entry(item.get("positions"), 0) or {}
         inside = self.half - AGENT_MARGIN  # our body is 10 across: a start by the wall moves in to clear it
 
-        def coordinate(value):
+        def coordinate(value: object) -> float | dict:
             mapped = self._xy(value, -inside, inside)
             return mapped if isinstance(mapped, dict) else min(max(mapped, -inside), inside)
 

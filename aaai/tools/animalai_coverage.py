@@ -4,6 +4,7 @@ folder's arena files the reference passes (``python -m aaai.tools.animalai FOLDE
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable
 
 from aaai.config import ConfigError
 from aaai.scoring.evaluation import PASS_RATIO
@@ -38,7 +39,7 @@ def reference_episode(env, spec: LevelSpec, seed: int) -> tuple[float, bool]:
             return total, passed(total, spec)
 
 
-def coverage(folder: Path, sample: int = 0, seed: int = 0, echo=print) -> dict:
+def coverage(folder: Path, sample: int = 0, seed: int = 0, echo: Callable[[str], object] = print) -> dict:
     """Of the arena files in ``folder`` (as ``import-animalai`` wrote them): how many load and pass
     aaai.task.validate for ``seed``, and how many of those (every one, or ``sample`` of them spread
     evenly in name order) the reference controller passes in gait mode:

@@ -9,6 +9,7 @@ World to picture: x grows to the right, y grows upward (north at the top); ``Map
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import cv2
@@ -33,6 +34,7 @@ FONT = cv2.FONT_HERSHEY_SIMPLEX
 SHIFT = 4  # sub-pixel bits for OpenCV drawing
 ONE = 1 << SHIFT
 
+Colour = tuple[int, int, int]  # RGB, 0..255
 BACKGROUND = (32, 32, 36)
 TEXT = (235, 235, 235)
 HEADING_COLOUR = (20, 60, 210)
@@ -42,7 +44,7 @@ HOLE_SHADE = 0.35  # a hole shows the deadly floor's red this bright
 TILE_LINE_SHADE = 0.9
 
 
-def rgb(colour) -> tuple[int, int, int]:
+def rgb(colour: Sequence[float]) -> tuple[int, int, int]:
     """An RGB(A) colour in [0, 1] as a uint8 RGB triple."""
     r, g, b = (int(round(255 * max(0.0, min(1.0, c)))) for c in colour[:3])
     return r, g, b
@@ -220,7 +222,7 @@ def _box_corners(m: Mapping, obj: ObjectSpec) -> np.ndarray:
     return np.array([m.fixed(x, y) for x, y in corners], np.int32)
 
 
-def _dashed(image: np.ndarray, points: list[tuple[float, float]], colour, closed: bool = True) -> None:
+def _dashed(image: np.ndarray, points: list[tuple[float, float]], colour: Colour, closed: bool = True) -> None:
     """A dashed polyline through continuous pixel coordinates."""
     dash = 6.0
     pairs = list(zip(points, points[1:] + points[:1] if closed else points[1:]))
@@ -404,7 +406,7 @@ def _draw_agent(image: np.ndarray, m: Mapping, agent: AgentShape) -> None:
     )
 
 
-def _text(image: np.ndarray, text: str, x: int, y: int, scale: float = 0.5, colour=TEXT) -> int:
+def _text(image: np.ndarray, text: str, x: int, y: int, scale: float = 0.5, colour: Colour = TEXT) -> int:
     """Writes text with its baseline at y; returns the x just after it."""
     cv2.putText(image, text, (x, y), FONT, scale, colour, 1, cv2.LINE_AA)
     return x + cv2.getTextSize(text, FONT, scale, 1)[0][0]
