@@ -119,7 +119,7 @@ def measure(resolution: int, fps: int, seconds: float, folder: Path) -> dict:
         shutil.rmtree(profile, ignore_errors=True)
 
 
-def main(argv=None) -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--resolutions", default="84,128")

@@ -33,6 +33,7 @@ import os
 import secrets
 import socket
 import threading
+from collections.abc import AsyncIterator
 from importlib import resources
 from typing import Any
 
@@ -219,7 +220,7 @@ def create_app(
     registry = Registry(settings)
 
     @contextlib.asynccontextmanager
-    async def lifespan(app: FastAPI):
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         yield
         await asyncio.get_running_loop().run_in_executor(None, registry.close)
 
