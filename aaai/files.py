@@ -253,7 +253,8 @@ class Lock:
     (its file, with its pid, stays until the next holder takes it over)."""
 
     def __init__(self, path: Path, descriptor: int):
-        self.path, self.descriptor = path, descriptor
+        self.path = path
+        self.descriptor: int | None = descriptor  # None once released
         _held[descriptor] = path
 
     def release(self) -> None:

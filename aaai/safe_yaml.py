@@ -47,8 +47,11 @@ from yaml.scanner import Scanner
 
 from aaai.errors import ConfigError
 
-try:  # libyaml's parser: the same events, faster
-    from yaml._yaml import CParser as _CParser
+_CParser: type[CParser] | None  # libyaml's parser: the same events, faster
+try:
+    from yaml._yaml import CParser
+
+    _CParser = CParser
 except ImportError:  # pragma: no cover - PyYAML built without libyaml
     _CParser = None
 
@@ -168,17 +171,17 @@ class _Composer:
                 raise _Refusal(
                     mark, f"more than {self.limits.aliases} aliases (*name); allowed: at most {self.limits.aliases}"
                 )
-            if event.anchor in self.open:
+            name = event.anchor
+            assert name is not None  # an alias (*name) always names its anchor
+            if name in self.open:
                 raise _Refusal(
                     mark,
-                    f"the alias *{_short(event.anchor)} is inside the value it names; "
+                    f"the alias *{_short(name)} is inside the value it names; "
                     "allowed: an alias to a value written before it",
                 )
-            if event.anchor not in self.anchors:
-                raise _Refusal(
-                    mark, f"the alias *{_short(event.anchor)} names no anchor (&name) before it", syntax=True
-                )
-            target, values, height = self.anchors[event.anchor]
+            if name not in self.anchors:
+                raise _Refusal(mark, f"the alias *{_short(name)} names no anchor (&name) before it", syntax=True)
+            target, values, height = self.anchors[name]
             self.count(values, mark)
             self.deep(depth + height, mark)
             return target, values, height
@@ -190,7 +193,9 @@ class _Composer:
                 what = "a NUL character" if bad.group() == "\0" else "a lone surrogate"
                 raise _Refusal(mark, f"{what} in a value; allowed: text without NUL characters or lone surrogates")
             self.count(1, mark)
-            node = ScalarNode(self.tag(event, ScalarNode), event.value, mark, event.end_mark, style=event.style)
+            # libyaml's events carry its own marks (yaml._yaml.Mark), which the PyYAML stubs' nodes do not name
+            end_mark = event.end_mark
+            node = ScalarNode(self.tag(event, ScalarNode), event.value, mark, end_mark, style=event.style)  # type: ignore[arg-type]
             values, height = 1, 0
         elif isinstance(event, (SequenceStartEvent, MappingStartEvent)):
             self.deep(depth + 1, mark)
@@ -233,7 +238,7 @@ class _Constructor(SafeConstructor):
     """PyYAML's safe constructor with numbers checked: no integer of thousands of digits, no float
     that overflows, no date that does not exist; each refused at its line."""
 
-    def construct_object(self, node, deep=False):
+    def construct_object(self, node: Node, deep: bool = False) -> Any:
         try:
             return super().construct_object(node, deep)
         except (ValueError, OverflowError) as error:
@@ -242,7 +247,7 @@ class _Constructor(SafeConstructor):
                 node.start_mark, f"{text!r} cannot be read as {node.tag.rsplit(':', 1)[-1]} ({error})"
             ) from None
 
-    def construct_checked_int(self, node):
+    def construct_checked_int(self, node: ScalarNode) -> int:
         text = str(node.value).replace("_", "").lstrip("+-")
         if len(text) > MAX_DIGITS:
             raise _Refusal(
@@ -251,7 +256,7 @@ class _Constructor(SafeConstructor):
             )
         return self.construct_yaml_int(node)
 
-    def construct_checked_float(self, node):
+    def construct_checked_float(self, node: ScalarNode) -> float:
         value = self.construct_yaml_float(node)
         if math.isinf(value) and "inf" not in str(node.value).lower():
             raise _Refusal(
@@ -261,13 +266,15 @@ class _Constructor(SafeConstructor):
             )
         return value
 
-    def construct_value(self, node):
+    def construct_value(self, node: ScalarNode) -> str:
         return self.construct_scalar(node)
 
-
-_Constructor.add_constructor(YAML_TAG + "int", _Constructor.construct_checked_int)
-_Constructor.add_constructor(YAML_TAG + "float", _Constructor.construct_checked_float)
-_Constructor.add_constructor(YAML_TAG + "value", _Constructor.construct_value)
+    yaml_constructors = {  # the safe ones, with numbers checked (as add_constructor would set them)
+        **SafeConstructor.yaml_constructors,
+        YAML_TAG + "int": construct_checked_int,
+        YAML_TAG + "float": construct_checked_float,
+        YAML_TAG + "value": construct_value,
+    }
 
 
 class _PyParser(Reader, Scanner, Parser):

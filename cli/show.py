@@ -9,15 +9,8 @@ import click
 from aaai.config import ConfigError
 from aaai.levels import check_difficulty, check_seed, get_level
 from aaai.scoring.episodes import play
-from aaai.tools.viewer import (
-    VIDEO_CODECS,
-    VideoWriter,
-    compose,
-    draw_top_down,
-    draw_world,
-    save_png,
-    video_extension_error,
-)
+from aaai.tools.media import VIDEO_CODECS, VideoWriter, save_png, video_extension_error
+from aaai.tools.viewer import compose, draw_top_down, draw_world
 from aaai_cli.options import DIFFICULTY, SEED, Output
 
 CAMERA_RESOLUTION = 128

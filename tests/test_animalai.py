@@ -10,7 +10,8 @@ from click.testing import CliRunner
 
 from aaai.config import ConfigError
 from aaai.task.arena import load_arena, parse_arena
-from aaai.tools.animalai import DEFAULT_SCALE, convert_file, import_animalai, passed, reference_episode
+from aaai.tools.animalai import DEFAULT_SCALE, convert_file, import_animalai
+from aaai.tools.animalai_coverage import passed, reference_episode
 from aaai_cli.main import cli
 
 FIXTURES = Path(__file__).with_name("fixtures") / "animalai"

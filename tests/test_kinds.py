@@ -274,7 +274,7 @@ def test_reference_goes_through_the_tunnel_to_the_food(make_env):
 @pytest.mark.parametrize("path", sorted((ARENAS / "animalai").glob("*.yaml")), ids=lambda p: p.stem)
 def test_reference_passes_the_animal_ai_style_arenas(make_env, path):
     from aaai.task.reference import ReferenceController
-    from aaai.tools.animalai import passed
+    from aaai.tools.animalai_coverage import passed
 
     env = make_env(action_mode="gait")
     for seed in (0, 1, 2):

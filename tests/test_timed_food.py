@@ -114,7 +114,8 @@ def test_animal_ai_goals_that_ripen_decay_grow_and_shrink_are_imported_with_thei
     from pathlib import Path
 
     from aaai.tools.animalai import DEFAULT_SCALE as S
-    from aaai.tools.animalai import SECONDS_PER_STEP, import_animalai
+    from aaai.tools.animalai import import_animalai
+    from aaai.tools.animalai_arena import SECONDS_PER_STEP
 
     fixtures = Path(__file__).with_name("fixtures") / "animalai_timed"
     lines = []
@@ -148,7 +149,7 @@ def test_the_reference_eats_the_timed_food_of_its_animal_ai_style_arena_and_pass
     from pathlib import Path
 
     from aaai.task.reference import ReferenceController
-    from aaai.tools.animalai import passed
+    from aaai.tools.animalai_coverage import passed
 
     path = Path(__file__).resolve().parents[1] / "configs" / "arenas" / "animalai" / "timed_food.yaml"
     env = make_env(action_mode="gait")

@@ -17,6 +17,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -197,7 +198,7 @@ def score(env, gait: SineGait) -> float:
 
 def tune(evaluations: int, drive: bool, seed: int, start: GaitParameters) -> tuple[GaitParameters, dict]:
     try:
-        import cma
+        import cma  # type: ignore[import-untyped]  # cma ships no type information
     except ImportError as error:
         raise SystemExit(needs_extra(error, "tuning the gait")) from None
 
@@ -262,7 +263,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     from aaai.env import AnimalAIEnv
 
-    parameters, drive_values = load_parameters(), {}
+    parameters = load_parameters()
+    drive_values: dict[str, Any] = {}  # env keywords (max_force, position_gain, velocity_gain); none when measuring
     if not args.measure:
         parameters, drive_values = tune(args.evaluations, args.drive, args.seed, parameters)
     env = AnimalAIEnv(rays=False, max_steps=10000, **drive_values)

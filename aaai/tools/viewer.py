@@ -1,6 +1,6 @@
 """Pictures of a level: a top-down map drawn from its spec (and a snapshot of a running one) and the
-agent's camera view beside it. Pure drawing with OpenCV; images are H x W x 3 uint8 RGB. PNGs and
-videos are written atomically (aaai.files).
+agent's camera view beside it. Pure drawing with OpenCV; images are H x W x 3 uint8 RGB (written to
+files by aaai.tools.media).
 
 World to picture: x grows to the right, y grows upward (north at the top); ``Mapping``
 (from ``mapping_for``) turns world coordinates into pixel (column, row).
@@ -9,20 +9,18 @@ World to picture: x grows to the right, y grows upward (north at the top); ``Map
 from __future__ import annotations
 
 import math
-import os
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import cv2
 import numpy as np
 
 from aaai.agent.urdf_writer import COLOURS as BODY_COLOURS
 from aaai.agent.urdf_writer import HEAD_RADIUS, LEG_REACH, LEGS, SEGMENT_RADIUS
-from aaai.files import PendingFile, atomic_path
 from aaai.sim.behaviours import behaviour_class
 from aaai.sim.kinds import COLOURS, kind_class
 from aaai.sim.snapshot import Snapshot
-from aaai.spec import AgentPose, LevelSpec, ObjectSpec
+from aaai.spec import LevelSpec, ObjectSpec
 
 LEG_WIDTH = 2 * SEGMENT_RADIUS  # a leg capsule's diameter
 LEG_ANGLES = tuple(angle for _, angle in LEGS)  # fl, fr, bl, br, degrees from the heading
@@ -36,6 +34,7 @@ FONT = cv2.FONT_HERSHEY_SIMPLEX
 SHIFT = 4  # sub-pixel bits for OpenCV drawing
 ONE = 1 << SHIFT
 
+Colour = tuple[int, int, int]  # RGB, 0..255
 BACKGROUND = (32, 32, 36)
 TEXT = (235, 235, 235)
 HEADING_COLOUR = (20, 60, 210)
@@ -43,12 +42,12 @@ MOVING_COLOUR = (255, 255, 255)
 BACKGROUND_RGBA = tuple(c / 255 for c in BACKGROUND) + (1.0,)
 HOLE_SHADE = 0.35  # a hole shows the deadly floor's red this bright
 TILE_LINE_SHADE = 0.9
-VIDEO_CODECS = {".mp4": "mp4v", ".avi": "MJPG"}
 
 
-def rgb(colour) -> tuple[int, int, int]:
+def rgb(colour: Sequence[float]) -> tuple[int, int, int]:
     """An RGB(A) colour in [0, 1] as a uint8 RGB triple."""
-    return tuple(int(round(255 * max(0.0, min(1.0, c)))) for c in colour[:3])
+    r, g, b = (int(round(255 * max(0.0, min(1.0, c)))) for c in colour[:3])
+    return r, g, b
 
 
 HEAD_COLOUR = rgb(tuple(map(float, BODY_COLOURS["head"].split())))  # as the URDF's head: (217, 140, 64)
@@ -142,7 +141,7 @@ def draw_top_down(
     image = np.full((m.height, m.width, 3), BACKGROUND, np.uint8)
     _draw_floor(image, m, spec)
     live = objects is not None
-    objects = list(objects) if live else list(spec.objects)
+    objects = list(spec.objects) if objects is None else list(objects)
     # Low things first so that tall ones cover them; food on top of everything but the agent.
     for obj in sorted(objects, key=lambda o: (o.is_food, o.position[2] + o.size[2] / 2)):
         _draw_object(image, m, obj, live)
@@ -223,7 +222,7 @@ def _box_corners(m: Mapping, obj: ObjectSpec) -> np.ndarray:
     return np.array([m.fixed(x, y) for x, y in corners], np.int32)
 
 
-def _dashed(image: np.ndarray, points: list[tuple[float, float]], colour, closed: bool = True) -> None:
+def _dashed(image: np.ndarray, points: list[tuple[float, float]], colour: Colour, closed: bool = True) -> None:
     """A dashed polyline through continuous pixel coordinates."""
     dash = 6.0
     pairs = list(zip(points, points[1:] + points[:1] if closed else points[1:]))
@@ -351,10 +350,12 @@ def _mark(image: np.ndarray, m: Mapping, obj: ObjectSpec, mark: str) -> None:
         start, end = m.fixed(x - c * half, y - s * half), m.fixed(x + c * half, y + s * half)
         cv2.arrowedLine(image, start, end, MARK_COLOUR, 2, cv2.LINE_AA, SHIFT, 0.25)
     elif mark == "symbol":  # a sign board: its 5 x 5 symbol laid flat over it, as seen from its -x side
-        from aaai.sim.kinds import REGISTRY, SYMBOLS
+        from aaai.sim.kinds import REGISTRY, SYMBOLS, Sign
 
         cell = max(obj.size[1], 3.0) / 5
-        for row, line in enumerate(SYMBOLS[REGISTRY[obj.kind].symbol]):
+        sign = REGISTRY[obj.kind]
+        assert issubclass(sign, Sign)  # the kinds marked "symbol" are the sign boards
+        for row, line in enumerate(SYMBOLS[sign.symbol]):
             for column, pixel in enumerate(line):
                 u, v = -cell * (row - 2), cell * (2 - column)  # the picture's top away from the viewer
                 px, py = x + c * u - s * v, y + s * u + c * v
@@ -405,7 +406,7 @@ def _draw_agent(image: np.ndarray, m: Mapping, agent: AgentShape) -> None:
     )
 
 
-def _text(image: np.ndarray, text: str, x: int, y: int, scale: float = 0.5, colour=TEXT) -> int:
+def _text(image: np.ndarray, text: str, x: int, y: int, scale: float = 0.5, colour: Colour = TEXT) -> int:
     """Writes text with its baseline at y; returns the x just after it."""
     cv2.putText(image, text, (x, y), FONT, scale, colour, 1, cv2.LINE_AA)
     return x + cv2.getTextSize(text, FONT, scale, 1)[0][0]
@@ -490,128 +491,3 @@ def compose(top_down: np.ndarray, camera_view: np.ndarray, labels: tuple[str, st
         labels = ("top view (north up)", f"agent camera ({size[1]} x {size[0]})")
     gap = np.full((height + LABEL_PX, 6, 3), BACKGROUND, np.uint8)
     return np.hstack([_labelled(top_down, labels[0]), gap, _labelled(scaled, labels[1])])
-
-
-# --- writing files -----------------------------------------------------------------------
-def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
-    """Writes an RGB image as PNG atomically (aaai.files: a temporary file beside it, then a rename)."""
-    path = Path(path)
-    ok, data = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
-    if not ok:
-        raise RuntimeError(f"could not encode {path} as PNG")
-    with atomic_path(path) as temporary:
-        temporary.write_bytes(data.tobytes())
-    return path
-
-
-class VideoWriter:
-    """Writes RGB frames of one size to .mp4 (mp4v) or .avi (MJPG) with OpenCV, atomically
-    (aaai.files): frames go to a temporary file beside ``path``, renamed to it on ``close``."""
-
-    def __init__(self, path: str | os.PathLike, fps: float):
-        self.path = Path(path)
-        suffix = self.path.suffix.lower()
-        if suffix not in VIDEO_CODECS:
-            raise ValueError(video_extension_error(str(path)))
-        self.fps = fps
-        self.codec = VIDEO_CODECS[suffix]
-        self.pending = PendingFile(self.path)
-        self.temporary = self.pending.temporary
-        self.writer = None
-        self.size = None
-        self.frames = 0
-
-    def write(self, frame: np.ndarray) -> None:
-        height, width = frame.shape[:2]
-        if self.writer is None:
-            self.size = (width + width % 2, height + height % 2)  # codecs want even sizes
-            self.writer = cv2.VideoWriter(
-                str(self.temporary), cv2.VideoWriter_fourcc(*self.codec), float(self.fps), self.size
-            )
-            if not self.writer.isOpened():
-                raise RuntimeError(f"OpenCV could not open a {self.codec} video writer for {self.path}")
-        padded = np.zeros((self.size[1], self.size[0], 3), np.uint8)
-        padded[:height, :width] = frame[: self.size[1], : self.size[0]]
-        self.writer.write(cv2.cvtColor(padded, cv2.COLOR_RGB2BGR))
-        self.frames += 1
-
-    def close(self) -> Path:
-        if self.writer is None:
-            self.pending.discard()
-            raise RuntimeError(f"no frames were written to {self.path}")
-        self.writer.release()
-        return self.pending.commit()
-
-    def abort(self) -> None:
-        if self.writer is not None:
-            self.writer.release()
-        self.pending.discard()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, kind, error, trace):
-        if kind is None:
-            self.close()
-        else:
-            self.abort()
-
-
-def video_extension_error(path: str) -> str:
-    allowed = " or ".join(VIDEO_CODECS)
-    message = f"--video: got {path!r}; allowed: a path ending in {allowed}"
-    if path.lower().endswith(".gif"):
-        message += " (OpenCV cannot write GIF; make an .mp4 and convert it, e.g. with ffmpeg)"
-    return message
-
-
-# --- the object kinds ---------------------------------------------------------------------
-def kind_example(kind: str) -> ObjectSpec:
-    """An object of a newer kind (aaai.sim.kinds) as the docs' pictures show it: 12 ahead of the agent."""
-    from aaai.sim.kinds import REGISTRY, ZONE_THICKNESS
-
-    cls = REGISTRY[kind]
-    if cls.zone:
-        return ObjectSpec(kind, "box", (12.0, 0.0, ZONE_THICKNESS / 2), (8.0, 10.0, ZONE_THICKNESS))
-    if cls.shape == "sphere":
-        return ObjectSpec(kind, "sphere", (12.0, 0.0, 1.5), (3.0, 3.0, 3.0))
-    if "tunnel" in kind:
-        return ObjectSpec(kind, "box", (14.0, 0.0, 4.5), (8.0, 16.0, 9.0))
-    if kind.startswith("sign_"):
-        return ObjectSpec(kind, "box", (12.0, 0.0, 3.0), (0.4, 6.0, 6.0))
-    if kind == "ramp":
-        return ObjectSpec(kind, "box", (14.0, 0.0, 1.0), (8.0, 8.0, 2.0), math.pi)
-    return ObjectSpec(kind, "box", (14.0, 0.0, 1.5), (8.0, 8.0, 3.0), math.pi / 2)
-
-
-def draw_kind(kind: str, size_px: int = 320, camera_px: int = 96) -> np.ndarray:
-    """One kind in a 40 x 40 arena, the agent facing it: the top view beside the head camera's view
-    (sensors.camera_look: task)."""
-    from aaai.env import AnimalAIEnv
-    from aaai.levels.common import arena_walls
-
-    objects = tuple(arena_walls((40.0, 40.0), 4.0)) + (kind_example(kind),)
-    spec = LevelSpec(
-        level=0,
-        name=kind,
-        difficulty=0,
-        seed=0,
-        agent=AgentPose(-4.0, 0.0, 0.0),
-        objects=objects,
-        arena_size=(40.0, 40.0),
-    )
-    env = AnimalAIEnv(camera=True, camera_resolution=camera_px, camera_look="task", rays=False)
-    try:
-        observation, _ = env.reset(seed=0, options={"spec": spec, "check": False})
-    finally:
-        env.close()
-    return compose(draw_top_down(spec, size_px), observation["camera"], (kind.replace("_", " "), "head camera"))
-
-
-def write_kind_pictures(folder: str | os.PathLike) -> list[Path]:
-    """docs/kinds/KIND.png for every newer kind (``python -c "from aaai.tools.viewer import
-    write_kind_pictures as w; w('docs/kinds')"``)."""
-    from aaai.sim.kinds import REGISTRY
-
-    Path(folder).mkdir(parents=True, exist_ok=True)
-    return [save_png(draw_kind(kind), Path(folder) / f"{kind}.png") for kind in REGISTRY]

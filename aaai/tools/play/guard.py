@@ -138,7 +138,8 @@ class Guard:
             if message["type"] == "http.response.start":
                 cookie: SimpleCookie = SimpleCookie()
                 cookie[self.cookie] = self.token or ""
-                cookie[self.cookie].update({"path": "/", "httponly": True, "samesite": "Strict"})
+                morsel = cookie[self.cookie]
+                morsel["path"], morsel["httponly"], morsel["samesite"] = "/", True, "Strict"
                 MutableHeaders(scope=message).append("set-cookie", cookie.output(header="").strip())
             await send(message)
 

@@ -74,7 +74,12 @@ def measure(resolution: int, fps: int, seconds: float, folder: Path) -> dict:
     profile = tempfile.mkdtemp(prefix="aaai-measure-")
     driver = None
     try:
-        url = re.search(r"open (\S+) in a browser", server.stdout.readline()).group(1)
+        assert server.stdout is not None  # stdout=PIPE
+        line = server.stdout.readline()
+        found = re.search(r"open (\S+) in a browser", line)
+        if found is None:
+            raise RuntimeError(f"aaai play printed {line!r}, not the link to open")
+        url = found.group(1)
         options = webdriver.ChromeOptions()
         options.binary_location = CHROMIUM
         for flag in FLAGS + (f"--user-data-dir={profile}",):
@@ -114,7 +119,7 @@ def measure(resolution: int, fps: int, seconds: float, folder: Path) -> dict:
         shutil.rmtree(profile, ignore_errors=True)
 
 
-def main(argv=None) -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--resolutions", default="84,128")

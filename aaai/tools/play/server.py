@@ -33,6 +33,7 @@ import os
 import secrets
 import socket
 import threading
+from collections.abc import AsyncIterator
 from importlib import resources
 from typing import Any
 
@@ -92,8 +93,9 @@ class Registry:
         self.sessions: dict[str, Session] = {}
         self.generation: dict[str, int] = {}  # bumped on every attach, so that a stale expiry does nothing
 
-    def join(self, player: str, token: str | None, notify) -> Session:
-        player = check_player(player)
+    def join(self, name: object, token: str | None, notify) -> Session:
+        """The session of the player a page names (``name``, any value from the page: checked here)."""
+        player = check_player(name)
         if self.settings.player is not None and player != self.settings.player:
             raise InputError(f"player: got {player!r}; this server plays only {self.settings.player!r} (--player)")
         with self.lock:
@@ -218,7 +220,7 @@ def create_app(
     registry = Registry(settings)
 
     @contextlib.asynccontextmanager
-    async def lifespan(app: FastAPI):
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         yield
         await asyncio.get_running_loop().run_in_executor(None, registry.close)
 

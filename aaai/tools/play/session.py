@@ -99,7 +99,7 @@ class InputError(ValueError):
     """A message from a page that is not allowed (an unknown key, a bad player name)."""
 
 
-def check_player(name) -> str:
+def check_player(name: object) -> str:
     """A player's name, checked: the one way a name becomes part of a file name (the scoreboard's
     ``{player}``, the replays' prefix). 1 to 40 ASCII letters, digits, '-' and '_', so that no name
     can climb out of a folder (``..``), name another one (``/``) or be empty; InputError otherwise."""
@@ -115,7 +115,7 @@ def check_player(name) -> str:
     return name
 
 
-def control_of(key) -> str | None:
+def control_of(key: object) -> str | None:
     """The control a key holds (None for a start key); InputError for a key that does nothing."""
     if not isinstance(key, str):
         raise InputError(f"key: got {str(key)[:40]} (a {type(key).__name__}); allowed: {', '.join(map(repr, KEYS))}")
@@ -227,7 +227,8 @@ class Session:
         self.last: dict | None = None  # the last scored row
         self.rows: list[dict] = []
         self.version = 0  # bumped on every change a page should see
-        self.frame_no, self.frame_data, self.acked, self.next_frame_at = 0, None, 0, 0.0
+        self.frame_data: list[bytes] | None = None  # the last frame's camera PNG and map JPEG
+        self.frame_no, self.acked, self.next_frame_at = 0, 0, 0.0
         self.delivered: list[float] = []  # monotonic times of acknowledged frames (the last second's)
         self.force_frame = False
         self.thread = threading.Thread(target=self._run, name=f"aaai-play-{player}", daemon=True)
@@ -236,9 +237,10 @@ class Session:
     def start(self) -> None:
         self.thread.start()
 
-    def key(self, key, down: bool) -> None:
+    def key(self, key: object, down: bool) -> None:
         control = control_of(key)
-        name = key.lower() if isinstance(key, str) and len(key) == 1 else key
+        assert isinstance(key, str)  # control_of refuses any other
+        name = key.lower() if len(key) == 1 else key
         with self.cond:
             if down:
                 now = time.monotonic()

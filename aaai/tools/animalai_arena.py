@@ -1,0 +1,478 @@
+"""One Animal-AI arena (an ``!Arena`` of an ``!ArenaConfig``) as the data of an aaai arena file.
+
+Animal-AI's arena is 40 x 40 with its origin at a corner, y up, for a sphere agent 1 across; ours
+is centred, z up, for a body whose walking footprint is 10 across (aaai.task.validate.FOOTPRINT_RADIUS).
+One Animal-AI unit becomes ``scale`` units here (default DEFAULT_SCALE = 5: the arena 200 x 200,
+a gap of 2 Animal-AI units the narrowest our body walks through):
+
+- position (x, y, z) -> (scale (x - 20), scale (z - 20)), the object's bottom at scale y;
+- size (x, y, z) -> (scale x, scale z, scale y): width, depth, height; a goal's size x is its diameter;
+- rotation r (degrees, clockwise seen from above, 0 facing +z) -> yaw -r in radians (the agent, a
+  ramp and a tunnel, whose forward is their own +z: pi/2 - r);
+- ``t`` / ``timeLimit`` (steps) -> time_limit t x SECONDS_PER_STEP x scale seconds (250 steps: 160 s
+  at scale 5), at most 200 (t = 0, no limit: 200);
+- ``pass_mark`` / ``passMark`` p -> pass_mark: food rewards grow with the scale and the time costs
+  (at most 1 in an episode in both) do not, so p <= 0 becomes scale x p and p > 0 becomes
+  max(scale x p - (scale - 1) / 2, scale x p / 2);
+- ``blackouts: [-n]`` (dark and light every n frames) -> blackout {light, dark} of n steps each;
+  lists of frames cannot be mapped;
+- -1 (or a missing value) in a position or rotation -> ``{uniform: [low, high]}``, drawn afresh
+  for every episode seed as any arena file's randomisation; a random size is drawn once, here,
+  from ``np.random.default_rng([IMPORT_SEED, crc32(file name), arena])`` (a random height would
+  move the object's centre, which an arena file cannot express);
+- colours (0..255) -> colour (0..1); a missing colour: the kind's own;
+- the agent starts at least AGENT_MARGIN inside the walls (its body is 10 across); a goal or
+  movable block above the floor lands, as it would fall in Animal-AI, on the highest static box
+  beneath it or on the floor.
+
+An item with no counterpart here (spawners, buttons, data zones, ...) is named with its file, arena
+and index (``Unmappable``), and that arena is skipped. Bouncing goals bounce (aaai.sim.behaviours.
+Bounce) at BOUNCE_SPEED; a cylinder tunnel becomes an arch (aaai.sim.kinds.Tunnel) open at the floor; a
+sign board with a preset symbol a ``sign_SYMBOL`` board; goals that ripen, decay, grow or shrink
+the timed food of aaai.sim.kinds (see TIMED). Reading the files and writing ours: aaai.tools.animalai.
+"""
+
+from __future__ import annotations
+
+import math
+import reprlib
+from typing import Any, TypeGuard
+
+import numpy as np
+
+from aaai.sim.kinds import ZONE_THICKNESS
+
+DEFAULT_SCALE = 5.0
+AAI_ARENA = 40.0
+# Seconds per Animal-AI step and unit of scale (0.64 s at scale 5): 250 steps, Animal-AI's usual
+# episode, give 160 s, in which our body (3.2 units/s) crosses the 200-unit arena two and a half times.
+SECONDS_PER_STEP = 0.128
+MAX_TIME = 200.0  # an arena file's longest time limit (aaai.task.arena)
+BOUNCE_SPEED = 3.0  # units/s of a bouncing goal (aaai.sim.behaviours.Bounce), off in its forward direction
+WALL_HEIGHT = 4.0
+PLANK_MASS = {"light": 2.0, "heavy": 20.0}  # movable blocks (LightBlock, HeavyBlock)
+BLOCK_MASS = 5.0  # movable L, J, U blocks and hollow boxes
+AGENT_MARGIN = 6.0  # the agent starts at least this far inside the arena's walls
+
+# Animal-AI name -> (our kind, how it maps): "box" (x, z, y), "forward" (z, x, y: its own +z is
+# our +x), "goal" (a sphere), "zone" (a floor slab). Sizes: Animal-AI's range (low, high) per axis.
+ITEMS = {
+    "Wall": ("wall", "box", ((0.1, 0.1, 0.1), (40, 10, 40))),
+    "WallTransparent": ("transparent_wall", "box", ((0.1, 0.1, 0.1), (40, 10, 40))),
+    "Ramp": ("ramp", "forward", ((0.5, 0.1, 0.5), (40, 10, 40))),
+    "CylinderTunnel": ("tunnel", "forward", ((2.5, 2.5, 2.5), (10, 10, 10))),
+    "CylinderTunnelTransparent": ("transparent_tunnel", "forward", ((2.5, 2.5, 2.5), (10, 10, 10))),
+    "Cardbox1": ("plank", "box", ((0.5, 0.5, 0.5), (10, 10, 10))),
+    "LightBlock": ("plank", "box", ((0.5, 0.5, 0.5), (10, 10, 10))),
+    "Cardbox2": ("plank", "box", ((0.5, 0.5, 0.5), (10, 10, 10))),
+    "HeavyBlock": ("plank", "box", ((0.5, 0.5, 0.5), (10, 10, 10))),
+    "UObject": ("u_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "UBlock": ("u_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "LObject": ("l_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "LBlock": ("l_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "LObject2": ("j_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "JBlock": ("j_block", "box", ((1, 0.3, 3), (5, 2, 20))),
+    "HollowBox": ("hollow_box", "box", ((0.5, 0.5, 0.5), (5, 5, 5))),
+    "GoodGoal": ("food_green", "goal", ((0.5,) * 3, (5,) * 3)),
+    "GoodGoalBounce": ("food_green", "goal", ((0.5,) * 3, (5,) * 3)),
+    "GoodGoalMulti": ("multi_food", "goal", ((0.5,) * 3, (5,) * 3)),
+    "GoodGoalMultiBounce": ("multi_food", "goal", ((0.5,) * 3, (5,) * 3)),
+    "BadGoal": ("bad_food", "goal", ((0.5,) * 3, (5,) * 3)),
+    "BadGoalBounce": ("bad_food", "goal", ((0.5,) * 3, (5,) * 3)),
+    "DecoyGoal": ("decoy", "goal", ((0.5,) * 3, (5,) * 3)),
+    "DeathZone": ("death_zone", "zone", ((1, 0.5, 1), (40, 10, 40))),
+    "HotZone": ("hot_zone", "zone", ((1, 0.5, 1), (40, 10, 40))),
+}
+# Goals whose value changes (aaai.sim.kinds.TimedFood): name -> (our kind, default delay in frames).
+# initialValues / finalValues (valence, 0..5) -> timing start / end x scale (a green of diameter d
+# pays d x scale here); delays (frames) and |final - initial| / |changeRates| (frames) -> delay and
+# duration, a frame counted as a step (SECONDS_PER_STEP x scale seconds), as blackouts are. The body
+# is a sphere of the larger value's size (Animal-AI's sizes are ignored for these, as there).
+TIMED = {
+    "RipenGoal": ("ripening_food", 150),
+    "AntiDecayGoal": ("ripening_food", 150),
+    "DecayGoal": ("decaying_food", 150),
+    "GrowGoal": ("growing_food", 0),
+    "ShrinkGoal": ("shrinking_food", 0),
+    "DecayGoalBounce": ("decaying_food", 150),
+    "RipenGoalBounce": ("ripening_food", 150),
+}
+CHANGE_RATE = 0.005  # valence per frame when a file gives no changeRates
+HEAVY = ("Cardbox2", "HeavyBlock")
+SIGNS = ("SignBoard", "SignPosterboard")
+SIGN_SIZE = 1.4  # Animal-AI's sign boards are this big, whatever the file says
+MOVABLE_BLOCKS = ("UObject", "UBlock", "LObject", "LBlock", "LObject2", "JBlock", "HollowBox")
+NOT_HERE = {  # known Animal-AI items without a counterpart, and why
+    "SpawnerTree": "spawners are not built here",
+    "SpawnerDispenser": "spawners are not built here",
+    "SpawnerDispenserTall": "spawners are not built here",
+    "SpawnerDispenserShort": "spawners are not built here",
+    "SpawnerContainer": "spawners are not built here",
+    "SpawnerContainerShort": "spawners are not built here",
+    "SpawnerButton": "buttons and spawners are not built here",
+    "Pillar-Button": "buttons are not built here",
+    "DataZone": "data zones are not built here",
+    "Datazone": "data zones are not built here",
+    "BadGoalMulti": "non-ending bad food is not built here",
+}
+
+MAX_OBJECTS = 500  # objects in one arena (Animal-AI's own arenas hold a few dozen)
+_SHOWN = reprlib.Repr()
+_SHOWN.maxlevel, _SHOWN.maxstring, _SHOWN.maxother, _SHOWN.maxlist, _SHOWN.maxdict = 3, 60, 60, 6, 6
+
+
+def shown(value: object) -> str:
+    """A value from the file as a message shows it: its repr, cut short (an alias can make it huge)."""
+    return _SHOWN.repr(value)
+
+
+def is_number(value: object) -> TypeGuard[float]:
+    """A finite int or float (not a bool): what a number in an Animal-AI file must be."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+class Unmappable(Exception):
+    """An item or setting with no counterpart here; its arena is skipped."""
+
+
+def convert_arena(
+    source: str, key: object, arena: object, scale: float, rng: np.random.Generator
+) -> tuple[dict, list[str]]:
+    """The arena ``key`` of the file ``source`` as an aaai arena file's data, with the names of its
+    items; random sizes are drawn from ``rng``. Unmappable names what has no counterpart here."""
+    return _Arena(source, key, arena, scale, rng).convert()
+
+
+class _Arena:
+    def __init__(self, source: str, key: object, arena: object, scale: float, rng: np.random.Generator):
+        self.source, self.key, self.arena, self.scale, self.rng = source, key, arena, scale, rng
+        self.half = AAI_ARENA / 2 * scale
+
+    def where(self, index: int, name: str) -> str:
+        return f"{self.source}, arena {self.key}, item {index} ({name if len(name) <= 60 else name[:57] + '...'})"
+
+    # numbers
+    def _xy(self, value: object, low: float, high: float) -> float | dict:
+        """An Animal-AI horizontal coordinate as ours, or a uniform draw for -1."""
+        if not is_number(value) or value == -1:
+            return {"uniform": [round(low, 3), round(high, 3)]}
+        return round(self.scale * (value - AAI_ARENA / 2), 4)
+
+    def _size(self, value: object, low: float, high: float) -> float:
+        if not is_number(value) or value == -1:
+            value = float(self.rng.uniform(low, high))
+        return round(self.scale * max(float(value), 1e-3), 4)
+
+    @staticmethod
+    def _entry(values: object, index: int) -> Any:
+        return values[index] if isinstance(values, list) and index < len(values) else None
+
+    def _yaw(self, rotation: object, offset: float = 0.0) -> float | dict:
+        if not is_number(rotation) or rotation == -1:
+            return {"uniform": [round(-math.pi, 6), round(math.pi, 6)]}
+        return round((offset - math.radians(rotation) + math.pi) % (2 * math.pi) - math.pi, 6)
+
+    # the arena
+    def convert(self) -> tuple[dict, list[str]]:
+        arena = self.arena
+        if not isinstance(arena, dict):
+            raise Unmappable(f"{self.source}, arena {self.key}: got {shown(arena)}; allowed: an !Arena mapping")
+        items = arena.get("items", arena.get("Items", []))
+        if not isinstance(items, list):
+            raise Unmappable(f"{self.source}, arena {self.key}: items must be a list, got {shown(items)}")
+        steps = arena.get("timeLimit", arena.get("t", 0))
+        if not is_number(steps) or steps < 0:
+            raise Unmappable(
+                f"{self.source}, arena {self.key}: t / timeLimit {shown(steps)}; allowed: a number of steps"
+            )
+        time_limit = MAX_TIME if steps == 0 else min(MAX_TIME, max(1.0, steps * SECONDS_PER_STEP * self.scale))
+        out: dict = {
+            "description": f"Animal-AI {self.source} arena {self.key}, imported at scale {self.scale:g}",
+            "arena_walls": True,
+            "arena_size": [2 * self.half, 2 * self.half],
+            "wall_height": WALL_HEIGHT,
+            "time_limit": round(time_limit, 3),
+        }
+        mark = arena.get("passMark", arena.get("pass_mark"))
+        if mark is not None:
+            if not is_number(mark):
+                raise Unmappable(f"{self.source}, arena {self.key}: pass mark {shown(mark)}; allowed: a number")
+            s = self.scale
+            out["pass_mark"] = round(s * mark if mark <= 0 else max(s * mark - (s - 1) / 2, s * mark / 2), 4)
+        blackouts = arena.get("blackouts")
+        if blackouts:
+            if isinstance(blackouts, list) and len(blackouts) == 1 and is_number(blackouts[0]) and blackouts[0] < 0:
+                seconds = -blackouts[0] * SECONDS_PER_STEP * self.scale
+                out["blackout"] = {"light": round(seconds, 4), "dark": round(seconds, 4)}
+            else:
+                raise Unmappable(
+                    f"{self.source}, arena {self.key}: blackouts {shown(blackouts)} at listed frames cannot "
+                    "be mapped; allowed here: [-n], dark and light every n frames"
+                )
+        total = sum(
+            _count(item, f"{self.source}, arena {self.key}, item {index}")
+            for index, item in enumerate(items)
+            if isinstance(item, dict)
+        )
+        if total > MAX_OBJECTS:
+            raise Unmappable(
+                f"{self.source}, arena {self.key}: {total:,} objects; allowed: at most {MAX_OBJECTS} in an arena"
+            )
+        objects, names, agent = [], [], None
+        for index, item in enumerate(items):
+            if not isinstance(item, dict) or not isinstance(item.get("name"), str):
+                raise Unmappable(
+                    f"{self.source}, arena {self.key}, item {index}: got {shown(item)}; allowed: an !Item with a name"
+                )
+            name = item["name"]
+            if name == "Agent":
+                agent = self.agent(item)
+                continue
+            objects += self.item(index, name, item)
+            names.append(name)
+        if agent is None:
+            agent = {
+                "x": {"uniform": [-self.half + AGENT_MARGIN, self.half - AGENT_MARGIN]},
+                "y": {"uniform": [-self.half + AGENT_MARGIN, self.half - AGENT_MARGIN]},
+                "yaw": self._yaw(None),
+            }
+        out["agent"] = agent
+        supports = _supports(objects)
+        out["objects"] = [_settled(obj, supports) for obj in objects]
+        return out, names
+
+    def agent(self, item: dict) -> dict:
+        position = self._entry(item.get("positions"), 0) or {}
+        inside = self.half - AGENT_MARGIN  # our body is 10 across: a start by the wall moves in to clear it
+
+        def coordinate(value: object) -> float | dict:
+            mapped = self._xy(value, -inside, inside)
+            return mapped if isinstance(mapped, dict) else min(max(mapped, -inside), inside)
+
+        return {
+            "x": coordinate(position.get("x", -1)),
+            "y": coordinate(position.get("z", -1)),
+            "yaw": self._yaw(self._entry(item.get("rotations"), 0), math.pi / 2),
+        }
+
+    def signs(self, index: int, name: str, item: dict) -> list[dict]:
+        """Sign boards: one of the preset symbols each (aaai.sim.kinds.SYMBOLS); a special symbol (a
+        pixel grid of the file's own) cannot be mapped."""
+        from aaai.sim.kinds import SYMBOLS
+
+        symbols = item.get("symbolNames") or []
+        objects = []
+        for k in range(_count(item, self.where(index, name))):
+            position = self._entry(item.get("positions"), k)
+            symbol = self._entry(symbols, k)
+            key = symbol.replace("-", "_") if isinstance(symbol, str) else None
+            if key not in SYMBOLS:
+                raise Unmappable(
+                    f"{self.where(index, name)}: cannot be mapped (symbol {shown(symbol)}; allowed: "
+                    f"{', '.join(s.replace('_', '-') for s in SYMBOLS)}); arena skipped"
+                )
+            position = position if isinstance(position, dict) else {}
+            side = SIGN_SIZE * self.scale
+            reach = self.half - side
+            bottom = position.get("y", 0)
+            bottom = self.scale * bottom if is_number(bottom) and bottom > 0 else 0.0
+            objects.append(
+                {
+                    "kind": f"sign_{key}",
+                    "position": [
+                        self._xy(position.get("x", -1), -reach, reach),
+                        self._xy(position.get("z", -1), -reach, reach),
+                        round(bottom + side / 2, 4),
+                    ],
+                    "size": [round(max(0.3, 0.05 * side), 4), side, side],
+                    "yaw": self._yaw(self._entry(item.get("rotations"), k), math.pi / 2),
+                }
+            )
+        return objects
+
+    def timed(self, index: int, name: str, item: dict) -> list[dict]:
+        """Goals that ripen, decay, grow or shrink: a sphere of the larger value's size whose reward
+        moves from the initial to the final value (aaai.sim.kinds.TimedFood)."""
+        from aaai.sim.kinds import REGISTRY, TimedFood
+
+        kind, default_delay = TIMED[name]
+        where = self.where(index, name)
+        objects = []
+        for k in range(_count(item, where)):
+            values = {}
+            for key in ("initialValues", "finalValues", "delays", "changeRates"):
+                value = self._entry(item.get(key), k)
+                if value is not None and not is_number(value):
+                    raise Unmappable(
+                        f"{where}: cannot be mapped ({key} {shown(value)}; allowed: numbers); arena skipped"
+                    )
+                values[key] = value
+            start, end = values["initialValues"], values["finalValues"]
+            if start is None or end is None:
+                raise Unmappable(
+                    f"{where}: cannot be mapped (initialValues {start!r}, finalValues {end!r}; allowed: "
+                    "both given, 0..5); arena skipped"
+                )
+            timed = REGISTRY[kind]
+            assert issubclass(timed, TimedFood)  # every kind in TIMED is timed food
+            rising = timed.rising
+            if not (0 <= start <= 5 and 0 <= end <= 5) or start == end or (end > start) != rising:
+                raise Unmappable(
+                    f"{where}: cannot be mapped (initialValues {start!r}, finalValues {end!r}; allowed: "
+                    f"0..5 with the final value {'above' if rising else 'below'} the initial); "
+                    "arena skipped"
+                )
+            delay = values["delays"] if values["delays"] is not None else default_delay
+            rate = abs(values["changeRates"]) if values["changeRates"] is not None else CHANGE_RATE
+            if delay < 0 or rate <= 0:
+                raise Unmappable(
+                    f"{where}: cannot be mapped (delays {delay!r}, changeRates {rate!r}; allowed: a delay "
+                    "of 0 or more and a non-zero rate); arena skipped"
+                )
+            frame = SECONDS_PER_STEP * self.scale
+            position = self._entry(item.get("positions"), k)
+            position = position if isinstance(position, dict) else {}
+            diameter = round(max(start, end) * self.scale, 4)
+            reach = max(0.0, self.half - diameter / 2 - 1.0)
+            bottom = position.get("y", 0)
+            bottom = self.scale * bottom if is_number(bottom) and bottom > 0 else 0.0
+            obj = {
+                "kind": kind,
+                "shape": "sphere",
+                "position": [
+                    self._xy(position.get("x", -1), -reach, reach),
+                    self._xy(position.get("z", -1), -reach, reach),
+                    round(bottom + diameter / 2, 4),
+                ],
+                "size": [diameter] * 3,
+                "timing": {
+                    "start": round(start * self.scale, 4),
+                    "end": round(end * self.scale, 4),
+                    "delay": round(delay * frame, 4),
+                    "duration": round(abs(end - start) / rate * frame, 4),
+                },
+            }
+            if name.endswith("Bounce"):
+                obj["behaviour"] = {
+                    "type": "bounce",
+                    "speed": BOUNCE_SPEED,
+                    "heading": self._yaw(self._entry(item.get("rotations"), k), math.pi / 2),
+                }
+            objects.append(obj)
+        return objects
+
+    def item(self, index: int, name: str, item: dict) -> list[dict]:
+        if name in SIGNS:
+            return self.signs(index, name, item)
+        if name in TIMED:
+            return self.timed(index, name, item)
+        if name not in ITEMS:
+            why = NOT_HERE.get(name, "no such kind here")
+            raise Unmappable(f"{self.where(index, name)}: cannot be mapped ({why}); arena skipped")
+        kind, form, (low, high) = ITEMS[name]
+        objects = []
+        for k in range(_count(item, self.where(index, name))):
+            position = self._entry(item.get("positions"), k)
+            position = position if isinstance(position, dict) else {}
+            size = self._entry(item.get("sizes"), k)
+            size = size if isinstance(size, dict) else {}
+            sx, sy, sz = (self._size(size.get(axis, -1), low[i], high[i]) for i, axis in enumerate("xyz"))
+            bottom = position.get("y", 0)
+            bottom = self.scale * bottom if is_number(bottom) and bottom > 0 else 0.0
+            rotation = self._entry(item.get("rotations"), k)
+            obj: dict = {"kind": kind}
+            if form == "goal":
+                diameter = sx
+                obj.update(shape="sphere", size=[diameter] * 3)
+                centre_z, footprint = bottom + diameter / 2, diameter / 2
+            elif form == "zone":
+                obj.update(size=[sx, sz, ZONE_THICKNESS], yaw=self._yaw(rotation))
+                centre_z, footprint = ZONE_THICKNESS / 2, math.hypot(sx, sz) / 2
+            elif form == "forward":  # its own +z is our +x: length first
+                obj.update(size=[sz, sx, sy], yaw=self._yaw(rotation, math.pi / 2))
+                centre_z, footprint = bottom + sy / 2, math.hypot(sx, sz) / 2
+            else:
+                obj.update(size=[sx, sz, sy], yaw=self._yaw(rotation))
+                centre_z, footprint = bottom + sy / 2, math.hypot(sx, sz) / 2
+            reach = max(0.0, min(self.half - footprint, self.half - 1.0))
+            obj["position"] = [
+                self._xy(position.get("x", -1), -reach, reach),
+                self._xy(position.get("z", -1), -reach, reach),
+                round(centre_z, 4),
+            ]
+            colour = self._entry(item.get("colors"), k)
+            if (
+                isinstance(colour, dict)
+                and all(is_number(colour.get(c)) and colour[c] >= 0 for c in "rgb")
+                and kind in ("wall", "ramp", "tunnel", "plank", "u_block", "l_block", "j_block", "hollow_box")
+            ):
+                obj["colour"] = [round(min(colour[c], 255) / 255, 4) for c in "rgb"] + [1.0]
+            if kind == "plank":
+                obj["mass"] = PLANK_MASS["heavy" if name in HEAVY else "light"]
+            elif name in MOVABLE_BLOCKS:
+                obj["mass"] = BLOCK_MASS
+            if name.endswith("Bounce"):
+                heading = self._yaw(rotation, math.pi / 2)
+                obj["behaviour"] = {"type": "bounce", "speed": BOUNCE_SPEED, "heading": heading}
+            objects.append(
+                {
+                    key: obj[key]
+                    for key in ("kind", "shape", "position", "size", "yaw", "colour", "mass", "behaviour")
+                    if key in obj
+                }
+            )
+        return objects
+
+
+def _count(item: dict, where: str) -> int:
+    """How many objects an item stands for: its longest list of positions, sizes, rotations or
+    colours (Animal-AI draws what a shorter list lacks), at least one."""
+    lengths = [1]
+    for key in ("positions", "sizes", "rotations", "colors"):
+        value = item.get(key)
+        if value is not None and not isinstance(value, list):
+            raise Unmappable(f"{where}: {key} {shown(value)}; allowed: a list")
+        lengths.append(len(value or []))
+    return max(lengths)
+
+
+SUPPORTS = ("wall", "transparent_wall", "plank", "u_block", "l_block", "j_block", "hollow_box")
+
+
+def _inside(x: float, y: float, box: dict) -> bool:
+    """Is (x, y) over an imported box's footprint?"""
+    bx, by, _ = box["position"]
+    c, s = math.cos(box["yaw"]), math.sin(box["yaw"])
+    u, v = c * (x - bx) + s * (y - by), -s * (x - bx) + c * (y - by)
+    return abs(u) <= box["size"][0] / 2 and abs(v) <= box["size"][1] / 2
+
+
+def _supports(objects: list[dict]) -> list[dict]:
+    """The static boxes of an arena, with every number given, on which a goal or block may land."""
+    return [
+        box
+        for box in objects
+        if box["kind"] in SUPPORTS
+        and not box.get("mass")
+        and all(isinstance(v, (int, float)) for v in (*box["position"], *box["size"], box.get("yaw", 0.0)))
+    ]
+
+
+def _settled(obj: dict, supports: list[dict]) -> dict:
+    """A goal or movable block given above the floor, where Animal-AI would let it fall: onto the
+    highest of ``supports`` beneath it that it is above, or the floor (positions drawn at random stay as given)."""
+    position = obj["position"]
+    if obj["kind"] in SUPPORTS and not obj.get("mass") or not all(isinstance(v, (int, float)) for v in position):
+        return obj
+    height = obj["size"][2]
+    bottom = position[2] - height / 2
+    if bottom <= 0:
+        return obj
+    landing = 0.0
+    for box in supports:
+        if box is obj:
+            continue
+        top = box["position"][2] + box["size"][2] / 2
+        if top <= bottom + 1e-6 and _inside(position[0], position[1], {**box, "yaw": box.get("yaw", 0.0)}):
+            landing = max(landing, top)
+    return {**obj, "position": [position[0], position[1], round(landing + height / 2, 4)]}
