@@ -138,7 +138,7 @@ RULES: dict[str, Rule] = {
     "sensors.rays": Rule("bool"),
     "sensors.rays_per_side": Rule("int", 1, 20),
     "sensors.rays_flat": Rule("bool"),
-    "sensors.ray_kinds": Rule("choice", choices=("classic", "all")),  # aaai.sim.kinds.ray_channels
+    "sensors.ray_kinds": Rule("choice", choices=("classic", "all")),  # aaai.spec.kinds.ray_channels
     "sensors.ray_max_angle": Rule("float", 5, 180),
     "sensors.ray_length": Rule("float", 1, 100),
     "sensors.ray_memory": Rule("int", 0, 10),  # earlier food sightings 1, 2, 4 .. 2^(n-1) steps back (0: none)
@@ -147,7 +147,7 @@ RULES: dict[str, Rule] = {
     "sensors.camera": Rule("bool"),
     "sensors.camera_resolution": Rule("int", 8, 512),
     "sensors.camera_grayscale": Rule("bool"),
-    "sensors.camera_look": Rule("choice", choices=("classic", "task")),  # aaai.sim.kinds.CAMERA_HIDDEN
+    "sensors.camera_look": Rule("choice", choices=("classic", "task")),  # aaai.spec.kinds.CAMERA_HIDDEN
     "sensors.joint_velocities": Rule("bool"),
     "sensors.head_orientation": Rule("bool"),
     "sensors.foot_contacts": Rule("bool"),

@@ -18,17 +18,16 @@ from gymnasium import spaces
 
 from aaai.agent.body import Quadruped
 from aaai.config import ActionMode, Config, ConfigError, env_keywords, load_config
-from aaai.levels import check_difficulty, episode_rngs, generate, get_level
+from aaai.levels import check_difficulty, episode_rngs, generate, get_level, validate
+from aaai.levels.seeds import TRAIN_SEEDS
 from aaai.sim.gait import SineGait
 from aaai.sim.sensors import Senses, render_rgb
 from aaai.sim.simulation import Simulation, display_available
 from aaai.sim.snapshot import Leg, Pose, Snapshot
 from aaai.sim.world import World
 from aaai.spec import LevelSpec
-from aaai.task import validate
 from aaai.task.arena import load_arena
 from aaai.task.rewards import TERMS, FoodTask
-from aaai.task.seeds import TRAIN_SEEDS
 
 RESET_OPTIONS = ("level", "difficulty", "spec", "check")
 RENDER_SIZE = (320, 240)

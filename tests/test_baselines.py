@@ -5,8 +5,8 @@ import csv
 import cv2
 from click.testing import CliRunner
 
+from aaai.levels.seeds import reserved_seeds
 from aaai.scoring.evaluation import COLUMNS
-from aaai.task.seeds import reserved_seeds
 from aaai_cli.main import cli
 
 

@@ -268,7 +268,7 @@ def first_hole_sighting(env, lane_x, gap_y, steps=2500):
     """Walks the body north on a lane toward missing floor that begins at gap_y; returns how far
     the head still was from the gap when the forward ray first reported a hole, and how far the
     ray said it was (None: never)."""
-    from aaai.sim.kinds import KIND_INDEX
+    from aaai.spec.kinds import KIND_INDEX
 
     gait, observation = SineGait.for_env(env, "forward"), None
     forward = env.unwrapped.rays.n_rays // 2

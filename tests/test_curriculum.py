@@ -7,7 +7,7 @@ import pytest
 
 from aaai.config import load_config
 from aaai.env import AnimalAIEnv
-from aaai.task.seeds import RESERVED_SEEDS, TRAIN_SEEDS, reserved_seeds
+from aaai.levels.seeds import RESERVED_SEEDS, TRAIN_SEEDS, reserved_seeds
 from aaai.train.curriculum import Curriculum
 
 
@@ -100,7 +100,7 @@ def test_reserved_seeds_are_fixed_distinct_and_in_range():
     assert len(set(seeds)) == 50 and all(s in RESERVED_SEEDS for s in seeds)
     assert reserved_seeds(3, 7, 10) == seeds[:10]  # a longer list extends a shorter one
     assert reserved_seeds(3, 6, 10) != seeds[:10]
-    code = "from aaai.task.seeds import reserved_seeds; print(reserved_seeds(3, 7, 10))"
+    code = "from aaai.levels.seeds import reserved_seeds; print(reserved_seeds(3, 7, 10))"
     other = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert other.stdout.strip() == str(seeds[:10])
 
@@ -170,7 +170,7 @@ def test_paper_sampler_without_warmup_draws_exactly_as_the_z_score_formula():
     curriculum.record(1, 0, 3.0)
     reference = np.random.default_rng(11)  # the paper's sampler: p = (z + c) / sum, z = std / |mean|
     weights = np.array([0.0, 2.0 / 2.0, 0.0, 0.0]) + 0.05
-    from aaai.task.seeds import training_seed
+    from aaai.levels.seeds import training_seed
 
     for _ in range(50):
         index = int(reference.choice(4, p=weights / weights.sum()))

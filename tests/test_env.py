@@ -8,7 +8,7 @@ from gymnasium.utils.env_checker import check_env
 
 import aaai  # noqa: F401  (registers the ids)
 from aaai.config import ConfigError
-from aaai.sim.kinds import KIND_INDEX, KINDS
+from aaai.spec.kinds import KIND_INDEX, KINDS
 
 
 def test_ids_are_registered_per_level():

@@ -10,9 +10,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from aaai.config import RULES, ConfigError, load_config, parse_int_set
-from aaai.sim.kinds import OBJECT_KINDS
+from aaai.levels import validate
 from aaai.spec import SHAPES, AgentPose, LevelSpec, ObjectSpec
-from aaai.task import validate
+from aaai.spec.kinds import OBJECT_KINDS
 
 FUZZ = settings(max_examples=150, derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 numbers = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-(10**30), 10**30))

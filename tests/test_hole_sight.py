@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from conftest import open_arena
 
-from aaai.sim.kinds import KIND_INDEX
 from aaai.sim.sensors import EYE_OFFSET
+from aaai.spec.kinds import KIND_INDEX
 
 HOLE = KIND_INDEX["hole"]
 LENGTH = 20.0

@@ -1,4 +1,4 @@
-"""The newer object kinds (aaai.sim.kinds): their rules in the rewards, the rays, the camera, the viewer,
+"""The newer object kinds (aaai.spec.kinds): their rules in the rewards, the rays, the camera, the viewer,
 validation and the reference controller; and the camera that agrees with the task."""
 
 import math
@@ -10,9 +10,9 @@ from conftest import open_arena, sphere
 
 from aaai.config import ConfigError
 from aaai.env import AnimalAIEnv
-from aaai.sim.kinds import ALL_KINDS, COLOURS, HOT_ZONE_FACTOR, KINDS, REGISTRY, ZONE_THICKNESS, ray_channels
+from aaai.levels import validate
 from aaai.spec import ObjectSpec
-from aaai.task import validate
+from aaai.spec.kinds import ALL_KINDS, COLOURS, HOT_ZONE_FACTOR, KINDS, REGISTRY, ZONE_THICKNESS, ray_channels
 from aaai.task.arena import load_arena
 from aaai.tools.viewer import draw_top_down, mapping_for
 

@@ -13,8 +13,8 @@ import pybullet as p
 import pytest
 from test_behaviours import walk_north
 
-from aaai.sim.kinds import KIND_INDEX
 from aaai.sim.world import DEADLY_FLOOR_TOP
+from aaai.spec.kinds import KIND_INDEX
 
 HAIR = 0.05
 FLOOR, DROP = KIND_INDEX["floor"], KIND_INDEX["deadly_floor"]

@@ -12,8 +12,8 @@ import pybullet as p
 import pytest
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
-from aaai.sim.kinds import KIND_INDEX
-from aaai.task import validate
+from aaai.levels import validate
+from aaai.spec.kinds import KIND_INDEX
 
 HAIR = 0.05
 SEEDS = (1, 3)

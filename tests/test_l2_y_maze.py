@@ -13,8 +13,8 @@ import pytest
 from test_l1_foods import head_into
 
 from aaai.agent.urdf_writer import HEAD_RADIUS, SEGMENT_RADIUS
-from aaai.sim.kinds import KIND_INDEX
-from aaai.task import validate
+from aaai.levels import validate
+from aaai.spec.kinds import KIND_INDEX
 
 SEEDS = (0, 1, 2)
 

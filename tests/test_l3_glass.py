@@ -11,8 +11,8 @@ import pytest
 from test_behaviours import walk_north
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
-from aaai.sim.kinds import COLOURS
-from aaai.task import validate
+from aaai.levels import validate
+from aaai.spec.kinds import COLOURS
 
 
 def glass_and_green(env):

@@ -6,8 +6,8 @@ cost; the start holds the body."""
 import pybullet as p
 import pytest
 
-from aaai.sim.kinds import KIND_INDEX
 from aaai.sim.world import DEADLY_FLOOR_TOP
+from aaai.spec.kinds import KIND_INDEX
 
 HAIR = 0.05
 KINDS_BY_INDEX = {KIND_INDEX[kind]: kind for kind in ("floor", "deadly_floor")}

@@ -12,7 +12,7 @@ import pytest
 from test_behaviours import walk_north
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
-from aaai.task import validate
+from aaai.levels import validate
 
 ABOVE_OBSTACLES = 6.0  # the height the rays are cast at: over the 4-high extra obstacles, under the maze's walls
 

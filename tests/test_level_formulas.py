@@ -18,7 +18,7 @@ from collections import deque
 import pytest
 
 from aaai.levels import generate
-from aaai.sim.behaviours import Door, Sink, behaviour_class
+from aaai.spec.behaviours import Door, Sink, behaviour_class
 
 SEEDS = range(12)
 DIFFICULTIES = range(11)

@@ -11,11 +11,10 @@ from click.testing import CliRunner
 
 import aaai  # noqa: F401  (registers the ids)
 from aaai.config import ConfigError, load_config
-from aaai.levels import InvalidLevelError, all_levels, generate, get_level
+from aaai.levels import InvalidLevelError, all_levels, generate, get_level, validate
 from aaai.levels.common import arena_walls, slab, sphere
 from aaai.registration import level_env_id
 from aaai.spec import AgentPose, LevelSpec, ObjectSpec
-from aaai.task import validate
 from aaai_cli.main import cli
 
 LEVELS = list(range(13))
@@ -214,7 +213,7 @@ def test_every_level_runs_headless_with_rays_and_camera_at_every_difficulty(make
 
 @pytest.mark.parametrize("level", [6, 7])
 def test_every_reserved_seed_of_l6_and_l7_builds_its_inner_level_from_a_reserved_seed(level):
-    from aaai.task.seeds import RESERVED_SEEDS, reserved_seeds
+    from aaai.levels.seeds import RESERVED_SEEDS, reserved_seeds
 
     for difficulty in range(11):
         for seed in reserved_seeds(level, difficulty, 10):
@@ -222,7 +221,7 @@ def test_every_reserved_seed_of_l6_and_l7_builds_its_inner_level_from_a_reserved
 
 
 def _inner_seeds_stay_in_training(count: int) -> None:
-    from aaai.task.seeds import TRAIN_SEEDS
+    from aaai.levels.seeds import TRAIN_SEEDS
 
     rng = np.random.default_rng(5)
     for index, seed in enumerate(rng.integers(TRAIN_SEEDS.start, TRAIN_SEEDS.stop, size=count)):

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from aaai.task.validate import GRID, path_costs
+from aaai.levels.validate import GRID, path_costs
 
 
 def grid(rows: int, cols: int) -> np.ndarray:

@@ -11,9 +11,9 @@ import pytest
 
 from aaai.env import AnimalAIEnv
 from aaai.levels import generate
+from aaai.levels.seeds import reserved_seeds
 from aaai.spec import AgentPose
 from aaai.task.reference import PUSH_ALIGN, ReferenceController
-from aaai.task.seeds import reserved_seeds
 
 STEPS = 2000  # 200 simulated seconds: the reference crosses in 110 to 160 from these starts
 TIPPED = math.cos(math.radians(20))  # the plank's up axis this far from vertical: it is falling

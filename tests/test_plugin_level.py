@@ -15,9 +15,8 @@ from click.testing import CliRunner
 
 from aaai.config import ConfigError, load_config
 from aaai.env import AnimalAIEnv
-from aaai.levels import all_levels, generate, get_level
+from aaai.levels import all_levels, generate, get_level, validate
 from aaai.registration import register_envs
-from aaai.task import validate
 from aaai_cli.main import cli
 
 GENERATOR = '''

@@ -6,7 +6,7 @@ import pytest
 from conftest import open_arena, sphere
 
 from aaai.config import ConfigError
-from aaai.sim.kinds import KIND_INDEX
+from aaai.spec.kinds import KIND_INDEX
 
 GREEN = KIND_INDEX["food_green"]
 SENSES = dict(rays=True, rays_per_side=4, ray_max_angle=180.0, ray_length=50.0)

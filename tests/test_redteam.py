@@ -227,7 +227,7 @@ def test_a_checkpoint_state_nested_too_deep_or_a_pipe_is_skipped_not_a_crash(tmp
 
 
 def test_a_seed_key_file_that_is_not_text_is_refused_naming_it(tmp_path):
-    from aaai.task.seeds import read_seed_key
+    from aaai.levels.seeds import read_seed_key
 
     path = tmp_path / "k.key"
     path.write_bytes(bytes(range(256)))

@@ -5,9 +5,9 @@ import pytest
 
 from aaai.env import AnimalAIEnv
 from aaai.levels import all_levels
+from aaai.levels.seeds import reserved_seeds
 from aaai.scoring.evaluation import run_episode
 from aaai.task.reference import ReferenceController
-from aaai.task.seeds import reserved_seeds
 
 
 @pytest.fixture(scope="module")

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from aaai.config import ConfigError, config_dir, load_config
+from aaai.levels.seeds import RESERVED_SEEDS, TRAIN_SEEDS, reserved_seeds, seed_range, training_seed
 from aaai.scoring.evaluation import Cell, episode_plan, evaluate, outcome, summarise
-from aaai.task.seeds import RESERVED_SEEDS, TRAIN_SEEDS, reserved_seeds, seed_range, training_seed
 
 
 def test_training_and_reserved_seeds_meet_without_overlap():

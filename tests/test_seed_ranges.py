@@ -4,8 +4,8 @@ score printed so far depends on."""
 import numpy as np
 import pytest
 
-from aaai.task import seeds
-from aaai.task.seeds import (
+from aaai.levels import seeds
+from aaai.levels.seeds import (
     OTHER_SEEDS,
     RESERVED_SEEDS,
     TRAIN_SEEDS,

@@ -11,9 +11,9 @@ import pybullet as p
 import pytest
 
 from aaai.config import SensorsConfig, load_config
-from aaai.sim.kinds import KIND_INDEX
 from aaai.sim.sensors import EYE_OFFSET, Blackout, Camera, RayMemory, Rays, Senses
 from aaai.spec import Blackout as Schedule
+from aaai.spec.kinds import KIND_INDEX
 
 GREEN, YELLOW, WALL = KIND_INDEX["food_green"], KIND_INDEX["food_yellow"], KIND_INDEX["wall"]
 HOT = KIND_INDEX["hot_zone"]

@@ -13,9 +13,9 @@ pytest.importorskip("stable_baselines3", reason="needs the train extra")
 
 from aaai.config import ConfigError, load_config  # noqa: E402
 from aaai.env import AnimalAIEnv  # noqa: E402
+from aaai.levels.seeds import TRAIN_SEEDS  # noqa: E402
 from aaai.scoring.runs import RunFolder  # noqa: E402
 from aaai.task.reference import ReferenceController  # noqa: E402
-from aaai.task.seeds import TRAIN_SEEDS  # noqa: E402
 from aaai.train.student import Job, plan_episodes, play_job, train_student  # noqa: E402
 from aaai_cli.main import cli  # noqa: E402
 

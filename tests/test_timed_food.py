@@ -1,4 +1,4 @@
-"""Food that ripens, decays, grows or shrinks (aaai.sim.kinds.TimedFood): its reward is its value at the
+"""Food that ripens, decays, grows or shrinks (aaai.spec.kinds.TimedFood): its reward is its value at the
 time it is eaten, and ripening and decaying food leave the episode running, growing and shrinking
 food end it."""
 
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from conftest import open_arena, sphere
 
-from aaai.sim.kinds import REGISTRY
+from aaai.levels import validate
 from aaai.spec import ObjectSpec
-from aaai.task import validate
+from aaai.spec.kinds import REGISTRY
 from aaai.task.arena import ArenaProblems, load_arena
 
 STILL = np.zeros(8, np.float32)

@@ -248,7 +248,7 @@ def test_eval_on_training_seeds_and_on_a_seed_list(tmp_path):
 
 
 def test_a_secret_seed_key_gives_a_hidden_reproducible_list_and_is_recorded_not_revealed(tmp_path, monkeypatch):
-    from aaai.task.seeds import RESERVED_SEEDS, reserved_seeds
+    from aaai.levels.seeds import RESERVED_SEEDS, reserved_seeds
 
     key_file = tmp_path / "key.txt"
     key_file.write_text("a secret only the organisers hold\n")

@@ -519,7 +519,7 @@ def test_extreme_numbers_anywhere_in_an_arena_file_are_clear_errors(tmp_path):
 from hypothesis import HealthCheck, example, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from aaai.sim.kinds import OBJECT_KINDS  # noqa: E402
+from aaai.spec.kinds import OBJECT_KINDS  # noqa: E402
 
 FUZZ_FAST, FUZZ_LONG = 40, 3400
 _fuzz = dict(derandomize=True, deadline=None, suppress_health_check=list(HealthCheck))

@@ -12,8 +12,8 @@ from conftest import open_arena, sphere
 
 from aaai.levels import generate
 from aaai.levels.common import arena_walls
-from aaai.sim.kinds import COLOURS
 from aaai.spec import AgentPose, LevelSpec, ObjectSpec
+from aaai.spec.kinds import COLOURS
 from aaai.tools.viewer import (
     HEAD_COLOUR,
     HEADING_COLOUR,

@@ -29,7 +29,7 @@ from aaai.config import Config, env_part
 from aaai.env import AnimalAIEnv
 from aaai.scoring.episodes import play
 from aaai.scoring.policies import Policy, as_policy
-from aaai.sim.kinds import KIND_INDEX
+from aaai.spec.kinds import KIND_INDEX
 
 FOOD_CHANNELS = (KIND_INDEX["food_green"], KIND_INDEX["food_yellow"])
 RAY_WIDTH = 11  # the classic rays: nine kinds, nothing, distance

@@ -9,7 +9,7 @@ import numpy as np
 
 from aaai.config import ConfigError
 from aaai.levels import get_level
-from aaai.task.seeds import TRAIN_SEEDS, reserved_seeds
+from aaai.levels.seeds import TRAIN_SEEDS, reserved_seeds
 
 TRAIN_EVAL_KEY = 7  # seeds `--seeds train` picks: fixed draws from the training range
 

@@ -11,8 +11,8 @@ from pathlib import Path
 from typing import Any
 
 from aaai.config import Config, ConfigError, env_part
+from aaai.levels.seeds import key_record
 from aaai.scoring.policies import Policy, as_policy
-from aaai.task.seeds import key_record
 
 
 def policy_record(policy: Policy | str, seeds: str, key: str | None = None) -> dict:

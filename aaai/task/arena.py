@@ -16,7 +16,7 @@ An arena file's keys are the spec's fields (docs, "Write your own test"):
   {light, dark}`` or null, ``colours: {kind: [r, g, b, a]}``, ``bridge: [x0, y0, x1, y1]`` or null,
   ``inner: {level, name, difficulty, seed}`` or null, ``regenerated``, ``extras`` (any plain data);
 - ``pass_mark``: the return at or above which an episode of this arena passes (Animal-AI's
-  ``passMark``); kept in the spec's ``extras["pass_mark"]`` (aaai.tools.animalai.passed); optional;
+  ``passMark``); kept in the spec's ``extras["pass_mark"]`` (aaai.tools.animalai_coverage.passed); optional;
 - and three keys that are not the spec's: ``description`` (one line for people), ``category``
   (the level name, label or id the test belongs to, e.g. ``y_maze``: the scoreboard's summary
   groups by it) and ``arena_walls`` (true: the four walls round the arena, as the generators'

@@ -1,7 +1,7 @@
 """One Animal-AI arena (an ``!Arena`` of an ``!ArenaConfig``) as the data of an aaai arena file.
 
 Animal-AI's arena is 40 x 40 with its origin at a corner, y up, for a sphere agent 1 across; ours
-is centred, z up, for a body whose walking footprint is 10 across (aaai.task.validate.FOOTPRINT_RADIUS).
+is centred, z up, for a body whose walking footprint is 10 across (aaai.levels.validate.FOOTPRINT_RADIUS).
 One Animal-AI unit becomes ``scale`` units here (default DEFAULT_SCALE = 5: the arena 200 x 200,
 a gap of 2 Animal-AI units the narrowest our body walks through):
 
@@ -26,10 +26,10 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
   beneath it or on the floor.
 
 An item with no counterpart here (spawners, buttons, data zones, ...) is named with its file, arena
-and index (``Unmappable``), and that arena is skipped. Bouncing goals bounce (aaai.sim.behaviours.
-Bounce) at BOUNCE_SPEED; a cylinder tunnel becomes an arch (aaai.sim.kinds.Tunnel) open at the floor; a
+and index (``Unmappable``), and that arena is skipped. Bouncing goals bounce (aaai.spec.behaviours.
+Bounce) at BOUNCE_SPEED; a cylinder tunnel becomes an arch (aaai.spec.kinds.Tunnel) open at the floor; a
 sign board with a preset symbol a ``sign_SYMBOL`` board; goals that ripen, decay, grow or shrink
-the timed food of aaai.sim.kinds (see TIMED). Reading the files and writing ours: aaai.tools.animalai.
+the timed food of aaai.spec.kinds (see TIMED). Reading the files and writing ours: aaai.tools.animalai.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ from typing import Any, TypeGuard
 
 import numpy as np
 
-from aaai.sim.kinds import ZONE_THICKNESS
+from aaai.spec.kinds import ZONE_THICKNESS
 
 DEFAULT_SCALE = 5.0
 AAI_ARENA = 40.0
@@ -48,7 +48,7 @@ AAI_ARENA = 40.0
 # episode, give 160 s, in which our body (3.2 units/s) crosses the 200-unit arena two and a half times.
 SECONDS_PER_STEP = 0.128
 MAX_TIME = 200.0  # an arena file's longest time limit (aaai.task.arena)
-BOUNCE_SPEED = 3.0  # units/s of a bouncing goal (aaai.sim.behaviours.Bounce), off in its forward direction
+BOUNCE_SPEED = 3.0  # units/s of a bouncing goal (aaai.spec.behaviours.Bounce), off in its forward direction
 WALL_HEIGHT = 4.0
 PLANK_MASS = {"light": 2.0, "heavy": 20.0}  # movable blocks (LightBlock, HeavyBlock)
 BLOCK_MASS = 5.0  # movable L, J, U blocks and hollow boxes
@@ -83,7 +83,7 @@ ITEMS = {
     "DeathZone": ("death_zone", "zone", ((1, 0.5, 1), (40, 10, 40))),
     "HotZone": ("hot_zone", "zone", ((1, 0.5, 1), (40, 10, 40))),
 }
-# Goals whose value changes (aaai.sim.kinds.TimedFood): name -> (our kind, default delay in frames).
+# Goals whose value changes (aaai.spec.kinds.TimedFood): name -> (our kind, default delay in frames).
 # initialValues / finalValues (valence, 0..5) -> timing start / end x scale (a green of diameter d
 # pays d x scale here); delays (frames) and |final - initial| / |changeRates| (frames) -> delay and
 # duration, a frame counted as a step (SECONDS_PER_STEP x scale seconds), as blackouts are. The body
@@ -256,9 +256,9 @@ class _Arena:
         }
 
     def signs(self, index: int, name: str, item: dict) -> list[dict]:
-        """Sign boards: one of the preset symbols each (aaai.sim.kinds.SYMBOLS); a special symbol (a
+        """Sign boards: one of the preset symbols each (aaai.spec.kinds.SYMBOLS); a special symbol (a
         pixel grid of the file's own) cannot be mapped."""
-        from aaai.sim.kinds import SYMBOLS
+        from aaai.spec.kinds import SYMBOLS
 
         symbols = item.get("symbolNames") or []
         objects = []
@@ -292,8 +292,8 @@ class _Arena:
 
     def timed(self, index: int, name: str, item: dict) -> list[dict]:
         """Goals that ripen, decay, grow or shrink: a sphere of the larger value's size whose reward
-        moves from the initial to the final value (aaai.sim.kinds.TimedFood)."""
-        from aaai.sim.kinds import REGISTRY, TimedFood
+        moves from the initial to the final value (aaai.spec.kinds.TimedFood)."""
+        from aaai.spec.kinds import REGISTRY, TimedFood
 
         kind, default_delay = TIMED[name]
         where = self.where(index, name)

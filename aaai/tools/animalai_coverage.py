@@ -41,7 +41,7 @@ def reference_episode(env, spec: LevelSpec, seed: int) -> tuple[float, bool]:
 
 def coverage(folder: Path, sample: int = 0, seed: int = 0, echo: Callable[[str], object] = print) -> dict:
     """Of the arena files in ``folder`` (as ``import-animalai`` wrote them): how many load and pass
-    aaai.task.validate for ``seed``, and how many of those (every one, or ``sample`` of them spread
+    aaai.levels.validate for ``seed``, and how many of those (every one, or ``sample`` of them spread
     evenly in name order) the reference controller passes in gait mode:
     ``python -m aaai.tools.animalai FOLDER [SAMPLE]``."""
     from aaai.env import AnimalAIEnv

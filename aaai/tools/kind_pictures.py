@@ -16,8 +16,8 @@ from aaai.tools.viewer import compose, draw_top_down
 
 
 def kind_example(kind: str) -> ObjectSpec:
-    """An object of a newer kind (aaai.sim.kinds) as the docs' pictures show it: 12 ahead of the agent."""
-    from aaai.sim.kinds import REGISTRY, ZONE_THICKNESS
+    """An object of a newer kind (aaai.spec.kinds) as the docs' pictures show it: 12 ahead of the agent."""
+    from aaai.spec.kinds import REGISTRY, ZONE_THICKNESS
 
     cls = REGISTRY[kind]
     if cls.zone:
@@ -59,7 +59,7 @@ def draw_kind(kind: str, size_px: int = 320, camera_px: int = 96) -> np.ndarray:
 
 def write_kind_pictures(folder: str | os.PathLike) -> list[Path]:
     """docs/kinds/KIND.png for every newer kind, written atomically (aaai.tools.media)."""
-    from aaai.sim.kinds import REGISTRY
+    from aaai.spec.kinds import REGISTRY
 
     Path(folder).mkdir(parents=True, exist_ok=True)
     return [save_png(draw_kind(kind), Path(folder) / f"{kind}.png") for kind in REGISTRY]

@@ -17,10 +17,10 @@ import numpy as np
 
 from aaai.agent.urdf_writer import COLOURS as BODY_COLOURS
 from aaai.agent.urdf_writer import HEAD_RADIUS, LEG_REACH, LEGS, SEGMENT_RADIUS
-from aaai.sim.behaviours import behaviour_class
-from aaai.sim.kinds import COLOURS, kind_class
 from aaai.sim.snapshot import Snapshot
 from aaai.spec import LevelSpec, ObjectSpec
+from aaai.spec.behaviours import behaviour_class
+from aaai.spec.kinds import COLOURS, kind_class
 
 LEG_WIDTH = 2 * SEGMENT_RADIUS  # a leg capsule's diameter
 LEG_ANGLES = tuple(angle for _, angle in LEGS)  # fl, fr, bl, br, degrees from the heading
@@ -266,7 +266,7 @@ def _draw_object(image: np.ndarray, m: Mapping, obj: ObjectSpec, live: bool = Fa
     outline = rgb((0.6 * r, 0.6 * g, 0.6 * b))
     cls = kind_class(obj.kind)
     if cls is not None and cls.parts(obj):  # a tunnel's arch, an L block: each box it is built of
-        from aaai.task.validate import pieces
+        from aaai.levels.validate import pieces
 
         for piece in sorted(pieces(obj), key=lambda o: o.position[2] + o.size[2] / 2):
             corners = _box_corners(m, piece)
@@ -314,7 +314,7 @@ MARK_COLOUR = (255, 255, 255)
 
 
 def _mark(image: np.ndarray, m: Mapping, obj: ObjectSpec, mark: str) -> None:
-    """A newer kind's mark (aaai.sim.kinds): cross (bad food), dot (multi food, decoy), clock (food that
+    """A newer kind's mark (aaai.spec.kinds): cross (bad food), dot (multi food, decoy), clock (food that
     ripens, decays, grows or shrinks), stripes (floor areas), arrow (a ramp, uphill), rim (a tunnel: its
     way through, dashed; a block: nothing more)."""
     x, y = obj.position[:2]
@@ -350,7 +350,7 @@ def _mark(image: np.ndarray, m: Mapping, obj: ObjectSpec, mark: str) -> None:
         start, end = m.fixed(x - c * half, y - s * half), m.fixed(x + c * half, y + s * half)
         cv2.arrowedLine(image, start, end, MARK_COLOUR, 2, cv2.LINE_AA, SHIFT, 0.25)
     elif mark == "symbol":  # a sign board: its 5 x 5 symbol laid flat over it, as seen from its -x side
-        from aaai.sim.kinds import REGISTRY, SYMBOLS, Sign
+        from aaai.spec.kinds import REGISTRY, SYMBOLS, Sign
 
         cell = max(obj.size[1], 3.0) / 5
         sign = REGISTRY[obj.kind]

@@ -37,7 +37,7 @@ import numpy as np
 from aaai.config import Config
 from aaai.files import atomic_path
 from aaai.levels import get_level
-from aaai.task.seeds import training_seed
+from aaai.levels.seeds import training_seed
 
 EPSILON = 1e-7
 PASS_RATIO = 0.8  # an episode passes at task return >= PASS_RATIO x max reward (aaai.scoring.evaluation uses the same)
