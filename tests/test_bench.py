@@ -85,6 +85,7 @@ def test_bench_writes_every_figure_with_medians_spreads_and_load(tmp_path):
     ]
     assert set(level["reset_ms"]) == {"median", "p95"} and level["load"]["before"]
     assert set(results["workers"]["rates"]) == {"1", "2", "4", "2 in-process"}
+    assert set(results["worker_groups"]["rates"]) == {"4 in-process", "2 x 4"}  # 4 environments a process
     assert {"L0 joints / limit", "L0 rays overhead", "L0 wide rays overhead", "2 workers / 1"} <= set(results["ratios"])
     assert "training" not in results  # --train-steps 0
     # only a level with missing floor casts for holes, and its cost is measured alternated too

@@ -485,6 +485,9 @@ def run(
         results["levels"][label]["reset_ms"] = {"median": median, "p95": p95}
     log("workers ...")
     results["workers"] = workers_rates(worker_steps, rounds)
+    from aaai.tools import workers_bench  # processes x environments per worker (aaai.train.workers)
+
+    results["worker_groups"] = workers_bench.workers_rates(4, max(1, worker_steps // 2), rounds, full=False)
     if train_steps:
         log("training ...")
         results["training"] = training_rates(train_steps, rounds, train_config)
@@ -500,7 +503,7 @@ def ratios(results: dict) -> dict:
     out = {}
     for label, level in results["levels"].items():
         out.update({f"{label} {name}": value["median"] for name, value in level["ratios"].items()})
-    for part in ("workers", "training", "ant_v5"):
+    for part in ("workers", "worker_groups", "training", "ant_v5"):
         if results.get(part):
             out.update({name: value["median"] for name, value in results[part]["ratios"].items()})
     return out
@@ -576,6 +579,10 @@ def markdown(results: dict) -> str:
         f"2 / 1 = {_ratio(w_ratios['2 workers / 1'])}, 4 / 1 = {_ratio(w_ratios['4 workers / 1'])}, "
         f"2 in-process / 2 workers = {_ratio(w_ratios['2 in-process / 2 workers'])}"
     ]
+    if results.get("worker_groups"):
+        from aaai.tools.workers_bench import markdown as groups_markdown
+
+        lines += ["", groups_markdown(results["worker_groups"]).rstrip()]
     training = results.get("training")
     if training:
         c, t_rates, t_ratios = training["config"], training["rates"], training["ratios"]

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import os
 import time
-from typing import Callable
 
 import numpy as np
 
@@ -79,14 +78,14 @@ class VectorRunner:
         self.vec.close()
 
 
-def runners(config: dict, per_worker: int, steps: int) -> dict[str, VectorRunner]:
+def runners(config: dict, per_worker: int, steps: int, full: bool = True) -> dict[str, VectorRunner]:
+    """K in-process and 2 x K; with ``full`` also 1 x K and 2K x 1."""
     k = per_worker
-    return {
-        f"{k} in-process": VectorRunner(config, k, 0, steps),
-        f"1 x {k}": VectorRunner(config, k, 1, steps),
-        f"2 x {k}": VectorRunner(config, 2 * k, 2, steps),
-        f"{2 * k} x 1": VectorRunner(config, 2 * k, 2 * k, steps),
-    }
+    built = {f"{k} in-process": VectorRunner(config, k, 0, steps), f"2 x {k}": VectorRunner(config, 2 * k, 2, steps)}
+    if full:
+        built[f"1 x {k}"] = VectorRunner(config, k, 1, steps)
+        built[f"{2 * k} x 1"] = VectorRunner(config, 2 * k, 2 * k, steps)
+    return built
 
 
 def workers_rates(
@@ -94,21 +93,21 @@ def workers_rates(
     steps: int = 500,
     rounds: int = ROUNDS_DEFAULT,
     config: dict | None = None,
-    alternate: Callable | None = None,
+    full: bool = True,
 ) -> dict:
-    """Steps per second of the four vectors (above), alternated over ``rounds`` of ``steps``
-    vector steps each; their ratios round by round and their CPU time per environment step."""
+    """Steps per second of the four vectors (above; without ``full`` K in-process and 2 x K only),
+    alternated over ``rounds`` of ``steps`` vector steps each; their ratios round by round and
+    their CPU time per environment step."""
     from aaai.tools.bench import _run_group, per_round, summary, training_config
 
     config = training_config(config)
     k = per_worker
-    built = runners(config, k, steps)
+    built = runners(config, k, steps, full)
     rates, machine_load = _run_group(built, rounds)
-    ratios = {
-        f"2 x {k} / {k} in-process": per_round(rates[f"2 x {k}"], rates[f"{k} in-process"]),
-        f"1 x {k} / {k} in-process": per_round(rates[f"1 x {k}"], rates[f"{k} in-process"]),
-        f"2 x {k} / {2 * k} x 1": per_round(rates[f"2 x {k}"], rates[f"{2 * k} x 1"]),
-    }
+    ratios = {f"2 x {k} / {k} in-process": per_round(rates[f"2 x {k}"], rates[f"{k} in-process"])}
+    if full:
+        ratios[f"1 x {k} / {k} in-process"] = per_round(rates[f"1 x {k}"], rates[f"{k} in-process"])
+        ratios[f"2 x {k} / {2 * k} x 1"] = per_round(rates[f"2 x {k}"], rates[f"{2 * k} x 1"])
     cpu: dict[str, dict] = {}
     for name, runner in built.items():
         cpu[name] = {}
