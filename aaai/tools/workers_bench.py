@@ -78,6 +78,47 @@ class VectorRunner:
         self.vec.close()
 
 
+# The timing helpers of aaai.tools.bench (which imports this module), as small as they can be.
+WARM_UP = 50  # untimed vector steps of each runner before the first round
+
+
+def _run_group(runners: dict[str, VectorRunner], rounds: int) -> tuple[dict[str, list[float]], dict]:
+    """Warms every runner up, calls each once a round in an order rotated by one each round, closes
+    them; returns each one's rates (one a round) and the load average before and after."""
+    before = _load()
+    names = list(runners)
+    rates: dict[str, list[float]] = {name: [] for name in names}
+    try:
+        for runner in runners.values():
+            runner(WARM_UP)
+        for r in range(rounds):
+            shift = r % len(names)
+            for name in names[shift:] + names[:shift]:
+                rates[name].append(float(runners[name]()))
+    finally:
+        for runner in runners.values():
+            runner.close()
+    return rates, {"before": before, "after": _load()}
+
+
+def _load() -> list[float]:
+    return [round(value, 2) for value in os.getloadavg()]
+
+
+def summary(values: list[float]) -> dict:
+    """The median of per-round values and their spread (as aaai.tools.bench.summary)."""
+    return {
+        "median": float(np.median(values)),
+        "min": float(min(values)),
+        "max": float(max(values)),
+        "rounds": [float(v) for v in values],
+    }
+
+
+def per_round(numerator: list[float], denominator: list[float]) -> list[float]:
+    return [a / b for a, b in zip(numerator, denominator)]
+
+
 def runners(config: dict, per_worker: int, steps: int, full: bool = True) -> dict[str, VectorRunner]:
     """K in-process and 2 x K; with ``full`` also 1 x K and 2K x 1."""
     k = per_worker
@@ -98,9 +139,10 @@ def workers_rates(
     """Steps per second of the four vectors (above; without ``full`` K in-process and 2 x K only),
     alternated over ``rounds`` of ``steps`` vector steps each; their ratios round by round and
     their CPU time per environment step."""
-    from aaai.tools.bench import _run_group, per_round, summary, training_config
+    from aaai.config import load_config
+    from aaai.train.training import with_proprioception
 
-    config = training_config(config)
+    config = with_proprioception(load_config(config))  # as aaai train runs it (aaai.tools.bench.training_config)
     k = per_worker
     built = runners(config, k, steps, full)
     rates, machine_load = _run_group(built, rounds)
