@@ -73,3 +73,18 @@ def test_the_environments_are_shared_out_evenly_over_at_most_the_processes_asked
     assert group_processes(load_config(num_envs=2, processes=0)["train"], 2, cores=16) == 2
     with pytest.raises(ValueError, match="allowed: a divisor of 4"):
         WorkerVecEnv([lambda: None] * 4, 3)
+
+
+def test_aaai_train_names_the_lost_worker_in_one_line_and_how_to_resume(tmp_path, monkeypatch):
+    from click.testing import CliRunner
+
+    from aaai_cli.main import cli
+
+    def lost(self, actions):
+        raise WorkerLost("worker process 1 of 2 (pid 4242, environments 2 to 3) ended killed by SIGKILL")
+
+    monkeypatch.setattr(CurriculumVecEnv, "step", lost)
+    run = tmp_path / "run"
+    result = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "64", "--run", str(run)])
+    assert result.exit_code == 1 and "Traceback" not in result.output
+    assert f"killed by SIGKILL; the run keeps its last checkpoint: aaai train --resume {run}" in result.output
