@@ -58,7 +58,7 @@ def test_a_worker_process_that_dies_is_named_in_one_error_and_the_others_are_sto
         os.kill(processes[1].pid, signal.SIGKILL)
         processes[1].join(5)
         with pytest.raises(
-            WorkerLost, match=r"worker process 1 of 2 \(pid \d+, environments 2 to 3\) ended killed by SIGKILL"
+            WorkerLost, match=r"worker process 1 of 2 \(pid \d+, environments 2 to 3\) was killed by SIGKILL"
         ):
             vec.step(np.zeros((4, 8), np.float32))
         assert not any(process.is_alive() for process in processes)
@@ -81,7 +81,7 @@ def test_aaai_train_names_the_lost_worker_in_one_line_and_how_to_resume(tmp_path
     from aaai_cli.main import cli
 
     def lost(self, actions):
-        raise WorkerLost("worker process 1 of 2 (pid 4242, environments 2 to 3) ended killed by SIGKILL")
+        raise WorkerLost("worker process 1 of 2 (pid 4242, environments 2 to 3) was killed by SIGKILL")
 
     monkeypatch.setattr(CurriculumVecEnv, "step", lost)
     run = tmp_path / "run"

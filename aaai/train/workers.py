@@ -18,6 +18,7 @@ process.
 from __future__ import annotations
 
 import signal
+import time
 from typing import Any, Callable, Sequence
 
 import gymnasium as gym
@@ -38,6 +39,8 @@ class EnvGroup(gym.Env):
     ``reset(seed=..., options=...)`` takes the options of the whole vector: ``seeds`` and ``mask``
     (one per environment of the vector; this group reads its slice) and any other key, passed on
     to every environment as it is (``cells`` in the training vector)."""
+
+    metadata: dict[str, Any] = {"render_modes": []}  # its own: AsyncVectorEnv writes into it
 
     def __init__(self, makers: Sequence[Callable[[], gym.Env]], first: int):
         self.envs = SyncVectorEnv(list(makers), autoreset_mode=AutoresetMode.DISABLED, copy=False)
@@ -154,16 +157,20 @@ class WorkerVecEnv:
             raise WorkerLost(lost) from None
 
     def _lost(self) -> str:
-        for index, process in enumerate(self.envs.processes):
-            process.join(timeout=1.0)
-            if not process.is_alive():
-                first = index * self.per_worker
-                return (
-                    f"worker process {index} of {self.workers} (pid {process.pid}, environments {first} to "
-                    f"{first + self.per_worker - 1}) ended {_exit(process.exitcode)} while the others waited on it; "
-                    "every worker process is stopped"
-                )
-        return "a worker process's pipe closed while the vector waited on it; every worker process is stopped"
+        """Which process ended, and how (its exit is seen a moment after its pipe closes)."""
+        deadline = time.monotonic() + 2.0
+        while True:
+            for index, process in enumerate(self.envs.processes):
+                if not process.is_alive():
+                    first = index * self.per_worker
+                    return (
+                        f"worker process {index} of {self.workers} (pid {process.pid}, environments {first} to "
+                        f"{first + self.per_worker - 1}) {_exit(process.exitcode)} while the others waited on it; "
+                        "every worker process is stopped"
+                    )
+            if time.monotonic() > deadline:
+                return "a worker process's pipe closed while the vector waited on it; every worker process is stopped"
+            time.sleep(0.01)
 
     def close(self, terminate: bool = False) -> None:
         if not self.envs.closed:
@@ -172,10 +179,10 @@ class WorkerVecEnv:
 
 def _exit(code: int | None) -> str:
     if code is None:
-        return "(still running)"
+        return "closed its pipe"
     if code < 0:
         try:
-            return f"killed by {signal.Signals(-code).name}"
+            return f"was killed by {signal.Signals(-code).name}"
         except ValueError:
-            return f"killed by signal {-code}"
-    return f"with exit code {code}"
+            return f"was killed by signal {-code}"
+    return f"exited with code {code}"
