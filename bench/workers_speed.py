@@ -50,7 +50,8 @@ def main() -> None:
         folder.glob("K*.json"), key=lambda p: (p.stem.endswith("joints"), int(p.stem[1:].split("_")[0]))
     ):
         results = json.loads(path.read_text())
-        parts.append(f"## K = {results['config']['per_worker']} ({path.name}, {results['rounds']} rounds)\n")
+        senses = "with rays" if "rays" in results["config"]["sensors"] else "no rays"
+        parts.append(f"## K = {results['config']['per_worker']}, {senses} ({path.name}, {results['rounds']} rounds)\n")
         parts.append(markdown(results))
     write_atomic(OUT / "workers.md", "# Worker processes x environments per worker\n\n" + "\n".join(parts))
 
