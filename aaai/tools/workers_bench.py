@@ -8,6 +8,8 @@ once and alternated round by round (aaai.tools.bench's method):
 - ``2 x K``: 2K environments in 2 worker processes, K each (aaai.train.workers);
 - ``2K x 1``: 2K environments, one process each (as worker processes stepped before).
 
+``aaai bench`` times the first and the third (K = 4); bench/workers_speed.py all four.
+
 Besides steps per second, each runner's CPU time per environment step is taken, in this process
 and in its worker processes (from /proc on Linux), from which docs/speed.md works out what the
 design gives on more cores.
