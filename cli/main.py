@@ -431,6 +431,7 @@ def train_command(
     from aaai.scoring.runs import run_backend
     from aaai.train.rllib_learner import train_rllib
     from aaai.train.training import Progress, train, write_failure
+    from aaai.train.workers import WorkerLost
 
     ignored = {
         name: value
@@ -543,6 +544,10 @@ def train_command(
         raise click.ClickException(write_failure(error, run_dir)) from None
     except ImportError as error:
         raise click.ClickException(needs_extra(error, "aaai train")) from None
+    except WorkerLost as error:  # a worker process killed: it named, the run resumable from its last checkpoint
+        raise click.ClickException(
+            f"{error}; the run keeps its last checkpoint: aaai train --resume {run_dir}"
+        ) from None
     run_config = load_config(result.run.read_config())
     curriculum = run_config.curriculum
     click.echo(

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from aaai.tools import bench, bench_report
+from aaai.tools import bench, bench_report, rounds
 
 
 def test_each_round_runs_everything_once_in_an_order_rotated_by_one():
@@ -20,7 +20,7 @@ def test_each_round_runs_everything_once_in_an_order_rotated_by_one():
 
         return run
 
-    rates = bench.alternate({name: runner(name) for name in "abc"}, rounds=4)
+    rates = rounds.alternate({name: runner(name) for name in "abc"}, rounds=4)
     assert calls == list("abcbcacababc")  # no figure is always first
     assert rates == {"a": [1.0, 6.0, 8.0, 10.0], "b": [2.0, 4.0, 9.0, 11.0], "c": [3.0, 5.0, 7.0, 12.0]}
 
@@ -28,13 +28,13 @@ def test_each_round_runs_everything_once_in_an_order_rotated_by_one():
 def test_ratios_are_taken_within_a_round_and_summarised_by_median_and_spread():
     # the machine slows down by round; the env costs 0.5 of the limit in every round
     limit, env = [100.0, 40.0, 80.0, 10.0], [50.0, 20.0, 40.0, 5.0]
-    assert bench.per_round(env, limit) == [0.5] * 4
-    assert bench.per_round([5.0, 8.0], [4.0, 4.0], minus_one=True) == [0.25, 1.0]
-    figure = bench.summary([3.0, 1.0, 10.0, 2.0])
+    assert rounds.per_round(env, limit) == [0.5] * 4
+    assert rounds.per_round([5.0, 8.0], [4.0, 4.0], minus_one=True) == [0.25, 1.0]
+    figure = rounds.summary([3.0, 1.0, 10.0, 2.0])
     assert (figure["median"], figure["min"], figure["max"]) == (2.5, 1.0, 10.0)
     assert figure["rounds"] == [3.0, 1.0, 10.0, 2.0]
-    assert "0.50 (0.40..0.60)" == bench_report._ratio(bench.summary([0.4, 0.5, 0.6]))
-    assert "+61% (+55..+70%)" == bench_report._ratio(bench.summary([0.55, 0.61, 0.70]), percent=True)
+    assert "0.50 (0.40..0.60)" == bench_report._ratio(rounds.summary([0.4, 0.5, 0.6]))
+    assert "+61% (+55..+70%)" == bench_report._ratio(rounds.summary([0.55, 0.61, 0.70]), percent=True)
 
 
 def test_bench_writes_every_figure_with_medians_spreads_and_load(tmp_path):
@@ -85,6 +85,7 @@ def test_bench_writes_every_figure_with_medians_spreads_and_load(tmp_path):
     ]
     assert set(level["reset_ms"]) == {"median", "p95"} and level["load"]["before"]
     assert set(results["workers"]["rates"]) == {"1", "2", "4", "2 in-process"}
+    assert set(results["worker_groups"]["rates"]) == {"4 in-process", "2 x 4"}  # 4 environments a process
     assert {"L0 joints / limit", "L0 rays overhead", "L0 wide rays overhead", "2 workers / 1"} <= set(results["ratios"])
     assert "training" not in results  # --train-steps 0
     # only a level with missing floor casts for holes, and its cost is measured alternated too
@@ -110,9 +111,9 @@ def test_the_training_row_sets_ppo_and_the_random_agent_against_the_environment_
     assert all(len(figure["rounds"]) == 2 and figure["median"] > 0 for figure in row["rates"].values())
     rates = {name: figure["rounds"] for name, figure in row["rates"].items()}
     # the training config's own vector env (here in-process) is the reference, round by round
-    assert row["ratios"]["PPO / env alone"]["rounds"] == bench.per_round(rates["PPO"], rates["env alone, in-process"])
+    assert row["ratios"]["PPO / env alone"]["rounds"] == rounds.per_round(rates["PPO"], rates["env alone, in-process"])
     best = [max(a, b) for a, b in zip(rates["env alone, in-process"], rates["env alone, worker processes"])]
-    assert row["ratios"]["PPO / env alone (best)"]["rounds"] == bench.per_round(rates["PPO"], best)
+    assert row["ratios"]["PPO / env alone (best)"]["rounds"] == rounds.per_round(rates["PPO"], best)
     assert "joint_velocities" in row["config"]["sensors"]  # training's extra senses, as aaai train runs
     assert set(row["load"]) == {"before", "after"}
 

@@ -31,7 +31,7 @@ import resource
 import tempfile
 import time
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Mapping
 
 import numpy as np
 import pybullet as p
@@ -40,6 +40,7 @@ from aaai.config import Config
 from aaai.env import AnimalAIEnv
 from aaai.levels import all_levels, get_level
 from aaai.scoring.runs import package_versions
+from aaai.tools.rounds import load, per_round, run_group, summary
 
 SENSOR_SETTINGS: dict[str, dict[str, Any]] = {
     "joints": dict(rays=False, camera=False),
@@ -50,40 +51,6 @@ SENSOR_SETTINGS: dict[str, dict[str, Any]] = {
 NO_HOLE_CASTING = "joints+rays without hole casting"
 RAYS_TWO_THREADS = "joints+rays, rayTestBatch on 2 threads"
 WIDE_RAYS = "joints+rays 1.0 wide"  # sensors.ray_width 1.0: three casts a ray (Animal-AI's 0.5 sphere casts)
-WARM_UP = 50  # untimed steps of each runner before the first round
-
-
-# --- alternation and its statistics ---------------------------------------------------------
-def alternate(runners: dict[str, Callable[[], float]], rounds: int) -> dict[str, list[float]]:
-    """Calls every runner once per round, in an order rotated by one each round; each call returns
-    a rate. Returns each runner's rates, one per round."""
-    names = list(runners)
-    rates: dict[str, list[float]] = {name: [] for name in names}
-    for r in range(rounds):
-        shift = r % len(names)
-        for name in names[shift:] + names[:shift]:
-            rates[name].append(float(runners[name]()))
-    return rates
-
-
-def summary(values: list[float]) -> dict:
-    """The median of per-round values and their spread."""
-    return {
-        "median": float(np.median(values)),
-        "min": float(min(values)),
-        "max": float(max(values)),
-        "rounds": [float(v) for v in values],
-    }
-
-
-def per_round(numerator: list[float], denominator: list[float], minus_one: bool = False) -> list[float]:
-    """Round by round ratios (numerator / denominator, less one for an overhead)."""
-    return [a / b - (1.0 if minus_one else 0.0) for a, b in zip(numerator, denominator)]
-
-
-def load() -> list[float]:
-    """The machine's load average over 1, 5 and 15 minutes."""
-    return [round(value, 2) for value in os.getloadavg()]
 
 
 # --- what is timed ----------------------------------------------------------------------------
@@ -166,19 +133,6 @@ def _without_hole_casting(env: AnimalAIEnv) -> AnimalAIEnv:
     return env
 
 
-def _run_group(runners: dict, rounds: int) -> tuple[dict[str, list[float]], dict]:
-    """Warms every runner up, alternates them over ``rounds``, closes them; returns the rates and the load."""
-    before = load()
-    try:
-        for runner in runners.values():
-            runner(WARM_UP)
-        rates = alternate(runners, rounds)
-    finally:
-        for runner in runners.values():
-            runner.close()
-    return rates, {"before": before, "after": load()}
-
-
 def level_rates(level: int, steps: int, rounds: int) -> dict:
     """The bare loop, the four sensor settings (and the rays without hole casting on a level with
     missing floor) on one level, alternated; rates and per-round ratios."""
@@ -190,7 +144,7 @@ def level_rates(level: int, steps: int, rounds: int) -> dict:
     runners[WIDE_RAYS] = EnvLoop(_env(level, {**SENSOR_SETTINGS["joints+rays"], "ray_width": 1.0}), steps)
     if runners["joints+rays"].env.rays._holes is not None:
         runners[NO_HOLE_CASTING] = EnvLoop(_without_hole_casting(_env(level, SENSOR_SETTINGS["joints+rays"])), steps)
-    rates, machine_load = _run_group(runners, rounds)
+    rates, machine_load = run_group(runners, rounds)
     ratios = {
         "joints / limit": per_round(rates["joints"], rates["limit"]),
         "rays overhead": per_round(rates["joints"], rates["joints+rays"], minus_one=True),
@@ -253,7 +207,7 @@ def workers_rates(steps_per_worker: int, rounds: int) -> dict:
         "4": VectorLoop(4, steps_per_worker),
         "2 in-process": VectorLoop(2, steps_per_worker, False),
     }
-    rates, machine_load = _run_group(runners, rounds)
+    rates, machine_load = run_group(runners, rounds)
     ratios = {
         "2 workers / 1": per_round(rates["2"], rates["1"]),
         "4 workers / 1": per_round(rates["4"], rates["1"]),
@@ -282,7 +236,7 @@ def ant_rates(steps: int, rounds: int) -> dict | None:
         ant = _AntLoop(steps)
     except Exception:  # mujoco (the `bench` extra) is missing
         return None
-    rates, machine_load = _run_group(
+    rates, machine_load = run_group(
         {"L0 joints": EnvLoop(_env(0, SENSOR_SETTINGS["joints"]), steps), "Ant-v5": ant}, rounds
     )
     return {
@@ -395,7 +349,7 @@ def training_rates(steps: int, rounds: int, config: Mapping[str, Any] | None = N
         }
         if ppo:
             runners["PPO"] = _PPOLoop(settings, steps, Path(folder) / "ppo")
-        rates, machine_load = _run_group(runners, rounds)
+        rates, machine_load = run_group(runners, rounds)
     same = "env alone, in-process" if in_process else "env alone, worker processes"
     best = [max(a, b) for a, b in zip(rates["env alone, in-process"], rates["env alone, worker processes"])]
     ratios = {
@@ -490,6 +444,9 @@ def run(
         results["levels"][label]["reset_ms"] = {"median": median, "p95": p95}
     log("workers ...")
     results["workers"] = workers_rates(worker_steps, rounds)
+    from aaai.tools import workers_bench  # processes x environments per worker (aaai.train.workers)
+
+    results["worker_groups"] = workers_bench.workers_rates(4, max(1, worker_steps // 2), rounds, full=False)
     if train_steps:
         log("training ...")
         results["training"] = training_rates(train_steps, rounds, train_config)
@@ -505,7 +462,7 @@ def ratios(results: dict) -> dict:
     out = {}
     for label, level in results["levels"].items():
         out.update({f"{label} {name}": value["median"] for name, value in level["ratios"].items()})
-    for part in ("workers", "training", "ant_v5"):
+    for part in ("workers", "worker_groups", "training", "ant_v5"):
         if results.get(part):
             out.update({name: value["median"] for name, value in results[part]["ratios"].items()})
     return out

@@ -71,6 +71,10 @@ def markdown(results: dict) -> str:
         f"2 / 1 = {_ratio(w_ratios['2 workers / 1'])}, 4 / 1 = {_ratio(w_ratios['4 workers / 1'])}, "
         f"2 in-process / 2 workers = {_ratio(w_ratios['2 in-process / 2 workers'])}"
     ]
+    if results.get("worker_groups"):
+        from aaai.tools.workers_bench import markdown as groups_markdown
+
+        lines += ["", groups_markdown(results["worker_groups"]).rstrip()]
     training = results.get("training")
     if training:
         c, t_rates, t_ratios = training["config"], training["rates"], training["ratios"]

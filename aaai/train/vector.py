@@ -1,7 +1,8 @@
 """Parallel environments whose episodes are assigned by a sampler living in this process.
 
 Workers are Gymnasium vector envs with autoreset off: in this process (SyncVectorEnv) or in
-worker processes (AsyncVectorEnv), as ``train.vector`` says. When episodes end, this process
+worker processes (aaai.train.workers: AsyncVectorEnv with shared memory over processes that each
+step several environments), as ``train.vector`` says; ``train.processes`` sets how many. When episodes end, this process
 records their returns with the curriculum, draws each finished worker's next (level,
 difficulty, seed), and resets just those workers with it; workers keep no sampler state.
 Each step a worker sends back only its observation, reward and flags; the info the learner uses
@@ -15,11 +16,12 @@ from functools import partial
 
 import gymnasium as gym
 import numpy as np
-from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
 from aaai.config import Config, TrainConfig, env_part
 from aaai.scoring.runs import Episode
 from aaai.train.curriculum import Curriculum
+from aaai.train.workers import WorkerVecEnv
 
 EPISODE_INFO_KEYS = ("food_eaten", "wall_hits", "fell", "blew_up", "max_reward")
 VECTOR_MODES = ("auto", "sync", "async")
@@ -57,6 +59,13 @@ def worker_processes(train: TrainConfig, cores: int | None = None) -> int:
     if asked > 0:
         return asked
     return max(1, min(int(train.num_envs), usable_cores() if cores is None else cores))
+
+
+def group_processes(train: TrainConfig, num_envs: int, cores: int | None = None) -> int:
+    """Worker processes of an asynchronous vector of ``num_envs`` environments: the most, up to
+    :func:`worker_processes`, that share them out evenly (each steps ``num_envs`` / that many)."""
+    most = min(num_envs, worker_processes(train, cores))
+    return max(w for w in range(1, most + 1) if num_envs % w == 0)
 
 
 class AssignedCell(gym.Wrapper):
@@ -111,9 +120,9 @@ class CurriculumVecEnv:
         if asynchronous is None:
             asynchronous = not runs_in_process(config.train.vector, num_envs)
         self.asynchronous = asynchronous
-        self.envs: AsyncVectorEnv | SyncVectorEnv
+        self.envs: WorkerVecEnv | SyncVectorEnv
         if asynchronous:
-            self.envs = AsyncVectorEnv(makers, autoreset_mode=AutoresetMode.DISABLED, context="forkserver", copy=False)
+            self.envs = WorkerVecEnv(makers, group_processes(config.train, num_envs))
         else:
             self.envs = SyncVectorEnv(makers, autoreset_mode=AutoresetMode.DISABLED, copy=False)
         self.single_observation_space = self.envs.single_observation_space
