@@ -131,7 +131,7 @@ def test_scoring_imports_nothing_from_training(module):
 
 # The package's map, bottom to top: a module may import its own layer and the layers below, never above.
 LAYERS = (
-    ("aaai.errors", "aaai.files", "aaai.safe_yaml"),  # what every module may use
+    ("aaai.errors", "aaai.files", "aaai.safe_yaml", "aaai.jobs"),  # what every module may use
     ("aaai.agent",),  # the body: its URDF table and its handle in a client
     ("aaai.config",),  # the configuration and its rules
     ("aaai.spec", "aaai.sim"),  # a level as plain data; the simulation that builds and senses it
