@@ -114,20 +114,13 @@ def eval_command(
 ):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
     from aaai.jobs import one_thread
-    from aaai.scoring.eval_job import check_arena_options, score_policy
+    from aaai.scoring.eval_job import check_options, score_policy
     from aaai.scoring.evaluation import summary_markdown
-    from aaai.task.seeds import read_seed_key
 
     one_thread()  # one episode at a time: a small network gains nothing from more torch threads
-    key = None
-    try:  # refused before any work
-        if arenas is not None:
-            check_arena_options(levels, difficulty, seed_key_file, backend)
-        elif save_replays is not None and backend != "local":
-            raise ConfigError("--save-replays: only with --backend local")
-        else:
-            key = read_seed_key(seed_key_file)
-    except ValueError as error:
+    try:  # refused before any work, and before the levels are read
+        check_options(arenas, levels, difficulty, seed_key_file, backend, save_replays)
+    except ConfigError as error:
         raise click.UsageError(str(error)) from None
     try:
         result = score_policy(
@@ -138,7 +131,7 @@ def eval_command(
             seeds_per_cell=seeds_per_cell,
             config_path=config_path,
             output=output,
-            key=key,
+            seed_key_file=seed_key_file,
             arenas=arenas,
             backend=backend,
             address=address,

@@ -50,18 +50,28 @@ def with_action_mode(config: dict, action_mode: str | None) -> dict:
     return config
 
 
-def check_arena_options(levels: Any, difficulties: Any, seed_key_file: Any, backend: str) -> None:
-    """``--arenas`` scores arena files, each its own level: the options that choose levels, a seed key
-    or Ray are refused with it (ConfigError naming them)."""
-    clashes = [
-        name
-        for name, value in (("--levels", levels), ("--difficulty", difficulties), ("--seed-key-file", seed_key_file))
-        if value is not None
-    ]
-    if backend != "local":
-        clashes.append("--backend ray")
-    if clashes:
-        raise ConfigError(f"--arenas: {', '.join(clashes)} cannot be used with it (an arena file is its own level)")
+def check_options(
+    arenas: Any, levels: Any, difficulties: Any, seed_key_file: Any, backend: str, save_replays: Any
+) -> None:
+    """Options that cannot go together, refused before any work (ConfigError naming them): with
+    ``--arenas`` (arena files, each its own level) the options that choose levels, a seed key or Ray;
+    ``--save-replays`` but on the local backend."""
+    if arenas is not None:
+        clashes = [
+            name
+            for name, value in (
+                ("--levels", levels),
+                ("--difficulty", difficulties),
+                ("--seed-key-file", seed_key_file),
+            )
+            if value is not None
+        ]
+        if backend != "local":
+            clashes.append("--backend ray")
+        if clashes:
+            raise ConfigError(f"--arenas: {', '.join(clashes)} cannot be used with it (an arena file is its own level)")
+    elif save_replays is not None and backend != "local":
+        raise ConfigError("--save-replays: only with --backend local")
 
 
 def score_policy(
@@ -73,7 +83,7 @@ def score_policy(
     seeds_per_cell: int | None = None,
     config_path: str | None = None,
     output: str | Path | None = None,
-    key: str | None = None,
+    seed_key_file: str | Path | None = None,
     arenas: str | Path | None = None,
     backend: str = "local",
     address: str | None = None,
@@ -90,20 +100,19 @@ def score_policy(
     With ``arenas`` (a folder of arena files or one file), every file on seeds 0..K-1 or the
     ``seeds`` list, summarised per arena and per category; else the ``levels`` x ``difficulties``
     cells (default: the run's or config's curriculum) on ``seeds`` (reserved, train or a list
-    '1,2,3'; the hidden reserved list of ``key`` if given). K is ``seeds_per_cell`` (default
-    eval.seeds_per_cell). The scoreboard goes to ``output`` (default scoreboard_<seeds>.csv in the
-    run folder, or here). ``display`` shows the progress (an :class:`aaai.jobs.Progress` counting
-    episodes, a line every ``progress_every`` seconds when it writes lines).
+    '1,2,3'; reserved: the hidden list of the key in ``seed_key_file`` or AAAI_SEED_KEY, if given).
+    K is ``seeds_per_cell`` (default eval.seeds_per_cell). The scoreboard goes to ``output``
+    (default scoreboard_<seeds>.csv in the run folder, or here). ``display`` shows the progress (an
+    :class:`aaai.jobs.Progress` counting episodes, a line every ``progress_every`` seconds when it
+    writes lines).
 
     Raises ConfigError (InUse: another process writes the scoreboard) or FileNotFoundError for an
     input that is not allowed, :class:`ScoreboardError` for a file that could not be written,
     ImportError for a missing extra.
     """
-    if arenas is not None:
-        check_arena_options(levels, difficulties, key, backend)
-    elif save_replays is not None and backend != "local":
-        raise ConfigError("--save-replays: only with --backend local")
+    check_options(arenas, levels, difficulties, seed_key_file, backend, save_replays)
     try:
+        key = None if arenas is not None else read_key(seed_key_file)
         chosen = resolve(policy, trust_model)
         run_folder = Path(chosen.run) if chosen.run else None
         config = with_action_mode(chosen.config(config_path), action_mode)
@@ -187,6 +196,17 @@ def _score_arenas(
             raise
         raise ScoreboardError(f"{str(error.filename or output)!r}: {error.strerror or error}") from error
     return EvalResult(rows, summarise_arenas(rows, categories), output)
+
+
+def read_key(seed_key_file: str | Path | None) -> str | None:
+    """The secret seed key of ``seed_key_file``, else of AAAI_SEED_KEY; None if neither (ConfigError for
+    a file that is not one)."""
+    from aaai.task.seeds import read_seed_key
+
+    try:
+        return read_seed_key(seed_key_file)
+    except ValueError as error:
+        raise ConfigError(str(error)) from None
 
 
 def _counting(report: Progress, update: Callable[[int], None]) -> Callable[[dict], None]:
