@@ -42,7 +42,7 @@ lint: install
 	$(BIN)/python -m ruff check .
 	$(BIN)/python -m ruff format --check .
 
-# Lint, format and types: ruff, then mypy on the core modules ([tool.mypy] in pyproject.toml).
+# Lint, format and types: ruff, then mypy over all of aaai and cli ([tool.mypy] in pyproject.toml).
 check: lint
 	$(BIN)/python -m mypy
 

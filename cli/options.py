@@ -1,5 +1,7 @@
-"""The click types of the command line's numbers: each refuses what the command cannot hold, before
-any work, with click's one line naming the flag, the value and what is allowed."""
+"""What the commands share: the click types of their numbers and paths, the level and range parsers, help texts.
+
+Each type refuses what the command cannot hold, before any work, with click's one line naming the
+flag, the value and what is allowed."""
 
 from __future__ import annotations
 
@@ -10,8 +12,8 @@ from pathlib import Path
 
 import click
 
-from aaai.config import RULES
-from aaai.levels import SEED_LIMIT
+from aaai.config import RULES, ConfigError, describe_ids, parse_int_set
+from aaai.levels import SEED_LIMIT, describe_levels, get_level, level_ids
 
 SEED = click.IntRange(0, SEED_LIMIT - 1)  # what a level and Gymnasium's reset take
 DIFFICULTY = click.IntRange(0, 10)
@@ -79,3 +81,73 @@ class Output(click.Path):
         if self.what:
             return self.what
         return "folder" if not self.file_okay else "file" if not self.dir_okay else "file or folder"
+
+
+POLICY_HELP = (
+    "random, reference (the privileged reference controller), gait (the example trot), "
+    "a model .zip, a run folder or module:callable"
+)
+TRUST_HELP = (
+    "Load a model file with stable-baselines3's own loader, which unpickles it and so runs any code in "
+    "it (default: rebuilt without unpickling; docs, Scoring agents you did not write). Only for files "
+    "you trust."
+)
+
+
+PROGRESS_HELP = (
+    "Seconds between progress lines when the output is not a terminal (piped, nohup); in a terminal a progress bar."
+)
+
+
+class Seconds(click.FloatRange):
+    """A number of seconds, at least ``min``: not NaN or infinity (which FloatRange lets through)."""
+
+    name = "seconds"
+
+    def convert(self, value, param, ctx):
+        import math
+
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"got {value!r}; allowed: a finite number of seconds, {self.min} or more", param, ctx)
+        return number
+
+
+def parse_range(text: str, name: str, low: int, high: int) -> list[int]:
+    """'0-3,5' -> [0, 1, 2, 3, 5], each checked to lie in low..high."""
+    try:
+        return parse_int_set(text, name, low, high)
+    except ConfigError as error:
+        raise click.BadParameter(str(error).split(": ", 1)[1], param_hint=name) from None
+
+
+def parse_levels(text: str | None, name: str = "--levels") -> list[int]:
+    """'0-3,5', 'L2b,L3' or 'food_contact' -> those level ids, each a registered level (by id, label
+    or name; ranges by id); None or 'all' -> every registered level."""
+    known = level_ids()
+    if text is None or text.strip() == "all":
+        return known
+    allowed = (
+        f"all, or a list of levels by id ({describe_ids(known)}), label or name ({describe_levels()}), "
+        "with id ranges like '0-3,5'"
+    )
+    ids, numeric = [], []
+    for part in (part.strip() for part in text.split(",")):
+        try:
+            ids.append(get_level(part).id)  # an id, label or name (a custom level's may start with a digit)
+        except ConfigError:
+            if not part[:1].isdigit():  # not an id range either
+                refusal = f"got {text!r}: no level {part!r}; allowed: {allowed}"
+                raise click.BadParameter(refusal, param_hint=name) from None
+            numeric.append(part)
+    if numeric:
+        try:
+            ids += parse_int_set(",".join(numeric), name, 0, max(known))
+        except ConfigError:
+            raise click.BadParameter(f"got {text!r}; allowed: {allowed}", param_hint=name) from None
+    missing = [level for level in ids if level not in known]
+    if missing:
+        raise click.BadParameter(
+            f"got {text!r}, and level {missing[0]} does not exist; allowed: {allowed}", param_hint=name
+        )
+    return sorted(set(ids))

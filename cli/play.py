@@ -8,8 +8,8 @@ import click
 
 from aaai.config import ConfigError, load_config
 from aaai.errors import needs_extra
-from aaai.scoring.policies import Policy
-from aaai_cli.options import DIFFICULTY, SEED, Finite, Output, SeedList, rule
+
+from .options import DIFFICULTY, SEED, Finite, Output, SeedList, parse_levels, parse_range, rule
 
 
 @click.command("play")
@@ -125,7 +125,6 @@ def play(
     """
     from aaai.scoring.evaluation import Cell, cells_for
     from aaai.tools.play.session import InputError, PlaySettings, check_player
-    from aaai_cli.main import parse_levels, parse_range
 
     battery = seeds_mode is not None or levels is not None or difficulties is not None
     if battery and arena is None and (level is not None or difficulty_text is not None or seed is not None):
@@ -177,7 +176,7 @@ def play(
                     load_arena(path, arena_seed)
             settings.seeds_label = ",".join(map(str, settings.arena_seeds))
         elif battery:
-            from aaai.task.seeds import read_seed_key
+            from aaai.levels.seeds import read_seed_key
 
             key = read_seed_key(seed_key_file)
             level_list = parse_levels(levels)
@@ -216,48 +215,3 @@ def play(
             "the scoreboards are written here."
         )
     server.run()
-
-
-def run_replay_file(path: str, arena: str | None = None) -> None:
-    """``aaai run --replay FILE``: the recorded episode again, its line of the run table, and
-    whether it ended exactly as recorded (exit status 1 if not)."""
-    from aaai.scoring.replays import load_replay, run_replay
-
-    try:
-        replay = load_replay(path)
-        outcome = run_replay(replay, arena=arena)
-    except ConfigError as error:
-        raise click.UsageError(str(error)) from None
-    result, pose = outcome.result, outcome.final_pose
-    where = replay["arena"]["name"] if replay["arena"] else f"L{replay['level']} {replay['level_name']}"
-    click.echo(
-        f"replay {path}: {replay['policy']} on {where}, difficulty {replay['difficulty']}, seed {replay['seed']}"
-    )
-    click.echo(
-        f"steps {result.steps}  return {result.episode_return!r}  food {result.info['food_eaten']}  "
-        f"end {result.end}  final pose x {pose['x']!r} y {pose['y']!r} z {pose['z']!r} yaw {pose['yaw']!r}"
-    )
-    if outcome.differences:
-        raise click.ClickException(
-            "the replay does not reproduce the recorded episode: " + "; ".join(outcome.differences)
-        )
-    click.echo("reproduced bit for bit: the same steps, return and final pose as recorded")
-
-
-def replay_hooks(folder: str | None, policy: Policy, on_episode, arenas=()) -> dict:
-    """``aaai eval --save-replays``: the keywords that make ``evaluate`` record the policy and
-    write each scored episode's replay into ``folder`` (just ``on_episode`` without a folder)."""
-    if folder is None:
-        return {"on_episode": on_episode}
-    from aaai.scoring.replays import ReplaySaver
-    from aaai.scoring.runs import check_writable
-
-    check_writable(Path(folder), "--save-replays", folder=True)
-    saver = ReplaySaver(
-        folder,
-        policy.name,
-        policy.build,
-        arenas={Path(a).name: Path(a) for a in arenas},
-        on_episode=on_episode,
-    )
-    return {"on_episode": saver.on_episode, "make_policy": saver.make_policy}

@@ -11,7 +11,8 @@ from aaai.levels import check_difficulty, check_seed, get_level
 from aaai.scoring.episodes import play
 from aaai.tools.media import VIDEO_CODECS, VideoWriter, save_png, video_extension_error
 from aaai.tools.viewer import compose, draw_top_down, draw_world
-from aaai_cli.options import DIFFICULTY, SEED, Output
+
+from .options import DIFFICULTY, SEED, Output
 
 CAMERA_RESOLUTION = 128
 STEP_CAP = 10000  # the longest episode a config allows (episode.max_steps): --video's default cap
@@ -171,6 +172,7 @@ def picture_writer(env, output: str | None, size: int):
     view to the PNG ``output``."""
 
     def picture(observation, info=None) -> None:
+        assert output is not None, "a picture is drawn only when there is a PNG to write"
         image = compose(draw_top_down(env.level_spec, size), observation["camera"])
         click.echo(f"wrote {save_png(image, output)} ({image.shape[1]} x {image.shape[0]})")
 
@@ -205,7 +207,7 @@ def record(
         result = play(env, policy, seed, options=options, on_reset=on_reset, on_step=frame, max_steps=cap)
         if writer.frames == 0:  # the episode ended before the first frame
             writer.write(compose(draw_world(env, size), result.observation["camera"]))
-    end = ENDS.get(result.end, result.end)
+    end = ENDS.get(result.end, result.end) if result.end is not None else None
     ended = (
         f"; the episode ended at step {result.steps} ({end})"
         if end

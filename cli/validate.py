@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import click
 
 from aaai.levels import InvalidLevelError, all_levels, generate
-from aaai.task.validate import check
-from aaai_cli.options import COUNT, SEED
+from aaai.levels.validate import check
+
+from .options import COUNT, SEED, parse_levels, parse_range
 
 ARENA_SEEDS = 10  # seeds an arena file is checked with unless --seeds says otherwise
 
@@ -33,7 +36,6 @@ def validate(ctx, levels_text, difficulty_text, seeds, first_seed, arena):
     of the agent's footprint. Prints seeds checked, regenerated and failed per (level, difficulty);
     exits with status 1 if any failed."""
     from aaai.levels import SEED_LIMIT
-    from aaai_cli.main import parse_levels, parse_range  # here, not at the top: main imports this module
 
     if first_seed + seeds > SEED_LIMIT:  # every seed checked must be one a level takes
         raise click.BadParameter(
@@ -107,7 +109,7 @@ def survey(level: int, difficulty: int, seeds) -> dict:
     after a regeneration), failed (no valid level, or a returned spec with problems), and the
     first failures' messages.
     """
-    row = {"checked": 0, "regenerated": 0, "failed": 0, "errors": []}
+    row: dict[str, Any] = {"checked": 0, "regenerated": 0, "failed": 0, "errors": []}
     for seed in seeds:
         row["checked"] += 1
         try:

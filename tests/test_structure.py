@@ -132,7 +132,7 @@ def test_scoring_imports_nothing_from_training(module):
 # The package's map, bottom to top: a module may import its own layer and the layers below, never above.
 # A unit is a folder of aaai (aaai.sim) or a module at its top (aaai.config); DEVELOPERS.md, "Layout", reads the same.
 LAYERS = (
-    ("aaai.errors", "aaai.files", "aaai.safe_yaml"),  # what every module may use
+    ("aaai.errors", "aaai.files", "aaai.safe_yaml", "aaai.jobs"),  # what every module may use
     ("aaai.agent",),  # the body: its URDF table and its handle in a client
     ("aaai.config",),  # the configuration and its rules
     ("aaai.spec",),  # a level as plain data: the spec and its hash, the kinds and moving parts it names
@@ -232,20 +232,3 @@ def test_a_pair_of_folders_importing_each_other_is_caught(tmp_path):
         line.startswith("aaai.levels <-> aaai.task:") and "aaai.levels imports aaai.task.arena" in line
         for line in found
     )
-
-
-@pytest.mark.parametrize(
-    "older, module",
-    [
-        ("aaai.sim.kinds", "aaai.spec.kinds"),
-        ("aaai.sim.behaviours", "aaai.spec.behaviours"),
-        ("aaai.task.validate", "aaai.levels.validate"),
-        ("aaai.task.seeds", "aaai.levels.seeds"),
-    ],
-)
-def test_an_older_name_is_the_module_itself(older, module):
-    """Code written against a module's older name gets the module itself: one registry, live tables
-    (a kind registered later is in both), and a patch made through either name is seen by both."""
-    import importlib
-
-    assert importlib.import_module(older) is importlib.import_module(module)

@@ -24,6 +24,7 @@ import cv2
 import numpy as np
 
 from aaai.files import atomic_path, write_atomic
+from aaai.jobs import one_thread
 from aaai.levels import all_levels, get_level
 from aaai.scoring.evaluation import COLUMNS, cells_for, evaluate, policy_record, scored_episodes
 from aaai.scoring.policies import Policy, resolve
@@ -31,16 +32,6 @@ from aaai.train.curriculum import heatmap_panel
 
 SHOWN_DIFFICULTIES = (0, 5, 10)
 PROVENANCE = "provenance.json"  # per scoreboard: how its actions were computed (write_provenance)
-
-
-def one_thread() -> None:
-    """A worker scoring episodes uses one torch thread: a policy's small network gains nothing from
-    more, and with the default (one per core) the workers fight over the cores (10x the CPU time)."""
-    try:
-        import torch
-    except ImportError:
-        return
-    torch.set_num_threads(1)
 
 
 ORDER = ("random", "reference", "ppo_demo", "ppo_gait", "student")  # the table's columns, left to right

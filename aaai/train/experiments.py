@@ -234,7 +234,8 @@ def run_one(
     progress_every: float | None = None,
 ) -> None:
     """Trains and scores one (sampler, seed), as far as not done."""
-    from aaai.train.training import Progress, print_lines
+    from aaai.jobs import print_lines
+    from aaai.train.training import Progress
 
     name = f"{sampler}-seed{seed}"
     report = None

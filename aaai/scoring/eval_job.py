@@ -1,0 +1,241 @@
+"""`aaai eval` as one call: a policy scored on levels or on a battery of arena files, with its progress.
+
+:func:`score_policy` resolves the ``--policy`` string, builds the config, plans the episodes, scores
+them (here or on Ray), and summarises the rows; the command line only parses its flags and prints.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from aaai.config import Config, ConfigError
+from aaai.jobs import Display, Progress, quietly
+from aaai.scoring.evaluation import (
+    cells_for,
+    evaluate,
+    evaluate_arenas,
+    policy_record,
+    summarise,
+    summarise_arenas,
+    write_summary,
+)
+from aaai.scoring.policies import Policy, resolve
+
+
+class ScoreboardError(OSError):
+    """The scoreboard (or a file beside it) could not be written midway: one line naming the file and
+    the cause. The rows written so far stay."""
+
+
+@dataclass
+class EvalResult:
+    """What :func:`score_policy` scored: the rows, their summary and the scoreboard's path."""
+
+    rows: list[dict]
+    summary: list[dict]
+    output: Path
+
+    def write_summary(self) -> Path:
+        """Writes the summary beside the scoreboard (``<scoreboard>_summary.md``); its path."""
+        return write_summary(self.summary, self.output)
+
+
+def with_action_mode(config: Config, action_mode: str | None) -> Config:
+    """``config`` scored in ``action_mode`` (unchanged for None). A model trained in another mode
+    is refused when it is loaded."""
+    if action_mode is not None:
+        config = config.replace(action_mode=action_mode)
+    return config
+
+
+def check_options(
+    arenas: Any, levels: Any, difficulties: Any, seed_key_file: Any, backend: str, save_replays: Any
+) -> None:
+    """Options that cannot go together, refused before any work (ConfigError naming them): with
+    ``--arenas`` (arena files, each its own level) the options that choose levels, a seed key or Ray;
+    ``--save-replays`` but on the local backend."""
+    if arenas is not None:
+        clashes = [
+            name
+            for name, value in (
+                ("--levels", levels),
+                ("--difficulty", difficulties),
+                ("--seed-key-file", seed_key_file),
+            )
+            if value is not None
+        ]
+        if backend != "local":
+            clashes.append("--backend ray")
+        if clashes:
+            raise ConfigError(f"--arenas: {', '.join(clashes)} cannot be used with it (an arena file is its own level)")
+    elif save_replays is not None and backend != "local":
+        raise ConfigError("--save-replays: only with --backend local")
+
+
+def score_policy(
+    policy: str,
+    *,
+    seeds: str = "reserved",
+    levels: list[int] | None = None,
+    difficulties: list[int] | None = None,
+    seeds_per_cell: int | None = None,
+    config_path: str | None = None,
+    output: str | Path | None = None,
+    seed_key_file: str | Path | None = None,
+    arenas: str | Path | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    workers: int = 2,
+    action_mode: str | None = None,
+    trust_model: bool = False,
+    save_replays: str | Path | None = None,
+    progress_every: float | None = None,
+    display: Display = quietly,
+) -> EvalResult:
+    """Scores ``policy`` (a ``--policy`` string) as ``aaai eval`` does, and gives back the rows and
+    their summary (:meth:`EvalResult.write_summary` writes it).
+
+    With ``arenas`` (a folder of arena files or one file), every file on seeds 0..K-1 or the
+    ``seeds`` list, summarised per arena and per category; else the ``levels`` x ``difficulties``
+    cells (default: the run's or config's curriculum) on ``seeds`` (reserved, train or a list
+    '1,2,3'; reserved: the hidden list of the key in ``seed_key_file`` or AAAI_SEED_KEY, if given).
+    K is ``seeds_per_cell`` (default eval.seeds_per_cell). The scoreboard goes to ``output``
+    (default scoreboard_<seeds>.csv in the run folder, or here). ``display`` shows the progress (an
+    :class:`aaai.jobs.Progress` counting episodes, a line every ``progress_every`` seconds when it
+    writes lines).
+
+    Raises ConfigError (InUse: another process writes the scoreboard) or FileNotFoundError for an
+    input that is not allowed, :class:`ScoreboardError` for a file that could not be written,
+    ImportError for a missing extra.
+    """
+    check_options(arenas, levels, difficulties, seed_key_file, backend, save_replays)
+    try:
+        key = None if arenas is not None else read_key(seed_key_file)
+        chosen = resolve(policy, trust_model)
+        run_folder = Path(chosen.run) if chosen.run else None
+        config = with_action_mode(chosen.config(config_path), action_mode)
+        count = seeds_per_cell or config.eval.seeds_per_cell
+        if arenas is not None:
+            return _score_arenas(
+                chosen, arenas, seeds, count, run_folder, output, config, save_replays, progress_every, display
+            )
+        level_list = levels if levels is not None else list(config.curriculum.levels)
+        difficulty_list = difficulties if difficulties is not None else list(config.curriculum.difficulties)
+        cells = cells_for(level_list, difficulty_list, seeds, count, key)
+        label = seeds if seeds in ("reserved", "train") else "list"
+        output = Path(output) if output else (run_folder or Path(".")) / f"scoreboard_{label}.csv"
+        record = policy_record(chosen, seeds, key)
+        report = Progress(
+            sum(len(cell.seeds) for cell in cells), label="scoring", unit="episodes", every=progress_every
+        )
+        with display(report) as update:
+            on_episode = _counting(report, update)
+            if backend == "ray":
+                from aaai.scoring.distributed import evaluate_on_ray
+
+                rows = evaluate_on_ray(
+                    chosen,
+                    cells,
+                    output,
+                    config,
+                    address=address,
+                    workers=workers,
+                    on_episode=on_episode,
+                    record=record,
+                )
+            else:
+                rows = evaluate(
+                    chosen, cells, output, config, record=record, **replay_hooks(save_replays, chosen, on_episode)
+                )
+        return EvalResult(rows, summarise(rows), output)
+    except FileNotFoundError:
+        raise
+    except ScoreboardError:
+        raise
+    except OSError as error:  # an output that became unwritable midway (its rows so far stay)
+        raise ScoreboardError(f"{str(error.filename or output)!r}: {error.strerror or error}") from error
+
+
+def _score_arenas(
+    chosen: Policy,
+    arenas: str | Path,
+    seeds: str,
+    count: int,
+    run_folder: Path | None,
+    output: str | Path | None,
+    config: Config,
+    save_replays: str | Path | None,
+    progress_every: float | None,
+    display: Display,
+) -> EvalResult:
+    """``aaai eval --arenas``: every arena file of the battery on seeds 0..K-1 (or a --seeds list)."""
+    from aaai.task.arena import arena_files, arena_meta
+
+    if seeds == "reserved":  # the default: an arena's seeds are 0..K-1
+        seed_list, label = list(range(count)), f"0-{count - 1}"
+    elif seeds == "train":
+        raise ConfigError("--seeds: got 'train' with --arenas; allowed: a list like 1,2,3 (default 0..K-1)")
+    else:
+        try:
+            seed_list, label = [int(part) for part in seeds.split(",")], seeds
+        except ValueError:
+            raise ConfigError(f"--seeds: got {seeds!r}; allowed: a list like 1,2,3 (default 0..K-1)") from None
+    files = arena_files(arenas)
+    categories = {path.name: arena_meta(path)["category"] for path in files}
+    output = Path(output) if output else (run_folder or Path(".")) / "scoreboard_arenas.csv"
+    record = {**policy_record(chosen, "list"), "seeds": label, "arenas": str(arenas)}
+    report = Progress(len(files) * len(seed_list), label="scoring", unit="episodes", every=progress_every)
+    try:
+        with display(report) as update:
+            hooks = replay_hooks(save_replays, chosen, _counting(report, update), files)
+            rows = evaluate_arenas(chosen, files, seed_list, output, config, record=record, **hooks)
+    except OSError as error:
+        if isinstance(error, FileNotFoundError):
+            raise
+        raise ScoreboardError(f"{str(error.filename or output)!r}: {error.strerror or error}") from error
+    return EvalResult(rows, summarise_arenas(rows, categories), output)
+
+
+def read_key(seed_key_file: str | Path | None) -> str | None:
+    """The secret seed key of ``seed_key_file``, else of AAAI_SEED_KEY; None if neither (ConfigError for
+    a file that is not one)."""
+    from aaai.levels.seeds import read_seed_key
+
+    try:
+        return read_seed_key(seed_key_file)
+    except ValueError as error:
+        raise ConfigError(str(error)) from None
+
+
+def _counting(report: Progress, update: Callable[[int], None]) -> Callable[[dict], None]:
+    """The ``on_episode`` of a scoring loop: each scored row counted in ``report`` (passed or not, its
+    steps) and shown."""
+
+    def on_episode(row: dict) -> None:
+        report.add_episodes([row["outcome"] != "failed"], steps=int(row["steps"]))
+        update(1)
+
+    return on_episode
+
+
+def replay_hooks(
+    folder: str | Path | None, policy: Policy, on_episode: Callable[[dict], None], arenas: Any = ()
+) -> dict[str, Any]:
+    """``aaai eval --save-replays``: the keywords that make ``evaluate`` record the policy and
+    write each scored episode's replay into ``folder`` (just ``on_episode`` without a folder)."""
+    if folder is None:
+        return {"on_episode": on_episode}
+    from aaai.scoring.replays import ReplaySaver
+    from aaai.scoring.runs import check_writable
+
+    check_writable(Path(folder), "--save-replays", folder=True)
+    saver = ReplaySaver(
+        folder,
+        policy.name,
+        policy.build,
+        arenas={Path(a).name: Path(a) for a in arenas},
+        on_episode=on_episode,
+    )
+    return {"on_episode": saver.on_episode, "make_policy": saver.make_policy}

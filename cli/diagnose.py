@@ -1,0 +1,42 @@
+"""``aaai diagnose``: a policy's failed episodes replayed, each sorted into a first cause."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from aaai.config import ConfigError
+from aaai.scoring.policies import resolve
+
+from .options import MANY, POLICY_HELP, parse_levels
+
+
+@click.command("diagnose")
+@click.option("--policy", required=True, help=POLICY_HELP)
+@click.option(
+    "--scoreboard",
+    type=click.Path(exists=True, dir_okay=False),
+    required=True,
+    help="The policy's scoreboard CSV (aaai eval): its failed episodes are replayed.",
+)
+@click.option("--levels", help="Only these levels, by id, label or name, e.g. '7,8' or 'L8'.")
+@click.option("--limit", type=click.IntRange(1, MANY), help="At most this many failed episodes per level.")
+@click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
+def diagnose_command(policy, scoreboard, levels, limit, config_path):
+    """Why a policy fails: its failed episodes replayed, each sorted into a first cause (fell, never
+    saw food, lost sight of it, saw it but did not reach it, ate the wrong food)."""
+    from aaai.scoring.diagnose import diagnose, table_markdown
+
+    try:
+        chosen = resolve(policy)
+        failures = diagnose(
+            chosen,
+            Path(scoreboard),
+            chosen.config(config_path),
+            parse_levels(levels) if levels else None,
+            limit,
+        )
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    click.echo(table_markdown(failures), nl=False)

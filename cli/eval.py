@@ -1,0 +1,163 @@
+"""``aaai eval``: the flags parsed and the summary printed; the scoring is aaai.scoring.eval_job's."""
+
+from __future__ import annotations
+
+import click
+
+from aaai.config import ConfigError
+from aaai.errors import needs_extra
+from aaai.files import InUse
+
+from .options import (
+    PROGRESS_HELP,
+    TRUST_HELP,
+    WORKERS,
+    Output,
+    Seconds,
+    SeedList,
+    parse_levels,
+    parse_range,
+    rule,
+)
+from .progress import progress_output
+
+
+@click.command("eval")
+@click.option(
+    "--seeds",
+    "seeds_mode",
+    type=SeedList(),
+    default="reserved",
+    show_default=True,
+    help="reserved, train, or a list like 1,2,3.",
+)
+@click.option(
+    "--policy",
+    default="random",
+    show_default=True,
+    help="A run folder, a model .zip, random, reference, gait, or module:callable (called with the env).",
+)
+@click.option(
+    "--levels",
+    help="Levels to score by id, label or name, e.g. '0-3' or 'L2b' (default: the run's or config's curriculum).",
+)
+@click.option("--difficulty", help="Difficulties to score (default: the curriculum's).")
+@click.option(
+    "--seeds-per-cell", "-k", type=rule("eval.seeds_per_cell"), help="K seeds per cell (default: eval.seeds_per_cell)."
+)
+@click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
+@click.option(
+    "--out", "output", type=Output(what="file"), help="Scoreboard CSV (default: scoreboard_<seeds>.csv in the run)."
+)
+@click.option(
+    "--seed-key-file",
+    type=click.Path(dir_okay=False),
+    help="A file holding a secret key: score the hidden reserved list it stands for "
+    "(or set AAAI_SEED_KEY). The scoreboard records a hash of the key, never the key.",
+)
+@click.option(
+    "--backend",
+    type=click.Choice(["local", "ray"]),
+    default="local",
+    show_default=True,
+    help="local: one process; ray: episodes as Ray tasks (the ray extra), here or on a cluster.",
+)
+@click.option(
+    "--address",
+    help="With --backend ray: join the cluster whose head is at this address "
+    "(host:port, or auto); without it a local Ray is started for the eval.",
+)
+@click.option(
+    "--workers",
+    type=WORKERS,
+    default=2,
+    show_default=True,
+    help="With --backend ray and no --address: CPUs of the local Ray.",
+)
+@click.option(
+    "--arenas",
+    type=click.Path(exists=True),
+    help="Score a battery of arena files (a folder of *.yaml, or one file) instead of levels: seeds "
+    "0..K-1 (-k, default eval.seeds_per_cell) or --seeds 1,2,3; a summary per arena and per category.",
+)
+@click.option(
+    "--action-mode",
+    type=click.Choice(["rotation", "velocity", "gait"]),
+    help="Score in this action mode (default: the run's or config's). A model is scored only in the "
+    "mode it was trained in.",
+)
+@click.option("--trust-model", is_flag=True, help=TRUST_HELP)
+@click.option("--progress-every", type=Seconds(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
+@click.option(
+    "--save-replays",
+    type=Output(file_okay=False),
+    help="Save each scored episode's replay (JSON: level, seed, config, actions) in this folder, for "
+    "aaai run --replay and aaai show --replay (--backend local only).",
+)
+def eval_command(
+    seeds_mode,
+    policy,
+    levels,
+    difficulty,
+    seeds_per_cell,
+    config_path,
+    output,
+    seed_key_file,
+    backend,
+    address,
+    workers,
+    arenas,
+    action_mode,
+    trust_model,
+    progress_every,
+    save_replays,
+):
+    """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
+    from aaai.jobs import one_thread
+    from aaai.scoring.eval_job import check_options, score_policy
+    from aaai.scoring.evaluation import summary_markdown
+
+    one_thread()  # one episode at a time: a small network gains nothing from more torch threads
+    try:  # refused before any work, and before the levels are read
+        check_options(arenas, levels, difficulty, seed_key_file, backend, save_replays)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    try:
+        result = score_policy(
+            policy,
+            seeds=seeds_mode,
+            levels=parse_levels(levels) if levels else None,
+            difficulties=parse_range(difficulty, "--difficulty", 0, 10) if difficulty else None,
+            seeds_per_cell=seeds_per_cell,
+            config_path=config_path,
+            output=output,
+            seed_key_file=seed_key_file,
+            arenas=arenas,
+            backend=backend,
+            address=address,
+            workers=workers,
+            action_mode=action_mode,
+            trust_model=trust_model,
+            save_replays=save_replays,
+            progress_every=progress_every,
+            display=progress_output,
+        )
+    except InUse as error:  # another eval writes this scoreboard: its pid named
+        raise click.ClickException(str(error)) from None
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    except OSError as error:  # an output that became unwritable midway (its rows so far stay): named
+        raise click.ClickException(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai eval")) from None
+    try:
+        summary_path = result.write_summary()
+    except OSError as error:  # the summary is printed anyway
+        click.echo(summary_markdown(result.summary), nl=False)
+        where = getattr(error, "filename", None) or result.output.with_name(result.output.stem + "_summary.md")
+        raise click.ClickException(
+            f"cannot write the summary {str(where)!r}: {error.strerror or error}; the "
+            f"scoreboard {str(result.output)!r} is whole, and the summary is printed above"
+        ) from None
+    click.echo(summary_markdown(result.summary), nl=False)
+    click.echo(f"scoreboard {result.output} ({len(result.rows)} episodes); summary {summary_path}")

@@ -1,0 +1,165 @@
+"""``aaai experiment``: the experiments the docs report (curricula compared, time to competence)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from aaai.config import ConfigError, load_config
+from aaai.errors import needs_extra
+
+from .options import WORKERS, Output, Seconds, parse_levels, parse_range, rule
+
+
+@click.group("experiment")
+def experiment_group():
+    """Experiments whose results the docs report."""
+
+
+def default_action_mode() -> str:
+    """gait where this version has it (more levels learned on one budget), else rotation."""
+    from aaai.config import RULES
+
+    return "gait" if "gait" in RULES["agent.action_mode"].choices else "rotation"
+
+
+@experiment_group.command("curricula")
+@click.option(
+    "--samplers",
+    default="paper,uniform,learnability,plr",
+    show_default=True,
+    help="Samplers to compare (curriculum.sampler), comma-separated.",
+)
+@click.option("--seeds", "seeds_text", default="0-2", show_default=True, help="Training seeds, e.g. '0-2'.")
+@click.option(
+    "--steps",
+    "total_steps",
+    type=rule("train.total_steps"),
+    default=500_000,
+    show_default=True,
+    help="The budget: training steps (agent decisions) of every run.",
+)
+@click.option(
+    "--levels", default="0,1,3,4", show_default=True, help="Active levels of every run, by id, label or name."
+)
+@click.option("--difficulty", default="0-3", show_default=True, help="Active difficulties of every run.")
+@click.option(
+    "-k",
+    "--seeds-per-cell",
+    "count",
+    type=rule("eval.seeds_per_cell"),
+    default=10,
+    show_default=True,
+    help="Episodes per cell on reserved seeds, and on seeds each run trained on.",
+)
+@click.option("--envs", "num_envs", type=rule("train.num_envs"), default=2, show_default=True, help="Workers per run.")
+@click.option(
+    "--action-mode",
+    type=click.Choice(["rotation", "velocity", "gait"]),
+    help="Action mode of every run (default: gait where available, else rotation).",
+)
+@click.option(
+    "--config",
+    "config_path",
+    type=click.Path(),
+    help="A YAML overriding configs/default.yaml. Default: configs/curricula.yaml, the settings the committed "
+    "experiment was run with (PPO's, pinned so that a change of the defaults leaves it continuable).",
+)
+@click.option("--out", "folder", type=Output(file_okay=False), default="experiments/curricula", show_default=True)
+@click.option(
+    "--jobs",
+    type=WORKERS,
+    default=2,
+    show_default=True,
+    help="Runs trained at once, each in its own process (one per core: a run of 2 workers steps them in "
+    "its own process when the cores are few, train.vector auto).",
+)
+@click.option(
+    "--progress-every",
+    type=Seconds(0.1),
+    default=60.0,
+    show_default=True,
+    help="Seconds between each run's progress lines.",
+)
+def curricula_command(
+    samplers,
+    seeds_text,
+    total_steps,
+    levels,
+    difficulty,
+    count,
+    num_envs,
+    action_mode,
+    config_path,
+    folder,
+    jobs,
+    progress_every,
+):
+    """Train every sampler on one budget, config and cells, several seeds each; score each run on
+    reserved and on trained seeds; write a table and a learning-curve plot (make curricula).
+    Re-running continues where it stopped."""
+    from aaai.config import config_dir
+    from aaai.scoring.runs import check_writable
+    from aaai.train.experiments import plan, run_experiment
+
+    seeds = parse_range(seeds_text, "--seeds", 0, 2**32 - 1)
+    try:
+        check_writable(Path(folder), "--out", folder=True)
+        config = load_config(
+            config_path or config_dir() / "curricula.yaml",
+            levels=parse_levels(levels),
+            difficulties=parse_range(difficulty, "--difficulty", 0, 10),
+            total_steps=total_steps,
+            num_envs=num_envs,
+            action_mode=action_mode or default_action_mode(),
+        )
+        experiment = plan(folder, [s.strip() for s in samplers.split(",") if s.strip()], seeds, config, count)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    click.echo(
+        f"experiment {experiment.folder}: samplers {experiment.samplers}, seeds {experiment.seeds}, "
+        f"{total_steps} steps each, action mode {config.agent.action_mode}"
+    )
+    try:
+        run_experiment(experiment, echo=click.echo, progress_every=progress_every, jobs=jobs)
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai experiment")) from None
+    click.echo((experiment.folder / "table.md").read_text(), nl=False)
+    click.echo(f"table {experiment.folder / 'table.md'}, plot {experiment.folder / 'curves.png'}")
+
+
+@experiment_group.command("competence")
+@click.option("--out", "folder", type=Output(file_okay=False), default="experiments/competence", show_default=True)
+@click.option(
+    "--gait-steps",
+    type=rule("train.total_steps"),
+    default=60_000,
+    show_default=True,
+    help="Budget of the gait-mode run, in agent decisions (0.1 s each).",
+)
+@click.option(
+    "--rotation-steps",
+    type=rule("train.total_steps"),
+    default=200_000,
+    show_default=True,
+    help="Budget of the rotation-mode run, in agent decisions (control steps of 0.02 s).",
+)
+def competence_command(folder, gait_steps, rotation_steps):
+    """Time to competence: PPO on the default config (L0 d0-2) in gait and in rotation mode, every
+    checkpoint scored on the 30 reserved episodes; the first to pass 90 % (make competence)."""
+    from aaai.train.competence import CompetenceSettings, run_experiment
+
+    settings = CompetenceSettings(
+        budgets={"gait": gait_steps, "rotation": rotation_steps},
+        checkpoint_every={"gait": max(gait_steps // 12, 1), "rotation": max(rotation_steps // 10, 1)},
+    )
+    try:
+        table = run_experiment(folder, settings, echo=click.echo)
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai experiment")) from None
+    click.echo(table.read_text(), nl=False)
