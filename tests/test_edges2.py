@@ -1,0 +1,88 @@
+"""Loose ends of safety: a resumed run's model within the same size budgets as a scored one, the
+trusted path still checked, YAML read only through the project's reader, --init-from's carried
+config compared, the play server's idle sessions and reloads, arena validation in linear time."""
+
+from __future__ import annotations
+
+import json
+import re
+import struct
+import time
+import zipfile
+import zlib
+from pathlib import Path
+
+import pytest
+
+from aaai.config import ConfigError
+
+
+# --- 1. a run folder's model.zip on --resume: the size budgets of a scored model -------------------
+def _zip_bomb(path: Path, mib: int, member: str = "policy.pth") -> Path:
+    """A model zip whose ``member`` is ``mib`` MiB of zeros, deflated (a few kB on disk per MiB)."""
+    compressor = zlib.compressobj(9, zlib.DEFLATED, -15)
+    block = compressor.compress(bytes(1 << 20)) + compressor.flush(zlib.Z_FULL_FLUSH)
+    stream = block * mib + zlib.compressobj(9, zlib.DEFLATED, -15).flush()
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED) as archive:
+        archive.writestr("data", "{}")
+        archive.writestr(member, stream)
+    raw = bytearray(path.read_bytes())
+    with zipfile.ZipFile(path) as archive:
+        info = archive.getinfo(member)
+    struct.pack_into("<H", raw, info.header_offset + 8, zipfile.ZIP_DEFLATED)
+    struct.pack_into("<I", raw, info.header_offset + 22, mib << 20)
+    central = raw.index(b"PK\x01\x02")
+    while raw[central + 46 : central + 46 + len(member)] != member.encode():
+        central = raw.index(b"PK\x01\x02", central + 4)
+    struct.pack_into("<H", raw, central + 10, zipfile.ZIP_DEFLATED)
+    struct.pack_into("<I", raw, central + 24, mib << 20)
+    path.write_bytes(bytes(raw))
+    return path
+
+
+def test_a_zip_bomb_in_a_run_folder_is_refused_on_resume_by_its_declared_size(tmp_path):
+    from aaai.scoring.runs import RunFolder, model_problem
+
+    run = RunFolder(tmp_path / "run")
+    run.final.mkdir(parents=True)
+    (run.final / "state.json").write_text(json.dumps({"step": 64, "curriculum": {}}))
+    _zip_bomb(run.final / "model.zip", 2000)  # 2000 MiB inflated, 2 MB on disk
+    start = time.perf_counter()
+    problem = model_problem(run.final / "model.zip")
+    assert time.perf_counter() - start < 0.5  # nothing inflated (testzip took 10 s on it)
+    assert problem == "model.zip: member 'policy.pth' inflates to 2000.0 MiB; allowed: at most 640.0 MiB"
+    told: list[str] = []
+    with pytest.raises(ConfigError) as refused:
+        run.resume_point(needs_model=True, say=told.append)
+    message = str(refused.value)
+    assert "\n" not in message and "final/model.zip" in message and "2000.0 MiB" in message, message
+    assert told == [f"skipping final: {problem}; falling back to an older checkpoint"]
+
+
+# --- 3. YAML only through aaai.safe_yaml -------------------------------------------------------------
+def test_an_experiment_record_is_read_as_plain_yaml_only(tmp_path):
+    from aaai.config import load_config
+    from aaai.train.experiments import plan
+
+    folder = tmp_path / "exp"
+    folder.mkdir()
+    canary = tmp_path / "canary"
+    (folder / "experiment.yaml").write_text(f"config: !!python/object/apply:os.system ['touch {canary}']\n")
+    with pytest.raises(ConfigError, match=r"experiment\.yaml.*line 1: the tag !!python/object/apply:os.system"):
+        plan(folder, ["uniform"], [0], load_config({}), 1)
+    (folder / "experiment.yaml").write_text("- a list\n")
+    with pytest.raises(ConfigError, match=r"experiment\.yaml.*the top level must be a mapping"):
+        plan(folder, ["uniform"], [0], load_config({}), 1)
+    assert not canary.exists()
+
+
+def test_no_module_reads_yaml_but_through_safe_yaml():
+    package = Path(__file__).resolve().parent.parent / "aaai"
+    reader = re.compile(r"(?<![\w.])yaml\.(?:safe_|full_|unsafe_)?load(?:_all)?\(|from yaml import .*load")
+    found = [
+        f"{path.relative_to(package)}: {hit.group(0)}"
+        for path in sorted(package.rglob("*.py"))
+        if path.name != "safe_yaml.py"
+        for hit in reader.finditer(path.read_text())
+    ]
+    assert found == []
