@@ -86,3 +86,66 @@ def test_no_module_reads_yaml_but_through_safe_yaml():
         for hit in reader.finditer(path.read_text())
     ]
     assert found == []
+
+
+# --- 2. --trust-model lets pickles run, not bad weights or oversized networks pass ----------------
+@pytest.fixture(scope="module")
+def pendulum_model(tmp_path_factory) -> Path:
+    """A tiny PPO model on Pendulum, saved by stable-baselines3 (loads only with trust or the registry)."""
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3 import PPO
+
+    path = tmp_path_factory.mktemp("trusted") / "pendulum.zip"
+    PPO("MlpPolicy", "Pendulum-v1", n_steps=16, batch_size=16, device="cpu", policy_kwargs={"net_arch": [8]}).save(path)
+    return path
+
+
+def _rewrite(source: Path, target: Path, data=None, weights=None) -> Path:
+    import io
+
+    import torch
+
+    with zipfile.ZipFile(source) as archive:
+        members = {name: archive.read(name) for name in archive.namelist()}
+    if data is not None:
+        parsed = json.loads(members["data"])
+        data(parsed)
+        members["data"] = json.dumps(parsed).encode()
+    if weights is not None:
+        state = torch.load(io.BytesIO(members["policy.pth"]), weights_only=True)
+        weights(state)
+        buffer = io.BytesIO()
+        torch.save(state, buffer)
+        members["policy.pth"] = buffer.getvalue()
+    with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as archive:
+        for name, blob in members.items():
+            archive.writestr(name, blob)
+    return target
+
+
+def test_a_trusted_model_is_still_refused_for_nan_weights_or_a_network_beyond_the_limits(pendulum_model, tmp_path):
+    import gymnasium as gym
+
+    from aaai.scoring.model_io import load_for_training
+    from aaai.scoring.policies import _trusted_load
+
+    assert _trusted_load(pendulum_model).policy is not None  # trusted and sound: loads
+    nan = _rewrite(pendulum_model, tmp_path / "nan.zip", weights=lambda s: s["log_std"].fill_(float("nan")))
+    wide = _rewrite(pendulum_model, tmp_path / "wide.zip", data=lambda d: d["policy_kwargs"].update(net_arch=[12000]))
+    huge = _rewrite(
+        pendulum_model, tmp_path / "huge.zip", data=lambda d: d["policy_kwargs"].update(net_arch=[4096] * 6)
+    )
+    env = gym.make("Pendulum-v1")
+    for path, words in (
+        (nan, ["'log_std'", "NaN or infinite"]),
+        (wide, ["width 12000", "1 to 4096"]),
+        (huge, ["at least 167,772,160 parameters", "at most 64,000,000"]),
+    ):
+        for load in (_trusted_load, lambda p: load_for_training(p, env, trust=True)):
+            with pytest.raises(ConfigError) as refused:
+                load(path)
+            message = str(refused.value)
+            assert str(path) in message and "--trust-model" not in message, message
+            for word in words:
+                assert word in message, (word, message)
+    env.close()

@@ -48,6 +48,7 @@ from aaai.scoring.model_archive import (
     _mib,
     _pickled,
     _refuse,
+    _tensor_problem,
     read_archive,
     read_tensors,
     size_problem,
@@ -390,6 +391,50 @@ def check_start_weights(path: str | Path, observation_space, action_space, kwarg
 
 
 # --- loading ------------------------------------------------------------------------------------
+def _least_parameters(arch: Any) -> int:
+    """The fewest parameters a network of ``net_arch`` can have: its hidden layers' weights alone (a
+    list is one such network for the policy and one for the value; a dict names each)."""
+    parts = [arch.get("pi", []), arch.get("vf", [])] if isinstance(arch, dict) else [arch, arch]
+    return sum(a * b for layers in parts if isinstance(layers, list) for a, b in zip(layers, layers[1:]))
+
+
+def check_before_trusted_load(path: str | Path) -> None:
+    """``--trust-model`` lets the file's pickles run, not its sizes pass: before stable-baselines3's
+    own loader sees it, the file is held to the size budgets and, when its ``policy_kwargs`` are
+    plain JSON, its ``net_arch`` to the limits a network is built within (refusals that do not name
+    trust, which would not help)."""
+    path = Path(path)
+    problem = size_problem(path)
+    if problem:
+        raise _bad(path, problem)
+    kwargs = read_archive(path).data.get("policy_kwargs")
+    if not isinstance(kwargs, dict) or _pickled(kwargs):
+        return  # pickled: what it holds is known only once loaded (check_trusted_model)
+    problem = net_arch_problem(kwargs)
+    least = _least_parameters(kwargs.get("net_arch"))
+    if not problem and least > MAX_PARAMETERS:
+        problem = f"its net_arch has at least {least:,} parameters; allowed: at most {MAX_PARAMETERS:,}"
+    if problem:
+        raise _bad(path, problem)
+
+
+def check_trusted_model(path: str | Path, model: Any) -> None:
+    """``--trust-model``: a model stable-baselines3 loaded is still checked as one read without
+    unpickling is: ``net_arch`` within the limits, at most :data:`MAX_PARAMETERS` parameters, and
+    every weight finite (no NaN or infinity)."""
+    path = Path(path)
+    kwargs = getattr(model, "policy_kwargs", None)
+    problem = net_arch_problem(kwargs) if isinstance(kwargs, dict) else None
+    if problem:
+        raise _bad(path, problem)
+    count = sum(parameter.numel() for parameter in model.policy.parameters())
+    if count > MAX_PARAMETERS:
+        raise _bad(path, f"its network has {count:,} parameters; allowed: at most {MAX_PARAMETERS:,}")
+    problem = _tensor_problem(dict(model.policy.state_dict()))
+    if problem:
+        raise _bad(path, f"its policy's {problem}")
+
+
 def _constant(value: float):
     return lambda _progress: value
 
@@ -472,7 +517,10 @@ def load_for_training(path: str | Path, env, fallback_kwargs: dict | None = None
     if trust:
         from stable_baselines3 import PPO
 
-        return PPO.load(path, env=env, device="cpu", **overrides)
+        check_before_trusted_load(path)
+        model = PPO.load(path, env=env, device="cpu", **overrides)
+        check_trusted_model(path, model)
+        return model
     archive = read_archive(path)
     algorithm, alias = _algorithm(archive)
     problems = space_problems(archive, env.observation_space, env.action_space)
