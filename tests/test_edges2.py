@@ -149,3 +149,30 @@ def test_a_trusted_model_is_still_refused_for_nan_weights_or_a_network_beyond_th
             for word in words:
                 assert word in message, (word, message)
     env.close()
+
+
+# --- 4. --init-from a model whose carried config is another environment's -----------------------
+def test_init_from_a_model_of_another_environment_is_refused_naming_each_key(tmp_path):
+    from click.testing import CliRunner
+
+    from aaai.config import load_config
+    from aaai.train.training import with_proprioception
+    from aaai_cli.main import cli
+
+    here = with_proprioception(load_config({}))
+    mode = next(m for m in ("rotation", "velocity", "gait") if m != here.agent.action_mode)
+    there = load_config(here, agent={"action_mode": mode}, sensors={"rays_flat": not here.sensors.rays_flat})
+    source = tmp_path / "other.zip"
+    with zipfile.ZipFile(source, "w") as archive:  # the weights are never reached: the config is checked first
+        archive.writestr("data", "{}")
+        archive.writestr("policy.pth", b"not read")
+        archive.writestr("aaai_config.yaml", there.to_yaml())
+    run = tmp_path / "tuned"
+    args = ["train", "--init-from", str(source), "--levels", "0", "--difficulty", "0", "--steps", "64"]
+    result = CliRunner().invoke(cli, [*args, "--envs", "1", "--run", str(run)])
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    message = " ".join(result.output.split())
+    assert f"--init-from: model file {str(source)!r} was trained in another environment" in message, message
+    assert f"agent.action_mode: {mode!r} there, {here.agent.action_mode!r} here" in message, message
+    assert f"sensors.rays_flat: {not here.sensors.rays_flat} there, {here.sensors.rays_flat} here" in message
+    assert "sensors.camera_resolution" not in message and not run.exists()

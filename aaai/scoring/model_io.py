@@ -175,6 +175,30 @@ def model_config(path: str | Path) -> Config | None:
         ) from None
 
 
+def start_config_problems(path: str | Path, config: Config) -> list[str]:
+    """``aaai train --init-from``: how the environment the model's carried config
+    (:data:`CONFIG_MEMBER`) describes differs from the new run's, one entry per differing key
+    (body, action mode, senses and their layout; a sensor's settings count only where it is on at
+    either side). Empty for a file that carries no config."""
+    carried = model_config(path)
+    if carried is None:
+        return []
+    there, here = carried.flat(), config.flat()
+    off = {
+        name
+        for name in ("camera", "rays")
+        if there[f"sensors.{name}"] is not True and here[f"sensors.{name}"] is not True
+    }
+    keys = ["agent.body", "agent.action_mode"] + [
+        key
+        for key in here
+        if key.startswith("sensors.")
+        and ("camera" if key.startswith("sensors.camera") else "rays" if key.startswith("sensors.ray") else "")
+        not in off
+    ]
+    return [f"{key}: {there[key]!r} there, {here[key]!r} here" for key in keys if there[key] != here[key]]
+
+
 # --- the fields rebuilt -------------------------------------------------------------------------
 def policy_class_name(archive: Archive) -> str:
     """The registered policy class the file names (refused if it names another)."""
@@ -375,16 +399,26 @@ def check_state(path: Path, state: Any, expected: dict, name: str = "policy.pth"
             )
 
 
-def check_start_weights(path: str | Path, observation_space, action_space, kwargs: dict) -> None:
+def check_start_weights(
+    path: str | Path, observation_space, action_space, kwargs: dict, config: Config | None = None
+) -> None:
     """``aaai train --init-from``: the model's weights (only policy.pth is read, never unpickled)
     checked within the budgets against the network a new run builds (a stable-baselines3
-    MultiInputPolicy with ``kwargs``), before the run's folder exists."""
+    MultiInputPolicy with ``kwargs``), before the run's folder exists; first, the config the file
+    carries against the run's ``config`` (:func:`start_config_problems`)."""
     from stable_baselines3.common.policies import MultiInputActorCriticPolicy
 
     path = Path(path)
     problem = size_problem(path)
     if problem:
         raise _bad(path, problem)
+    if config is not None:
+        differ = start_config_problems(path, config)
+        if differ:
+            raise ConfigError(
+                f"model file {str(path)!r} was trained in another environment than this run's ({'; '.join(differ)}); "
+                "allowed: a model of the same body, action mode and senses"
+            )
     state = read_tensors(path, "policy.pth", trust_helps=False)
     expected = expected_state(path, MultiInputActorCriticPolicy, observation_space, action_space, False, kwargs)
     check_state(path, state, expected)
