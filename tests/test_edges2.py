@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from aaai.config import ConfigError
+from aaai.config import ConfigError, load_config
 
 
 # --- 1. a run folder's model.zip on --resume: the size budgets of a scored model -------------------
@@ -176,3 +176,75 @@ def test_init_from_a_model_of_another_environment_is_refused_naming_each_key(tmp
     assert f"agent.action_mode: {mode!r} there, {here.agent.action_mode!r} here" in message, message
     assert f"sensors.rays_flat: {not here.sensors.rays_flat} there, {here.sensors.rays_flat} here" in message
     assert "sensors.camera_resolution" not in message and not run.exists()
+
+
+# --- 5. the play server: a reload takes its session over; an idle session is abandoned ------------
+def test_a_reload_takes_its_session_over_and_an_idle_session_frees_its_world(tmp_path):
+    from contextlib import ExitStack
+
+    from websockets.exceptions import ConnectionClosed
+    from websockets.sync.client import connect
+
+    from aaai.scoring.evaluation import Cell
+    from aaai.tools.play.server import TAKEN_OVER, Server
+    from aaai.tools.play.session import PlaySettings, abandoned_path
+
+    config = load_config(None, camera=True, action_mode="gait", decision_interval=0.02, max_steps=400)
+    settings = PlaySettings(
+        config=config,
+        cells=[Cell(0, 0, [0])],
+        output=str(tmp_path / "human_{player}.csv"),
+        between_seconds=0.0,
+        grace_seconds=0.0,
+        idle_seconds=1.0,
+    )
+    server = Server(settings, port=0).start()
+    origin = server.url.split("/?")[0].rstrip("/")
+
+    def page(stack):
+        ws = stack.enter_context(connect(server.url.replace("http", "ws") + "ws", origin=origin, max_size=None))
+        assert json.loads(ws.recv(5))["type"] == "hello"
+        return ws
+
+    def until(ws, wanted, timeout=10.0) -> dict:
+        """Reads (acknowledging frames) until a message for which ``wanted`` holds."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            try:
+                message = ws.recv(0.2)
+            except TimeoutError:
+                continue
+            if isinstance(message, bytes):
+                continue
+            data = json.loads(message)
+            if data["type"] == "frame":
+                ws.send(json.dumps({"type": "ack", "frame": data["frame"]}))
+            if wanted(data):
+                return data
+        raise AssertionError("timed out")
+
+    try:
+        with ExitStack() as stack:
+            old = page(stack)
+            old.send(json.dumps({"type": "join", "player": "ann"}))
+            token = until(old, lambda m: m["type"] == "joined")["token"]
+            until(old, lambda m: m.get("phase") == "ready" and m["accepts_start"])
+            new = page(stack)  # the reloaded page, while the old socket is still open
+            new.send(json.dumps({"type": "join", "player": "ann", "token": token}))
+            assert until(new, lambda m: m["type"] in ("joined", "error"))["type"] == "joined"
+            told = until(old, lambda m: m["type"] == "error")["message"]
+            assert told == "player 'ann' was taken over by another page (a reload or a duplicated tab)"
+            with pytest.raises(ConnectionClosed) as closed:
+                until(old, lambda m: False)
+            assert closed.value.rcvd is not None and closed.value.rcvd.code == TAKEN_OVER
+            new.send(json.dumps({"type": "key", "key": "ArrowUp", "down": True}))  # the new page drives
+            until(new, lambda m: m.get("phase") == "running")
+            session = server.registry.sessions["ann"]
+            assert session.attached and server.registry.live() == 1  # the old socket's close detached nothing
+            # no key for --idle seconds: the battery is abandoned and its environment closed
+            ended = until(new, lambda m: m.get("phase") == "abandoned")
+            assert ended["message"] == "abandoned: no key was pressed for 1 seconds (--idle)"
+            assert session.done.wait(5) and session.env is None and server.registry.live() == 0
+            assert abandoned_path(tmp_path / "human_ann.csv").is_file()
+    finally:
+        server.stop()
