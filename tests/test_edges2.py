@@ -248,3 +248,62 @@ def test_a_reload_takes_its_session_over_and_an_idle_session_frees_its_world(tmp
             assert abandoned_path(tmp_path / "human_ann.csv").is_file()
     finally:
         server.stop()
+
+
+# --- 6. arena validation in time linear in its objects --------------------------------------------
+def _crowded_spec(n: int, seed: int, size: float = 60.0):
+    """A spec of ``n`` objects thrown at random into a small arena: walls, tunnels and ramps (some
+    turned, some tall, some very long), food on the floor, on top of solids, in the air, over holes
+    and cutting into solids, so that every kind of food problem occurs."""
+    import numpy as np
+
+    from aaai.spec import AgentPose, LevelSpec, ObjectSpec
+
+    rng = np.random.default_rng(seed)
+    objects = []
+    for _ in range(n):
+        x, y = rng.uniform(-size / 2, size / 2, 2)
+        pick = rng.integers(6)
+        if pick == 0:
+            length = float(rng.choice([1.0, 3.0, size * 1.5]))
+            objects.append(ObjectSpec("wall", "box", (x, y, 1.0), (length, 1.0, 2.0), float(rng.uniform(0, 3.2))))
+        elif pick == 1:
+            objects.append(ObjectSpec("tunnel", "box", (x, y, 2.0), (6.0, 8.0, 4.0), float(rng.uniform(0, 3.2))))
+        elif pick == 2:
+            objects.append(ObjectSpec("ramp", "box", (x, y, 1.0), (4.0, 3.0, 2.0), float(rng.uniform(0, 3.2))))
+        else:
+            z = float(rng.choice([0.5, 2.5, 1.7, 4.0]))  # the floor, on top of a 2-high solid, cutting in, the air
+            objects.append(ObjectSpec("food_yellow", "sphere", (x, y, z), (1.0, 1.0, 1.0)))
+    holes = tuple({(int(i), int(j)) for i, j in rng.integers(0, 8, (10, 2))})
+    return LevelSpec(0, "crowded", 0, seed, AgentPose(0.0, 0.0, 0.0), tuple(objects), (size, size), tiles=(8, 8),
+                     holes=holes)  # fmt: skip
+
+
+def test_food_checks_find_the_same_problems_as_against_every_solid(monkeypatch):
+    from aaai.levels import validate
+
+    def problems(spec) -> list[list[str]]:
+        index = validate.Solids(spec)
+        return [validate.food_problems(spec, food, index) for food in spec.foods]
+
+    specs = [_crowded_spec(n, seed) for n, seed in ((30, 0), (120, 1), (250, 2))]
+    found = [problems(spec) for spec in specs]
+    every = [problem for each in found for foods in each for problem in foods]
+    assert any("cuts into" in p for p in every) and any("not on solid ground" in p for p in every)
+    monkeypatch.setattr(validate.Solids, "near", lambda self, quad: list(range(len(self.pieces))))  # every solid
+    assert found == [problems(spec) for spec in specs]
+
+
+def test_an_arena_of_1000_objects_checks_each_food_against_the_solids_near_it(monkeypatch):
+    from aaai.levels import validate
+
+    calls = []
+    overlap = validate.footprints_overlap
+    monkeypatch.setattr(validate, "footprints_overlap", lambda *a, **k: calls.append(1) or overlap(*a, **k))
+    spec = _crowded_spec(1000, 3, size=200.0)
+    start = time.perf_counter()
+    validate.check(spec, require_food=False)
+    foods, pieces = len(spec.foods), len(validate.solids(spec))
+    assert foods > 400 and pieces > 400
+    assert len(calls) < 20 * (foods + pieces), (len(calls), foods * pieces)  # against every solid: foods x pieces
+    assert time.perf_counter() - start < 5
