@@ -441,7 +441,10 @@ def check_before_trusted_load(path: str | Path) -> None:
     problem = size_problem(path)
     if problem:
         raise _bad(path, problem)
-    kwargs = read_archive(path).data.get("policy_kwargs")
+    try:
+        kwargs = read_archive(path).data.get("policy_kwargs")
+    except ConfigError:  # a data part that is not JSON: stable-baselines3's loader says what it makes of it
+        return
     if not isinstance(kwargs, dict) or _pickled(kwargs):
         return  # pickled: what it holds is known only once loaded (check_trusted_model)
     problem = net_arch_problem(kwargs)
