@@ -90,6 +90,13 @@ from .options import DIFFICULTY, SEED, Finite, Output, SeedList, parse_levels, p
     help="Seconds a page that lost its connection may come back before its episode is abandoned.",
 )
 @click.option(
+    "--idle",
+    type=Finite(10, 86400),
+    default=600,
+    show_default=True,
+    help="Seconds a session may wait for a key before its battery is abandoned (its environment freed).",
+)
+@click.option(
     "--max-sessions",
     type=click.IntRange(1, 10_000),
     help="Players at once (each holds a simulation); a join beyond is refused "
@@ -115,6 +122,7 @@ def play(
     camera_resolution,
     fps,
     grace,
+    idle,
     max_sessions,
 ):
     """Play LEVEL (default L0) in a browser: arrows or WASD walk and turn, C or Shift crouches.
@@ -157,6 +165,7 @@ def play(
             player=player,
             max_fps=fps,
             grace_seconds=grace,
+            idle_seconds=idle,
             max_sessions=max_sessions,
             replays=Path(replays) if replays else None,
         )

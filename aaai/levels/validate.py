@@ -80,29 +80,32 @@ def solids(spec: LevelSpec, owners: list[int] | None = None) -> list[ObjectSpec]
     return found
 
 
-def overlapping_solids(spec: LevelSpec) -> list[str]:
-    """Pairs of solid objects that overlap (boxes cut into each other), by index and kind."""
-    owners: list[int] = []
-    objs = solids(spec, owners)
-    if len(objs) < 2:
-        return []
-    quads = [corners(obj) for obj in objs]
-    points = np.array(quads)  # (objects, 4 corners, x y)
-    low, high = points.min(axis=1), points.max(axis=1)
-    zs = np.array([z_range(obj) for obj in objs])
-    candidates = (
-        (low[:, None, :] < high[None, :, :] - TOLERANCE).all(axis=2)
-        & (low[None, :, :] < high[:, None, :] - TOLERANCE).all(axis=2)
-        & (zs[:, None, 0] < zs[None, :, 1] - TOLERANCE)
-        & (zs[None, :, 0] < zs[:, None, 1] - TOLERANCE)
-    )
+def overlapping_solids(spec: LevelSpec, index: Solids | None = None) -> list[str]:
+    """Pairs of solid objects that overlap (boxes cut into each other), by index and kind; each
+    piece is compared with the pieces near it (``index``: the spec's :class:`Solids`)."""
+    index = index if index is not None else Solids(spec)
+    objs, quads, owners, zs = index.pieces, index.quads, index.owners, index.heights
+    boxes = [index.box(quad) for quad in quads]
     problems = []
-    for i, j in zip(*np.nonzero(np.triu(candidates, 1))):
-        if owners[i] != owners[j] and footprints_overlap(quads[i], quads[j]):
-            problems.append(
-                f"solid objects overlap: {objs[i].kind} at {_xy(objs[i].position)} "
-                f"and {objs[j].kind} at {_xy(objs[j].position)}"
-            )
+    for i, (lx, ly, hx, hy) in enumerate(boxes):
+        for j in index.near(quads[i]):
+            if j <= i:
+                continue
+            jx, jy, kx, ky = boxes[j]
+            if (
+                lx < kx - TOLERANCE
+                and ly < ky - TOLERANCE
+                and jx < hx - TOLERANCE
+                and jy < hy - TOLERANCE
+                and zs[i][0] < zs[j][1] - TOLERANCE
+                and zs[j][0] < zs[i][1] - TOLERANCE
+                and owners[i] != owners[j]
+                and footprints_overlap(quads[i], quads[j])
+            ):
+                problems.append(
+                    f"solid objects overlap: {objs[i].kind} at {_xy(objs[i].position)} "
+                    f"and {objs[j].kind} at {_xy(objs[j].position)}"
+                )
     return problems
 
 
@@ -130,8 +133,62 @@ def food_places(food: ObjectSpec) -> list[tuple[float, float, float]]:
     return [food.position, *(moving.places(food) if moving else [])]
 
 
-def food_problems(spec: LevelSpec, food: ObjectSpec) -> list[str]:
-    """A piece outside the arena, over a hole, floating, or cutting into a solid."""
+class Solids:
+    """The solid pieces of a spec (:func:`solids`), with their footprints and heights, made once, and
+    buckets of a grid over their bounding boxes, so that the pieces near a place are found without
+    looking at every one: checking n pieces of food against n solids takes time in n, not n**2."""
+
+    MAX_CELLS = 64  # a piece whose box covers more cells than this is in every answer
+
+    def __init__(self, spec: LevelSpec):
+        self.owners: list[int] = []  # each piece's object index
+        self.pieces = solids(spec, self.owners)
+        self.quads = [corners(piece) for piece in self.pieces]
+        self.heights = [z_range(piece) for piece in self.pieces]
+        self.holes = set(map(tuple, spec.holes))
+        self.cell = max(spec.arena_size) / min(256, max(1, math.ceil(math.sqrt(len(self.pieces)))))
+        self.buckets: dict[tuple[int, int], list[int]] = {}
+        self.everywhere: list[int] = []  # pieces too large for the buckets (or not finite)
+        for index, quad in enumerate(self.quads):
+            cells = self._cells(quad)
+            if cells is None:
+                self.everywhere.append(index)
+                continue
+            for key in cells:
+                self.buckets.setdefault(key, []).append(index)
+
+    @staticmethod
+    def box(quad) -> tuple[float, float, float, float]:
+        """A footprint's bounding box: lowest x and y, highest x and y."""
+        xs, ys = [float(p[0]) for p in quad], [float(p[1]) for p in quad]
+        return min(xs), min(ys), max(xs), max(ys)
+
+    def _cells(self, quad, most: int = MAX_CELLS) -> list[tuple[int, int]] | None:
+        """The grid cells a footprint's bounding box touches (None: more than ``most``)."""
+        try:
+            i0, j0, i1, j1 = (math.floor(v / self.cell) for v in self.box(quad))
+        except (ValueError, OverflowError, ZeroDivisionError):
+            return None
+        if (i1 - i0 + 1) * (j1 - j0 + 1) > most:
+            return None
+        return [(i, j) for i in range(i0, i1 + 1) for j in range(j0, j1 + 1)]
+
+    def near(self, quad) -> list[int]:
+        """The indices (in order) of every piece whose bounding box may meet ``quad``'s: all those
+        :func:`footprints_overlap` could find overlapping it, and a few more."""
+        cells = self._cells(quad, most=4 * self.MAX_CELLS)
+        if cells is None:
+            return list(range(len(self.pieces)))
+        found = set(self.everywhere)
+        for key in cells:
+            found.update(self.buckets.get(key, ()))
+        return sorted(found)
+
+
+def food_problems(spec: LevelSpec, food: ObjectSpec, index: Solids | None = None) -> list[str]:
+    """A piece outside the arena, over a hole, floating, or cutting into a solid (``index``: the
+    spec's :class:`Solids`, made here if not given)."""
+    index = index if index is not None else Solids(spec)
     problems = []
     radius = food.size[0] / 2
     for x, y, z in food_places(food):
@@ -139,24 +196,25 @@ def food_problems(spec: LevelSpec, food: ObjectSpec) -> list[str]:
         if abs(x) + radius > spec.arena_size[0] / 2 or abs(y) + radius > spec.arena_size[1] / 2:
             problems.append(f"{where} is outside the arena")
             continue
-        if spec.heightfield is None and not _supported(spec, x, y, z - radius):
+        if spec.heightfield is None and not _supported(spec, x, y, z - radius, index):
             problems.append(f"{where} is not on solid ground")
         bottom, top = z - radius, z + radius
         quad = corners(ObjectSpec(food.kind, "box", (x, y, z), food.size))
-        for obj in solids(spec):
-            low, high = z_range(obj)
-            if low < top - TOLERANCE and bottom < high - TOLERANCE and footprints_overlap(quad, corners(obj)):
+        for k in index.near(quad):
+            obj, (low, high) = index.pieces[k], index.heights[k]
+            if low < top - TOLERANCE and bottom < high - TOLERANCE and footprints_overlap(quad, index.quads[k]):
                 problems.append(f"{where} cuts into {obj.kind} at {_xy(obj.position)}")
     return problems
 
 
-def _supported(spec: LevelSpec, x: float, y: float, bottom: float) -> bool:
+def _supported(spec: LevelSpec, x: float, y: float, bottom: float, index: Solids | None = None) -> bool:
     """Rests on the floor (not over a hole) or on top of a solid object."""
+    index = index if index is not None else Solids(spec)
     if abs(bottom) < TOLERANCE:
-        return tile_at(spec, x, y) not in set(map(tuple, spec.holes))
+        return tile_at(spec, x, y) not in index.holes
     point = tuple((x + dx, y + dy) for dx, dy in ((-0.01, -0.01), (0.01, -0.01), (0.01, 0.01), (-0.01, 0.01)))
-    for obj in solids(spec):
-        if abs(z_range(obj)[1] - bottom) < TOLERANCE and footprints_overlap(corners(obj), point):
+    for k in index.near(point):
+        if abs(index.heights[k][1] - bottom) < TOLERANCE and footprints_overlap(index.quads[k], point):
             return True
     return False
 
@@ -389,9 +447,10 @@ def check(spec: LevelSpec, require_food: bool = True) -> list[str]:
     problems = malformed(spec)
     if problems:  # nothing else can be measured on it
         return problems
-    problems = exact_overlaps(spec) + overlapping_solids(spec)
+    index = Solids(spec)  # made once, for the solids and every piece of food
+    problems = exact_overlaps(spec) + overlapping_solids(spec, index)
     for food in spec.foods:
-        problems += food_problems(spec, food)
+        problems += food_problems(spec, food, index)
     region, clear = reachable_region(spec)
     if not clear:
         problems.append(

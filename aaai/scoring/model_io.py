@@ -48,6 +48,7 @@ from aaai.scoring.model_archive import (
     _mib,
     _pickled,
     _refuse,
+    _tensor_problem,
     read_archive,
     read_tensors,
     size_problem,
@@ -172,6 +173,30 @@ def model_config(path: str | Path) -> Config | None:
             f"model file {str(path)!r}: the config it carries ({CONFIG_MEMBER}) does not load: {error}; "
             "allowed: a config aaai loads (or score the file with --config)"
         ) from None
+
+
+def start_config_problems(path: str | Path, config: Config) -> list[str]:
+    """``aaai train --init-from``: how the environment the model's carried config
+    (:data:`CONFIG_MEMBER`) describes differs from the new run's, one entry per differing key
+    (body, action mode, senses and their layout; a sensor's settings count only where it is on at
+    either side). Empty for a file that carries no config."""
+    carried = model_config(path)
+    if carried is None:
+        return []
+    there, here = carried.flat(), config.flat()
+    off = {
+        name
+        for name in ("camera", "rays")
+        if there[f"sensors.{name}"] is not True and here[f"sensors.{name}"] is not True
+    }
+    keys = ["agent.body", "agent.action_mode"] + [
+        key
+        for key in here
+        if key.startswith("sensors.")
+        and ("camera" if key.startswith("sensors.camera") else "rays" if key.startswith("sensors.ray") else "")
+        not in off
+    ]
+    return [f"{key}: {there[key]!r} there, {here[key]!r} here" for key in keys if there[key] != here[key]]
 
 
 # --- the fields rebuilt -------------------------------------------------------------------------
@@ -374,22 +399,79 @@ def check_state(path: Path, state: Any, expected: dict, name: str = "policy.pth"
             )
 
 
-def check_start_weights(path: str | Path, observation_space, action_space, kwargs: dict) -> None:
+def check_start_weights(
+    path: str | Path, observation_space, action_space, kwargs: dict, config: Config | None = None
+) -> None:
     """``aaai train --init-from``: the model's weights (only policy.pth is read, never unpickled)
     checked within the budgets against the network a new run builds (a stable-baselines3
-    MultiInputPolicy with ``kwargs``), before the run's folder exists."""
+    MultiInputPolicy with ``kwargs``), before the run's folder exists; first, the config the file
+    carries against the run's ``config`` (:func:`start_config_problems`)."""
     from stable_baselines3.common.policies import MultiInputActorCriticPolicy
 
     path = Path(path)
     problem = size_problem(path)
     if problem:
         raise _bad(path, problem)
+    if config is not None:
+        differ = start_config_problems(path, config)
+        if differ:
+            raise ConfigError(
+                f"model file {str(path)!r} was trained in another environment than this run's ({'; '.join(differ)}); "
+                "allowed: a model of the same body, action mode and senses"
+            )
     state = read_tensors(path, "policy.pth", trust_helps=False)
     expected = expected_state(path, MultiInputActorCriticPolicy, observation_space, action_space, False, kwargs)
     check_state(path, state, expected)
 
 
 # --- loading ------------------------------------------------------------------------------------
+def _least_parameters(arch: Any) -> int:
+    """The fewest parameters a network of ``net_arch`` can have: its hidden layers' weights alone (a
+    list is one such network for the policy and one for the value; a dict names each)."""
+    parts = [arch.get("pi", []), arch.get("vf", [])] if isinstance(arch, dict) else [arch, arch]
+    return sum(a * b for layers in parts if isinstance(layers, list) for a, b in zip(layers, layers[1:]))
+
+
+def check_before_trusted_load(path: str | Path) -> None:
+    """``--trust-model`` lets the file's pickles run, not its sizes pass: before stable-baselines3's
+    own loader sees it, the file is held to the size budgets and, when its ``policy_kwargs`` are
+    plain JSON, its ``net_arch`` to the limits a network is built within (refusals that do not name
+    trust, which would not help)."""
+    path = Path(path)
+    problem = size_problem(path)
+    if problem:
+        raise _bad(path, problem)
+    try:
+        kwargs = read_archive(path).data.get("policy_kwargs")
+    except ConfigError:  # a data part that is not JSON: stable-baselines3's loader says what it makes of it
+        return
+    if not isinstance(kwargs, dict) or _pickled(kwargs):
+        return  # pickled: what it holds is known only once loaded (check_trusted_model)
+    problem = net_arch_problem(kwargs)
+    least = _least_parameters(kwargs.get("net_arch"))
+    if not problem and least > MAX_PARAMETERS:
+        problem = f"its net_arch has at least {least:,} parameters; allowed: at most {MAX_PARAMETERS:,}"
+    if problem:
+        raise _bad(path, problem)
+
+
+def check_trusted_model(path: str | Path, model: Any) -> None:
+    """``--trust-model``: a model stable-baselines3 loaded is still checked as one read without
+    unpickling is: ``net_arch`` within the limits, at most :data:`MAX_PARAMETERS` parameters, and
+    every weight finite (no NaN or infinity)."""
+    path = Path(path)
+    kwargs = getattr(model, "policy_kwargs", None)
+    problem = net_arch_problem(kwargs) if isinstance(kwargs, dict) else None
+    if problem:
+        raise _bad(path, problem)
+    count = sum(parameter.numel() for parameter in model.policy.parameters())
+    if count > MAX_PARAMETERS:
+        raise _bad(path, f"its network has {count:,} parameters; allowed: at most {MAX_PARAMETERS:,}")
+    problem = _tensor_problem(dict(model.policy.state_dict()))
+    if problem:
+        raise _bad(path, f"its policy's {problem}")
+
+
 def _constant(value: float):
     return lambda _progress: value
 
@@ -472,7 +554,10 @@ def load_for_training(path: str | Path, env, fallback_kwargs: dict | None = None
     if trust:
         from stable_baselines3 import PPO
 
-        return PPO.load(path, env=env, device="cpu", **overrides)
+        check_before_trusted_load(path)
+        model = PPO.load(path, env=env, device="cpu", **overrides)
+        check_trusted_model(path, model)
+        return model
     archive = read_archive(path)
     algorithm, alias = _algorithm(archive)
     problems = space_problems(archive, env.observation_space, env.action_space)

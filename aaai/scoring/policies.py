@@ -360,12 +360,15 @@ def _trusted_load(path: Path):
             algorithm = RecurrentPPO
     except ConfigError:
         pass  # a class outside our registry: PPO's loader decides
+    model_io.check_before_trusted_load(path)  # trust lets pickles run, not sizes pass
     try:
-        return algorithm.load(path, device="cpu")
+        model = algorithm.load(path, device="cpu")
     except Exception as error:  # noqa: BLE001 - any failure inside the archive is the file's fault
         raise ConfigError(
             f"--policy: model file {str(path)!r} cannot be loaded by stable-baselines3: {type(error).__name__}: {error}"
         ) from None
+    model_io.check_trusted_model(path, model)  # nor NaN weights or an oversized network
+    return model
 
 
 class _Seen:

@@ -239,18 +239,23 @@ class RunFolder:
         stable-baselines3 archive) is skipped: ``say`` is told why, and so is resume.log.
         """
         saved = self.saved()
+        problems = []
         for folder in saved:
             problem = self.unreadable(folder, needs_model)
             if problem is None:
                 return folder, self.read_state(folder)
+            problems.append(
+                f"{folder.relative_to(self.path)}/{problem}"
+                if problem.startswith("model.zip")
+                else f"{folder.relative_to(self.path)}: {problem}"
+            )
             message = f"skipping {folder.relative_to(self.path)}: {problem}; falling back to an older checkpoint"
             say(message)
             with open(self.path / "resume.log", "a") as log:
                 log.write(message + "\n")
         if saved:
             raise ConfigError(
-                f"--resume: no checkpoint of {str(self.path)!r} can be read "
-                f"(tried {', '.join(str(f.relative_to(self.path)) for f in saved)})"
+                f"--resume: no checkpoint of {str(self.path)!r} can be read (tried {'; '.join(problems)})"
             )
         return None
 
@@ -294,7 +299,12 @@ def _remove_if_empty(folders: list[Path]) -> None:
 
 
 def model_problem(path: Path) -> str | None:
-    """Why ``path`` is not a whole stable-baselines3 model archive, or None when it is one."""
+    """Why ``path`` is not a whole stable-baselines3 model archive, or None when it is one. Its
+    members' declared sizes are checked against the budgets of a scored model
+    (:func:`aaai.scoring.model_archive.size_problem`) before any is inflated; a size that lies is
+    then caught by the checksum after inflating no more than it declared."""
+    from aaai.scoring.model_archive import size_problem
+
     if not path.is_file():
         return f"{path.name} is missing"
     if path.stat().st_size == 0:
@@ -307,6 +317,9 @@ def model_problem(path: Path) -> str | None:
                     f"{path.name} has an encrypted member ({locked[0]!r}); "
                     "allowed: members as stable-baselines3 writes them"
                 )
+            beyond = size_problem(path)  # before testzip inflates every member
+            if beyond:
+                return f"{path.name}: {beyond}"
             broken = archive.testzip()
             names = set(archive.namelist())
     except (zipfile.BadZipFile, OSError, EOFError) as error:

@@ -43,6 +43,7 @@ from typing import Callable
 import numpy as np
 import yaml
 
+from aaai import safe_yaml
 from aaai.config import Config, ConfigError, load_config
 from aaai.files import atomic_path, write_atomic
 from aaai.scoring.runs import RunFolder
@@ -86,7 +87,7 @@ def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: Conf
     experiment = Experiment(Path(folder), list(samplers), list(seeds), config, seeds_per_cell)
     path = experiment.folder / "experiment.yaml"
     if path.exists():
-        earlier = yaml.safe_load(path.read_text())
+        earlier = safe_yaml.load_mapping(path, "experiment record")  # plain data within limits
         # resolved again: keys added to the config since then take their defaults, as in `config`
         differences = config_differences(load_config(earlier.get("config") or {}), load_config(config))
         if earlier.get("seeds_per_cell") != seeds_per_cell:

@@ -154,7 +154,7 @@ def check_init_weights(config: Config, path: Path) -> None:
     try:
         width = config.train.net_width
         kwargs = {"net_arch": [width, width], "log_std_init": config.train.log_std_init}
-        check_start_weights(path, env.observation_space, env.action_space, kwargs)
+        check_start_weights(path, env.observation_space, env.action_space, kwargs, config)
     except ConfigError as error:
         raise ConfigError(f"--init-from: {error}") from None
     finally:

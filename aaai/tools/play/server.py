@@ -14,10 +14,13 @@ and gets ``hello``, ``joined``, ``status`` (phase, episode, time left, food, pos
 and ``error`` messages. A bad message gets an ``error`` naming what was wrong and changes nothing.
 
 Each tab's session is its own (its own environment, thread and scoreboard rows); a player name is
-held by one tab at a time, and a dropped tab can come back (with its token) within the grace
-period, after which its episode is abandoned. At most ``max_sessions`` sessions hold an
-environment at once (:func:`default_max_sessions`); a session whose battery is over and whose tab
-is gone is dropped, its memory given back.
+held by one socket at a time, and a dropped tab can come back (with its token) within the grace
+period, after which its episode is abandoned. A page that joins with the token while the old
+socket is still open (a reload whose old socket has not closed yet) takes the session over: the old
+socket is told and closed (code :data:`TAKEN_OVER`), and nothing it sends after that counts.
+At most ``max_sessions`` sessions hold an environment at once (:func:`default_max_sessions`); a
+session whose battery is over and whose tab is gone is dropped, its memory given back; one where no
+key is pressed for ``idle_seconds`` (``--idle``) is abandoned.
 
 Nothing reaches the app that is not from the server's own page, by its own address, and (on a
 network) with its token: :class:`aaai.tools.play.guard.Guard`.
@@ -33,7 +36,7 @@ import os
 import secrets
 import socket
 import threading
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from importlib import resources
 from typing import Any
 
@@ -58,6 +61,7 @@ MAX_MESSAGE_CHARS = 1000
 MESSAGE_TYPES = ("join", "key", "focus", "ack")
 SESSIONS_PER_CORE = 4  # a running session takes a fifth to a quarter of a core (docs/play.md, "How many players")
 SESSION_MEGABYTES = 50  # a session's environment, camera and thread take 37 to 48 MB (docs/play.md)
+TAKEN_OVER = 4409  # the close code of a socket whose session another page (with its token) took over
 
 
 def available_megabytes() -> float | None:
@@ -92,9 +96,14 @@ class Registry:
         self.lock = threading.Lock()
         self.sessions: dict[str, Session] = {}
         self.generation: dict[str, int] = {}  # bumped on every attach, so that a stale expiry does nothing
+        self.evictors: dict[str, Callable[[], None]] = {}  # how to close the socket that holds a player
 
-    def join(self, name: object, token: str | None, notify) -> Session:
-        """The session of the player a page names (``name``, any value from the page: checked here)."""
+    def join(
+        self, name: object, token: str | None, notify, evict: Callable[[], None] = lambda: None
+    ) -> tuple[Session, int]:
+        """The session of the player a page names (``name``, any value from the page: checked here),
+        and the generation its socket holds it at (:meth:`holds`). With the session's token, a page
+        takes over a session another socket still holds: ``evict`` of that socket is called."""
         player = check_player(name)
         if self.settings.player is not None and player != self.settings.player:
             raise InputError(f"player: got {player!r}; this server plays only {self.settings.player!r} (--player)")
@@ -113,31 +122,40 @@ class Registry:
                 session = Session(self.settings, player, notify, on_end=self.ended)
                 self.sessions[player] = session
                 self.generation[player] = 1
+                self.evictors[player] = evict
                 session.start()
-                return session
+                return session, 1
             if token != session.token:
                 raise InputError(
                     f"player {player!r} is playing in another tab; one tab per player (their episodes "
                     "go to one scoreboard): choose another name, or close that tab"
                 )
-            if session.attached:
-                raise InputError(f"player {player!r} is open in another tab (a duplicated tab?); close it first")
+            if session.attached:  # the same page reloaded before its old socket closed (or a duplicated tab)
+                self.evictors.get(player, lambda: None)()
             self.generation[player] += 1
+            self.evictors[player] = evict
             session.attach(notify)
-            return session
+            return session, self.generation[player]
+
+    def holds(self, session: Session, generation: int) -> bool:
+        """Whether the socket that joined ``session`` at ``generation`` still holds it."""
+        with self.lock:
+            return self.sessions.get(session.player) is session and self.generation.get(session.player) == generation
 
     def live(self) -> int:
         """Sessions holding an environment (their battery not over); call holding the lock."""
         return sum(not session.done.is_set() for session in self.sessions.values())
 
-    def detach(self, session: Session) -> int:
+    def detach(self, session: Session, generation: int) -> None:
+        """The socket that holds ``session`` at ``generation`` closed (one taken over holds nothing)."""
         with self.lock:
+            if self.generation.get(session.player) != generation or self.sessions.get(session.player) is not session:
+                return
             session.detach()
-            generation = self.generation.get(session.player, 0)
+            self.evictors.pop(session.player, None)
             gone = session.done.is_set() and self._forget(session)  # over already: nothing to come back to
         if gone:
             return_memory()
-        return generation
 
     def expire(self, session: Session, generation: int) -> None:
         """The grace period of a dropped tab is over: abandon its episode unless it came back."""
@@ -160,6 +178,7 @@ class Registry:
             return False
         del self.sessions[session.player]
         self.generation.pop(session.player, None)
+        self.evictors.pop(session.player, None)
         return True
 
     def all(self) -> list[Session]:
@@ -246,10 +265,25 @@ def create_app(
         wake = asyncio.Event()
         sending = asyncio.Lock()
         session: Session | None = None
+        held = 0  # the generation this socket holds its session at
         sender: asyncio.Task | None = None
+        leaving: list[asyncio.Task] = []
 
         def notify() -> None:
             loop.call_soon_threadsafe(wake.set)
+
+        async def leave() -> None:
+            """Another page took this socket's session over: say so, and close."""
+            if sender is not None:
+                sender.cancel()
+            assert session is not None
+            message = f"player {session.player!r} was taken over by another page (a reload or a duplicated tab)"
+            with contextlib.suppress(Exception):  # the socket may be closing already
+                await send({"type": "error", "message": message})
+                await websocket.close(code=TAKEN_OVER, reason="taken over by another page")
+
+        def evict() -> None:  # called on this loop, inside another socket's join
+            leaving.append(loop.create_task(leave()))
 
         async def send(data: dict) -> None:
             async with sending:
@@ -278,14 +312,14 @@ def create_app(
         try:
             while True:
                 message = await websocket.receive()
-                if message["type"] == "websocket.disconnect":
+                if message["type"] == "websocket.disconnect" or leaving:
                     break
                 try:
                     data = parse_message(message.get("text", message.get("bytes")))
                     if data["type"] == "join":
                         if session is not None:
                             raise InputError(f"join: this page plays {session.player!r} already")
-                        session = registry.join(data.get("player"), data.get("token"), notify)
+                        session, held = registry.join(data.get("player"), data.get("token"), notify, evict)
                         await send(
                             {
                                 "type": "joined",
@@ -311,9 +345,9 @@ def create_app(
         finally:
             if sender is not None:
                 sender.cancel()
-            if session is not None:
-                generation = registry.detach(session)
-                loop.call_later(settings.grace_seconds, registry.expire, session, generation)
+            if session is not None and registry.holds(session, held):
+                registry.detach(session, held)
+                loop.call_later(settings.grace_seconds, registry.expire, session, held)
 
     return app
 

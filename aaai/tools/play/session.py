@@ -162,6 +162,7 @@ class PlaySettings:
     between_seconds: float = 1.0  # after an episode, keys are ignored this long (a key held on is not a start)
     grace_seconds: float = 20.0  # a page that drops its socket may come back this long before its episode is abandoned
     max_sessions: int | None = None  # sessions holding an environment at once (None: the server's default)
+    idle_seconds: float = 600.0  # a session with no key pressed (and no page joining it) this long is abandoned
 
     def output_for(self, player: str) -> Path:
         return Path(self.output.replace("{player}", check_player(player)))
@@ -231,6 +232,7 @@ class Session:
         self.frame_no, self.acked, self.next_frame_at = 0, 0, 0.0
         self.delivered: list[float] = []  # monotonic times of acknowledged frames (the last second's)
         self.force_frame = False
+        self.last_input = time.monotonic()  # the last key pressed or page attached (see PlaySettings.idle_seconds)
         self.thread = threading.Thread(target=self._run, name=f"aaai-play-{player}", daemon=True)
 
     # --- from the page ---------------------------------------------------------------
@@ -242,6 +244,7 @@ class Session:
         assert isinstance(key, str)  # control_of refuses any other
         name = key.lower() if len(key) == 1 else key
         with self.cond:
+            self.last_input = time.monotonic()
             if down:
                 now = time.monotonic()
                 if self.phase in ("ready", "paused") and self.focused and self.attached and now >= self.ready_at:
@@ -271,6 +274,7 @@ class Session:
     def attach(self, notify: Callable[[], None]) -> None:
         with self.cond:
             self.attached, self.notify, self.focused = True, notify, True
+            self.last_input = time.monotonic()
             self.acked = self.frame_no - 1 if self.frame_data is not None else 0  # the new page has seen nothing:
             self.force_frame = True  # the newest frame goes to it now (even while paused), and a new one follows
             self._changed()
@@ -412,6 +416,9 @@ class Session:
                 self._set_phase("ready")
                 self._changed()
             while True:
+                idle = self.settings.idle_seconds
+                if self.abandon_reason is None and time.monotonic() - self.last_input > idle:
+                    self.abandon_reason = f"no key was pressed for {idle:g} seconds (--idle)"
                 if self.abandon_reason is not None:
                     raise Abandoned(self.abandon_reason)
                 if self.phase == "running":

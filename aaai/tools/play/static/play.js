@@ -31,8 +31,13 @@ function connect() {
     if (typeof event.data === "string") receive(JSON.parse(event.data));
     else image(event.data);
   };
-  socket.onclose = () => {
+  socket.onclose = (event) => {
     joined = false;
+    if (event.code === 4409) {  // another page (a reload, a duplicated tab) plays this player now
+      showScreen("Playing in another page", "This player is played in another page now; close this one.");
+      setPhase("disconnected");
+      return;
+    }
     showScreen("Connection lost", "Trying to reconnect… (the episode is paused)");
     setPhase("disconnected");
     setTimeout(connect, 1000);
