@@ -3,6 +3,7 @@ times, colours, spans to draw from), run and shown."""
 
 from __future__ import annotations
 
+import functools
 import subprocess
 
 from .base import AAAI, attack
@@ -11,6 +12,7 @@ from .inputs import text
 GROUP = "arena-extremes"
 
 
+@functools.cache
 def l11_heightfield(n: int) -> str:
     """L11's own arena file with its heightfield resampled to n x n heights."""
     import yaml
@@ -20,6 +22,11 @@ def l11_heightfield(n: int) -> str:
     rows = data["heightfield"]
     data["heightfield"] = [[rows[i * len(rows) // n][j * len(rows[0]) // n] for j in range(n)] for i in range(n)]
     return yaml.safe_dump(data, default_flow_style=None, width=10**6)
+
+
+def arena_file(content):
+    """``a.yaml`` holding ``content`` (text, or a function that makes it)."""
+    return lambda w: text("a.yaml", content() if callable(content) else content)(w)
 
 
 def food_at(x: str, extra: str = "") -> str:
@@ -51,7 +58,7 @@ def attacks():
         "huge-arena-checker-holes": arena("arena_size: [1000, 1000]\ntiles: [400, 400]\nholes:\n" + checker),
         "huge-arena-few-tiles": arena("arena_size: [1000, 1000]\ntiles: [1, 1]\n"),
         "tiny-arena": arena("arena_size: [0.001, 0.001]\n", objects=food, head="agent: {x: 0, y: 0}\n"),
-        "heightfield-300x300": l11_heightfield(300),
+        "heightfield-300x300": lambda: l11_heightfield(300),  # asks aaai spec: made when the attack is
         "heightfield-ragged": arena("heightfield:\n  - [0, 1, 2]\n  - [0]\n"),
         "heightfield-huge-values": arena("heightfield:\n  - [1.0e+300, -1.0e+300]\n  - [0, 1.0e+300]\n"),
         "900-small-foods": arena("arena_size: [1000, 1000]\n", objects=many),
@@ -82,7 +89,7 @@ def attacks():
     }
     run = [AAAI, "run", "--arena", "a.yaml", "--max-steps", "10", "--no-camera"]
     for name, content in cases.items():
-        attack(f"arena-{name}-run", GROUP, run, text("a.yaml", content), "any")
+        attack(f"arena-{name}-run", GROUP, run, arena_file(content), "any")
     show = [AAAI, "show", "--arena", "a.yaml", "-o", "o.png"]
     for name in ("huge-arena-checker-holes", "heightfield-300x300", "900-small-foods", "colours-extreme"):
-        attack(f"arena-{name}-show", GROUP, show, text("a.yaml", cases[name]), "any")
+        attack(f"arena-{name}-show", GROUP, show, arena_file(cases[name]), "any")
