@@ -1,9 +1,13 @@
 import math
 import os
+import subprocess
+import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
 from aaai.env import AnimalAIEnv
 from aaai.levels.common import arena_walls, sphere
@@ -69,3 +73,28 @@ def needs(module: str, extra: str):
 
         return importlib.import_module(module)
     return pytest.importorskip(module, reason=f"needs the {extra} extra, which make test installs")
+
+
+# --- the command line as a user runs it ------------------------------------------------------
+AAAI = [sys.executable, "-m", "aaai_cli.main"]
+
+
+def aaai(*args, check=True):
+    """``aaai *args`` in a process of its own; an AssertionError with its output if it fails (and ``check``)."""
+    result = subprocess.run([*AAAI, *map(str, args)], capture_output=True, text=True)
+    if check and result.returncode != 0:
+        raise AssertionError(f"aaai {' '.join(map(str, args))} failed:\n{result.stdout}\n{result.stderr}")
+    return result
+
+
+def aaai_here(*args, check=True):
+    """``aaai(*args)`` run in this process by click's runner (no interpreter and imports to start again);
+    the same returncode, stdout and stderr."""
+    from aaai_cli.main import cli
+
+    result = CliRunner().invoke(cli, list(map(str, args)))
+    if result.exception is not None and not isinstance(result.exception, SystemExit):
+        raise result.exception
+    if check and result.exit_code != 0:
+        raise AssertionError(f"aaai {' '.join(map(str, args))} failed:\n{result.output}")
+    return SimpleNamespace(returncode=result.exit_code, stdout=result.stdout, stderr=result.stderr)

@@ -244,3 +244,17 @@ def test_a_scoreboard_of_blank_lines_starts_afresh_so_its_rows_get_a_header(tmp_
     with Scoreboard(path, {"policy": "random"}, COLUMNS, [], None) as board:
         board.append({column: "0" for column in COLUMNS})
     assert path.read_text().splitlines()[0] == ",".join(COLUMNS)
+
+
+def test_the_red_team_registers_the_attacks_its_csv_records_in_order(monkeypatch):
+    """bench/redteam.csv names each attack (id and group) that `python bench/redteam.py` runs, in its order."""
+    import csv
+
+    bench = Path(__file__).resolve().parent.parent / "bench"
+    monkeypatch.syspath_prepend(str(bench))
+    from redteam_attacks import register
+
+    with open(bench / "redteam.csv", newline="") as handle:
+        recorded = [(row["id"], row["group"]) for row in csv.DictReader(handle)]
+    assert [(a.id, a.group) for a in register()] == recorded
+    assert len(recorded) == 398
