@@ -17,7 +17,7 @@ from aaai.config import ConfigError, load_config
 from aaai.env import AnimalAIEnv
 from aaai.scoring import model_spaces
 from aaai.scoring.model_archive import Archive
-from aaai.scoring.model_io import CONFIG_MEMBER, model_config
+from aaai.scoring.model_config import CONFIG_MEMBER, model_config
 from aaai.scoring.model_spaces import space_problems
 from aaai.scoring.policies import resolve
 from aaai.scoring.runs import RunFolder

@@ -31,13 +31,10 @@ from __future__ import annotations
 import importlib
 import re
 import threading
-import zipfile
 from pathlib import Path
 from typing import Any
 
-from aaai import safe_yaml
-from aaai.config import Config, ConfigError, load_config
-from aaai.files import atomic_path
+from aaai.config import Config, ConfigError
 from aaai.scoring.model_archive import (
     MAX_LAYERS,
     MAX_PARAMETERS,
@@ -53,6 +50,7 @@ from aaai.scoring.model_archive import (
     read_tensors,
     size_problem,
 )
+from aaai.scoring.model_config import start_config_problems
 from aaai.scoring.model_spaces import as_model_sees, space_problems
 
 # The policy class a file names (its readable ``__init__`` text) -> (module, algorithm, the policy name
@@ -129,74 +127,6 @@ COUNTERS = (
     "_n_updates",
     "_current_progress_remaining",
 )
-# The environment config a model was trained with, kept in its file beside stable-baselines3's own
-# members (which its loader ignores): a model file is scored in its own environment on its own.
-CONFIG_MEMBER = "aaai_config.yaml"
-
-
-def save_model(model, path: str | Path, config: Config) -> Path:
-    """``model.save`` with ``config`` as the file's :data:`CONFIG_MEMBER`, written whole (a temporary
-    file beside ``path``, renamed onto it when complete)."""
-    path = Path(path)
-    with atomic_path(path) as partial:
-        model.save(partial)
-        with zipfile.ZipFile(partial, "a", compression=zipfile.ZIP_DEFLATED) as archive:
-            archive.writestr(CONFIG_MEMBER, config.to_yaml())
-    return path
-
-
-def model_config(path: str | Path) -> Config | None:
-    """The environment config a model file carries (:data:`CONFIG_MEMBER`, read as YAML data and
-    checked as any config), or None for a file without one. One that does not load is refused,
-    naming the file."""
-    try:
-        with zipfile.ZipFile(path) as archive:
-            if CONFIG_MEMBER not in archive.namelist():
-                return None
-            size = archive.getinfo(CONFIG_MEMBER).file_size
-            if size > safe_yaml.MAX_BYTES:
-                raise ConfigError(
-                    f"model file {str(path)!r}: its {CONFIG_MEMBER} inflates to {size} bytes; "
-                    f"allowed: at most {safe_yaml.MAX_BYTES}"
-                )
-            with archive.open(CONFIG_MEMBER) as member:
-                text = member.read(safe_yaml.MAX_BYTES + 1).decode("utf-8")
-    except (zipfile.BadZipFile, OSError, EOFError, UnicodeDecodeError) as error:
-        raise ConfigError(f"model file {str(path)!r}: its {CONFIG_MEMBER} cannot be read: {error}") from None
-    try:
-        data = safe_yaml.parse(text, f"model file {str(path)!r}: its {CONFIG_MEMBER}")[0]
-        if not isinstance(data, dict):
-            raise ConfigError(f"it is {type(data).__name__}, not a mapping")
-        return load_config(data)
-    except ConfigError as error:
-        raise ConfigError(
-            f"model file {str(path)!r}: the config it carries ({CONFIG_MEMBER}) does not load: {error}; "
-            "allowed: a config aaai loads (or score the file with --config)"
-        ) from None
-
-
-def start_config_problems(path: str | Path, config: Config) -> list[str]:
-    """``aaai train --init-from``: how the environment the model's carried config
-    (:data:`CONFIG_MEMBER`) describes differs from the new run's, one entry per differing key
-    (body, action mode, senses and their layout; a sensor's settings count only where it is on at
-    either side). Empty for a file that carries no config."""
-    carried = model_config(path)
-    if carried is None:
-        return []
-    there, here = carried.flat(), config.flat()
-    off = {
-        name
-        for name in ("camera", "rays")
-        if there[f"sensors.{name}"] is not True and here[f"sensors.{name}"] is not True
-    }
-    keys = ["agent.body", "agent.action_mode"] + [
-        key
-        for key in here
-        if key.startswith("sensors.")
-        and ("camera" if key.startswith("sensors.camera") else "rays" if key.startswith("sensors.ray") else "")
-        not in off
-    ]
-    return [f"{key}: {there[key]!r} there, {here[key]!r} here" for key in keys if there[key] != here[key]]
 
 
 # --- the fields rebuilt -------------------------------------------------------------------------

@@ -148,7 +148,7 @@ def resolve(policy: str, trust: bool = False) -> Policy:
         problem = _zip_problem(path)
         if problem:
             raise ConfigError(f"--policy: model file {policy!r} cannot be loaded: {problem}")
-        from aaai.scoring.model_io import model_config
+        from aaai.scoring.model_config import model_config
 
         trained = model_run_config(path)  # a run's saved point: its run's config; else the one the file carries
         return _model(policy, path, None, trained if trained is not None else model_config(path), trust)

@@ -13,7 +13,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 
 from aaai.config import Config
-from aaai.scoring.model_io import save_model
+from aaai.scoring.model_config import save_model
 from aaai.scoring.runs import Episode, RunFolder
 from aaai.train.curriculum import episode_passed
 from aaai.train.vector import CurriculumVecEnv

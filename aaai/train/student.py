@@ -45,7 +45,7 @@ import numpy as np
 
 from aaai.config import Config, ConfigError, env_part, load_config
 from aaai.levels.seeds import TRAIN_SEEDS
-from aaai.scoring.model_io import save_model
+from aaai.scoring.model_config import save_model
 from aaai.scoring.runs import RunFolder, check_writable
 from aaai.train.vector import Episode, worker_processes
 
