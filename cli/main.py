@@ -1299,10 +1299,12 @@ def import_animalai_command(source, out, scale):
 from aaai_cli.play import play as play_command  # noqa: E402
 from aaai_cli.play import replay_hooks  # noqa: E402
 from aaai_cli.show import show  # noqa: E402
+from aaai_cli.study import study as study_group  # noqa: E402
 from aaai_cli.validate import validate  # noqa: E402
 
 cli.add_command(play_command)
 cli.add_command(show)
+cli.add_command(study_group)
 cli.add_command(validate)
 
 if __name__ == "__main__":
