@@ -106,6 +106,11 @@ def serve(study_file, host, port, grace, max_sessions):
             f"aaai study: serving {chosen.name!r} at {server.base_url} ({waiting} participant link"
             f"{'s' * (waiting != 1)} not finished; the store is {chosen.store}). Ctrl+C stops."
         )
+        if server.network:
+            click.echo(
+                f"--host {host}: anyone who can reach port {server.port} can open the pages; only a participant's "
+                "token lets them play, and there is no encryption: serve it behind a TLS proxy"
+            )
         server.run()
     except ConfigError as error:
         raise click.UsageError(str(error)) from None

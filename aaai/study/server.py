@@ -90,6 +90,8 @@ class StudyRegistry:
     def detach(self, session: StudySession) -> int:
         with self.lock:
             session.detach()
+            if session.done.is_set() and self.sessions.get(session.pid) is session:
+                del self.sessions[session.pid]  # over, and its tab gone: nothing to come back to
             return self.generation.get(session.pid, 0)
 
     def expire(self, session: StudySession, generation: int) -> None:
