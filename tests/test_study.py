@@ -119,6 +119,28 @@ def test_an_arena_trial_is_read_relative_to_the_study_file(tmp_path):
     assert study.battery[1].arena == (tmp_path / "mine.yaml").resolve()
 
 
+def test_the_commands_refuse_a_bad_study_file_or_a_missing_store_with_one_message(tmp_path):
+    path = write_study(tmp_path, TINY.replace("order: fixed", "order: sideways"))
+    result = CliRunner().invoke(cli, ["study", "participants", str(path), "-n", "2"])
+    assert result.exit_code == 2 and "line 7, order: got 'sideways'" in result.output
+    assert "Traceback" not in result.output
+    path = write_study(tmp_path)
+    result = CliRunner().invoke(cli, ["study", "export", str(path), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and "study store" in result.output and "does not exist" in result.output
+    result = CliRunner().invoke(cli, ["study", "participants", str(path), "-n", "1", "--url", "ftp://x/"])
+    assert result.exit_code == 2 and "--url: got 'ftp://x/'" in result.output
+
+
+def test_feedback_and_reaction_time_in_plain_terms():
+    from aaai.study.participant import feedback_of, first_move
+
+    assert feedback_of({"outcome": "succeeded", "food_eaten": 1}, "ate green") == "You found the food!"
+    assert feedback_of({"outcome": "failed", "food_eaten": 0}, "time") == "Time is up."
+    assert feedback_of({"outcome": "failed", "food_eaten": 0}, "fell").startswith("Oops, you fell")
+    assert first_move([[0, 0, 0]] * 12 + [[1, 0, 0]], 0.02) == 0.24  # the 13th step is 0.24 s in
+    assert first_move([[0, 0, 0]] * 5, 0.02) is None
+
+
 # --- the order ----------------------------------------------------------------------------------
 def test_fixed_order_is_the_files_for_everyone():
     assert battery_order("fixed", 5, 3, 1234) == [0, 1, 2, 3, 4]
@@ -391,3 +413,5 @@ def test_two_participants_play_a_study_at_once_in_a_browser_and_their_rows_and_r
     replay = load_replay(replays[1])
     assert replay["policy"] == "human:P001" and replay["seed"] == 1
     assert run_replay(replay).differences == []  # `aaai show --replay` plays it back
+    result = CliRunner().invoke(cli, ["run", "--replay", str(replays[1])])
+    assert result.exit_code == 0 and "reproduced bit for bit" in result.output, result.output
