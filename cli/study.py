@@ -28,9 +28,15 @@ def _store(study, writer: bool = True):
     from aaai.study.store import Store
 
     try:
-        return Store(study.store, study.name, writer=writer)
+        store = Store(study.store, study.name, writer=writer)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
+    try:
+        store.check_plan(study)
+    except ConfigError as error:
+        store.close()
+        raise click.UsageError(str(error)) from None
+    return store
 
 
 @click.group("study")

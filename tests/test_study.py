@@ -129,6 +129,10 @@ def test_the_commands_refuse_a_bad_study_file_or_a_missing_store_with_one_messag
     assert result.exit_code == 2 and "study store" in result.output and "does not exist" in result.output
     result = CliRunner().invoke(cli, ["study", "participants", str(path), "-n", "1", "--url", "ftp://x/"])
     assert result.exit_code == 2 and "--url: got 'ftp://x/'" in result.output
+    assert CliRunner().invoke(cli, ["study", "participants", str(path), "-n", "1"]).exit_code == 0
+    write_study(tmp_path, TINY.replace("seed: 2}", "seed: 3}"))  # the battery changed under its participants
+    result = CliRunner().invoke(cli, ["study", "participants", str(path), "-n", "1"])
+    assert result.exit_code == 2 and "its practice, battery or order changed since" in result.output
 
 
 def test_feedback_and_reaction_time_in_plain_terms():

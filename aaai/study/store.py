@@ -98,6 +98,27 @@ class Store:
                 "allowed: the store of this study (its `store:` key)"
             )
 
+    def check_plan(self, study: Study) -> None:
+        """Records the study's practice, battery and order on first use; refuses a study file whose
+        trials or order changed since (the participants' orders were drawn over the old ones)."""
+        plan = json.dumps(
+            {
+                "practice": [_plain(t) for t in study.practice],
+                "battery": [_plain(t) for t in study.battery],
+                "order": study.order,
+            },
+            sort_keys=True,
+        )
+        with self.mutex:
+            if self.lock is not None:
+                self.db.execute("INSERT OR IGNORE INTO study VALUES ('plan', ?)", (plan,))
+            found = self.db.execute("SELECT value FROM study WHERE key = 'plan'").fetchone()
+        if found is not None and found[0] != plan:
+            raise ConfigError(
+                f"study file {str(study.path)!r}: its practice, battery or order changed since its participants "
+                f"were added to {str(self.path)!r}; allowed: the same trials and order, or a new store (`store:`)"
+            )
+
     def close(self) -> None:
         if getattr(self, "db", None) is not None:
             self.db.close()
@@ -182,6 +203,10 @@ class Store:
             "WHERE participant = ? AND position = ?",
             (now(), reaction_time, json.dumps(row), json.dumps(replay, separators=(",", ":")), pid, position),
         )
+
+
+def _plain(trial: Trial) -> list:
+    return [trial.level, trial.difficulty, trial.seed, _arena(trial)]
 
 
 def _arena(trial: Trial) -> str | None:
