@@ -18,6 +18,7 @@ from .run import run_command
 from .seeds import seeds_command
 from .show import show
 from .spec import spec_command
+from .study import study
 from .train import train_command
 from .validate import validate
 
@@ -44,6 +45,7 @@ for command in (
     import_animalai_command,
     play,
     show,
+    study,
     validate,
 ):
     cli.add_command(command)

@@ -143,6 +143,7 @@ LAYERS = (
     ("aaai.scoring",),  # policies, episodes, the scoreboard, run folders, replays
     ("aaai.train",),  # workers, samplers, PPO, DAgger, experiments
     ("aaai.tools",),  # viewer, bench, gait tuning, play, Animal-AI import, baseline table
+    ("aaai.study",),  # human studies: the study file, orders, the store, the participant server
 )
 
 

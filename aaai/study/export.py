@@ -1,0 +1,57 @@
+"""``aaai study export``: a study's finished trials from its store, as a scoreboard CSV and replays.
+
+The CSV has one row per finished trial: the policy ``human:ID``, the participant, the trial's
+position in that participant's order and its kind (practice or battery), the scoreboard's own
+columns (``aaai eval``'s), the reaction time to the first move and the trial's start and end
+times (UTC). Each replay is a file ``aaai show --replay`` and ``aaai run --replay`` play back.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+
+from aaai.files import write_atomic
+from aaai.scoring.evaluation import COLUMNS
+from aaai.scoring.replays import replay_name, write_replay
+from aaai.study.store import Store
+
+EXPORT_COLUMNS = ["policy", "participant", "position", "kind", *COLUMNS, "reaction_time", "started", "finished"]
+
+
+def export(store: Store, out: str | Path) -> tuple[Path, list[Path]]:
+    """Writes ``out/scores.csv`` and ``out/replays/*.json`` (each file atomically); their paths."""
+    out = Path(out)
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, EXPORT_COLUMNS, extrasaction="ignore", lineterminator="\n")
+    writer.writeheader()
+    replays: list[Path] = []
+    for trial in store.trials():
+        if trial["finished"] is None:
+            continue
+        pid = trial["participant"]
+        row = json.loads(trial["row"])
+        reaction = trial["reaction_time"]
+        writer.writerow(
+            {
+                **row,
+                "policy": f"human:{pid}",
+                "participant": pid,
+                "position": trial["position"],
+                "kind": trial["kind"],
+                "reaction_time": "" if reaction is None else reaction,
+                "started": trial["started"] or "",
+                "finished": trial["finished"],
+            }
+        )
+        replay = json.loads(trial["replay"])
+        replays.append(write_replay(replay, out / "replays" / replay_name(replay, f"{pid}_{trial['position']:03d}")))
+    scores = out / "scores.csv"
+    out.mkdir(parents=True, exist_ok=True)
+    write_atomic(scores, buffer.getvalue())
+    return scores, replays
+
+
+__all__ = ["EXPORT_COLUMNS", "export"]

@@ -1,0 +1,222 @@
+"""A study's store: participants, their orders, trials, rows and replays in one SQLite file.
+
+The file is in WAL mode with ``synchronous=FULL``: every write is one transaction, durable when
+it returns, so a trial finished (its row and replay) is on disk before the next trial starts and a
+killed server loses none. One process writes a study at a time: a writer holds the lock file
+``<store>.lock`` (:func:`aaai.files.hold`), and a second writer is refused naming the holder's pid;
+readers (``aaai study export``) need no lock. Nothing about a participant is kept but a code
+(P001), a random token for their link, their order seed, their progress and what they did in the
+game: no names, no IP addresses.
+"""
+
+from __future__ import annotations
+
+import json
+import secrets
+import sqlite3
+import threading
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from aaai.errors import ConfigError
+from aaai.files import Lock, hold
+from aaai.study.order import battery_order
+from aaai.study.studyfile import Study, Trial
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS study (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS participants (
+    id TEXT PRIMARY KEY,
+    number INTEGER NOT NULL UNIQUE,
+    token TEXT NOT NULL UNIQUE,
+    order_seed INTEGER NOT NULL,
+    status TEXT NOT NULL DEFAULT 'new',
+    created TEXT NOT NULL,
+    consented TEXT,
+    finished TEXT
+);
+CREATE TABLE IF NOT EXISTS trials (
+    participant TEXT NOT NULL REFERENCES participants(id),
+    position INTEGER NOT NULL,
+    kind TEXT NOT NULL,
+    trial INTEGER NOT NULL,
+    level INTEGER,
+    difficulty INTEGER,
+    seed INTEGER NOT NULL,
+    arena TEXT,
+    started TEXT,
+    finished TEXT,
+    reaction_time REAL,
+    row TEXT,
+    replay TEXT,
+    PRIMARY KEY (participant, position)
+);
+"""
+STATUSES = ("new", "consented", "started", "finished")
+
+
+def now() -> str:
+    return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+
+
+class Store:
+    """One study's SQLite file. ``writer=True`` takes the study's one-writer lock (ConfigError if
+    another process holds it); a reader takes none. Thread-safe within the process."""
+
+    def __init__(self, path: str | Path, study_name: str, writer: bool = True):
+        self.path = Path(path)
+        self.lock: Lock | None = None
+        if writer:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self.lock = hold(
+                self.path.with_name(self.path.name + ".lock"),
+                lambda pid: (
+                    f"study store {str(self.path)!r} is being written by process {pid or '(unknown)'} "
+                    "(another `aaai study serve` or `participants`?); allowed: one writer at a time: stop it first"
+                ),
+            )
+        elif not self.path.is_file():
+            raise ConfigError(f"study store {str(self.path)!r} does not exist; run `aaai study participants` first")
+        self.mutex = threading.Lock()
+        try:
+            self.db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None)
+            self.db.row_factory = sqlite3.Row
+            if writer:
+                self.db.execute("PRAGMA journal_mode=WAL")
+                self.db.execute("PRAGMA synchronous=FULL")
+                self.db.executescript(SCHEMA)
+                self.db.execute("INSERT OR IGNORE INTO study VALUES ('name', ?)", (study_name,))
+            found = self.db.execute("SELECT value FROM study WHERE key = 'name'").fetchone()
+        except sqlite3.DatabaseError as error:
+            self.close()
+            raise ConfigError(f"study store {str(self.path)!r}: {error}; allowed: a store `aaai study` wrote") from None
+        if found is None or found[0] != study_name:
+            self.close()
+            raise ConfigError(
+                f"study store {str(self.path)!r} holds study {found[0] if found else None!r}, not {study_name!r}; "
+                "allowed: the store of this study (its `store:` key)"
+            )
+
+    def check_plan(self, study: Study) -> None:
+        """Records the study's practice, battery and order on first use; refuses a study file whose
+        trials or order changed since (the participants' orders were drawn over the old ones)."""
+        plan = json.dumps(
+            {
+                "practice": [_plain(t) for t in study.practice],
+                "battery": [_plain(t) for t in study.battery],
+                "order": study.order,
+            },
+            sort_keys=True,
+        )
+        with self.mutex:
+            if self.lock is not None:
+                self.db.execute("INSERT OR IGNORE INTO study VALUES ('plan', ?)", (plan,))
+            found = self.db.execute("SELECT value FROM study WHERE key = 'plan'").fetchone()
+        if found is not None and found[0] != plan:
+            raise ConfigError(
+                f"study file {str(study.path)!r}: its practice, battery or order changed since its participants "
+                f"were added to {str(self.path)!r}; allowed: the same trials and order, or a new store (`store:`)"
+            )
+
+    def close(self) -> None:
+        if getattr(self, "db", None) is not None:
+            self.db.close()
+        if self.lock is not None:
+            self.lock.release()
+
+    def _write(self, sql: str, values: tuple = ()) -> None:
+        with self.mutex:
+            self.db.execute(sql, values)
+
+    def _read(self, sql: str, values: tuple = ()) -> list[dict]:
+        with self.mutex:
+            return [dict(row) for row in self.db.execute(sql, values).fetchall()]
+
+    def journal_mode(self) -> str:
+        return str(self._read("PRAGMA journal_mode")[0]["journal_mode"])
+
+    # --- participants ----------------------------------------------------------------------
+    def add_participants(self, study: Study, count: int) -> list[dict]:
+        """``count`` new participants (numbered on from those there), each with a token and an order
+        of trials; one transaction."""
+        added = []
+        with self.mutex:
+            self.db.execute("BEGIN IMMEDIATE")
+            try:
+                first = self.db.execute("SELECT COALESCE(MAX(number), 0) FROM participants").fetchone()[0] + 1
+                for number in range(first, first + count):
+                    pid, token, seed = f"P{number:03d}", secrets.token_urlsafe(18), secrets.randbits(31)
+                    self.db.execute(
+                        "INSERT INTO participants (id, number, token, order_seed, created) VALUES (?, ?, ?, ?, ?)",
+                        (pid, number, token, seed, now()),
+                    )
+                    plan = [("practice", i, t) for i, t in enumerate(study.practice)]
+                    order = battery_order(study.order, len(study.battery), number - 1, seed)
+                    plan += [("battery", i, study.battery[i]) for i in order]
+                    for position, (kind, index, trial) in enumerate(plan, start=1):
+                        self.db.execute(
+                            "INSERT INTO trials (participant, position, kind, trial, level, difficulty, seed, arena) "
+                            "VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                            (pid, position, kind, index, trial.level, trial.difficulty, trial.seed, _arena(trial)),
+                        )
+                    added.append({"id": pid, "token": token, "order_seed": seed})
+                self.db.execute("COMMIT")
+            except BaseException:
+                self.db.execute("ROLLBACK")
+                raise
+        return added
+
+    def participant(self, token: str) -> dict | None:
+        """The participant whose link carries ``token`` (compared in constant time), or None."""
+        for row in self._read("SELECT * FROM participants"):
+            if secrets.compare_digest(row["token"].encode(), token.encode()):
+                return row
+        return None
+
+    def participants(self) -> list[dict]:
+        return self._read("SELECT * FROM participants ORDER BY number")
+
+    def consent(self, pid: str) -> None:
+        self._write(
+            "UPDATE participants SET status = 'consented', consented = ? WHERE id = ? AND status = 'new'", (now(), pid)
+        )
+
+    def finish(self, pid: str) -> None:
+        self._write("UPDATE participants SET status = 'finished', finished = ? WHERE id = ?", (now(), pid))
+
+    # --- trials ----------------------------------------------------------------------------
+    def trials(self, pid: str | None = None) -> list[dict]:
+        """A participant's trials (or everyone's) by position."""
+        if pid is None:
+            return self._read("SELECT * FROM trials ORDER BY participant, position")
+        return self._read("SELECT * FROM trials WHERE participant = ? ORDER BY position", (pid,))
+
+    def start_trial(self, pid: str, position: int) -> None:
+        self._write("UPDATE participants SET status = 'started' WHERE id = ? AND status != 'finished'", (pid,))
+        self._write("UPDATE trials SET started = ? WHERE participant = ? AND position = ?", (now(), pid, position))
+
+    def finish_trial(self, pid: str, position: int, row: dict, replay: dict, reaction_time: float | None) -> None:
+        """The trial's row and replay, committed (durable) before this returns."""
+        self._write(
+            "UPDATE trials SET finished = ?, reaction_time = ?, row = ?, replay = ? "
+            "WHERE participant = ? AND position = ?",
+            (now(), reaction_time, json.dumps(row), json.dumps(replay, separators=(",", ":")), pid, position),
+        )
+
+
+def _plain(trial: Trial) -> list:
+    return [trial.level, trial.difficulty, trial.seed, _arena(trial)]
+
+
+def _arena(trial: Trial) -> str | None:
+    return str(trial.arena) if trial.arena is not None else None
+
+
+def trial_of(row: dict[str, Any]) -> Trial:
+    """A stored trial's level cell or arena file and seed."""
+    arena = Path(row["arena"]) if row["arena"] else None
+    return Trial(row["level"], row["difficulty"], row["seed"], arena)
+
+
+__all__ = ["STATUSES", "Store", "trial_of"]
