@@ -2,7 +2,7 @@
 rate against the environment alone, its policy lag, and what it learns on `make demo`'s task.
 
 The shipped training config (8 environments of L0 d0-2, rays and the body senses, two hidden
-layers of 128, 8 x 256 steps a batch, 10 epochs of minibatches of 256), two ways, alternated round
+layers of 128, 8 x 256 steps a batch, 10 epochs of minibatches of 256), stepped three or four ways, alternated round
 by round (the order rotated; aaai.tools.rounds):
 
 - ``env alone``: the training vector env in this process, random actions, nothing else (as
@@ -15,6 +15,9 @@ by round (the order rotated; aaai.tools.rounds):
   weights sent to the worker after each batch's update (``update_policy_weights_``). A round's
   time includes waiting for the batch the worker was collecting when the round's last update
   ended, so the worker's work of a round is inside the round.
+- ``TorchRL env, random actions``: the same TorchRL env in this process, ``env.rollout`` with
+  random actions (TorchRL's cost of stepping, without a policy or a worker process);
+- with ``--sb3``, ``stable-baselines3 PPO (sequential)``: ``aaai train``'s PPO (``_PPOLoop``).
 
 Policy lag: the policy carries a buffer with the number of updates the learner had sent when the
 weights were synced; every collected step records it (``policy_version``), and the lag of a step
@@ -22,7 +25,8 @@ is the learner's count when it learns from the step less that number.
 
 Then ``--train-seeds``: a run of ``--train-steps`` steps per seed (the demo's budget), timed, and
 scored on the demo's 30 reserved episodes (L0 d0-2, 10 seeds each) with aaai's evaluation
-(``aaai.scoring.evaluation.evaluate``), the policy's mean action (tanh of the Normal's mean).
+(``aaai.scoring.evaluation.evaluate``), TorchRL's deterministic action
+(``ExplorationType.DETERMINISTIC``).
 
 Resumable: every round of rates is appended to bench/torchrl_probe.csv as measured (``kind``
 rate); each trained seed to the same file (``kind`` train); seeds already there are skipped.
@@ -253,7 +257,7 @@ class AsyncPPO:
 
 # --- the policy as aaai's evaluation plays it ------------------------------------------------
 def acting(actor, env):
-    """policy(observation) -> action: the flattened observation through the actor, its mean action."""
+    """policy(observation) -> action: the flattened observation through the actor, its deterministic action."""
     import torch
     from tensordict import TensorDict
     from torchrl.envs.utils import ExplorationType, set_exploration_type
