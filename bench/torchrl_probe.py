@@ -180,6 +180,63 @@ class Version(__import__("torch").nn.Module):
         return self.version.expand(*observation.shape[:-1], 1).clone()
 
 
+def update(data, advantage, loss, optimizer, train) -> None:
+    """PPO's update on one batch, as TorchRL's PPO tutorial wires it: GAE once, then ``n_epochs``
+    passes of shuffled minibatches through ClipPPOLoss, Adam, gradients clipped at 0.5."""
+    import torch
+
+    with torch.no_grad():
+        advantage(data)
+    flat = data.reshape(-1)
+    for _ in range(train.n_epochs):
+        order = torch.randperm(flat.shape[0])
+        for start in range(0, flat.shape[0], train.batch_size):
+            losses = loss(flat[order[start : start + train.batch_size]])
+            total = losses["loss_objective"] + losses["loss_critic"] + losses.get("loss_entropy", 0.0)
+            optimizer.zero_grad()
+            total.backward()
+            torch.nn.utils.clip_grad_norm_(loss.parameters(), 0.5)
+            optimizer.step()
+
+
+def update_costs(config, rounds: int) -> dict[str, list[float]]:
+    """The update alone, in this process with nothing else running: TorchRL's (:func:`update`) on a
+    batch of 8 x 256 steps the policy collected, against stable-baselines3's ``PPO.train`` on a
+    rollout of the same size (``aaai train``'s PPO), alternated; microseconds per environment step."""
+    import torch
+
+    from aaai.tools.bench import _PPOLoop
+
+    env = make_envs(config)
+    observations, actions = env.observation_spec["observation"].shape[-1], env.action_spec.shape[-1]
+    policy, _, _, advantage, loss, optimizer = build(config, observations, actions)
+    train = config.train
+    with torch.no_grad():
+        data = env.rollout(train.n_steps, policy, break_when_any_done=False)
+    env.close(raise_if_closed=False)
+    steps = data.numel()
+    sb3 = _PPOLoop(config, steps, Path(tempfile.mkdtemp(prefix="aaai-torchrl-probe-sb3-")))
+    sb3(steps)  # one rollout collected and learned: its buffer is what PPO.train learns from again
+
+    def timed(learn) -> float:
+        started = time.perf_counter()
+        learn()
+        return 1e6 * (time.perf_counter() - started) / steps
+
+    runners = {
+        "TorchRL ClipPPOLoss update, us a step": lambda: timed(lambda: update(data, advantage, loss, optimizer, train)),
+        "stable-baselines3 PPO.train, us a step": lambda: timed(sb3.model.train),
+    }
+    try:
+        for runner in runners.values():
+            runner()  # warm-up
+        from aaai.tools.rounds import alternate
+
+        return alternate(runners, rounds)
+    finally:
+        sb3.close()
+
+
 class AsyncPPO:
     """TorchRL's MultiAsyncCollector (1 worker process, the 8 environments) and PPO's update here;
     each call learns ``steps`` more steps (whole batches) and returns steps/s."""
@@ -214,33 +271,20 @@ class AsyncPPO:
         self.waiting = self.updating = 0.0  # seconds waiting for a batch, and updating on them
 
     def learn_batch(self) -> int:
-        import torch
-
         started = time.perf_counter()
         data = next(self.batches)
         waited = time.perf_counter()
         train = self.config.train
         if self.lags is not None:
             self.lags.extend((self.updates - data["policy_version"].reshape(-1)).tolist())
-        with torch.no_grad():
-            self.advantage(data)
-        flat = data.reshape(-1)
-        for _ in range(train.n_epochs):
-            order = torch.randperm(flat.shape[0])
-            for start in range(0, flat.shape[0], train.batch_size):
-                losses = self.loss(flat[order[start : start + train.batch_size]])
-                total = losses["loss_objective"] + losses["loss_critic"] + losses.get("loss_entropy", 0.0)
-                self.optimizer.zero_grad()
-                total.backward()
-                torch.nn.utils.clip_grad_norm_(self.loss.parameters(), 0.5)
-                self.optimizer.step()
+        update(data, self.advantage, self.loss, self.optimizer, train)
         self.updates += 1
         self.version.module.version.fill_(self.updates)
         self.collector.update_policy_weights_()
-        self.learned += flat.shape[0]
+        self.learned += data.numel()
         self.waiting += waited - started
         self.updating += time.perf_counter() - waited
-        return flat.shape[0]
+        return data.numel()
 
     def __call__(self, steps: int | None = None) -> float:
         goal, done = steps or self.steps, 0
@@ -363,6 +407,18 @@ def report() -> None:
             f"| {run} | {own[0]['seconds']} | {own[0]['load']} | {fig(env)} | {fig(ppo)} | {fig(alone)} | {sb3_text} | "
             f"{fig(ratios, 2)} | {fig(wrapped, 2)} | {lag[0] if lag else '-'} | {split[0] if split else '-'} |"
         )
+    costs = [r for r in rows if r["kind"] == "update"]
+    if costs:
+        names = list(dict.fromkeys(r["runner"] for r in costs))
+        mine, theirs = ([float(r["steps_per_s"]) for r in costs if r["runner"] == name] for name in names)
+        lines += [
+            "",
+            f"The update alone, in this process (`--updates`, {len(mine)} alternated rounds, load {costs[0]['load']}), "
+            "us per environment step:",
+            "",
+            *(f"- {name}: {fig([float(r['steps_per_s']) for r in costs if r['runner'] == name])}" for name in names),
+            f"- TorchRL's / stable-baselines3's: {fig([a / b for a, b in zip(mine, theirs)], 2)}",
+        ]
     trained = [r for r in rows if r["kind"] == "train"]
     if trained:
         lines += [
@@ -385,6 +441,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=16384, help="steps per runner and round")
     parser.add_argument("--train-seeds", default="", help="seeds to train and score, e.g. 0,1")
     parser.add_argument("--train-steps", type=int, default=100_000)
+    parser.add_argument("--updates", type=int, default=0, help="rounds of the update alone against SB3's")
     parser.add_argument("--sb3", action="store_true", help="stable-baselines3's PPO (aaai train's) in the rounds too")
     args = parser.parse_args()
 
@@ -455,6 +512,13 @@ def main() -> None:
                 "note": run,
             }
         )
+    if args.updates:
+        before = load()
+        costs = update_costs(config, args.updates)
+        machine = f"{before}->{load()}"
+        for name, values in costs.items():
+            for i, value in enumerate(values):
+                append({"kind": "update", "round": i, "runner": name, "steps_per_s": round(value, 1), "load": machine})
     done = {r["seed"] for r in read_rows() if r["kind"] == "train"}
     for seed in [int(s) for s in args.train_seeds.split(",") if s]:
         if str(seed) in done:
