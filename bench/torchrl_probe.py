@@ -52,6 +52,16 @@ import numpy as np
 OUT = Path(__file__).resolve().parent
 CSV = OUT / "torchrl_probe.csv"
 SB3 = "stable-baselines3 PPO (sequential)"
+_SCRATCH: list[tempfile.TemporaryDirectory] = []
+
+
+def scratch(name: str) -> Path:
+    """A folder for an SB3 run's files, under one temporary folder removed when the probe exits."""
+    if not _SCRATCH:
+        _SCRATCH.append(tempfile.TemporaryDirectory(prefix="aaai-torchrl-probe-"))
+    return Path(_SCRATCH[0].name) / name
+
+
 FIELDS = ["when", "kind", "round", "runner", "steps_per_s", "seconds", "seed", "passed", "episodes", "load", "note"]
 
 
@@ -215,7 +225,7 @@ def update_costs(config, rounds: int) -> dict[str, list[float]]:
         data = env.rollout(train.n_steps, policy, break_when_any_done=False)
     env.close(raise_if_closed=False)
     steps = data.numel()
-    sb3 = _PPOLoop(config, steps, Path(tempfile.mkdtemp(prefix="aaai-torchrl-probe-sb3-")))
+    sb3 = _PPOLoop(config, steps, scratch("sb3-updates"))
     sb3(steps)  # one rollout collected and learned: its buffer is what PPO.train learns from again
 
     def timed(learn) -> float:
@@ -464,7 +474,7 @@ def main() -> None:
         if args.sb3:
             from aaai.tools.bench import _PPOLoop
 
-            runners[SB3] = _PPOLoop(config, args.steps, Path(tempfile.mkdtemp(prefix="aaai-torchrl-probe-sb3-")))
+            runners[SB3] = _PPOLoop(config, args.steps, scratch("sb3-rates"))
         try:
             for runner in runners.values():
                 runner(4096)  # warm-up: the worker process started, two batches learned
