@@ -135,8 +135,8 @@ def test_the_report_writes_its_table_and_a_png_figure(made):
     _, _, _, out, _ = made
     text = (out / "report.md").read_text()
     low, high = wilson(4, 6)
-    assert f"| L0 | 67% ({100 * low:.0f}-{100 * high:.0f}), 4/6 | 100% " in text
-    assert "2 participants" in text and "baseline:reference: passed" in text
+    assert f"| L0 | humans | 67% | {100 * low:.0f}-{100 * high:.0f}% | 4/6 | 0.90 (0.70-1.10) | 110 |" in text
+    assert "2 participants" in text and "| L0 | baseline:reference | 100% | 21-100% | 1/1 | - | 93 |" in text
     assert (out / "report.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

@@ -90,14 +90,6 @@ class Line:
             "steps_median": _num(statistics.median(self.steps) if self.steps else None),
         }
 
-    def rate_cell(self) -> str:
-        """ "50% (9-91), 1/2", or "-" without episodes."""
-        if not self.episodes:
-            return "-"
-        low, high = wilson(self.passes, self.episodes)
-        rate = 100 * self.passes / self.episodes
-        return f"{rate:.0f}% ({100 * low:.0f}-{100 * high:.0f}), {self.passes}/{self.episodes}"
-
 
 def _num(value: float | None) -> str:
     return "" if value is None else f"{value:.4g}"
@@ -203,9 +195,8 @@ def report_csv(lines: list[Line]) -> str:
 
 
 def report_markdown(study: Study, lines: list[Line], participants: int) -> str:
-    """Two tables, per trial and per level: pass rate (95 % Wilson interval), passed/episodes for
-    the humans and each policy; the humans' reaction time and everyone's median steps."""
-    players = list(dict.fromkeys(line.who for line in lines))
+    """Two tables, per trial and per level, a row for each player with episodes there: pass rate,
+    its 95 % Wilson interval, passed/episodes, reaction time (humans) and median steps."""
     parts = [
         f"# {study.name}: humans against agents\n",
         f"{participants} participant{'s' * (participants != 1)}; pass rate = passed or succeeded, with its "
@@ -213,22 +204,21 @@ def report_markdown(study: Study, lines: list[Line], participants: int) -> str:
         "(quartiles); path length in control steps (median).\n",
     ]
     for scope, title in (("trial", "Per trial"), ("level", "Per level")):
-        head = f"| {scope} | " + " | ".join(f"{who}: passed" for who in players)
-        head += " | humans: reaction s | " + " | ".join(f"{who}: steps" for who in players) + " |"
-        rule = "|---|" + "---:|" * (2 * len(players) + 1)
-        table = [f"## {title}\n", head, rule]
-        names = list(dict.fromkeys(line.name for line in lines if line.scope == scope))
-        for name in names:
-            here = {line.who: line for line in lines if line.scope == scope and line.name == name}
-            q1, median, q3 = _quartiles(here[HUMANS].reactions)
-            reaction = "-" if median is None else f"{median:.2f} ({q1:.2f}-{q3:.2f})"
-            steps = [here[who].csv_row()["steps_median"] or "-" for who in players]
+        table = [
+            f"## {title}\n",
+            f"| {scope} | player | pass rate | 95 % interval | passed | reaction s | steps |",
+            "|---|---|---:|---:|---:|---:|---:|",
+        ]
+        for line in lines:
+            if line.scope != scope or not line.episodes:
+                continue
+            low, high = wilson(line.passes, line.episodes)
+            q1, median, q3 = _quartiles(line.reactions)
+            reaction = "-" if median is None or q1 is None or q3 is None else f"{median:.2f} ({q1:.2f}-{q3:.2f})"
             table.append(
-                f"| {name} | "
-                + " | ".join(here[who].rate_cell() for who in players)
-                + f" | {reaction} | "
-                + " | ".join(steps)
-                + " |"
+                f"| {line.name} | {line.who} | {100 * line.passes / line.episodes:.0f}% | "
+                f"{100 * low:.0f}-{100 * high:.0f}% | {line.passes}/{line.episodes} | {reaction} | "
+                f"{statistics.median(line.steps):g} |"
             )
         parts.append("\n".join(table) + "\n")
     return "\n".join(parts)
