@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -21,6 +22,7 @@ STUDY = f"""\
 name: versus
 practice:
   - {{level: 0, difficulty: 0, seed: 7}}
+  - {{level: 0, difficulty: 0, seed: 1}}
 battery:
   - {{level: 0, difficulty: 0, seed: 1}}
   - {{level: 0, difficulty: 1, seed: 2}}
@@ -57,16 +59,16 @@ def human_row(trial, outcome: str, steps: int) -> dict:
 
 def simulate(study) -> None:
     """Two participants' trials written through the store's API, as `aaai study serve` writes them;
-    P001 also finishes the practice trial (which the report leaves out)."""
+    P001 also finishes the practice trials (which the report leaves out), one the same as a battery trial."""
     store = Store(study.store, study.name)
     try:
         store.add_participants(study, 2)
         for pid, results in PEOPLE.items():
             trials = store.trials(pid)
-            practice, battery = trials[0], trials[1:]
-            if pid == "P001":
-                store.start_trial(pid, practice["position"])
-                store.finish_trial(pid, practice["position"], human_row(practice, "failed", 50), {}, 0.1)
+            practice, battery = trials[:2], trials[2:]
+            for trial in practice if pid == "P001" else []:
+                store.start_trial(pid, trial["position"])
+                store.finish_trial(pid, trial["position"], human_row(trial, "failed", 50), {}, 0.1)
             for number, (trial, (outcome, reaction)) in enumerate(zip(battery, results)):
                 store.start_trial(pid, trial["position"])
                 store.finish_trial(pid, trial["position"], human_row(trial, outcome, 100 + 10 * number), {}, reaction)
@@ -89,8 +91,17 @@ def made(tmp_path_factory):
             cli, ["eval", "--study", str(study_file), "--policy", policy, "--out", str(boards[policy])]
         )
         assert result.exit_code == 0, result.output
+    # The baseline table: two committed tables, and one with no row on the study's trials (left out).
+    baselines = folder / "baselines"
+    baselines.mkdir()
+    for name in ("reference", "random"):
+        shutil.copy(ROOT / "baselines" / f"{name}.csv", baselines)
+    lines = (ROOT / "baselines" / "reference.csv").read_text().splitlines()
+    (baselines / "elsewhere.csv").write_text(
+        "\n".join([lines[0], *[x for x in lines[1:] if x.startswith("1,")]]) + "\n"
+    )
     out = folder / "report"
-    arguments = ["study", "report", str(study_file), "--out", str(out), "--baselines", str(ROOT / "baselines")]
+    arguments = ["study", "report", str(study_file), "--out", str(out), "--baselines", str(baselines)]
     for board in boards.values():
         arguments += ["--policy-scores", str(board)]
     result = runner.invoke(cli, arguments)
@@ -129,6 +140,7 @@ def test_the_report_counts_each_players_trials_with_wilson_intervals(made):
     assert rows[("level", "L0", "baseline:reference")]["episodes"] == "1"
     assert rows[("trial", f"L0 d0 s{BASELINE_SEED}", "baseline:random")]["episodes"] == "1"
     assert rows[("trial", "L0 d0 s1", "baseline:reference")]["episodes"] == "0"
+    assert not any(who == "baseline:elsewhere" for _, _, who in rows)
 
 
 def test_the_report_writes_its_table_and_a_png_figure(made):
