@@ -175,3 +175,16 @@ def test_report_refuses_a_missing_scoreboard_by_name(made, tmp_path):
         cli, ["study", "report", str(study_file), "--policy-scores", str(missing), "--out", str(tmp_path / "r")]
     )
     assert result.exit_code == 2 and f"--policy-scores: {str(missing)!r} does not exist" in result.output
+
+
+def test_report_refuses_a_scoreboard_of_other_trials(made, tmp_path):
+    _, study_file, _, _, _ = made
+    other = tmp_path / "levels.csv"
+    with open(ROOT / "baselines" / "random.csv") as handle:
+        lines = handle.read().splitlines()
+    other.write_text("\n".join([lines[0], *[x for x in lines[1:] if x.startswith("1,")][:2]]) + "\n")
+    result = CliRunner().invoke(
+        cli, ["study", "report", str(study_file), "--policy-scores", str(other), "--out", str(tmp_path / "r")]
+    )
+    assert result.exit_code == 2, result.output
+    assert "--policy-scores: the scoreboard of 'levels' holds none of study 'versus''s trials" in result.output

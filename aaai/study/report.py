@@ -267,9 +267,16 @@ def write_report(
     """Writes ``out/report.md``, ``out/report.csv`` and ``out/report.png``; their paths."""
     out = Path(out)
     humans = human_rows(store)
+    keys = {trial_key(t) for t in study.battery}
     boards = policy_boards(list(scores or []))
+    for name, rows in boards.items():
+        if not any(row_key(row) in keys for row in rows):
+            raise ConfigError(
+                f"--policy-scores: the scoreboard of {name!r} holds none of study {study.name!r}'s trials; "
+                "allowed: a scoreboard `aaai eval --study` wrote for this study"
+            )
     if baselines is not None:
-        boards.update(baseline_boards(Path(baselines), {trial_key(t) for t in study.battery}))
+        boards.update(baseline_boards(Path(baselines), keys))
     lines = lines_for(study, humans, boards)
     participants = len({row["participant"] for row in humans})
     out.mkdir(parents=True, exist_ok=True)
