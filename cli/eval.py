@@ -86,6 +86,12 @@ from .progress import progress_output
     help="Score in this action mode (default: the run's or config's). A model is scored only in the "
     "mode it was trained in.",
 )
+@click.option(
+    "--study",
+    "study_file",
+    type=click.Path(dir_okay=False),
+    help="Score exactly a study file's battery (its trials, practice left out), for `aaai study report`.",
+)
 @click.option("--trust-model", is_flag=True, help=TRUST_HELP)
 @click.option("--progress-every", type=Seconds(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
 @click.option(
@@ -108,6 +114,7 @@ def eval_command(
     workers,
     arenas,
     action_mode,
+    study_file,
     trust_model,
     progress_every,
     save_replays,
@@ -122,6 +129,7 @@ def eval_command(
         check_options(arenas, levels, difficulty, seed_key_file, backend, save_replays)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
+    battery = _study_battery(study_file, seed_key_file, seeds_per_cell, backend) if study_file else None
     try:
         result = score_policy(
             policy,
@@ -141,6 +149,7 @@ def eval_command(
             save_replays=save_replays,
             progress_every=progress_every,
             display=progress_output,
+            battery=battery,
         )
     except InUse as error:  # another eval writes this scoreboard: its pid named
         raise click.ClickException(str(error)) from None
@@ -161,3 +170,29 @@ def eval_command(
         ) from None
     click.echo(summary_markdown(result.summary), nl=False)
     click.echo(f"scoreboard {result.output} ({len(result.rows)} episodes); summary {summary_path}")
+
+
+def _study_battery(study_file: str, seed_key_file, seeds_per_cell, backend) -> list[tuple]:
+    """``--study``: the study's battery as episodes; the options that choose other episodes refused."""
+    from aaai.study.studyfile import load_study
+
+    source = click.get_current_context().get_parameter_source
+    given = {"seeds_mode": "--seeds", "levels": "--levels", "difficulty": "--difficulty", "arenas": "--arenas"}
+    clashes = [flag for name, flag in given.items() if source(name) is not click.core.ParameterSource.DEFAULT]
+    clashes += [
+        flag for flag, value in (("--seeds-per-cell", seeds_per_cell), ("--seed-key-file", seed_key_file)) if value
+    ]
+    clashes += ["--backend ray"] * (backend != "local")
+    if clashes:
+        raise click.UsageError(
+            f"--study: got {study_file!r} with {', '.join(clashes)}; allowed: --study alone (the study file "
+            "names its trials: level, difficulty and seed, or arena file and seed)"
+        )
+    try:
+        study = load_study(study_file)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    return [
+        (0, 0, trial.seed, trial.arena) if trial.arena is not None else (trial.level, trial.difficulty, trial.seed)
+        for trial in study.battery
+    ]

@@ -139,3 +139,35 @@ def export_command(study_file, out):
     finally:
         store.close()
     click.echo(f"aaai study: {scores} and {len(replays)} replay{'s' * (len(replays) != 1)} in {Path(out) / 'replays'}")
+
+
+@study.command("report")
+@click.argument("study_file", type=STUDY_FILE)
+@click.option(
+    "--policy-scores",
+    "scores",
+    type=click.Path(dir_okay=False),
+    multiple=True,
+    help="A scoreboard from `aaai eval --study STUDY_FILE --policy ...` (repeat for more policies).",
+)
+@click.option(
+    "--baselines",
+    type=click.Path(file_okay=False),
+    help="The baseline table's folder (baselines/): its rows on the study's trials join the report.",
+)
+@click.option("--out", "out", type=Output(file_okay=False), required=True, help="Folder for report.md, .csv, .png.")
+def report_command(study_file, scores, baselines, out):
+    """Humans against agents: pass rates (95 % Wilson intervals) per trial and level, reaction times, steps."""
+    from aaai.study.report import write_report
+
+    chosen = _study(study_file)
+    store = _store(chosen, writer=False)
+    try:
+        paths = write_report(chosen, store, out, [Path(s) for s in scores], Path(baselines) if baselines else None)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai study report")) from None
+    finally:
+        store.close()
+    click.echo(f"aaai study: the report is {paths[0]}, its rows {paths[1]}, its figure {paths[2]}")

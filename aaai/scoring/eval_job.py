@@ -13,10 +13,13 @@ from typing import Any, Callable
 from aaai.config import Config, ConfigError
 from aaai.jobs import Display, Progress, quietly
 from aaai.scoring.evaluation import (
+    Episode,
     cells_for,
     evaluate,
     evaluate_arenas,
+    play_here,
     policy_record,
+    score,
     summarise,
     summarise_arenas,
     write_summary,
@@ -93,6 +96,7 @@ def score_policy(
     save_replays: str | Path | None = None,
     progress_every: float | None = None,
     display: Display = quietly,
+    battery: list[Episode] | None = None,
 ) -> EvalResult:
     """Scores ``policy`` (a ``--policy`` string) as ``aaai eval`` does, and gives back the rows and
     their summary (:meth:`EvalResult.write_summary` writes it).
@@ -101,7 +105,8 @@ def score_policy(
     ``seeds`` list, summarised per arena and per category; else the ``levels`` x ``difficulties``
     cells (default: the run's or config's curriculum) on ``seeds`` (reserved, train or a list
     '1,2,3'; reserved: the hidden list of the key in ``seed_key_file`` or AAAI_SEED_KEY, if given).
-    K is ``seeds_per_cell`` (default eval.seeds_per_cell). The scoreboard goes to ``output``
+    K is ``seeds_per_cell`` (default eval.seeds_per_cell). With ``battery`` (a study's trials,
+    ``aaai eval --study``), exactly those episodes, each once, summarised per level. The scoreboard goes to ``output``
     (default scoreboard_<seeds>.csv in the run folder, or here). ``display`` shows the progress (an
     :class:`aaai.jobs.Progress` counting episodes, a line every ``progress_every`` seconds when it
     writes lines).
@@ -117,6 +122,23 @@ def score_policy(
         run_folder = Path(chosen.run) if chosen.run else None
         config = with_action_mode(chosen.config(config_path), action_mode)
         count = seeds_per_cell or config.eval.seeds_per_cell
+        if battery is not None:
+            output = Path(output) if output else (run_folder or Path(".")) / "scoreboard_study.csv"
+            arena_files = [e[3] for e in battery if len(e) > 3]
+            record = {**policy_record(chosen, "study"), "battery": [[*e[:3], *map(str, e[3:])] for e in battery]}
+            report = Progress(len(battery), label="scoring", unit="episodes", every=progress_every)
+            with display(report) as update:
+                hooks = replay_hooks(save_replays, chosen, _counting(report, update), arena_files)
+                rows = score(
+                    chosen,
+                    output,
+                    config,
+                    lambda rows: battery_plan(battery, rows),
+                    lambda episodes: play_here(chosen, config, episodes, hooks.get("make_policy")),
+                    record,
+                    hooks["on_episode"],
+                )
+            return EvalResult(rows, summarise(rows), output)
         if arenas is not None:
             return _score_arenas(
                 chosen, arenas, seeds, count, run_folder, output, config, save_replays, progress_every, display
@@ -196,6 +218,23 @@ def _score_arenas(
             raise
         raise ScoreboardError(f"{str(error.filename or output)!r}: {error.strerror or error}") from error
     return EvalResult(rows, summarise_arenas(rows, categories), output)
+
+
+def battery_plan(battery: list[Episode], rows: list[dict]) -> list[Episode]:
+    """The episodes of a study's battery (``aaai eval --study``) not yet in the scoreboard's ``rows``,
+    each once, in the battery's order: (level, difficulty, seed) or (0, 0, seed, arena file)."""
+    done = {(r["arena"], 0, 0, int(r["seed"])) if r.get("arena") else ("", *_ints(r)) for r in rows}
+    plan = []
+    for episode in battery:
+        key = (episode[3].name, 0, 0, episode[2]) if len(episode) > 3 else ("", *episode[:3])
+        if key not in done:
+            plan.append(episode)
+            done.add(key)
+    return plan
+
+
+def _ints(row: dict) -> tuple[int, int, int]:
+    return int(row["level"]), int(row["difficulty"]), int(row["seed"])
 
 
 def read_key(seed_key_file: str | Path | None) -> str | None:
