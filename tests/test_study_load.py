@@ -8,6 +8,7 @@ from __future__ import annotations
 import asyncio
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -142,3 +143,43 @@ def test_the_default_cap_is_the_measured_figure_for_the_cores_one_server_uses(mo
     assert server.default_max_sessions() == server.SESSIONS_PER_CORE * server.SERVER_CORES == 4
     monkeypatch.setattr(server, "available_megabytes", lambda: 300.0)  # memory for 3 sessions at 50 MB, half kept
     assert server.default_max_sessions() == 3
+
+
+# --- behind a TLS proxy: --public-url ------------------------------------------------------------
+def test_behind_a_proxy_the_public_address_is_accepted_and_other_origins_still_refused():
+    from starlette.applications import Starlette
+    from starlette.responses import PlainTextResponse
+    from starlette.routing import Route
+    from starlette.testclient import TestClient
+
+    from aaai.study.server import public_origin
+    from aaai.tools.play.guard import Guard, own_hosts
+
+    origin = public_origin("https://Study.Example.org/")
+    assert origin == "https://study.example.org"
+    app = Starlette(routes=[Route("/", lambda request: PlainTextResponse("page"))])
+    app.add_middleware(Guard, hosts=own_hosts("127.0.0.1", 8000), origins=[origin])
+    client = TestClient(app, base_url="http://study.example.org")
+    headers = {"host": "study.example.org", "origin": "https://study.example.org"}
+    assert client.get("/", headers=headers).text == "page"  # what the proxy passes on (Host, Origin)
+    assert client.get("/", headers={"host": "127.0.0.1:8000"}).text == "page"  # the server's own address still
+    refused = client.get("/", headers={**headers, "origin": "https://other.example"})
+    assert refused.status_code == 403 and "Origin 'https://other.example' is not this server's page" in refused.text
+    refused = client.get("/", headers={"host": "other.example"})
+    assert refused.status_code == 403 and "Host 'other.example' is not this server's" in refused.text
+
+
+@pytest.mark.parametrize("url", ["study.example.org", "ftp://x.org", "https://x.org/study", "https://x.org/?a=1"])
+def test_a_public_url_that_is_not_an_address_is_refused_naming_it(url):
+    from aaai.study.server import public_origin
+
+    with pytest.raises(ValueError, match=re.escape(f"--public-url: got {url!r}; allowed: ")):
+        public_origin(url)
+
+
+def test_serve_refuses_a_bad_public_url_with_one_message_and_no_traceback(tmp_path):
+    path, _ = study_with(tmp_path, 1, 1.0)
+    command = [sys.executable, "-m", "aaai_cli.main", "study", "serve", str(path), "--port", "0"]
+    result = subprocess.run([*command, "--public-url", "study.example.org"], capture_output=True, text=True, timeout=30)
+    assert result.returncode == 2 and "--public-url: got 'study.example.org'; allowed:" in result.stderr
+    assert "Traceback" not in result.stderr
