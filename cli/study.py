@@ -119,7 +119,8 @@ def serve(study_file, host, port, grace, max_sessions, public_url):
         waiting = sum(row["status"] != "finished" for row in store.participants())
         click.echo(
             f"aaai study: serving {chosen.name!r} at {server.base_url} ({waiting} participant link"
-            f"{'s' * (waiting != 1)} not finished; the store is {chosen.store}). Ctrl+C stops."
+            f"{'s' * (waiting != 1)} not finished, at most {server.registry.max_sessions} playing at once; "
+            f"the store is {chosen.store}). Ctrl+C stops."
         )
         if server.network and not public_url:
             click.echo(

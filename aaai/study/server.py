@@ -13,7 +13,9 @@ The server sends ``status`` and ``frame`` messages with :meth:`StudySession.part
 only, and only the camera image (the map too if the study shows it). A participant is held by
 one tab at a time; a closed tab comes back with the same link (within the grace period it carries
 on in the same session, later a new session resumes at the unfinished trial). Every request
-passes :class:`aaai.tools.play.guard.Guard` (Host and Origin).
+passes :class:`aaai.tools.play.guard.Guard` (Host and Origin; ``public_url``: a TLS proxy's address
+too). At most ``max_sessions`` participants play at once (:func:`default_max_sessions`, measured by
+``bench/study_load.py``); one more gets the page (503) or message "The study is full right now".
 """
 
 from __future__ import annotations
