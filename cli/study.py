@@ -95,8 +95,16 @@ def participants(study_file, count, base_url, output):
     show_default=True,
     help="Seconds a closed tab's trial waits (paused) before it is abandoned; the link resumes it either way.",
 )
-@click.option("--max-sessions", type=click.IntRange(1, 10_000), help="Participants playing at once.")
-def serve(study_file, host, port, grace, max_sessions):
+@click.option(
+    "--max-sessions",
+    type=click.IntRange(1, 10_000),
+    help="Participants playing at once; one more is told the study is full [default: 4, what one server holds].",
+)
+@click.option(
+    "--public-url",
+    help="The https:// address participants open through a TLS proxy (its Host and Origin are accepted).",
+)
+def serve(study_file, host, port, grace, max_sessions, public_url):
     """Serve STUDY_FILE to its participants: each link opens consent, instructions, practice, the battery."""
     chosen = _study(study_file)
     try:
@@ -107,19 +115,20 @@ def serve(study_file, host, port, grace, max_sessions):
     store = _store(chosen)
     try:
         settings = play_settings(chosen, grace_seconds=grace)
-        server = StudyServer(chosen, store, settings, host, port, max_sessions)
+        server = StudyServer(chosen, store, settings, host, port, max_sessions, public_url)
         waiting = sum(row["status"] != "finished" for row in store.participants())
         click.echo(
             f"aaai study: serving {chosen.name!r} at {server.base_url} ({waiting} participant link"
-            f"{'s' * (waiting != 1)} not finished; the store is {chosen.store}). Ctrl+C stops."
+            f"{'s' * (waiting != 1)} not finished, at most {server.registry.max_sessions} playing at once; "
+            f"the store is {chosen.store}). Ctrl+C stops."
         )
-        if server.network:
+        if server.network and not public_url:
             click.echo(
                 f"--host {host}: anyone who can reach port {server.port} can open the pages; only a participant's "
                 "token lets them play, and there is no encryption: serve it behind a TLS proxy"
             )
         server.run()
-    except ConfigError as error:
+    except (ConfigError, ValueError) as error:
         raise click.UsageError(str(error)) from None
     finally:
         store.close()

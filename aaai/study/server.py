@@ -13,7 +13,9 @@ The server sends ``status`` and ``frame`` messages with :meth:`StudySession.part
 only, and only the camera image (the map too if the study shows it). A participant is held by
 one tab at a time; a closed tab comes back with the same link (within the grace period it carries
 on in the same session, later a new session resumes at the unfinished trial). Every request
-passes :class:`aaai.tools.play.guard.Guard` (Host and Origin).
+passes :class:`aaai.tools.play.guard.Guard` (Host and Origin; ``public_url``: a TLS proxy's address
+too). At most ``max_sessions`` participants play at once (:func:`default_max_sessions`, measured by
+``bench/study_load.py``); one more gets the page (503) or message "The study is full right now".
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import asyncio
 import contextlib
 import html
 import json
+import os
 import threading
 from collections.abc import AsyncIterator
 from importlib import resources
@@ -35,11 +38,56 @@ from aaai.study.participant import StudySession
 from aaai.study.store import Store
 from aaai.study.studyfile import Study
 from aaai.tools.play.guard import Guard, is_loopback, link_host, own_hosts
-from aaai.tools.play.server import MAX_MESSAGE_CHARS, bind, default_max_sessions, parse_message
+from aaai.tools.play.server import MAX_MESSAGE_CHARS, SESSION_MEGABYTES, available_megabytes, bind, parse_message
 from aaai.tools.play.session import CONTROL_KEYS, GO_KEYS, InputError, PlaySettings, Session, return_memory
 
 STUDY_MESSAGES = ("join", "consent", "start")
 ENDED = ("finished", "error", "abandoned")
+# Participants one CPU core holds at 50 control steps a second with the camera at 84 px
+# (bench/study_load.py, bench/study_load.md; docs/play.md, "Many participants at once"): a session
+# costs the server 0.14 to 0.20 CPU seconds per second of play (0.20 alone): 0.9 / 0.20 = 4.5, so 4,
+# which leaves room for a busy machine (6 at once held 49 steps/s at a load of 4.7; 5 at once 42 at 6).
+SESSIONS_PER_CORE = 4
+# The cores one server uses: its sessions are threads of one Python process, which runs Python on
+# one core at a time (8 and 10 sessions took 0.97 and 1.03 cores with the second core free, 44 and 40 steps/s).
+SERVER_CORES = 1
+FULL_TITLE = "The study is full right now"
+FULL_TEXT = "Too many people are taking part at this moment. Please try again in a few minutes."
+
+
+def public_origin(url: str) -> str:
+    """The origin (scheme://host[:port]) of --public-url, the address participants open through a
+    proxy; a value that is not one gets a ValueError naming it and what is allowed."""
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(url)
+    if parts.scheme not in ("http", "https") or not parts.hostname or parts.path not in ("", "/"):
+        raise ValueError(
+            f"--public-url: got {url!r}; allowed: the address participants open, scheme and host only, "
+            "such as https://study.example.org"
+        )
+    if parts.query or parts.fragment or parts.username or parts.password:
+        raise ValueError(f"--public-url: got {url!r}; allowed: scheme, host and port only (no query, user)")
+    return f"{parts.scheme}://{parts.netloc.lower()}"
+
+
+def usable_cores() -> int:
+    """The CPU cores this process may run on (its affinity, where the system tells it)."""
+    try:
+        return len(os.sched_getaffinity(0)) or 1
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def default_max_sessions() -> int:
+    """--max-sessions of ``aaai study serve`` by default: :data:`SESSIONS_PER_CORE` times the cores the
+    server can use (its usable cores, at most :data:`SERVER_CORES`), and no more than half the
+    available memory holds at 50 MB a session."""
+    cap = SESSIONS_PER_CORE * min(usable_cores(), SERVER_CORES)
+    memory = available_megabytes()
+    if memory is not None:
+        cap = min(cap, int(memory / 2 / SESSION_MEGABYTES))
+    return max(1, cap)
 
 
 def plain_page(title: str, text: str, status: int) -> HTMLResponse:
@@ -79,13 +127,19 @@ class StudyRegistry:
                 self.generation[pid] += 1
                 session.attach(notify)
                 return session
-            live = sum(not s.done.is_set() for s in self.sessions.values())
-            if live >= self.max_sessions:
-                raise InputError("the study is full at the moment: please try again in a few minutes")
+            if self.full():
+                raise InputError(f"{FULL_TITLE}. {FULL_TEXT}")
             session = StudySession(self.settings, self.study, self.store, pid, notify, on_end=self.ended)
             self.sessions[pid], self.generation[pid] = session, 1
             session.start()
             return session
+
+    def full(self, pid: str | None = None) -> bool:
+        """Whether a new session would be one beyond the cap (a participant whose session is live is not new)."""
+        session = self.sessions.get(pid) if pid is not None else None
+        if session is not None and session.phase not in ENDED:
+            return False
+        return sum(not s.done.is_set() for s in self.sessions.values()) >= self.max_sessions
 
     def detach(self, session: StudySession) -> int:
         with self.lock:
@@ -131,7 +185,12 @@ def parse_study_message(text: Any) -> dict:
 
 
 def create_study_app(
-    study: Study, store: Store, settings: PlaySettings, hosts: list[str], max_sessions: int | None = None
+    study: Study,
+    store: Store,
+    settings: PlaySettings,
+    hosts: list[str],
+    max_sessions: int | None = None,
+    origins: list[str] | None = None,
 ) -> FastAPI:
     registry = StudyRegistry(study, store, settings, max_sessions)
 
@@ -141,7 +200,7 @@ def create_study_app(
         await asyncio.get_running_loop().run_in_executor(None, registry.close)
 
     app = FastAPI(title=f"aaai study {study.name}", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
-    app.add_middleware(Guard, hosts=hosts)
+    app.add_middleware(Guard, hosts=hosts, origins=origins)
     app.state.registry = registry
     static = resources.files("aaai.tools.play") / "static"
 
@@ -157,6 +216,10 @@ def create_study_app(
                 "You have finished this study already, and each link can be used once. Thank you for taking part!",
                 403,
             )
+        with registry.lock:
+            full = registry.full(found["id"])
+        if full:
+            return plain_page(FULL_TITLE, FULL_TEXT, 503)
         return HTMLResponse((static / "study.html").read_text(), headers={"Cache-Control": "no-store"})
 
     app.mount("/static", StaticFiles(directory=str(static)), name="static")
@@ -278,14 +341,18 @@ class StudyServer:
         host: str = "127.0.0.1",
         port: int = 8000,
         max_sessions: int | None = None,
+        public_url: str | None = None,
     ):
         import uvicorn
 
+        origins = [public_origin(public_url)] if public_url else None
         self.sock = bind(host, port)
         self.port = self.sock.getsockname()[1]
         self.network = not is_loopback(host)
         self.base_url = f"http://{link_host(host) if self.network else '127.0.0.1'}:{self.port}/"
-        self.app = create_study_app(study, store, settings, own_hosts(host, self.port), max_sessions)
+        if origins:
+            self.base_url = origins[0] + "/"
+        self.app = create_study_app(study, store, settings, own_hosts(host, self.port), max_sessions, origins)
         self.server = uvicorn.Server(
             uvicorn.Config(self.app, log_level="warning", ws="websockets-sansio", ws_max_size=1 << 16, lifespan="on")
         )
@@ -319,4 +386,14 @@ def link(base_url: str, token: str) -> str:
     return f"{base_url.rstrip('/')}/?p={token}"
 
 
-__all__ = ["StudyRegistry", "StudyServer", "create_study_app", "link", "parse_study_message"]
+__all__ = [
+    "SERVER_CORES",
+    "SESSIONS_PER_CORE",
+    "default_max_sessions",
+    "public_origin",
+    "StudyRegistry",
+    "StudyServer",
+    "create_study_app",
+    "link",
+    "parse_study_message",
+]

@@ -6,7 +6,8 @@ sees it. It answers 403 with a one-line reason unless
 * the ``Host`` header is one of the server's own addresses with its port (:func:`own_hosts`: the
   loopback names 127.0.0.1, localhost and [::1] on a loopback server), so that a page of another
   site whose name was made to point at this machine (DNS rebinding) gets nothing;
-* the ``Origin`` header, when there is one, is ``http://`` and such an address; a WebSocket must
+* the ``Origin`` header, when there is one, is ``http://`` and such an address (or one of the
+  ``origins`` given, such as a TLS proxy's ``https://`` address); a WebSocket must
   send one (browsers always do), so that a page of another site cannot open the socket and play;
 * on a server listening on a network (``--host`` not loopback), the request carries the server's
   random token: ``?token=...`` in the printed link, then a cookie the server sets on the first
@@ -89,10 +90,20 @@ class Guard:
     """ASGI middleware: a request or WebSocket that is not from the server's own page, by its own
     address (and, on a network, with its token) gets 403 and the reason, and never reaches the app."""
 
-    def __init__(self, app: ASGIApp, hosts: list[str], token: str | None = None, cookie: str = "aaai_play"):
+    def __init__(
+        self,
+        app: ASGIApp,
+        hosts: list[str],
+        token: str | None = None,
+        cookie: str = "aaai_play",
+        origins: list[str] | None = None,
+    ):
+        """``origins``: pages at other addresses that may talk to it too, such as the ``https://`` address
+        of a TLS proxy in front of it (their hosts are added to ``hosts``, for the proxy's Host header)."""
         self.app, self.token, self.cookie = app, token, cookie
-        self.hosts = [h.lower() for h in hosts]
-        self.origins = [f"http://{h}" for h in self.hosts]
+        own, extra = [h.lower() for h in hosts], [o.lower().rstrip("/") for o in origins or []]
+        self.hosts = own + [o.split("://", 1)[1] for o in extra]
+        self.origins = [f"http://{h}" for h in own] + extra
 
     def check(self, connection: HTTPConnection, websocket: bool) -> tuple[str | None, bool]:
         """(the reason to refuse, or None; whether the token came in the query, so the cookie is set)."""
