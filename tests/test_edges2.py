@@ -92,7 +92,7 @@ def test_no_module_reads_yaml_but_through_safe_yaml():
 @pytest.fixture(scope="module")
 def pendulum_model(tmp_path_factory) -> Path:
     """A tiny PPO model on Pendulum, saved by stable-baselines3 (loads only with trust or the registry)."""
-    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("stable_baselines3", reason="needs the train extra (stable-baselines3)")
     from stable_baselines3 import PPO
 
     path = tmp_path_factory.mktemp("trusted") / "pendulum.zip"

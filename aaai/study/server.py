@@ -38,7 +38,15 @@ from aaai.study.participant import StudySession
 from aaai.study.store import Store
 from aaai.study.studyfile import Study
 from aaai.tools.play.guard import Guard, is_loopback, link_host, own_hosts
-from aaai.tools.play.server import MAX_MESSAGE_CHARS, SESSION_MEGABYTES, available_megabytes, bind, parse_message
+from aaai.tools.play.server import (
+    MAX_MESSAGE_CHARS,
+    SESSION_MEGABYTES,
+    Serving,
+    available_megabytes,
+    bind,
+    deliver,
+    parse_message,
+)
 from aaai.tools.play.session import CONTROL_KEYS, GO_KEYS, InputError, PlaySettings, Session, return_memory
 
 STUDY_MESSAGES = ("join", "consent", "start")
@@ -310,12 +318,8 @@ def create_study_app(
                         notify()
                     elif session is None:
                         raise InputError(f"{kind} message before start; allowed first: start")
-                    elif kind == "key":
-                        session.key(data.get("key"), data["down"])
-                    elif kind == "focus":
-                        session.focus(data["focused"])
                     else:
-                        session.ack(data["frame"])
+                        deliver(session, data)
                 except InputError as error:
                     await send({"type": "error", "message": str(error)})
         except WebSocketDisconnect:
@@ -330,8 +334,10 @@ def create_study_app(
     return app
 
 
-class StudyServer:
+class StudyServer(Serving):
     """A study's app served by uvicorn on ``host``:``port``, in this thread (``run``) or another (``start``)."""
+
+    thread_name = "aaai-study-server"
 
     def __init__(
         self,
@@ -343,8 +349,6 @@ class StudyServer:
         max_sessions: int | None = None,
         public_url: str | None = None,
     ):
-        import uvicorn
-
         origins = [public_origin(public_url)] if public_url else None
         self.sock = bind(host, port)
         self.port = self.sock.getsockname()[1]
@@ -352,33 +356,11 @@ class StudyServer:
         self.base_url = f"http://{link_host(host) if self.network else '127.0.0.1'}:{self.port}/"
         if origins:
             self.base_url = origins[0] + "/"
-        self.app = create_study_app(study, store, settings, own_hosts(host, self.port), max_sessions, origins)
-        self.server = uvicorn.Server(
-            uvicorn.Config(self.app, log_level="warning", ws="websockets-sansio", ws_max_size=1 << 16, lifespan="on")
-        )
-        self.thread: threading.Thread | None = None
+        self.serve(create_study_app(study, store, settings, own_hosts(host, self.port), max_sessions, origins))
 
     @property
     def registry(self) -> StudyRegistry:
         return self.app.state.registry
-
-    def run(self) -> None:
-        try:
-            self.server.run(sockets=[self.sock])
-        finally:
-            self.sock.close()
-
-    def start(self) -> "StudyServer":
-        self.thread = threading.Thread(target=self.run, name="aaai-study-server", daemon=True)
-        self.thread.start()
-        while not self.server.started and self.thread.is_alive():
-            threading.Event().wait(0.02)
-        return self
-
-    def stop(self) -> None:
-        self.server.should_exit = True
-        if self.thread is not None:
-            self.thread.join(10)
 
 
 def link(base_url: str, token: str) -> str:

@@ -38,7 +38,7 @@ import socket
 import threading
 from collections.abc import AsyncIterator, Callable
 from importlib import resources
-from typing import Any
+from typing import Any, TypeVar
 
 from fastapi import FastAPI, WebSocket, WebSocketDisconnect
 from fastapi.responses import HTMLResponse, JSONResponse
@@ -85,6 +85,17 @@ def default_max_sessions() -> int:
     if memory is not None:
         cap = min(cap, int(memory / 2 / SESSION_MEGABYTES))
     return max(1, cap)
+
+
+def deliver(session: Session, data: dict) -> None:
+    """A page's input message, checked by :func:`parse_message`, given to its session: a key pressed
+    or released, the page's focus, or a frame acknowledged."""
+    if data["type"] == "key":
+        session.key(data.get("key"), data["down"])
+    elif data["type"] == "focus":
+        session.focus(data["focused"])
+    else:
+        session.ack(data["frame"])
 
 
 class Registry:
@@ -332,12 +343,8 @@ def create_app(
                         notify()
                     elif session is None:
                         raise InputError(f"{data['type']} message before join; allowed first: join")
-                    elif data["type"] == "key":
-                        session.key(data.get("key"), data["down"])
-                    elif data["type"] == "focus":
-                        session.focus(data["focused"])
                     else:
-                        session.ack(data["frame"])
+                        deliver(session, data)
                 except InputError as error:
                     await send({"type": "error", "message": str(error)})
         except WebSocketDisconnect:
@@ -376,34 +383,25 @@ def bind(host: str, port: int) -> socket.socket:
     return sock
 
 
-class Server:
-    """The app served on a socket by uvicorn in this thread (``run``) or a background one (``start``).
+Served = TypeVar("Served", bound="Serving")
 
-    On loopback (``host`` 127.0.0.1, localhost, ::1) ``url`` is the page's address; on a network
-    the server has a random token and ``url`` carries it (``?token=...``), as ``local_url`` does
-    for a browser on this machine."""
 
-    def __init__(self, settings: PlaySettings, host: str = "127.0.0.1", port: int = 8000):
+class Serving:
+    """An app served by uvicorn on the bound socket ``sock``, in this thread (``run``) or a
+    background one (``start``, which returns once it listens); ``stop`` ends it."""
+
+    sock: socket.socket
+    thread_name = "aaai-server"
+
+    def serve(self, app: FastAPI) -> None:
+        """Sets the app to serve on ``self.sock``."""
         import uvicorn
 
-        self.sock = bind(host, port)
-        self.port = self.sock.getsockname()[1]
-        self.network = not is_loopback(host)
-        self.token = secrets.token_urlsafe(24) if self.network else None
-        query = f"?token={self.token}" if self.token else ""
-        bound = self.sock.getsockname()[0]
-        local = shown(bound) if bound not in WILDCARDS else "127.0.0.1" if bound == "0.0.0.0" else "[::1]"
-        self.url = f"http://{link_host(host) if self.network else local}:{self.port}/{query}"
-        self.local_url = f"http://{local}:{self.port}/{query}" if host in WILDCARDS else self.url
-        self.app = create_app(settings, own_hosts(host, self.port), self.token, cookie=f"aaai_play_{self.port}")
+        self.app = app
         self.server = uvicorn.Server(
-            uvicorn.Config(self.app, log_level="warning", ws="websockets-sansio", ws_max_size=1 << 16, lifespan="on")
+            uvicorn.Config(app, log_level="warning", ws="websockets-sansio", ws_max_size=1 << 16, lifespan="on")
         )
         self.thread: threading.Thread | None = None
-
-    @property
-    def registry(self) -> Registry:
-        return self.app.state.registry
 
     def run(self) -> None:
         try:
@@ -411,8 +409,8 @@ class Server:
         finally:
             self.sock.close()
 
-    def start(self) -> "Server":
-        self.thread = threading.Thread(target=self.run, name="aaai-play-server", daemon=True)
+    def start(self: Served) -> Served:
+        self.thread = threading.Thread(target=self.run, name=self.thread_name, daemon=True)
         self.thread.start()
         while not self.server.started and self.thread.is_alive():
             threading.Event().wait(0.02)
@@ -422,3 +420,29 @@ class Server:
         self.server.should_exit = True
         if self.thread is not None:
             self.thread.join(10)
+
+
+class Server(Serving):
+    """The app served on a socket by uvicorn in this thread (``run``) or a background one (``start``).
+
+    On loopback (``host`` 127.0.0.1, localhost, ::1) ``url`` is the page's address; on a network
+    the server has a random token and ``url`` carries it (``?token=...``), as ``local_url`` does
+    for a browser on this machine."""
+
+    thread_name = "aaai-play-server"
+
+    def __init__(self, settings: PlaySettings, host: str = "127.0.0.1", port: int = 8000):
+        self.sock = bind(host, port)
+        self.port = self.sock.getsockname()[1]
+        self.network = not is_loopback(host)
+        self.token = secrets.token_urlsafe(24) if self.network else None
+        query = f"?token={self.token}" if self.token else ""
+        bound = self.sock.getsockname()[0]
+        local = shown(bound) if bound not in WILDCARDS else "127.0.0.1" if bound == "0.0.0.0" else "[::1]"
+        self.url = f"http://{link_host(host) if self.network else local}:{self.port}/{query}"
+        self.local_url = f"http://{local}:{self.port}/{query}" if host in WILDCARDS else self.url
+        self.serve(create_app(settings, own_hosts(host, self.port), self.token, cookie=f"aaai_play_{self.port}"))
+
+    @property
+    def registry(self) -> Registry:
+        return self.app.state.registry
