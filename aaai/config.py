@@ -126,7 +126,7 @@ MAX_LEVEL_ID = 999  # level ids are 0..999; which exist, the level registry says
 RULES: dict[str, Rule] = {
     "level": Rule("int", 0, MAX_LEVEL_ID, levels=True),  # a registered level's id (aaai.levels); 12 is L2b
     "difficulty": Rule("int", 0, 10),
-    "agent.body": Rule("choice", choices=BODIES),
+    "agent.body": Rule("choice", choices=(*BODIES, "sphere")),  # sphere: Animal-AI's body (aaai.agent.sphere)
     "agent.action_mode": Rule("choice", choices=("rotation", "velocity", "gait")),
     "agent.decision_interval": Rule("float", 1e-4, 1e4),  # gait mode: seconds an action is held
     "agent.max_force": Rule("float", 1e-3, 1e5),

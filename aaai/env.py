@@ -17,6 +17,7 @@ import pybullet as p
 from gymnasium import spaces
 
 from aaai.agent.body import Quadruped
+from aaai.agent.sphere import Sphere, SphereCommands
 from aaai.config import ActionMode, Config, ConfigError, env_keywords, load_config
 from aaai.levels import check_difficulty, episode_rngs, generate, get_level, validate
 from aaai.levels.seeds import TRAIN_SEEDS
@@ -264,22 +265,32 @@ class AnimalAIEnv(gym.Env):
         self.action_mode: ActionMode = agent.action_mode
         # visual shapes only if anything draws ("": none), and the camera's look (aaai.sim.world.World)
         self.visuals = cfg.sensors.camera_look if cfg.sensors.camera or render_mode is not None else ""
-        self.body = Quadruped(
-            client,
-            agent.body,
-            drive="velocity" if self.action_mode == "velocity" else "angle",  # the gait sends joint angles
-            max_force=agent.max_force,
-            max_joint_velocity=agent.max_joint_velocity,
-            friction=agent.friction,
-            visuals=self.visuals != "",
-            position_gain=agent.position_gain,
-            velocity_gain=agent.velocity_gain,
-        )
+        self.body: Quadruped | Sphere
+        # the gait's commands, or the sphere's (aaai.agent.sphere): forward, turn, crouch held per action
+        self.gait: SineGait | SphereCommands | None
+        if agent.body == "sphere":  # Animal-AI's body: its actions are always forward and turn commands
+            self.body = Sphere(client, self.control_dt, visuals=self.visuals != "")
+        else:
+            self.body = Quadruped(
+                client,
+                agent.body,
+                drive="velocity" if self.action_mode == "velocity" else "angle",  # the gait sends joint angles
+                max_force=agent.max_force,
+                max_joint_velocity=agent.max_joint_velocity,
+                friction=agent.friction,
+                visuals=self.visuals != "",
+                position_gain=agent.position_gain,
+                velocity_gain=agent.velocity_gain,
+            )
         self.senses = Senses(client, cfg.sensors, self.body)
         self.rays, self.camera = self.senses.rays, self.senses.camera
-        self.task = FoodTask(cfg.episode, agent.limb_food_reward, self.control_dt)
-        if self.action_mode == "gait":
-            self.gait: SineGait | None = SineGait(self.body.joint_names, control_dt=self.control_dt)
+        # the sphere rests on its head: the floor under it is no head on the floor
+        self.task = FoodTask(
+            cfg.episode, agent.limb_food_reward, self.control_dt, head_rests=isinstance(self.body, Sphere)
+        )
+        if isinstance(self.body, Sphere) or self.action_mode == "gait":
+            sphere = isinstance(self.body, Sphere)
+            self.gait = SphereCommands() if sphere else SineGait(self.body.joint_names, control_dt=self.control_dt)
             self.hold = hold_steps(agent.decision_interval, self.control_dt)
             self.action_space = spaces.Box(np.array(GAIT_LOW, np.float32), np.array(GAIT_HIGH, np.float32))
         else:
@@ -324,8 +335,9 @@ class AnimalAIEnv(gym.Env):
         _, motion_rng = episode_rngs(spec.level, spec.difficulty, spec.seed)
         self.sim.reset()
         self.world = World(self._live_client(), spec, motion_rng, self.visuals)
+        # an arena file's arena sets the sphere's scale; the generated levels share one (aaai.agent.sphere)
+        self.body.load(spec.agent.x, spec.agent.y, spec.agent.yaw, spec.arena_size if self.arena is not None else None)
         self.senses.start(spec, self.control_dt)
-        self.body.load(spec.agent.x, spec.agent.y, spec.agent.yaw)
         self.steps = 0
         if self.gait is not None:
             self.gait.reset()

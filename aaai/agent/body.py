@@ -8,7 +8,7 @@ from typing import Literal
 import numpy as np
 import pybullet as p
 
-from aaai.agent.urdf_writer import BODIES, LEGS, SEGMENT_TIP, file_name
+from aaai.agent.urdf_writer import BODIES, HEAD_RADIUS, LEGS, SEGMENT_TIP, file_name
 from aaai.errors import ConfigError
 
 URDF_DIR = Path(__file__).resolve().parent.parent / "urdf"
@@ -57,6 +57,7 @@ class Quadruped:
         self.friction = friction
         self.position_gain, self.velocity_gain = position_gain, velocity_gain
         self.id = -1
+        self.radius = HEAD_RADIUS  # the head's: the senses start just outside it
         self._describe_joints()
 
     def _describe_joints(self) -> None:
@@ -86,7 +87,8 @@ class Quadruped:
         self._half_range = 0.5 * (self.upper - self.lower)
         self._middle = self.lower + self._half_range
 
-    def load(self, x: float, y: float, yaw: float) -> int:
+    def load(self, x: float, y: float, yaw: float, arena_size=None) -> int:
+        """Loads the body at (x, y) facing ``yaw`` (its size does not depend on ``arena_size``)."""
         c = self.client
         orientation = p.getQuaternionFromEuler((0, 0, yaw))
         self.id = p.loadURDF(self.path, (x, y, SPAWN_HEIGHT), orientation, physicsClientId=c)

@@ -9,6 +9,7 @@ import pybullet as p
 from gymnasium import spaces
 
 from aaai.agent.body import RAY_MASK, Quadruped
+from aaai.agent.sphere import Sphere
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.config import SensorsConfig
 from aaai.sim.geometry import missing_floor
@@ -58,6 +59,7 @@ class Rays:
         self.client = client
         self.flat = flat
         self.length = length
+        self.eye = EYE_OFFSET  # from the head's centre to where the rays start (the body's, Senses.start)
         angles = np.radians(np.linspace(-max_angle, max_angle, 2 * rays_per_side + 1))
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
         if down_fan > 0:  # the same fan again, pitched down_fan degrees below the head's plane
@@ -99,7 +101,7 @@ class Rays:
 
     def observe(self, head_pos: np.ndarray, head_rot: np.ndarray, kind_index: np.ndarray) -> np.ndarray:
         dirs = self.local_dirs @ head_rot.T
-        starts = head_pos + dirs * EYE_OFFSET
+        starts = head_pos + dirs * self.eye
         ends = starts + dirs * self.length
         if self.width:
             sides = self.local_sides @ head_rot.T
@@ -199,6 +201,7 @@ class Camera:
 
     def __init__(self, client: int, resolution: int, grayscale: bool):
         self.client = client
+        self.eye = EYE_OFFSET  # from the head's centre to the eye (the body's, Senses.start)
         self.resolution = resolution
         self.grayscale = grayscale
         self.space = spaces.Box(0, 255, (resolution, resolution, 1 if grayscale else 3), np.uint8)
@@ -206,7 +209,7 @@ class Camera:
 
     def observe(self, head_pos: np.ndarray, head_rot: np.ndarray) -> np.ndarray:
         forward, up = head_rot[:, 0], head_rot[:, 2]
-        eye = head_pos + forward * EYE_OFFSET
+        eye = head_pos + forward * self.eye
         return self.render(eye, eye + forward, up)
 
     def render(self, eye, target, up) -> np.ndarray:
@@ -270,7 +273,8 @@ class RayMemory:
 class Senses:
     """The body's senses as the config's ``sensors`` section sets them, and their Dict space."""
 
-    def __init__(self, client: int, sensors: SensorsConfig, body: Quadruped):
+    def __init__(self, client: int, sensors: SensorsConfig, body: Quadruped | Sphere):
+        self.body = body
         self.rays = (
             Rays(
                 client,
@@ -311,7 +315,12 @@ class Senses:
         self.foot_contacts = "foot_contacts" in space
 
     def start(self, spec: LevelSpec, control_dt: float) -> None:
-        """Readies the senses for a new level: the rays learn its missing floor, the camera its blackout."""
+        """Readies the senses for a new level (after the body is loaded): the rays learn its missing
+        floor, the camera its blackout; both start just outside the body's head, as large as it is now."""
+        eye = getattr(self.body, "radius", HEAD_RADIUS) + (EYE_OFFSET - HEAD_RADIUS)
+        for sense in (self.rays, self.camera):
+            if sense is not None:
+                sense.eye = eye
         if self.rays:
             self.rays.set_holes(missing_floor(spec))
             self.rays.set_zones(

@@ -32,6 +32,7 @@ import cv2
 import numpy as np
 import pybullet as p
 
+from aaai.agent.sphere import Sphere
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.levels import validate
 from aaai.levels.validate import FOOTPRINT_RADIUS
@@ -40,6 +41,7 @@ from aaai.sim.geometry import corners
 from aaai.spec import LevelSpec, ObjectSpec
 from aaai.spec.behaviours import Sink, behaviour_class
 from aaai.spec.kinds import ENDING_KINDS, FOOD_KINDS, kind_class
+from aaai.task.sphere_steer import SphereSteer
 
 # pieces that do not end the episode (yellow, multi, ripening, decaying food): eaten before the green
 EAT_FIRST = tuple(kind for kind in FOOD_KINDS if kind not in ENDING_KINDS)
@@ -90,7 +92,10 @@ class ReferenceController:
 
     def __init__(self, env):
         self.env = env.unwrapped
-        self.gait = SineGait.for_env(self.env)
+        # the sphere (agent.body: sphere) is steered by the same commands without a gait
+        self.sphere = isinstance(self.env.body, Sphere)
+        self.gait: SineGait | SphereSteer = SphereSteer(self.env) if self.sphere else SineGait.for_env(self.env)
+        self.radius = HEAD_RADIUS  # the head's radius: how near food's surface its centre comes to eat
         self.spec: LevelSpec | None = None
 
     def reset(self, seed: int | None = None) -> None:
@@ -101,6 +106,7 @@ class ReferenceController:
         env = self.env
         spec = self.spec = self.level = env.level_spec
         self.gait.reset()
+        self.radius = env.body.radius  # the sphere's size follows the arena's
         self.grid = validate.blocked_grid(spec)
         self.doors_closed = 0
         self._map()
@@ -121,7 +127,7 @@ class ReferenceController:
         cost from the occupancy grid."""
         self.clearance = validate.clearance_map(self.level, self.grid)
         walk = validate.walk_region(self.level, self.clearance, start)
-        self.walk = walk if walk is not None else self.clearance > HEAD_RADIUS
+        self.walk = walk if walk is not None else self.clearance > self.radius
         self.crowding = (
             1.0
             + CROWDING_COST * np.clip(1.0 - self.clearance / COMFORT, 0.0, 1.0)
@@ -168,7 +174,7 @@ class ReferenceController:
         self, head: np.ndarray, goal: tuple[float, float], reach: float, key, avoid: list[tuple[float, float, float]]
     ) -> tuple[float, float]:
         """Where to steer now: straight at a near goal, else the cheapest cell within LOOKAHEAD."""
-        if math.dist(head[:2], goal) < DIRECT + reach - HEAD_RADIUS and self._clear_line(head, goal):
+        if math.dist(head[:2], goal) < DIRECT + reach - self.radius and self._clear_line(head, goal):
             return goal
         if key != self.plan_key or self.plan_goal is None or math.dist(goal, self.plan_goal) > REPLAN_MOVE:
             self.plan = self._costs(goal, reach, avoid)
@@ -219,17 +225,17 @@ class ReferenceController:
         greens = [f for f in foods if f[1].kind in LAST]
         down = [f for f in yellows if not _still_sinking(f)]
         sinking = [f for f in yellows if _still_sinking(f)]
-        avoid = [(pos[0], pos[1], food.size[0] / 2 + HEAD_RADIUS + GREEN_BERTH) for _, food, pos in greens]
+        avoid = [(pos[0], pos[1], food.size[0] / 2 + self.radius + GREEN_BERTH) for _, food, pos in greens]
         if down:
             body, food, position = min(down, key=lambda f: math.dist(head[:2], f[2][:2]))
-            return self._food_goal(food, position), HEAD_RADIUS + food.size[0] / 2, body, avoid, False
+            return self._food_goal(food, position), self.radius + food.size[0] / 2, body, avoid, False
         if sinking:
             body, food, position = min(sinking, key=lambda f: math.dist(head[:2], f[2][:2]))
             return position[:2], PILLAR_WAIT, ("wait", body), avoid, True
         if greens:
             body, food, position = max(greens, key=lambda f: (f[1].food_value, -math.dist(head[:2], f[2][:2])))
             others = [berth for berth, green in zip(avoid, greens) if green[0] != body]
-            return self._food_goal(food, position), HEAD_RADIUS + food.size[0] / 2, body, others, False
+            return self._food_goal(food, position), self.radius + food.size[0] / 2, body, others, False
         return None
 
     @staticmethod
@@ -292,8 +298,8 @@ class ReferenceController:
             return self.gait()
         if self._cramped(head, yaw, goal):
             return self.gait()
-        eating = reach > HEAD_RADIUS and key != "rest"
-        close = eating and math.dist(head[:2], goal) < DIRECT + reach - HEAD_RADIUS
+        eating = reach > self.radius and key != "rest"
+        close = eating and math.dist(head[:2], goal) < DIRECT + reach - self.radius
         if close and key not in self.approached:  # first time near this piece: pick the open side
             self.approached.add(key)
             self.detour = self._approach_point(head, goal, reach, 0.0)
@@ -314,8 +320,12 @@ class ReferenceController:
                 self.tries += 1
                 self.detour = self._approach_point(head, goal, reach, (-1) ** self.tries * RETRY_TURN)
         error = _angle(math.atan2(point[1] - head[1], point[0] - head[0]) - yaw)
-        if close and point == goal:  # the final approach to a piece: crouch to reach it
-            self.gait.command(*approach(self.gait.parameters, error, math.dist(head[:2], goal), reach - HEAD_RADIUS))
+        if isinstance(self.gait, SphereSteer):  # the sphere: straight at the point, as fast as the room allows
+            row, col = validate.cell(self.level, head[0], head[1], self.clearance.shape)
+            ahead = math.dist(head[:2], goal) if close and point == goal else remaining
+            self.gait.drive(error, ahead, float(self.clearance[row, col]) - self.radius)
+        elif close and point == goal:  # the final approach to a piece: crouch to reach it
+            self.gait.command(*approach(self.gait.parameters, error, math.dist(head[:2], goal), reach - self.radius))
         else:
             forward, turn = steer(
                 error, math.dist(head[:2], point), arrive=2.0 if self.detour else 0.0, reverse=remaining < BACK_UP
@@ -354,8 +364,8 @@ class ReferenceController:
         wall): walk out toward more room, backward if that is behind, arcing away from a wall
         beside. False when there is room."""
         row, col = validate.cell(self.level, head[0], head[1], self.clearance.shape)
-        if self.clearance[row, col] >= FOOTPRINT_RADIUS or math.dist(head[:2], goal) < DIRECT:
-            return False
+        if self.sphere or self.clearance[row, col] >= FOOTPRINT_RADIUS or math.dist(head[:2], goal) < DIRECT:
+            return False  # (a sphere turns on the spot without touching anything)
         here = self.clearance[row, col]
         straight = []  # straight out, ahead or behind, turns no leg toward the wall
         for sign in (1.0, -1.0):
@@ -390,7 +400,7 @@ class ReferenceController:
         """Is there room to back off (no wall within the footprint of a place 2.5 behind)?"""
         x, y = head[0] - 2.5 * math.cos(yaw), head[1] - 2.5 * math.sin(yaw)
         row, col = validate.cell(self.level, x, y, self.clearance.shape)
-        return bool(self.clearance[row, col] > FOOTPRINT_RADIUS)
+        return bool(self.clearance[row, col] > (self.radius + 1.0 if self.sphere else FOOTPRINT_RADIUS))
 
     def _rest_spot(self, head: np.ndarray) -> tuple[float, float]:
         """The roomiest walkable place within REST_SEARCH of the head (chosen once)."""
@@ -426,7 +436,7 @@ class ReferenceController:
             self.plank, self.plan_key = None, None
             return False
         if not self.lined_up:
-            stand = (base_x, face - PUSH_STAND_OFF - HEAD_RADIUS)
+            stand = (base_x, face - PUSH_STAND_OFF - self.radius)
             slack = PUSH_ALIGN_X if self.bridge_phase == "push" else CROSS_ALIGN_X
             on_line = abs(head[0] - base_x) < slack and stand[1] - 3.0 < head[1] < face
             if not on_line:  # round to the back of the plank

@@ -88,7 +88,10 @@ class FoodTask:
     It keeps the episode's counts: food eaten, wall hits, the walls touched now.
     """
 
-    def __init__(self, episode: EpisodeConfig, limb_food_reward: str, control_dt: float):
+    def __init__(self, episode: EpisodeConfig, limb_food_reward: str, control_dt: float, head_rests: bool = False):
+        """``head_rests``: the body rests on its head (the sphere), so its touching the floor is no
+        "head on the floor" for the ground penalty."""
+        self.head_rests = head_rests
         self.max_steps_setting = episode.max_steps  # "auto": the level's own time limit
         self.ground_penalty = episode.ground_penalty
         self.shaping, self.shaping_gamma = episode.shaping, episode.shaping_gamma
@@ -126,7 +129,7 @@ class FoodTask:
             other, link = contact[2], contact[3]
             kind = kind_index[other] if other < known else -1
             if kind == FLOOR:
-                events.head_on_floor |= link == HEAD
+                events.head_on_floor |= link == HEAD and not self.head_rests
             elif kind == WALL:
                 walls_now.add((link, other))
             elif kind == DEADLY:
@@ -137,7 +140,7 @@ class FoodTask:
                 newer = NEWER_CLASSES[kind - NEWER]
                 events.fell |= newer.deadly
                 events.hot |= newer.hot
-                events.head_on_floor |= newer.zone and link == HEAD
+                events.head_on_floor |= newer.zone and link == HEAD and not self.head_rests
         events.new_wall_hits = len(walls_now - self.wall_contacts)
         self.wall_contacts = walls_now
         self.wall_hits += events.new_wall_hits

@@ -36,6 +36,7 @@ from typing import Any, Mapping
 import numpy as np
 import pybullet as p
 
+from aaai.agent.body import Quadruped
 from aaai.config import Config
 from aaai.env import AnimalAIEnv
 from aaai.levels import all_levels, get_level
@@ -89,6 +90,7 @@ class BareLoop:
         self.env = env = AnimalAIEnv(level=level, difficulty=difficulty, rays=False, max_steps=10000)
         env.reset(seed=0)
         body = env.body
+        assert isinstance(body, Quadruped)  # the default body: the bench measures its motors
         self.steps = steps
         self.targets = [
             t.tolist() for t in body.lower + (_actions(body.n_axes, steps) + 1.0) * 0.5 * (body.upper - body.lower)
