@@ -93,7 +93,7 @@ def test_turning_turns_it_at_animal_ais_rate_on_the_spot(env, turn):
 
 
 def test_the_reference_steers_the_sphere_to_the_food_on_l0():
-    env = AnimalAIEnv(level=0, difficulty=5, body="sphere")
+    env = AnimalAIEnv(level=0, difficulty=10, body="sphere")
     try:
         controller = ReferenceController(env)
         seed = RESERVED_SEEDS.start
