@@ -163,3 +163,54 @@ def competence_command(folder, gait_steps, rotation_steps):
     except ImportError as error:
         raise click.ClickException(needs_extra(error, "aaai experiment")) from None
     click.echo(table.read_text(), nl=False)
+
+
+@experiment_group.command("limbs")
+@click.option("--levels", default="all", show_default=True, help="Levels, by id, label or name ('all': L0-L11, L2b).")
+@click.option("--difficulty", default="0-10", show_default=True, help="Difficulties of every level.")
+@click.option(
+    "-k",
+    "--seeds-per-cell",
+    "count",
+    type=rule("eval.seeds_per_cell"),
+    default=10,
+    show_default=True,
+    help="Reserved seeds per (level, difficulty) cell.",
+)
+@click.option(
+    "--arenas",
+    type=click.Path(exists=True),
+    help="An arena folder (an imported Animal-AI battery): every file scored too, summarised per category.",
+)
+@click.option(
+    "--arena-seeds", type=click.IntRange(1, 1000), default=3, show_default=True, help="Seeds 0..N-1 of every arena."
+)
+@click.option(
+    "--ppo-steps",
+    type=click.IntRange(0, 10**10),
+    default=0,
+    show_default=True,
+    help="PPO's budget per body, in agent decisions (0.1 s each); 0: the reference only.",
+)
+@click.option("--out", "folder", type=Output(file_okay=False), default="experiments/limbs", show_default=True)
+def limbs_command(levels, difficulty, count, arenas, arena_seeds, ppo_steps, folder):
+    """The cost of limbs: the reference controller (and PPO at one budget) on the quadruped and on
+    Animal-AI's sphere (agent.body: sphere), per level and per Animal-AI category; writes limbs.csv
+    and table.md. Re-running continues where it stopped."""
+    from aaai.train.limbs import LimbsSettings, run_experiment
+
+    settings = LimbsSettings(
+        levels=parse_levels(levels),
+        difficulties=parse_range(difficulty, "--difficulty", 0, 10),
+        seeds_per_cell=count,
+        arenas=Path(arenas) if arenas else None,
+        arena_seeds=arena_seeds,
+        ppo_steps=ppo_steps,
+    )
+    try:
+        table = run_experiment(folder, settings, echo=click.echo)
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai experiment")) from None
+    click.echo(table.read_text(), nl=False)
