@@ -120,3 +120,21 @@ def test_a_bad_body_name_gets_one_clear_message(tmp_path):
     result = CliRunner().invoke(cli, ["run", "--config", str(config), "--levels", "0", "--episodes", "1"])
     assert result.exit_code != 0 and "Traceback" not in result.output
     assert "agent.body" in result.output and "'blob'" in result.output and "sphere" in result.output
+
+
+def test_the_limbs_experiment_tables_both_bodies_and_resumes(tmp_path):
+    out = tmp_path / "limbs"
+    arguments = ["experiment", "limbs", "--levels", "0", "--difficulty", "0", "-k", "1", "--out", str(out)]
+    first = CliRunner().invoke(cli, arguments)
+    assert first.exit_code == 0, first.output
+    table = (out / "table.md").read_text()
+    row = next(line for line in table.splitlines() if line.startswith("| L0 "))
+    assert row.count("1/1 (100 %)") == 2  # the reference passes with both bodies
+    assert "reference, quadruped: passed" in table and "reference, sphere: passed" in table
+    summary = (out / "limbs.csv").read_text().splitlines()
+    assert summary[0] == "body,policy,group,episodes,passed,pass_rate,seconds_to_food"
+    assert {line.split(",")[0] for line in summary[1:]} == {"quadruped", "sphere"}
+    boards = {name: (out / name).read_text() for name in ("reference_quadruped.csv", "reference_sphere.csv")}
+    again = CliRunner().invoke(cli, arguments)
+    assert again.exit_code == 0, again.output
+    assert {name: (out / name).read_text() for name in boards} == boards  # nothing played twice
