@@ -36,6 +36,7 @@ from aaai.scoring.evaluation import cells_for, evaluate, evaluate_arenas
 from aaai.scoring.runs import RunFolder
 
 BODIES = ("quadruped", "sphere")
+ALL_LEVELS = "all levels"  # the level rows together
 
 
 @dataclass(frozen=True)
@@ -120,6 +121,8 @@ def summarise(rows: list[dict]) -> list[dict]:
     groups: dict[tuple[str, str, str], list[dict]] = {}
     for row in rows:
         groups.setdefault((row["body"], row["policy"], row["group"]), []).append(row)
+        if not row["group"].startswith("category "):
+            groups.setdefault((row["body"], row["policy"], ALL_LEVELS), []).append(row)
     summary = []
     for (body, policy, group), members in groups.items():
         passed = [m for m in members if m["passed"]]
@@ -148,8 +151,11 @@ def table_markdown(summary: list[dict]) -> str:
             if policy == "reference":
                 header.append(f"{policy}, {body}: time to food")
         header.append(f"{policy}: sphere minus quadruped")
+        if policy == "reference":
+            header.append("time to food: sphere / quadruped")
     groups = list(dict.fromkeys(s["group"] for s in summary))
-    levels = sorted((g for g in groups if not g.startswith("category ")), key=_level_order)
+    levels = sorted((g for g in groups if not g.startswith("category ") and g != ALL_LEVELS), key=_level_order)
+    levels += [ALL_LEVELS] if ALL_LEVELS in groups else []
     categories = sorted(g for g in groups if g.startswith("category "))
     lines = ["| " + " | ".join(header) + " |", "|---|" + "---:|" * (len(header) - 1)]
     for group in levels + categories:
@@ -168,6 +174,9 @@ def table_markdown(summary: list[dict]) -> str:
             quadruped, sphere = rates
             gap = sphere - quadruped if sphere is not None and quadruped is not None else None
             cells.append(f"{100 * gap:+.0f} points" if gap is not None else "-")
+            if policy == "reference":
+                times = [index.get((body, policy, group), {}).get("seconds_to_food", "") for body in BODIES]
+                cells.append(f"{times[1] / times[0]:.2f}" if "" not in times and times[0] else "-")
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
