@@ -477,7 +477,8 @@ class AnimalAIEnv(gym.Env):
         head = Pose(x, y, z, math.atan2(rotation[1, 0], rotation[0, 0]))
         legs = tuple(Leg(*(_point(point) for point in leg)) for leg in self.body.leg_points())
         objects, closed_doors = self.world.object_poses()
-        return Snapshot(self.steps * self.control_dt, head, legs, tuple(objects), frozenset(closed_doors))
+        radius = self.body.radius if isinstance(self.body, Sphere) else None
+        return Snapshot(self.steps * self.control_dt, head, legs, tuple(objects), frozenset(closed_doors), radius)
 
     def _check_open(self) -> None:
         self.sim.check_open()

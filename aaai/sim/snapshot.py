@@ -39,3 +39,4 @@ class Snapshot:
     legs: tuple[Leg, ...]  # fl, fr, bl, br (aaai.agent.urdf_writer.LEGS); () for a body without them
     objects: tuple[Pose | None, ...]  # by index in the spec's objects: where each is now, None once removed (eaten)
     closed_doors: frozenset[int] = frozenset()  # indices of the doors that have risen (closed behind the agent)
+    radius: float | None = None  # a body without legs (the sphere): its radius; None: the quadruped's head

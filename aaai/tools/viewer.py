@@ -102,6 +102,7 @@ class AgentShape:
     y: float
     heading: float
     legs: tuple[tuple[tuple[float, float], ...], ...]
+    radius: float = HEAD_RADIUS  # the head's; the sphere's own (agent.body: sphere)
 
 
 def resting_agent(x: float, y: float, yaw: float) -> AgentShape:
@@ -117,6 +118,8 @@ def live_agent(snapshot: Snapshot) -> AgentShape:
     """The agent of a snapshot: head pose and each leg from the head's centre through its hip and
     knee to its foot (a resting X if the snapshot has no legs)."""
     head = snapshot.head
+    if snapshot.radius is not None:  # the sphere: a disc, no legs
+        return AgentShape(head.x, head.y, head.yaw, (), snapshot.radius)
     if not snapshot.legs:
         return resting_agent(head.x, head.y, head.yaw)
     legs = tuple(((head.x, head.y), leg.hip[:2], leg.knee[:2], leg.foot[:2]) for leg in snapshot.legs)
@@ -389,10 +392,10 @@ def _draw_agent(image: np.ndarray, m: Mapping, agent: AgentShape) -> None:
         points = np.array([m.fixed(x, y) for x, y in leg], np.int32)
         cv2.polylines(image, [points], False, LEG_COLOUR, width, cv2.LINE_AA, SHIFT)
     centre = m.fixed(agent.x, agent.y)
-    cv2.circle(image, centre, int(round(m.length(HEAD_RADIUS) * ONE)), HEAD_COLOUR, -1, cv2.LINE_AA, SHIFT)
+    cv2.circle(image, centre, int(round(m.length(agent.radius) * ONE)), HEAD_COLOUR, -1, cv2.LINE_AA, SHIFT)
     # The heading arrow from the head's rim, so that the head stays visible.
     c, s = math.cos(agent.heading), math.sin(agent.heading)
-    start = m.to_float(agent.x + HEAD_RADIUS * c, agent.y + HEAD_RADIUS * s)
+    start = m.to_float(agent.x + agent.radius * c, agent.y + agent.radius * s)
     end = m.to_float(agent.x + HEADING_LENGTH * c, agent.y + HEADING_LENGTH * s)
     cv2.arrowedLine(
         image,
