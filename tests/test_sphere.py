@@ -138,3 +138,11 @@ def test_the_limbs_experiment_tables_both_bodies_and_resumes(tmp_path):
     again = CliRunner().invoke(cli, arguments)
     assert again.exit_code == 0, again.output
     assert {name: (out / name).read_text() for name in boards} == boards  # nothing played twice
+
+
+def test_the_viewer_draws_the_sphere_as_a_disc_of_its_size(env):
+    from aaai.tools.viewer import live_agent
+
+    _open_floor(env)
+    agent = live_agent(env.unwrapped.snapshot())
+    assert agent.legs == () and agent.radius == pytest.approx(0.625)
