@@ -146,3 +146,22 @@ def test_the_viewer_draws_the_sphere_as_a_disc_of_its_size(env):
     _open_floor(env)
     agent = live_agent(env.unwrapped.snapshot())
     assert agent.legs == () and agent.radius == pytest.approx(0.625)
+
+
+def test_an_imported_competition_file_is_tabled_under_its_olympics_category():
+    from aaai.train.limbs import _olympics, summarise, table_markdown
+
+    assert _olympics("08-17-03.yaml") == "Animal-AI 08 object permanence"
+    assert _olympics("tunnel.yaml") == _olympics("11-01-01.yaml") == "uncategorised"
+    rows = [
+        {
+            "body": body,
+            "policy": "reference",
+            "group": "category Animal-AI 08 object permanence",
+            "passed": won,
+            "seconds": 40.0,
+        }
+        for body, won in (("quadruped", False), ("sphere", True))
+    ]
+    row = table_markdown(summarise(rows)).splitlines()[-1]
+    assert row.startswith("| category Animal-AI 08 object permanence | 0/1 (0 %) |") and "+100 points" in row

@@ -7,7 +7,8 @@ the two bodies' columns is what the limbs cost.
 Both bodies act in gait mode (forward, turn and crouch commands; the sphere ignores crouch), on the
 same cells: every level and difficulty asked for, on the reserved seeds (``seeds_per_cell`` each),
 and, given an arena folder (an imported Animal-AI battery, ``aaai import-animalai``), every arena
-file on seeds 0..``arena_seeds``-1, summarised per category. The folder (default
+file on seeds 0..``arena_seeds``-1, summarised per category (the file's own, or for an imported
+competition file without one the Animal-AI Olympics category its name begins with). The folder (default
 experiments/limbs/) gets:
 
   reference_<body>.csv, reference_<body>_arenas.csv, ppo_<body>.csv   scoreboards (one row an episode)
@@ -36,6 +37,20 @@ from aaai.scoring.evaluation import cells_for, evaluate, evaluate_arenas
 from aaai.scoring.runs import RunFolder
 
 BODIES = ("quadruped", "sphere")
+# The Animal-AI Olympics' ten categories, by the first number of a competition file's name (01-05-02.yaml):
+# the category of an imported file that does not name its own.
+OLYMPICS = {
+    "01": "food retrieval",
+    "02": "preferences",
+    "03": "obstacles",
+    "04": "avoidance",
+    "05": "spatial reasoning",
+    "06": "generalisation",
+    "07": "internal models",
+    "08": "object permanence",
+    "09": "advanced preferences",
+    "10": "causal reasoning",
+}
 ALL_LEVELS = "all levels"  # the level rows together
 
 
@@ -90,7 +105,7 @@ def score_body(folder: Path, body: str, settings: LimbsSettings, echo: Callable[
         from aaai.task.arena import arena_files, arena_meta
 
         files = arena_files(settings.arenas)
-        categories = {path.name: arena_meta(path)["category"] or "uncategorised" for path in files}
+        categories = {path.name: arena_meta(path)["category"] or _olympics(path.name) for path in files}
         echo(f"reference on the {body}: {len(files)} arena files x {settings.arena_seeds} seeds")
         board = evaluate_arenas(
             "reference", files, list(range(settings.arena_seeds)), folder / f"reference_{body}_arenas.csv", config
@@ -103,6 +118,12 @@ def score_body(folder: Path, body: str, settings: LimbsSettings, echo: Callable[
         )
         rows += [_tag(row, body, "ppo", get_level(int(row["level"])).label) for row in board]
     return rows
+
+
+def _olympics(name: str) -> str:
+    """An Animal-AI competition file's category from its name (``01-05-02.yaml``), else uncategorised."""
+    number = name[:2]
+    return f"Animal-AI {number} {OLYMPICS[number]}" if number in OLYMPICS and name[2:3] == "-" else "uncategorised"
 
 
 def _tag(row: dict, body: str, policy: str, group: str) -> dict:
