@@ -284,6 +284,7 @@ def test_a_server_killed_mid_trial_loses_no_finished_trial_and_the_participant_r
     try:
         trials = store.trials("P001")
         assert trials[0]["finished"] and json.loads(trials[0]["row"])["steps"] == 20
+        assert trials[0]["path_m"] is not None
         assert json.loads(trials[0]["replay"])["steps"] == 20
         assert trials[1]["started"] and trials[1]["finished"] is None  # the trial killed mid-way
         assert trials[2]["started"] is None
@@ -412,6 +413,7 @@ def test_two_participants_play_a_study_at_once_in_a_browser_and_their_rows_and_r
     ]
     assert [(r["difficulty"], r["seed"]) for r in rows[:3]] == [("0", "7"), ("0", "1"), ("1", "2")]
     assert all(r["steps"] == "20" and r["reaction_time"] == "" for r in rows)  # nobody moved: no reaction time
+    assert all(0 <= float(r["path_m"]) < 0.5 for r in rows)  # nor walked: the trunk only settled
     replays = sorted((tmp_path / "out" / "replays").iterdir())
     assert len(replays) == 6 and replays[0].name.startswith("P001_001_")
     replay = load_replay(replays[1])

@@ -36,6 +36,9 @@ PEOPLE = {
     "P002": [("succeeded", 1.1), ("failed", None), ("failed", 2.0)],
 }
 
+# Each participant's path (metres the trunk travelled) per battery trial.
+PATHS = {"P001": [4.0, 6.5, 3.0], "P002": [12.25, 20.0, 9.0]}
+
 
 def human_row(trial, outcome: str, steps: int) -> dict:
     return {
@@ -71,7 +74,8 @@ def simulate(study) -> None:
                 store.finish_trial(pid, trial["position"], human_row(trial, "failed", 50), {}, 0.1)
             for number, (trial, (outcome, reaction)) in enumerate(zip(battery, results)):
                 store.start_trial(pid, trial["position"])
-                store.finish_trial(pid, trial["position"], human_row(trial, outcome, 100 + 10 * number), {}, reaction)
+                row, path = human_row(trial, outcome, 100 + 10 * number), PATHS[pid][number]
+                store.finish_trial(pid, trial["position"], row, {}, reaction, path)
             store.finish(pid)
     finally:
         store.close()
@@ -132,6 +136,11 @@ def test_the_report_counts_each_players_trials_with_wilson_intervals(made):
     assert rows[("trial", "L0 d0 s1", "humans")]["high"] == "1"
     assert float(humans["reaction_median"]) == pytest.approx(0.9)  # of 0.5, 0.7, 0.9, 1.1, 2.0
     assert float(rows[("trial", "L0 d0 s1", "humans")]["steps_median"]) == 100
+    # paths in metres: of 3, 4, 6.5, 9, 12.25, 20 the median is 7.75, the quartiles 4.625 and 11.44
+    assert float(humans["path_median_m"]) == pytest.approx(7.75)
+    assert (humans["path_q1_m"], humans["path_q3_m"]) == ("4.625", "11.44")
+    assert rows[("trial", "L0 d1 s2", "humans")]["path_median_m"] == "13.25"
+    assert rows[("level", "L0", "reference")]["path_median_m"] == ""  # its scoreboard has no paths
     for policy in ("reference", "random"):
         assert rows[("level", "L0", policy)]["episodes"] == "3"
         assert rows[("trial", "L0 d0 s1", policy)]["episodes"] == "1"
@@ -147,8 +156,10 @@ def test_the_report_writes_its_table_and_a_png_figure(made):
     _, _, _, out, _ = made
     text = (out / "report.md").read_text()
     low, high = wilson(4, 6)
-    assert f"| L0 | humans | 67% | {100 * low:.0f}-{100 * high:.0f}% | 4/6 | 0.90 (0.70-1.10) | 110 |" in text
-    assert "2 participants" in text and "| L0 | baseline:reference | 100% | 21-100% | 1/1 | - | 93 |" in text
+    interval = f"{100 * low:.0f}-{100 * high:.0f}%"
+    assert f"| L0 | humans | 67% | {interval} | 4/6 | 0.90 (0.70-1.10) | 7.8 (4.6-11.4) | 110 |" in text
+    assert "2 participants" in text and "| L0 | baseline:reference | 100% | 21-100% | 1/1 | - | - | 93 |" in text
+    assert "path the body's trunk travelled in metres (1 world unit = 1 m)" in text
     assert (out / "report.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

@@ -2,8 +2,9 @@
 
 The CSV has one row per finished trial: the policy ``human:ID``, the participant, the trial's
 position in that participant's order and its kind (practice or battery), the scoreboard's own
-columns (``aaai eval``'s), the reaction time to the first move and the trial's start and end
-times (UTC). Each replay is a file ``aaai show --replay`` and ``aaai run --replay`` play back.
+columns (``aaai eval``'s), the reaction time to the first move, the path the body's trunk travelled
+in metres (``path_m``) and the trial's start and end times (UTC). Each replay is a file ``aaai
+show --replay`` and ``aaai run --replay`` play back.
 """
 
 from __future__ import annotations
@@ -18,7 +19,17 @@ from aaai.scoring.evaluation import COLUMNS
 from aaai.scoring.replays import replay_name, write_replay
 from aaai.study.store import Store
 
-EXPORT_COLUMNS = ["policy", "participant", "position", "kind", *COLUMNS, "reaction_time", "started", "finished"]
+EXPORT_COLUMNS = [
+    "policy",
+    "participant",
+    "position",
+    "kind",
+    *COLUMNS,
+    "reaction_time",
+    "path_m",
+    "started",
+    "finished",
+]
 
 
 def export(store: Store, out: str | Path) -> tuple[Path, list[Path]]:
@@ -33,7 +44,7 @@ def export(store: Store, out: str | Path) -> tuple[Path, list[Path]]:
             continue
         pid = trial["participant"]
         row = json.loads(trial["row"])
-        reaction = trial["reaction_time"]
+        reaction, path = trial["reaction_time"], trial.get("path_m")
         writer.writerow(
             {
                 **row,
@@ -42,6 +53,7 @@ def export(store: Store, out: str | Path) -> tuple[Path, list[Path]]:
                 "position": trial["position"],
                 "kind": trial["kind"],
                 "reaction_time": "" if reaction is None else reaction,
+                "path_m": "" if path is None else path,
                 "started": trial["started"] or "",
                 "finished": trial["finished"],
             }

@@ -11,6 +11,7 @@ names unless the study shows them.
 
 from __future__ import annotations
 
+import math
 import traceback
 from typing import Callable
 
@@ -18,7 +19,7 @@ from aaai.config import ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
 from aaai.scoring.episodes import run_episode
 from aaai.scoring.replays import Recorder, with_arena
-from aaai.study.store import Store, trial_of
+from aaai.study.store import METRES_PER_UNIT, Store, trial_of
 from aaai.study.studyfile import Study
 from aaai.tools.play.session import Abandoned, HumanPolicy, PlaySettings, Session
 
@@ -67,6 +68,27 @@ def first_move(actions: list[list[float]], control_dt: float) -> float | None:
     return None
 
 
+class Odometer:
+    """The path the body's trunk (its head, the base of the body) travels over the floor: the sum
+    of the horizontal distances between its positions at successive control steps, in metres."""
+
+    def __init__(self) -> None:
+        self.units = 0.0
+        self.last: tuple[float, float] | None = None
+
+    def reset(self) -> None:
+        self.units, self.last = 0.0, None
+
+    def add(self, x: float, y: float) -> None:
+        if self.last is not None:
+            self.units += math.hypot(x - self.last[0], y - self.last[1])
+        self.last = (x, y)
+
+    @property
+    def metres(self) -> float:
+        return round(self.units * METRES_PER_UNIT, 3)
+
+
 class StudySession(Session):
     """A participant's session: their unfinished trials, each committed to the store as it ends."""
 
@@ -86,6 +108,7 @@ class StudySession(Session):
         self.battery_done = 0
         self.feedback = ""
         self.show_break = False
+        self.odometer = Odometer()
 
     def _play(self) -> None:
         try:
@@ -123,7 +146,8 @@ class StudySession(Session):
                 row = run_episode(env, recorder, level or 0, difficulty or 0, seed, arena)
                 replay = with_arena(recorder.last or {}, arena)
                 reaction = first_move(recorder.actions, env.control_dt)
-                self.store.finish_trial(self.pid, trial["position"], row, replay, reaction)  # durable from here
+                path = self.odometer.metres
+                self.store.finish_trial(self.pid, trial["position"], row, replay, reaction, path)  # durable from here
                 self.planned.pop(0)
                 self.battery_done += trial["kind"] == "battery"
                 self.feedback = feedback_of(row, replay.get("end"))
@@ -139,10 +163,17 @@ class StudySession(Session):
             trial["kind"] == "battery" and breaks and self.battery_done and self.battery_done % breaks == 0
         )
         first_battery = trial["kind"] == "battery" and self.battery_done == 0 and bool(self.study.practice)
+        self.odometer.reset()
         super()._episode_reset(env)
         with self.cond:
             self.episode.update(kind=trial["kind"], position=trial["position"], first_battery=first_battery)
             self._changed()
+
+    def _update(self, env, observation, force: bool = False) -> None:
+        """The page's figures and frame (``Session``'s), and the trunk's position on the trial's path."""
+        position, _ = env.body.head_pose()
+        self.odometer.add(float(position[0]), float(position[1]))
+        super()._update(env, observation, force)
 
     def participant_status(self) -> dict:
         """What the participant's page is told: the phase, the progress, the feedback; the map's
@@ -171,4 +202,4 @@ class StudySession(Session):
         return out
 
 
-__all__ = ["FEEDBACK", "StudySession", "feedback_of", "first_move", "play_settings"]
+__all__ = ["FEEDBACK", "Odometer", "StudySession", "feedback_of", "first_move", "play_settings"]

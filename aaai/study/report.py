@@ -4,8 +4,9 @@ Participants' finished battery trials (read from the study's store) beside each 
 the same trials: scoreboards written by ``aaai eval --study``, and the committed baseline table's
 rows (``baselines/*.csv``) for the same (level, difficulty, seed). Per trial and per level: the
 pass rate (passed or succeeded) with its 95 % Wilson interval, and for participants the reaction
-time to the first move (median and quartiles); for everyone the median path length in control
-steps. Written as ``report.md``, ``report.csv`` and one figure, ``report.png``.
+time to the first move (median and quartiles) and the path the trunk travelled in metres (median
+and quartiles; a policy's too where its rows carry ``path_m``); for everyone the median episode
+length in control steps. Written as ``report.md``, ``report.csv`` and one figure, ``report.png``.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from aaai.errors import ConfigError
 from aaai.files import atomic_path, write_atomic
 from aaai.levels import get_level
 from aaai.scoring.evaluation import record_path, scored_episodes
-from aaai.study.store import Store
+from aaai.study.store import METRES_PER_UNIT, Store
 from aaai.study.studyfile import Study, Trial
 from aaai.tools.baselines import passed, wilson
 
@@ -38,6 +39,9 @@ CSV_COLUMNS = [
     "reaction_median",
     "reaction_q1",
     "reaction_q3",
+    "path_median_m",
+    "path_q1_m",
+    "path_q3_m",
     "steps_median",
 ]
 Key = tuple  # (level, difficulty, seed, arena name or "")
@@ -71,10 +75,11 @@ class Line:
     passes: int
     reactions: list[float]
     steps: list[int]
+    paths: list[float]
 
     def csv_row(self) -> dict:
         low, high = wilson(self.passes, self.episodes) if self.episodes else (None, None)
-        quartiles = _quartiles(self.reactions)
+        quartiles, paths = _quartiles(self.reactions), _quartiles(self.paths)
         return {
             "scope": self.scope,
             "name": self.name,
@@ -87,6 +92,9 @@ class Line:
             "reaction_median": _num(quartiles[1]),
             "reaction_q1": _num(quartiles[0]),
             "reaction_q3": _num(quartiles[2]),
+            "path_median_m": _num(paths[1]),
+            "path_q1_m": _num(paths[0]),
+            "path_q3_m": _num(paths[2]),
             "steps_median": _num(statistics.median(self.steps) if self.steps else None),
         }
 
@@ -104,14 +112,28 @@ def _quartiles(values: list[float]) -> tuple[float | None, float | None, float |
     return q1, median, q3
 
 
+def _spread(values: list[float], digits: int) -> str:
+    """'median (q1-q3)', or '-' with no values."""
+    q1, median, q3 = _quartiles(values)
+    if median is None or q1 is None or q3 is None:
+        return "-"
+    return f"{median:.{digits}f} ({q1:.{digits}f}-{q3:.{digits}f})"
+
+
 def human_rows(store: Store) -> list[dict]:
-    """The participants' finished battery trials: each its scoreboard row, ``reaction_time`` and ``participant``."""
+    """The participants' finished battery trials: each its scoreboard row, ``reaction_time``,
+    ``path_m`` and ``participant``."""
     rows = []
     for trial in store.trials():
         if trial["kind"] != "battery" or trial["finished"] is None or not trial["row"]:
             continue
         rows.append(
-            {**json.loads(trial["row"]), "reaction_time": trial["reaction_time"], "participant": trial["participant"]}
+            {
+                **json.loads(trial["row"]),
+                "reaction_time": trial["reaction_time"],
+                "path_m": trial.get("path_m"),
+                "participant": trial["participant"],
+            }
         )
     return rows
 
@@ -180,6 +202,7 @@ def lines_for(study: Study, humans: list[dict], boards: dict[str, list[dict]]) -
                     sum(map(passed, rows)),
                     [float(r["reaction_time"]) for r in rows if r.get("reaction_time") not in (None, "")],
                     [int(r["steps"]) for r in rows],
+                    [float(r["path_m"]) for r in rows if r.get("path_m") not in (None, "")],
                 )
             )
     return lines
@@ -200,25 +223,24 @@ def report_markdown(study: Study, lines: list[Line], participants: int) -> str:
     parts = [
         f"# {study.name}: humans against agents\n",
         f"{participants} participant{'s' * (participants != 1)}; pass rate = passed or succeeded, with its "
-        "95 % Wilson interval and passed/episodes; reaction time to the first move in seconds, median "
-        "(quartiles); path length in control steps (median).\n",
+        "95 % Wilson interval and passed/episodes; reaction time to the first move in seconds and the "
+        f"path the body's trunk travelled in metres (1 world unit = {METRES_PER_UNIT:g} m), median (quartiles); "
+        "episode length in control steps (median).\n",
     ]
     for scope, title in (("trial", "Per trial"), ("level", "Per level")):
         table = [
             f"## {title}\n",
-            f"| {scope} | player | pass rate | 95 % interval | passed | reaction s | steps |",
-            "|---|---|---:|---:|---:|---:|---:|",
+            f"| {scope} | player | pass rate | 95 % interval | passed | reaction s | path m | steps |",
+            "|---|---|---:|---:|---:|---:|---:|---:|",
         ]
         for line in lines:
             if line.scope != scope or not line.episodes:
                 continue
             low, high = wilson(line.passes, line.episodes)
-            q1, median, q3 = _quartiles(line.reactions)
-            reaction = "-" if median is None or q1 is None or q3 is None else f"{median:.2f} ({q1:.2f}-{q3:.2f})"
             table.append(
                 f"| {line.name} | {line.who} | {100 * line.passes / line.episodes:.0f}% | "
-                f"{100 * low:.0f}-{100 * high:.0f}% | {line.passes}/{line.episodes} | {reaction} | "
-                f"{statistics.median(line.steps):g} |"
+                f"{100 * low:.0f}-{100 * high:.0f}% | {line.passes}/{line.episodes} | {_spread(line.reactions, 2)} | "
+                f"{_spread(line.paths, 1)} | {statistics.median(line.steps):g} |"
             )
         parts.append("\n".join(table) + "\n")
     return "\n".join(parts)

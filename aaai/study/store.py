@@ -48,12 +48,19 @@ CREATE TABLE IF NOT EXISTS trials (
     started TEXT,
     finished TEXT,
     reaction_time REAL,
+    path_m REAL,
     row TEXT,
     replay TEXT,
     PRIMARY KEY (participant, position)
 );
 """
 STATUSES = ("new", "consented", "started", "finished")
+# Metres per world unit. The simulation is in SI units: seconds, kilograms and metres, with gravity
+# 9.81 units/s^2 (configs/default.yaml, physics.gravity), so a unit is a metre (the body's footprint
+# is 10 across; Animal-AI's metre is 5 units here by `aaai import-animalai`'s default --scale).
+METRES_PER_UNIT = 1.0
+# Columns added to a table since its first version: a store written before gets them on opening.
+ADDED_COLUMNS = {"trials": {"path_m": "REAL"}}
 
 
 def now() -> str:
@@ -86,6 +93,7 @@ class Store:
                 self.db.execute("PRAGMA journal_mode=WAL")
                 self.db.execute("PRAGMA synchronous=FULL")
                 self.db.executescript(SCHEMA)
+                self._add_columns()
                 self.db.execute("INSERT OR IGNORE INTO study VALUES ('name', ?)", (study_name,))
             found = self.db.execute("SELECT value FROM study WHERE key = 'name'").fetchone()
         except sqlite3.DatabaseError as error:
@@ -97,6 +105,13 @@ class Store:
                 f"study store {str(self.path)!r} holds study {found[0] if found else None!r}, not {study_name!r}; "
                 "allowed: the store of this study (its `store:` key)"
             )
+
+    def _add_columns(self) -> None:
+        for table, columns in ADDED_COLUMNS.items():
+            there = {row[1] for row in self.db.execute(f"PRAGMA table_info({table})")}
+            for name, kind in columns.items():
+                if name not in there:
+                    self.db.execute(f"ALTER TABLE {table} ADD COLUMN {name} {kind}")
 
     def check_plan(self, study: Study) -> None:
         """Records the study's practice, battery and order on first use; refuses a study file whose
@@ -196,12 +211,21 @@ class Store:
         self._write("UPDATE participants SET status = 'started' WHERE id = ? AND status != 'finished'", (pid,))
         self._write("UPDATE trials SET started = ? WHERE participant = ? AND position = ?", (now(), pid, position))
 
-    def finish_trial(self, pid: str, position: int, row: dict, replay: dict, reaction_time: float | None) -> None:
-        """The trial's row and replay, committed (durable) before this returns."""
+    def finish_trial(
+        self,
+        pid: str,
+        position: int,
+        row: dict,
+        replay: dict,
+        reaction_time: float | None,
+        path_m: float | None = None,
+    ) -> None:
+        """The trial's row, replay, reaction time and path (metres the trunk travelled), committed
+        (durable) before this returns."""
         self._write(
-            "UPDATE trials SET finished = ?, reaction_time = ?, row = ?, replay = ? "
+            "UPDATE trials SET finished = ?, reaction_time = ?, path_m = ?, row = ?, replay = ? "
             "WHERE participant = ? AND position = ?",
-            (now(), reaction_time, json.dumps(row), json.dumps(replay, separators=(",", ":")), pid, position),
+            (now(), reaction_time, path_m, json.dumps(row), json.dumps(replay, separators=(",", ":")), pid, position),
         )
 
 
@@ -219,4 +243,4 @@ def trial_of(row: dict[str, Any]) -> Trial:
     return Trial(row["level"], row["difficulty"], row["seed"], arena)
 
 
-__all__ = ["STATUSES", "Store", "trial_of"]
+__all__ = ["METRES_PER_UNIT", "STATUSES", "Store", "trial_of"]
