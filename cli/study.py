@@ -25,11 +25,11 @@ def _study(path: str):
         raise click.UsageError(str(error)) from None
 
 
-def _store(study, writer: bool = True):
+def _store(study, writer: bool = True, serving: bool = False):
     from aaai.study.store import Store
 
     try:
-        store = Store(study.store, study.name, writer=writer)
+        store = Store(study.store, study.name, writer=writer, serving=serving)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     try:
@@ -62,7 +62,9 @@ def study():
     help="The CSV of id,link to write [default: <study>_links.csv beside the study file].",
 )
 def participants(study_file, count, base_url, output):
-    """Add COUNT participants to STUDY_FILE's store, each with an unguessable link, and write id,link."""
+    """Add COUNT participants to STUDY_FILE's store, each with an unguessable link, and write id,link.
+
+    It may run while `aaai study serve` serves the study: the new links work at once."""
     from aaai.files import write_atomic
     from aaai.study.server import link
 
@@ -112,7 +114,7 @@ def serve(study_file, host, port, grace, max_sessions, public_url):
         from aaai.study.server import StudyServer
     except ImportError as error:
         raise click.ClickException(needs_extra(error, "aaai study serve")) from None
-    store = _store(chosen)
+    store = _store(chosen, serving=True)
     try:
         settings = play_settings(chosen, grace_seconds=grace)
         server = StudyServer(chosen, store, settings, host, port, max_sessions, public_url)

@@ -175,11 +175,11 @@ def test_counterbalanced_order_puts_every_trial_in_every_position_equally_often(
 # --- the store ----------------------------------------------------------------------------------
 def test_the_store_is_wal_with_one_writer_and_gives_each_participant_a_token_and_order(tmp_path):
     study = load_study(write_study(tmp_path, TINY.replace("order: fixed", "order: random")))
-    store = Store(study.store, study.name)
+    store = Store(study.store, study.name, serving=True)
     try:
         assert store.journal_mode() == "wal"
-        with pytest.raises(InUse, match="is being written by process"):
-            Store(study.store, study.name)
+        with pytest.raises(InUse, match=f"is being served by process {os.getpid()} .*one server per store"):
+            Store(study.store, study.name, serving=True)
         added = store.add_participants(study, 3)
         assert [p["id"] for p in added] == ["P001", "P002", "P003"]
         assert len({p["token"] for p in added}) == 3 and all(len(p["token"]) >= 24 for p in added)
@@ -193,6 +193,33 @@ def test_the_store_is_wal_with_one_writer_and_gives_each_participant_a_token_and
         store.close()
     with pytest.raises(ConfigError, match="holds study 'tiny', not 'other'"):
         Store(study.store, "other", writer=False)
+
+
+def test_a_write_waits_for_another_writers_transaction_and_is_refused_naming_it_if_it_never_ends(tmp_path, monkeypatch):
+    import threading
+
+    from aaai.files import hold
+    from aaai.study import store as store_module
+
+    study = load_study(write_study(tmp_path))
+    store = Store(study.store, study.name)
+    try:
+        [added] = store.add_participants(study, 1)
+        other = hold(store.write_lock_path, lambda pid: "held")  # another process's write transaction
+        writing = threading.Thread(target=store.consent, args=(added["id"],))
+        writing.start()
+        time.sleep(0.3)
+        assert writing.is_alive() and store.participants()[0]["status"] == "new"  # it waits its turn
+        other.release()
+        writing.join(5)
+        assert store.participants()[0]["status"] == "consented"  # then writes
+        monkeypatch.setattr(store_module, "WRITE_WAIT", 0.2)
+        with hold(store.write_lock_path, lambda pid: "held"):
+            with pytest.raises(InUse, match=f"is being written by process {os.getpid()} and was for over 0.2 s"):
+                store.finish(added["id"])
+        assert store.participants()[0]["status"] == "consented"
+    finally:
+        store.close()
 
 
 # --- serving: a WebSocket client, and the server killed mid-trial ----------------------------------
@@ -298,6 +325,17 @@ def test_a_server_killed_mid_trial_loses_no_finished_trial_and_the_participant_r
             page.send({"type": "start"})
             status = page.pump(lambda s: s["phase"] == "ready")
             assert status["kind"] == "battery" and status["progress"] == {"done": 0, "total": 2}
+            # participants added while it serves: their links work at once, without a restart
+            result = CliRunner().invoke(cli, ["study", "participants", str(path), "-n", "1"])
+            assert result.exit_code == 0, result.output
+            rows = list(csv.DictReader(open(tmp_path / "study_links.csv")))
+            assert [row["id"] for row in rows] == ["P001", "P002"] and rows[0]["link"].endswith(token)
+            newcomer = Client(stack, port, rows[1]["link"].split("?p=")[1])
+            assert newcomer.joined["participant"] == "P002" and not newcomer.joined["consented"]
+            newcomer.send({"type": "consent"})  # the server writes beside the command that added it
+            newcomer.next("consented")
+            with pytest.raises(InUse, match=f"is being served by process {process.pid} "):
+                Store(study.store, study.name, serving=True)  # a second server of the store
     finally:
         process.send_signal(signal.SIGINT)
         try:

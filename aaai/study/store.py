@@ -2,25 +2,32 @@
 
 The file is in WAL mode with ``synchronous=FULL``: every write is one transaction, durable when
 it returns, so a trial finished (its row and replay) is on disk before the next trial starts and a
-killed server loses none. One process writes a study at a time: a writer holds the lock file
-``<store>.lock`` (:func:`aaai.files.hold`), and a second writer is refused naming the holder's pid;
-readers (``aaai study export``) need no lock. Nothing about a participant is kept but a code
+killed server loses none. One process writes at a time: every write transaction is taken under the
+lock file ``<store>.lock`` (:func:`aaai.files.hold`), which a writer holds only for that
+transaction (milliseconds), so ``aaai study participants`` adds participants beside a running
+server, each waiting for the other's write to end (at most :data:`WRITE_WAIT` seconds, then
+refused naming the holder's pid). One server serves a store at a time: it holds
+``<store>.serving`` while it runs, and a second is refused naming the first's pid. Readers
+(``aaai study export``, ``report``) need no lock. Nothing about a participant is kept but a code
 (P001), a random token for their link, their order seed, their progress and what they did in the
 game: no names, no IP addresses.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import secrets
 import sqlite3
 import threading
+import time
+from collections.abc import Iterator
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 from aaai.errors import ConfigError
-from aaai.files import Lock, hold
+from aaai.files import InUse, Lock, hold
 from aaai.study.order import battery_order
 from aaai.study.studyfile import Study, Trial
 
@@ -59,6 +66,7 @@ STATUSES = ("new", "consented", "started", "finished")
 # 9.81 units/s^2 (configs/default.yaml, physics.gravity), so a unit is a metre (the body's footprint
 # is 10 across; Animal-AI's metre is 5 units here by `aaai import-animalai`'s default --scale).
 METRES_PER_UNIT = 1.0
+WRITE_WAIT = 10.0  # seconds a write waits for another process's write to end before it is refused
 # Columns added to a table since its first version: a store written before gets them on opening.
 ADDED_COLUMNS = {"trials": {"path_m": "REAL"}}
 
@@ -68,43 +76,95 @@ def now() -> str:
 
 
 class Store:
-    """One study's SQLite file. ``writer=True`` takes the study's one-writer lock (ConfigError if
-    another process holds it); a reader takes none. Thread-safe within the process."""
+    """One study's SQLite file. ``writer=True`` may write (each write under the one-writer lock);
+    ``serving=True`` also holds the store's serving lock while it is open (ConfigError if another
+    server holds it); a reader (``writer=False``) writes nothing and takes no lock. Thread-safe
+    within the process."""
 
-    def __init__(self, path: str | Path, study_name: str, writer: bool = True):
+    def __init__(self, path: str | Path, study_name: str, writer: bool = True, serving: bool = False):
         self.path = Path(path)
-        self.lock: Lock | None = None
+        self.writer = writer
+        self.lock: Lock | None = None  # the serving lock, held while a server has the store open
+        self.write_lock_path = self.path.with_name(self.path.name + ".lock")
         if writer:
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            self.lock = hold(
-                self.path.with_name(self.path.name + ".lock"),
-                lambda pid: (
-                    f"study store {str(self.path)!r} is being written by process {pid or '(unknown)'} "
-                    "(another `aaai study serve` or `participants`?); allowed: one writer at a time: stop it first"
-                ),
-            )
+            if serving:
+                self.lock = hold(
+                    self.path.with_name(self.path.name + ".serving"),
+                    lambda pid: (
+                        f"study store {str(self.path)!r} is being served by process {pid or '(unknown)'} "
+                        "(another `aaai study serve`); allowed: one server per store at a time: stop it first"
+                    ),
+                )
         elif not self.path.is_file():
             raise ConfigError(f"study store {str(self.path)!r} does not exist; run `aaai study participants` first")
-        self.mutex = threading.Lock()
+        self.mutex = threading.Lock()  # the connection, one thread at a time
+        self.writing = threading.Lock()  # this process's writes, one at a time
         try:
             self.db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None)
             self.db.row_factory = sqlite3.Row
             if writer:
-                self.db.execute("PRAGMA journal_mode=WAL")
+                self.db.execute(f"PRAGMA busy_timeout = {int(WRITE_WAIT * 1000)}")
+                with self._write_lock():
+                    self.db.execute("PRAGMA journal_mode=WAL")
                 self.db.execute("PRAGMA synchronous=FULL")
-                self.db.executescript(SCHEMA)
-                self._add_columns()
-                self.db.execute("INSERT OR IGNORE INTO study VALUES ('name', ?)", (study_name,))
+                with self._transaction() as db:
+                    for statement in SCHEMA.split(";"):
+                        if statement.strip():
+                            db.execute(statement)
+                    self._add_columns()
+                    db.execute("INSERT OR IGNORE INTO study VALUES ('name', ?)", (study_name,))
             found = self.db.execute("SELECT value FROM study WHERE key = 'name'").fetchone()
         except sqlite3.DatabaseError as error:
             self.close()
             raise ConfigError(f"study store {str(self.path)!r}: {error}; allowed: a store `aaai study` wrote") from None
+        except BaseException:
+            self.close()
+            raise
         if found is None or found[0] != study_name:
             self.close()
             raise ConfigError(
                 f"study store {str(self.path)!r} holds study {found[0] if found else None!r}, not {study_name!r}; "
                 "allowed: the store of this study (its `store:` key)"
             )
+
+    @contextlib.contextmanager
+    def _write_lock(self) -> Iterator[None]:
+        """The one-writer lock, waited for (at most WRITE_WAIT seconds) while another process holds it."""
+        deadline = time.monotonic() + WRITE_WAIT
+        while True:
+            try:
+                lock = hold(
+                    self.write_lock_path,
+                    lambda pid: (
+                        f"study store {str(self.path)!r} is being written by process {pid or '(unknown)'} and was "
+                        f"for over {WRITE_WAIT:g} s; allowed: one writer at a time, each for a moment: is it stuck?"
+                    ),
+                )
+                break
+            except InUse:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.005)
+        try:
+            yield
+        finally:
+            lock.release()
+
+    @contextlib.contextmanager
+    def _transaction(self) -> Iterator[sqlite3.Connection]:
+        """One write transaction: this process's writing threads one at a time, under the one-writer lock;
+        committed (durable) when the block ends, rolled back if it raises."""
+        if not self.writer:
+            raise ConfigError(f"study store {str(self.path)!r} was opened to read; allowed: reading it")
+        with self.writing, self._write_lock(), self.mutex:  # reads wait only for the transaction itself
+            self.db.execute("BEGIN IMMEDIATE")
+            try:
+                yield self.db
+            except BaseException:
+                self.db.execute("ROLLBACK")
+                raise
+            self.db.execute("COMMIT")
 
     def _add_columns(self) -> None:
         for table, columns in ADDED_COLUMNS.items():
@@ -124,9 +184,10 @@ class Store:
             },
             sort_keys=True,
         )
+        if self.writer:
+            with self._transaction() as db:
+                db.execute("INSERT OR IGNORE INTO study VALUES ('plan', ?)", (plan,))
         with self.mutex:
-            if self.lock is not None:
-                self.db.execute("INSERT OR IGNORE INTO study VALUES ('plan', ?)", (plan,))
             found = self.db.execute("SELECT value FROM study WHERE key = 'plan'").fetchone()
         if found is not None and found[0] != plan:
             raise ConfigError(
@@ -141,8 +202,8 @@ class Store:
             self.lock.release()
 
     def _write(self, sql: str, values: tuple = ()) -> None:
-        with self.mutex:
-            self.db.execute(sql, values)
+        with self._transaction() as db:
+            db.execute(sql, values)
 
     def _read(self, sql: str, values: tuple = ()) -> list[dict]:
         with self.mutex:
@@ -156,30 +217,24 @@ class Store:
         """``count`` new participants (numbered on from those there), each with a token and an order
         of trials; one transaction."""
         added = []
-        with self.mutex:
-            self.db.execute("BEGIN IMMEDIATE")
-            try:
-                first = self.db.execute("SELECT COALESCE(MAX(number), 0) FROM participants").fetchone()[0] + 1
-                for number in range(first, first + count):
-                    pid, token, seed = f"P{number:03d}", secrets.token_urlsafe(18), secrets.randbits(31)
-                    self.db.execute(
-                        "INSERT INTO participants (id, number, token, order_seed, created) VALUES (?, ?, ?, ?, ?)",
-                        (pid, number, token, seed, now()),
+        with self._transaction() as db:
+            first = db.execute("SELECT COALESCE(MAX(number), 0) FROM participants").fetchone()[0] + 1
+            for number in range(first, first + count):
+                pid, token, seed = f"P{number:03d}", secrets.token_urlsafe(18), secrets.randbits(31)
+                db.execute(
+                    "INSERT INTO participants (id, number, token, order_seed, created) VALUES (?, ?, ?, ?, ?)",
+                    (pid, number, token, seed, now()),
+                )
+                plan = [("practice", i, t) for i, t in enumerate(study.practice)]
+                order = battery_order(study.order, len(study.battery), number - 1, seed)
+                plan += [("battery", i, study.battery[i]) for i in order]
+                for position, (kind, index, trial) in enumerate(plan, start=1):
+                    db.execute(
+                        "INSERT INTO trials (participant, position, kind, trial, level, difficulty, seed, arena) "
+                        "VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                        (pid, position, kind, index, trial.level, trial.difficulty, trial.seed, _arena(trial)),
                     )
-                    plan = [("practice", i, t) for i, t in enumerate(study.practice)]
-                    order = battery_order(study.order, len(study.battery), number - 1, seed)
-                    plan += [("battery", i, study.battery[i]) for i in order]
-                    for position, (kind, index, trial) in enumerate(plan, start=1):
-                        self.db.execute(
-                            "INSERT INTO trials (participant, position, kind, trial, level, difficulty, seed, arena) "
-                            "VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-                            (pid, position, kind, index, trial.level, trial.difficulty, trial.seed, _arena(trial)),
-                        )
-                    added.append({"id": pid, "token": token, "order_seed": seed})
-                self.db.execute("COMMIT")
-            except BaseException:
-                self.db.execute("ROLLBACK")
-                raise
+                added.append({"id": pid, "token": token, "order_seed": seed})
         return added
 
     def participant(self, token: str) -> dict | None:
@@ -208,8 +263,9 @@ class Store:
         return self._read("SELECT * FROM trials WHERE participant = ? ORDER BY position", (pid,))
 
     def start_trial(self, pid: str, position: int) -> None:
-        self._write("UPDATE participants SET status = 'started' WHERE id = ? AND status != 'finished'", (pid,))
-        self._write("UPDATE trials SET started = ? WHERE participant = ? AND position = ?", (now(), pid, position))
+        with self._transaction() as db:
+            db.execute("UPDATE participants SET status = 'started' WHERE id = ? AND status != 'finished'", (pid,))
+            db.execute("UPDATE trials SET started = ? WHERE participant = ? AND position = ?", (now(), pid, position))
 
     def finish_trial(
         self,
