@@ -12,7 +12,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from contextlib import ExitStack
+from contextlib import ExitStack, closing
 from pathlib import Path
 
 import pytest
@@ -301,6 +301,11 @@ def test_a_server_killed_mid_trial_loses_no_finished_trial_and_the_participant_r
             time.sleep(1.05)  # keys start a trial a second after the last one ended (a held key is no start)
             page.send({"type": "key", "key": "ArrowUp", "down": True})  # the first battery trial starts
             page.pump(lambda s: s["phase"] == "running")
+            reader = stack.enter_context(closing(Store(load_study(path).store, "tiny", writer=False)))
+            end = time.monotonic() + 5
+            while len(reader.attempts("P001")) < 2:  # its attempt has begun
+                assert time.monotonic() < end, reader.attempts("P001")
+                time.sleep(0.02)
             os.kill(process.pid, signal.SIGKILL)  # mid-trial
             process.wait(10)
     finally:
@@ -315,6 +320,8 @@ def test_a_server_killed_mid_trial_loses_no_finished_trial_and_the_participant_r
         assert json.loads(trials[0]["replay"])["steps"] == 20
         assert trials[1]["started"] and trials[1]["finished"] is None  # the trial killed mid-way
         assert trials[2]["started"] is None
+        attempts = store.attempts("P001")
+        assert [(a["position"], a["state"]) for a in attempts] == [(1, "finished"), (2, "playing")]
     finally:
         store.close()
     process, port = serve_in_subprocess(path)  # served again: the link resumes at the unfinished trial
@@ -336,6 +343,13 @@ def test_a_server_killed_mid_trial_loses_no_finished_trial_and_the_participant_r
             newcomer.next("consented")
             with pytest.raises(InUse, match=f"is being served by process {process.pid} "):
                 Store(study.store, study.name, serving=True)  # a second server of the store
+            reader = Store(study.store, study.name, writer=False)
+            try:  # the attempt its killed predecessor left playing: interrupted, at its last saved progress
+                killed = reader.attempts("P001")[1]
+                assert (killed["position"], killed["state"]) == (2, "interrupted")
+                assert killed["reason"].startswith("the server stopped") and killed["ended"] == killed["saved"]
+            finally:
+                reader.close()
     finally:
         process.send_signal(signal.SIGINT)
         try:

@@ -74,6 +74,12 @@ def simulate(study) -> None:
                 store.finish_trial(pid, trial["position"], human_row(trial, "failed", 50), {}, 0.1)
             for number, (trial, (outcome, reaction)) in enumerate(zip(battery, results)):
                 store.start_trial(pid, trial["position"])
+                if (pid, number) in (("P002", 1), ("P002", 2)):  # two trials of P002 were left once first
+                    attempt = store.begin_attempt(pid, trial["position"])
+                    store.save_attempt(
+                        pid, trial["position"], attempt, {"steps": 40}, "abandoned", "the tab was closed"
+                    )
+                    store.begin_attempt(pid, trial["position"])  # the attempt that finishes
                 row, path = human_row(trial, outcome, 100 + 10 * number), PATHS[pid][number]
                 store.finish_trial(pid, trial["position"], row, {}, reaction, path)
             store.finish(pid)
@@ -141,6 +147,10 @@ def test_the_report_counts_each_players_trials_with_wilson_intervals(made):
     assert (humans["path_q1_m"], humans["path_q3_m"]) == ("4.625", "11.44")
     assert rows[("trial", "L0 d1 s2", "humans")]["path_median_m"] == "13.25"
     assert rows[("level", "L0", "reference")]["path_median_m"] == ""  # its scoreboard has no paths
+    # attempts left unfinished, and played again, are counted for the humans
+    assert humans["abandoned"] == "2" and rows[("trial", "L0 d1 s2", "humans")]["abandoned"] == "1"
+    assert rows[("trial", "L0 d0 s1", "humans")]["abandoned"] == "0"
+    assert rows[("level", "L0", "reference")]["abandoned"] == ""
     for policy in ("reference", "random"):
         assert rows[("level", "L0", policy)]["episodes"] == "3"
         assert rows[("trial", "L0 d0 s1", policy)]["episodes"] == "1"
@@ -157,8 +167,8 @@ def test_the_report_writes_its_table_and_a_png_figure(made):
     text = (out / "report.md").read_text()
     low, high = wilson(4, 6)
     interval = f"{100 * low:.0f}-{100 * high:.0f}%"
-    assert f"| L0 | humans | 67% | {interval} | 4/6 | 0.90 (0.70-1.10) | 7.8 (4.6-11.4) | 110 |" in text
-    assert "2 participants" in text and "| L0 | baseline:reference | 100% | 21-100% | 1/1 | - | - | 93 |" in text
+    assert f"| L0 | humans | 67% | {interval} | 4/6 | 2 | 0.90 (0.70-1.10) | 7.8 (4.6-11.4) | 110 |" in text
+    assert "2 participants" in text and "| L0 | baseline:reference | 100% | 21-100% | 1/1 | - | - | - | 93 |" in text
     assert "path the body's trunk travelled in metres (1 world unit = 1 m)" in text
     assert (out / "report.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

@@ -1,11 +1,14 @@
 """A study's trials as a participant plays them: the path the body's trunk travels, in metres,
-recorded with each trial."""
+recorded with each trial; an attempt left unfinished (the tab closed) recorded with how far it
+got, exported and counted in the report, and the trial played again."""
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import os
+import time
 from contextlib import ExitStack
 
 import pytest
@@ -27,7 +30,7 @@ battery:
   - {level: 0, difficulty: 0, seed: 1}
   - {level: 0, difficulty: 0, seed: 2}
 order: fixed
-time_limit: 1.2
+time_limit: 2.0
 camera_resolution: 16
 """
 
@@ -64,8 +67,18 @@ def served(tmp_path):
         store.close()
 
 
-def test_a_trial_records_the_path_the_trunk_walked_in_metres(served):
-    store, port, token, _ = served
+def wait_for(condition, timeout: float = 10.0):
+    end = time.monotonic() + timeout
+    while not (found := condition()):
+        assert time.monotonic() < end, "timed out"
+        time.sleep(0.05)
+    return found
+
+
+def test_a_tab_closed_mid_trial_is_an_abandoned_attempt_and_the_trial_is_played_again_its_path_in_metres(
+    served, tmp_path
+):
+    store, port, token, study = served
     with ExitStack() as stack:
         page = Client(stack, port, token)
         page.send({"type": "consent"})
@@ -73,10 +86,41 @@ def test_a_trial_records_the_path_the_trunk_walked_in_metres(served):
         page.send({"type": "start"})
         page.pump(ready)
         page.send({"type": "key", "key": "ArrowUp", "down": True})  # starts the trial and walks on
+        page.pump(lambda s: s["phase"] == "running" and s["time_left"] <= 1.4)  # 0.6 s in
+    # the tab is closed (--grace 0): the attempt is recorded as abandoned, with how far it got
+    [left] = wait_for(lambda: [a for a in store.attempts("P001") if a["state"] != "playing"])
+    assert (left["position"], left["attempt"], left["state"]) == (1, 1, "abandoned")
+    assert left["reason"] == "the tab was closed" and left["started"] < left["ended"]
+    assert 30 <= left["steps"] < 100 and left["seconds"] == pytest.approx(0.02 * left["steps"])
+    assert left["path_m"] > 0.2 and store.trials("P001")[0]["finished"] is None
+    with ExitStack() as stack:  # the same link again: the same trial, from its start
+        page = Client(stack, port, token)
+        assert page.joined["resuming"]
+        page.send({"type": "start"})
+        assert page.pump(ready)["progress"] == {"done": 0, "total": 2}
+        page.send({"type": "key", "key": "ArrowUp", "down": True})
         page.pump(lambda s: s["phase"] == "ready" and s["progress"]["done"] == 1)
     first = store.trials("P001")[0]
+    attempts = store.attempts("P001")
+    assert [(a["position"], a["attempt"], a["state"]) for a in attempts] == [(1, 1, "abandoned"), (1, 2, "finished")]
+    assert attempts[1]["steps"] == 100 and attempts[1]["path_m"] == first["path_m"]
+    # the path: at least the straight line from the start to where the trunk ended, in metres
     replay = json.loads(first["replay"])
     start = generate(0, 0, 1).agent
     straight = math.hypot(replay["final_pose"]["x"] - start.x, replay["final_pose"]["y"] - start.y)
     assert straight > 0.5  # it walked
-    assert straight <= first["path_m"] < 1.5 * straight  # at least the straight line; a trot sways a little
+    assert straight <= first["path_m"] < 1.5 * straight  # a trot sways a little
+
+    result = CliRunner().invoke(cli, ["study", "export", str(study.path), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 0, result.output
+    rows = list(csv.DictReader(open(tmp_path / "out" / "attempts.csv")))
+    assert [(r["participant"], r["position"], r["kind"], r["seed"], r["state"]) for r in rows] == [
+        ("P001", "1", "battery", "1", "abandoned"),
+        ("P001", "1", "battery", "1", "finished"),
+    ]
+    assert rows[0]["reason"] == "the tab was closed" and int(rows[0]["steps"]) == left["steps"]
+    result = CliRunner().invoke(cli, ["study", "report", str(study.path), "--out", str(tmp_path / "report")])
+    assert result.exit_code == 0, result.output
+    report = {(r["scope"], r["name"]): r for r in csv.DictReader(open(tmp_path / "report" / "report.csv"))}
+    assert report[("trial", "L0 d0 s1")]["abandoned"] == "1" and report[("trial", "L0 d0 s2")]["abandoned"] == "0"
+    assert report[("level", "L0")]["abandoned"] == "1"

@@ -22,7 +22,7 @@ from aaai.errors import ConfigError
 from aaai.files import atomic_path, write_atomic
 from aaai.levels import get_level
 from aaai.scoring.evaluation import record_path, scored_episodes
-from aaai.study.store import METRES_PER_UNIT, Store
+from aaai.study.store import METRES_PER_UNIT, UNFINISHED, Store, trial_of
 from aaai.study.studyfile import Study, Trial
 from aaai.tools.baselines import passed, wilson
 
@@ -39,6 +39,7 @@ CSV_COLUMNS = [
     "reaction_median",
     "reaction_q1",
     "reaction_q3",
+    "abandoned",
     "path_median_m",
     "path_q1_m",
     "path_q3_m",
@@ -76,6 +77,7 @@ class Line:
     reactions: list[float]
     steps: list[int]
     paths: list[float]
+    abandoned: int | None = None  # attempts left unfinished (humans only)
 
     def csv_row(self) -> dict:
         low, high = wilson(self.passes, self.episodes) if self.episodes else (None, None)
@@ -92,6 +94,7 @@ class Line:
             "reaction_median": _num(quartiles[1]),
             "reaction_q1": _num(quartiles[0]),
             "reaction_q3": _num(quartiles[2]),
+            "abandoned": "" if self.abandoned is None else self.abandoned,
             "path_median_m": _num(paths[1]),
             "path_q1_m": _num(paths[0]),
             "path_q3_m": _num(paths[2]),
@@ -174,7 +177,19 @@ def baseline_boards(folder: Path, keys: set[Key]) -> dict[str, list[dict]]:
     return boards
 
 
-def lines_for(study: Study, humans: list[dict], boards: dict[str, list[dict]]) -> list[Line]:
+def abandoned_attempts(store: Store) -> dict[Key, int]:
+    """Battery trials' attempts left unfinished (abandoned or interrupted), by trial."""
+    counts: dict[Key, int] = {}
+    for attempt in store.attempts():
+        if attempt["kind"] == "battery" and attempt["state"] in UNFINISHED:
+            key = trial_key(trial_of(attempt))
+            counts[key] = counts.get(key, 0) + 1
+    return counts
+
+
+def lines_for(
+    study: Study, humans: list[dict], boards: dict[str, list[dict]], abandoned: dict[Key, int] | None = None
+) -> list[Line]:
     """Per trial (in the battery's order), then per level: a line for the humans and one per policy."""
     players = {HUMANS: humans, **boards}
     by_key: dict[str, dict[Key, list[dict]]] = {}
@@ -203,6 +218,7 @@ def lines_for(study: Study, humans: list[dict], boards: dict[str, list[dict]]) -
                     [float(r["reaction_time"]) for r in rows if r.get("reaction_time") not in (None, "")],
                     [int(r["steps"]) for r in rows],
                     [float(r["path_m"]) for r in rows if r.get("path_m") not in (None, "")],
+                    sum((abandoned or {}).get(key, 0) for key in dict.fromkeys(keys)) if who == HUMANS else None,
                 )
             )
     return lines
@@ -223,15 +239,16 @@ def report_markdown(study: Study, lines: list[Line], participants: int) -> str:
     parts = [
         f"# {study.name}: humans against agents\n",
         f"{participants} participant{'s' * (participants != 1)}; pass rate = passed or succeeded, with its "
-        "95 % Wilson interval and passed/episodes; reaction time to the first move in seconds and the "
+        "95 % Wilson interval and passed/episodes; abandoned: attempts left unfinished (the tab closed, "
+        "the server stopped), each played again; reaction time to the first move in seconds and the "
         f"path the body's trunk travelled in metres (1 world unit = {METRES_PER_UNIT:g} m), median (quartiles); "
         "episode length in control steps (median).\n",
     ]
     for scope, title in (("trial", "Per trial"), ("level", "Per level")):
         table = [
             f"## {title}\n",
-            f"| {scope} | player | pass rate | 95 % interval | passed | reaction s | path m | steps |",
-            "|---|---|---:|---:|---:|---:|---:|---:|",
+            f"| {scope} | player | pass rate | 95 % interval | passed | abandoned | reaction s | path m | steps |",
+            "|---|---|---:|---:|---:|---:|---:|---:|---:|",
         ]
         for line in lines:
             if line.scope != scope or not line.episodes:
@@ -239,7 +256,8 @@ def report_markdown(study: Study, lines: list[Line], participants: int) -> str:
             low, high = wilson(line.passes, line.episodes)
             table.append(
                 f"| {line.name} | {line.who} | {100 * line.passes / line.episodes:.0f}% | "
-                f"{100 * low:.0f}-{100 * high:.0f}% | {line.passes}/{line.episodes} | {_spread(line.reactions, 2)} | "
+                f"{100 * low:.0f}-{100 * high:.0f}% | {line.passes}/{line.episodes} | "
+                f"{'-' if line.abandoned is None else line.abandoned} | {_spread(line.reactions, 2)} | "
                 f"{_spread(line.paths, 1)} | {statistics.median(line.steps):g} |"
             )
         parts.append("\n".join(table) + "\n")
@@ -299,7 +317,7 @@ def write_report(
             )
     if baselines is not None:
         boards.update(baseline_boards(Path(baselines), keys))
-    lines = lines_for(study, humans, boards)
+    lines = lines_for(study, humans, boards, abandoned_attempts(store))
     participants = len({row["participant"] for row in humans})
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "report.md", out / "report.csv", out / "report.png"]

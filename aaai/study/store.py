@@ -60,8 +60,28 @@ CREATE TABLE IF NOT EXISTS trials (
     replay TEXT,
     PRIMARY KEY (participant, position)
 );
+CREATE TABLE IF NOT EXISTS attempts (
+    participant TEXT NOT NULL,
+    position INTEGER NOT NULL,
+    attempt INTEGER NOT NULL,
+    started TEXT NOT NULL,
+    saved TEXT NOT NULL,
+    ended TEXT,
+    state TEXT NOT NULL DEFAULT 'playing',
+    reason TEXT,
+    steps INTEGER NOT NULL DEFAULT 0,
+    seconds REAL NOT NULL DEFAULT 0,
+    food_eaten INTEGER NOT NULL DEFAULT 0,
+    path_m REAL NOT NULL DEFAULT 0,
+    PRIMARY KEY (participant, position, attempt)
+);
 """
 STATUSES = ("new", "consented", "started", "finished")
+# An attempt at a trial: playing (its progress saved every PROGRESS_STEPS control steps), finished
+# (its row is the trial's), abandoned (the tab closed past the grace period, the server stopped or
+# failed: its reason) or interrupted (still playing when its server died; found at the next start).
+ATTEMPT_STATES = ("playing", "finished", "abandoned", "interrupted")
+UNFINISHED = ("abandoned", "interrupted")
 # Metres per world unit. The simulation is in SI units: seconds, kilograms and metres, with gravity
 # 9.81 units/s^2 (configs/default.yaml, physics.gravity), so a unit is a metre (the body's footprint
 # is 10 across; Animal-AI's metre is 5 units here by `aaai import-animalai`'s default --scale).
@@ -114,6 +134,11 @@ class Store:
                             db.execute(statement)
                     self._add_columns()
                     db.execute("INSERT OR IGNORE INTO study VALUES ('name', ?)", (study_name,))
+                    if serving:  # attempts its dead predecessor left playing
+                        db.execute(
+                            "UPDATE attempts SET state = 'interrupted', ended = saved, "
+                            "reason = 'the server stopped (killed or failed) during it' WHERE state = 'playing'"
+                        )
             found = self.db.execute("SELECT value FROM study WHERE key = 'name'").fetchone()
         except sqlite3.DatabaseError as error:
             self.close()
@@ -275,14 +300,87 @@ class Store:
         replay: dict,
         reaction_time: float | None,
         path_m: float | None = None,
+        seconds: float | None = None,
     ) -> None:
         """The trial's row, replay, reaction time and path (metres the trunk travelled), committed
-        (durable) before this returns."""
+        (durable) before this returns; its attempt in play, finished (``seconds`` played)."""
+        at = now()
+        with self._transaction() as db:
+            db.execute(
+                "UPDATE trials SET finished = ?, reaction_time = ?, path_m = ?, row = ?, replay = ? "
+                "WHERE participant = ? AND position = ?",
+                (at, reaction_time, path_m, json.dumps(row), json.dumps(replay, separators=(",", ":")), pid, position),
+            )
+            db.execute(
+                "UPDATE attempts SET state = 'finished', ended = ?, saved = ?, steps = ?, seconds = ?, "
+                "food_eaten = ?, path_m = ? WHERE participant = ? AND position = ? AND state = 'playing'",
+                (at, at, row.get("steps", 0), seconds or 0.0, row.get("food_eaten", 0), path_m or 0.0, pid, position),
+            )
+
+    # --- attempts --------------------------------------------------------------------------
+    def begin_attempt(self, pid: str, position: int) -> int:
+        """A new attempt at the trial (its clock has started); its number (1, 2, ...)."""
+        at = now()
+        with self._transaction() as db:
+            number = (
+                db.execute(
+                    "SELECT COALESCE(MAX(attempt), 0) FROM attempts WHERE participant = ? AND position = ?",
+                    (pid, position),
+                ).fetchone()[0]
+                + 1
+            )
+            db.execute(
+                "INSERT INTO attempts (participant, position, attempt, started, saved) VALUES (?, ?, ?, ?, ?)",
+                (pid, position, number, at, at),
+            )
+        return int(number)
+
+    def save_attempt(
+        self,
+        pid: str,
+        position: int,
+        attempt: int,
+        progress: dict,
+        state: str = "playing",
+        reason: str | None = None,
+    ) -> None:
+        """An attempt's progress (``steps``, ``seconds``, ``food_eaten``, ``path_m``); with a ``state``
+        other than playing, its end and why."""
+        if state not in ATTEMPT_STATES:
+            raise ValueError(f"attempt state {state!r}; allowed: {', '.join(ATTEMPT_STATES)}")
+        at = now()
         self._write(
-            "UPDATE trials SET finished = ?, reaction_time = ?, path_m = ?, row = ?, replay = ? "
-            "WHERE participant = ? AND position = ?",
-            (now(), reaction_time, path_m, json.dumps(row), json.dumps(replay, separators=(",", ":")), pid, position),
+            "UPDATE attempts SET saved = ?, ended = ?, state = ?, reason = ?, steps = ?, seconds = ?, "
+            "food_eaten = ?, path_m = ? WHERE participant = ? AND position = ? AND attempt = ? AND state = 'playing'",
+            (
+                at,
+                None if state == "playing" else at,
+                state,
+                reason,
+                int(progress.get("steps", 0)),
+                float(progress.get("seconds", 0.0)),
+                int(progress.get("food_eaten", 0)),
+                float(progress.get("path_m", 0.0)),
+                pid,
+                position,
+                attempt,
+            ),
         )
+
+    def attempts(self, pid: str | None = None) -> list[dict]:
+        """Every attempt (or a participant's) with its trial's kind, level, difficulty, seed and arena;
+        none from a store written before attempts were kept."""
+        with self.mutex:
+            there = self.db.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'attempts'").fetchone()
+        if there is None:
+            return []
+        sql = (
+            "SELECT a.*, t.kind, t.level, t.difficulty, t.seed, t.arena FROM attempts a JOIN trials t "
+            "ON t.participant = a.participant AND t.position = a.position"
+        )
+        if pid is None:
+            return self._read(sql + " ORDER BY a.participant, a.position, a.attempt")
+        return self._read(sql + " WHERE a.participant = ? ORDER BY a.position, a.attempt", (pid,))
 
 
 def _plain(trial: Trial) -> list:
@@ -299,4 +397,4 @@ def trial_of(row: dict[str, Any]) -> Trial:
     return Trial(row["level"], row["difficulty"], row["seed"], arena)
 
 
-__all__ = ["METRES_PER_UNIT", "STATUSES", "Store", "trial_of"]
+__all__ = ["ATTEMPT_STATES", "METRES_PER_UNIT", "STATUSES", "UNFINISHED", "Store", "trial_of"]
