@@ -72,6 +72,9 @@ def test_the_example_study_reads():
         ("show: {map: 1}", "line 11, show.map: got 1; allowed: true or false"),
         ("show: {answers: true}", "line 11, show.answers: unknown key 'answers'; allowed: map, coordinates"),
         ("texts: {consent: ''}", "line 11, texts.consent: got ''; allowed: text of 1 to 5000 characters"),
+        ("store: postgresql+psycopg://me@db.example.org/study", None),
+        ("store: postgresql+psycopg://me:secret@db/x", "line 11, store: a password in the study file's address;"),
+        ("store: mysql://db/x", "line 11, store: got 'mysql://db/x'; allowed: a file name, or postgresql+psycopg://"),
     ],
 )
 def test_a_bad_study_file_is_refused_by_line_naming_the_key_value_and_what_is_allowed(tmp_path, change, expected):
@@ -133,6 +136,15 @@ def test_the_commands_refuse_a_bad_study_file_or_a_missing_store_with_one_messag
     write_study(tmp_path, TINY.replace("seed: 2}", "seed: 3}"))  # the battery changed under its participants
     result = CliRunner().invoke(cli, ["study", "participants", str(path), "-n", "1"])
     assert result.exit_code == 2 and "its practice, battery or order changed since" in result.output
+
+
+def test_a_postgresql_store_that_cannot_be_reached_is_one_message(tmp_path):
+    pytest.importorskip("psycopg", reason="the PostgreSQL store needs psycopg (the play extra)")
+    path = write_study(tmp_path, TINY + "store: postgresql+psycopg://aaai@127.0.0.1:1/nothing\n")
+    assert load_study(path).store == "postgresql+psycopg://aaai@127.0.0.1:1/nothing"
+    result = CliRunner().invoke(cli, ["study", "participants", str(path), "-n", "1"])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert "study store 'postgresql+psycopg://aaai@127.0.0.1:1/nothing': connection failed" in result.output
 
 
 def test_feedback_and_reaction_time_in_plain_terms():
