@@ -124,3 +124,45 @@ def test_a_tab_closed_mid_trial_is_an_abandoned_attempt_and_the_trial_is_played_
     report = {(r["scope"], r["name"]): r for r in csv.DictReader(open(tmp_path / "report" / "report.csv"))}
     assert report[("trial", "L0 d0 s1")]["abandoned"] == "1" and report[("trial", "L0 d0 s2")]["abandoned"] == "0"
     assert report[("level", "L0")]["abandoned"] == "1"
+
+
+OLD_SCHEMA = """
+CREATE TABLE study (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE participants (id TEXT PRIMARY KEY, number INTEGER NOT NULL UNIQUE, token TEXT NOT NULL UNIQUE,
+    order_seed INTEGER NOT NULL, status TEXT NOT NULL DEFAULT 'new', created TEXT NOT NULL, consented TEXT,
+    finished TEXT);
+CREATE TABLE trials (participant TEXT NOT NULL REFERENCES participants(id), position INTEGER NOT NULL,
+    kind TEXT NOT NULL, trial INTEGER NOT NULL, level INTEGER, difficulty INTEGER, seed INTEGER NOT NULL, arena TEXT,
+    started TEXT, finished TEXT, reaction_time REAL, row TEXT, replay TEXT, PRIMARY KEY (participant, position));
+INSERT INTO study VALUES ('name', 'walk');
+INSERT INTO participants VALUES ('P001', 1, 'abc', 5, 'finished', '2026-01-01T00:00:00Z', NULL, NULL);
+INSERT INTO trials VALUES ('P001', 1, 'battery', 0, 0, 0, 1, NULL, 'a', 'b', 0.5, '{"level": 0, "difficulty": 0,
+    "seed": 1, "outcome": "failed", "steps": 20, "arena": ""}', '{"arena": null, "level": 0, "difficulty": 0,
+    "seed": 1}');
+"""
+
+
+def test_a_store_written_before_paths_and_attempts_were_kept_is_read_and_gains_them_when_written(tmp_path):
+    import sqlite3
+
+    path = tmp_path / "study.yaml"
+    path.write_text(WALK)
+    study = load_study(path)
+    with sqlite3.connect(study.store) as old:
+        old.executescript(OLD_SCHEMA)
+    reader = Store(study.store, study.name, writer=False)
+    try:
+        assert reader.attempts() == [] and "path_m" not in reader.trials()[0]
+    finally:
+        reader.close()
+    result = CliRunner().invoke(cli, ["study", "export", str(path), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 0, result.output
+    [row] = list(csv.DictReader(open(tmp_path / "out" / "scores.csv")))
+    assert (row["policy"], row["reaction_time"], row["path_m"]) == ("human:P001", "0.5", "")
+    store = Store(study.store, study.name)  # a writer adds what is missing
+    try:
+        assert store.trials()[0]["path_m"] is None
+        store.save_attempt("P001", 1, store.begin_attempt("P001", 1), {"steps": 3}, "abandoned", "test")
+        assert [a["state"] for a in store.attempts()] == ["abandoned"]
+    finally:
+        store.close()
