@@ -166,15 +166,30 @@ def export_command(study_file, out):
     type=click.Path(file_okay=False),
     help="The baseline table's folder (baselines/): its rows on the study's trials join the report.",
 )
+@click.option(
+    "--policy-replays",
+    "replays",
+    type=click.Path(),
+    multiple=True,
+    help="The replays of `aaai eval --study STUDY_FILE --save-replays DIR`: the policy's paths, measured from them.",
+)
 @click.option("--out", "out", type=Output(file_okay=False), required=True, help="Folder for report.md, .csv, .png.")
-def report_command(study_file, scores, baselines, out):
-    """Humans against agents: pass rates (95 % Wilson intervals) per trial and level, reaction times, steps."""
+def report_command(study_file, scores, baselines, replays, out):
+    """Humans against agents: pass rates (95 % Wilson intervals) per trial and level, attempts left
+    unfinished, reaction times, paths in metres, steps."""
     from aaai.study.report import write_report
 
     chosen = _study(study_file)
     store = _store(chosen, writer=False)
     try:
-        paths = write_report(chosen, store, out, [Path(s) for s in scores], Path(baselines) if baselines else None)
+        paths = write_report(
+            chosen,
+            store,
+            out,
+            [Path(s) for s in scores],
+            Path(baselines) if baselines else None,
+            [Path(r) for r in replays],
+        )
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     except ImportError as error:

@@ -97,8 +97,9 @@ def made(tmp_path_factory):
     boards = {}
     for policy in ("reference", "random"):
         boards[policy] = folder / f"{policy}.csv"
+        replays = ["--save-replays", str(folder / "reference_replays")] if policy == "reference" else []
         result = runner.invoke(
-            cli, ["eval", "--study", str(study_file), "--policy", policy, "--out", str(boards[policy])]
+            cli, ["eval", "--study", str(study_file), "--policy", policy, "--out", str(boards[policy]), *replays]
         )
         assert result.exit_code == 0, result.output
     # The baseline table: two committed tables, and one with no row on the study's trials (left out).
@@ -114,6 +115,7 @@ def made(tmp_path_factory):
     arguments = ["study", "report", str(study_file), "--out", str(out), "--baselines", str(baselines)]
     for board in boards.values():
         arguments += ["--policy-scores", str(board)]
+    arguments += ["--policy-replays", str(folder / "reference_replays")]
     result = runner.invoke(cli, arguments)
     assert result.exit_code == 0, result.output
     with open(out / "report.csv", newline="") as handle:
@@ -146,7 +148,13 @@ def test_the_report_counts_each_players_trials_with_wilson_intervals(made):
     assert float(humans["path_median_m"]) == pytest.approx(7.75)
     assert (humans["path_q1_m"], humans["path_q3_m"]) == ("4.625", "11.44")
     assert rows[("trial", "L0 d1 s2", "humans")]["path_median_m"] == "13.25"
-    assert rows[("level", "L0", "reference")]["path_median_m"] == ""  # its scoreboard has no paths
+    # a policy's paths, from its replays (random's were not saved: no paths)
+    assert 2.0 < float(rows[("level", "L0", "reference")]["path_median_m"]) < 20.0
+    assert (
+        rows[("trial", "L0 d0 s1", "reference")]["path_q1_m"]
+        == rows[("trial", "L0 d0 s1", "reference")]["path_median_m"]
+    )
+    assert rows[("level", "L0", "random")]["path_median_m"] == ""
     # attempts left unfinished, and played again, are counted for the humans
     assert humans["abandoned"] == "2" and rows[("trial", "L0 d1 s2", "humans")]["abandoned"] == "1"
     assert rows[("trial", "L0 d0 s1", "humans")]["abandoned"] == "0"

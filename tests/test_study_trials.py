@@ -15,7 +15,7 @@ import pytest
 from click.testing import CliRunner
 
 from aaai.levels import generate
-from aaai.study.participant import Odometer
+from aaai.study.paths import Odometer, replay_path
 from aaai.study.store import Store
 from aaai.study.studyfile import load_study
 from aaai_cli.main import cli
@@ -35,13 +35,19 @@ camera_resolution: 16
 """
 
 
-def test_the_odometer_sums_the_trunks_horizontal_steps_in_metres():
-    odometer = Odometer()
-    for x, y in [(0.0, 0.0), (3.0, 4.0), (3.0, 4.0), (6.0, 8.0)]:
-        odometer.add(x, y)
-    assert odometer.metres == 10.0  # 5 + 0 + 5 (1 world unit = 1 m)
+def test_the_odometer_sums_the_trunks_horizontal_moves_every_tenth_of_a_second_in_metres():
+    odometer = Odometer(control_dt=0.02)  # a sample every 5 control steps, and the end
+    for step, (x, y) in enumerate([(0.0, 0.0), (9.0, 9.0), (9.0, 9.0), (9.0, 9.0), (9.0, 9.0), (3.0, 4.0)]):
+        odometer.at(step, x, y)  # steps 1 to 4 fall between samples: their sway is not counted
+    odometer.at(6, 7.0, 4.0)
+    odometer.end(7.0, 7.0)
+    assert odometer.metres == 5.0 + 5.0  # (0, 0) to (3, 4) at step 5, then to (7, 7) at the end (1 unit = 1 m)
+    coarse = Odometer(control_dt=0.02)
+    for step in (0, 5, 10):  # a policy deciding every 0.1 s is sampled at each decision
+        coarse.at(step, float(step), 0.0)
+    assert coarse.metres == 10.0
     odometer.reset()
-    odometer.add(100.0, 100.0)
+    odometer.at(0, 100.0, 100.0)
     assert odometer.metres == 0.0  # a new trial starts from nothing
 
 
@@ -110,6 +116,7 @@ def test_a_tab_closed_mid_trial_is_an_abandoned_attempt_and_the_trial_is_played_
     straight = math.hypot(replay["final_pose"]["x"] - start.x, replay["final_pose"]["y"] - start.y)
     assert straight > 0.5  # it walked
     assert straight <= first["path_m"] < 1.5 * straight  # a trot sways a little
+    assert replay_path(replay) == first["path_m"]  # measured the same from the replay, as a policy's is
 
     result = CliRunner().invoke(cli, ["study", "export", str(study.path), "--out", str(tmp_path / "out")])
     assert result.exit_code == 0, result.output

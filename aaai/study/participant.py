@@ -13,7 +13,6 @@ names unless the study shows them.
 
 from __future__ import annotations
 
-import math
 import traceback
 from typing import Callable
 
@@ -21,7 +20,8 @@ from aaai.config import ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
 from aaai.scoring.episodes import run_episode
 from aaai.scoring.replays import Recorder, with_arena
-from aaai.study.store import METRES_PER_UNIT, Store, trial_of
+from aaai.study.paths import Odometer
+from aaai.study.store import Store, trial_of
 from aaai.study.studyfile import Study
 from aaai.tools.play.session import Abandoned, HumanPolicy, PlaySettings, Session
 
@@ -72,27 +72,6 @@ def first_move(actions: list[list[float]], control_dt: float) -> float | None:
     return None
 
 
-class Odometer:
-    """The path the body's trunk (its head, the base of the body) travels over the floor: the sum
-    of the horizontal distances between its positions at successive control steps, in metres."""
-
-    def __init__(self) -> None:
-        self.units = 0.0
-        self.last: tuple[float, float] | None = None
-
-    def reset(self) -> None:
-        self.units, self.last = 0.0, None
-
-    def add(self, x: float, y: float) -> None:
-        if self.last is not None:
-            self.units += math.hypot(x - self.last[0], y - self.last[1])
-        self.last = (x, y)
-
-    @property
-    def metres(self) -> float:
-        return round(self.units * METRES_PER_UNIT, 3)
-
-
 class StudySession(Session):
     """A participant's session: their unfinished trials, each committed to the store as it ends."""
 
@@ -112,9 +91,9 @@ class StudySession(Session):
         self.battery_done = 0
         self.feedback = ""
         self.show_break = False
-        self.odometer = Odometer()
-        self.attempt: int | None = None  # the number of the attempt in play (its clock started), if any
         self.control_dt = settings.config.physics.control_dt
+        self.odometer = Odometer(self.control_dt)
+        self.attempt: int | None = None  # the number of the attempt in play (its clock started), if any
 
     def _play(self) -> None:
         try:
@@ -216,7 +195,10 @@ class StudySession(Session):
     def _update(self, env, observation, force: bool = False) -> None:
         """The page's figures and frame (``Session``'s), and the trunk's position on the trial's path."""
         position, _ = env.body.head_pose()
-        self.odometer.add(float(position[0]), float(position[1]))
+        if force:  # the trial's end
+            self.odometer.end(float(position[0]), float(position[1]))
+        else:
+            self.odometer.at(env.steps, float(position[0]), float(position[1]))
         super()._update(env, observation, force)
 
     def participant_status(self) -> dict:
@@ -246,4 +228,4 @@ class StudySession(Session):
         return out
 
 
-__all__ = ["FEEDBACK", "Odometer", "StudySession", "feedback_of", "first_move", "play_settings"]
+__all__ = ["FEEDBACK", "StudySession", "feedback_of", "first_move", "play_settings"]

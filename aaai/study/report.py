@@ -4,9 +4,9 @@ Participants' finished battery trials (read from the study's store) beside each 
 the same trials: scoreboards written by ``aaai eval --study``, and the committed baseline table's
 rows (``baselines/*.csv``) for the same (level, difficulty, seed). Per trial and per level: the
 pass rate (passed or succeeded) with its 95 % Wilson interval, and for participants the reaction
-time to the first move (median and quartiles) and the path the trunk travelled in metres (median
-and quartiles; a policy's too where its rows carry ``path_m``); for everyone the median episode
-length in control steps. Written as ``report.md``, ``report.csv`` and one figure, ``report.png``.
+time to the first move (median and quartiles), the path the trunk travelled in metres (median and
+quartiles; a policy's from its replays, measured the same way: :mod:`aaai.study.paths`) and the
+median episode length in control steps. Written as ``report.md``, ``report.csv`` and one figure, ``report.png``.
 """
 
 from __future__ import annotations
@@ -177,6 +177,42 @@ def baseline_boards(folder: Path, keys: set[Key]) -> dict[str, list[dict]]:
     return boards
 
 
+def replay_key(replay: dict) -> Key:
+    if replay.get("arena"):
+        return (None, None, int(replay["seed"]), replay["arena"]["name"])
+    return (int(replay["level"]), int(replay["difficulty"]), int(replay["seed"]), "")
+
+
+def attach_replay_paths(boards: dict[str, list[dict]], folders: list[Path], keys: set[Key]) -> None:
+    """Each policy row's ``path_m``, measured from its replay (``aaai eval --study --save-replays
+    DIR``) as a participant's is: a replay of a policy with a scoreboard here, on a study trial."""
+    from aaai.scoring.replays import load_replay
+    from aaai.study.paths import replay_path
+
+    for folder in folders:
+        if not folder.is_dir():
+            raise ConfigError(
+                f"--policy-replays: {str(folder)!r} is not a folder; allowed: the folder of "
+                "`aaai eval --study STUDY_FILE --save-replays DIR`"
+            )
+        used = 0
+        for path in sorted(folder.glob("*.json")):
+            replay = load_replay(path)
+            who, key = replay.get("policy"), replay_key(replay)
+            if who not in boards or key not in keys:
+                continue
+            rows = [row for row in boards[who] if row_key(row) == key and row.get("path_m") in (None, "")]
+            if rows:
+                rows[0]["path_m"] = replay_path(replay, f"--policy-replays: {str(path)!r}")
+                used += 1
+        if not used:
+            raise ConfigError(
+                f"--policy-replays: {str(folder)!r} holds no replay of a --policy-scores policy on the study's "
+                f"trials (policies: {', '.join(sorted(boards)) or 'none'}); allowed: the replays "
+                "`aaai eval --study STUDY_FILE --save-replays DIR` wrote beside that scoreboard"
+            )
+
+
 def abandoned_attempts(store: Store) -> dict[Key, int]:
     """Battery trials' attempts left unfinished (abandoned or interrupted), by trial."""
     counts: dict[Key, int] = {}
@@ -302,7 +338,12 @@ def write_figure(lines: list[Line], path: Path) -> None:
 
 
 def write_report(
-    study: Study, store: Store, out: str | Path, scores: list[Path] | None = None, baselines: Path | None = None
+    study: Study,
+    store: Store,
+    out: str | Path,
+    scores: list[Path] | None = None,
+    baselines: Path | None = None,
+    replays: list[Path] | None = None,
 ) -> list[Path]:
     """Writes ``out/report.md``, ``out/report.csv`` and ``out/report.png``; their paths."""
     out = Path(out)
@@ -315,6 +356,8 @@ def write_report(
                 f"--policy-scores: the scoreboard of {name!r} holds none of study {study.name!r}'s trials; "
                 "allowed: a scoreboard `aaai eval --study` wrote for this study"
             )
+    if replays:
+        attach_replay_paths(boards, list(replays), keys)
     if baselines is not None:
         boards.update(baseline_boards(Path(baselines), keys))
     lines = lines_for(study, humans, boards, abandoned_attempts(store))
