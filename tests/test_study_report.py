@@ -217,3 +217,31 @@ def test_report_refuses_a_scoreboard_of_other_trials(made, tmp_path):
     )
     assert result.exit_code == 2, result.output
     assert "--policy-scores: the scoreboard of 'levels' holds none of study 'versus''s trials" in result.output
+
+
+def test_report_refuses_policy_replays_it_cannot_use_naming_them(made, tmp_path):
+    folder, study_file, boards, _, _ = made
+    base = [
+        "study",
+        "report",
+        str(study_file),
+        "--policy-scores",
+        str(boards["reference"]),
+        "--out",
+        str(tmp_path / "r"),
+    ]
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    result = CliRunner().invoke(cli, [*base, "--policy-replays", str(empty)])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert f"--policy-replays: {str(empty)!r} holds no replay of a --policy-scores policy" in result.output
+    assert "(policies: reference)" in result.output
+    altered = tmp_path / "altered"
+    altered.mkdir()
+    original = sorted((folder / "reference_replays").glob("*.json"))[0]
+    replay = json.loads(original.read_text())
+    replay["return"] = 0.0  # not what its actions give
+    (altered / original.name).write_text(json.dumps(replay))
+    result = CliRunner().invoke(cli, [*base, "--policy-replays", str(altered)])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert f"--policy-replays: {str(altered / original.name)!r}: it does not run as recorded (return" in result.output
