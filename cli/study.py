@@ -25,11 +25,11 @@ def _study(path: str):
         raise click.UsageError(str(error)) from None
 
 
-def _store(study, writer: bool = True):
+def _store(study, writer: bool = True, serving: bool = False):
     from aaai.study.store import Store
 
     try:
-        store = Store(study.store, study.name, writer=writer)
+        store = Store(study.store, study.name, writer=writer, serving=serving)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     try:
@@ -62,7 +62,9 @@ def study():
     help="The CSV of id,link to write [default: <study>_links.csv beside the study file].",
 )
 def participants(study_file, count, base_url, output):
-    """Add COUNT participants to STUDY_FILE's store, each with an unguessable link, and write id,link."""
+    """Add COUNT participants to STUDY_FILE's store, each with an unguessable link, and write id,link.
+
+    It may run while `aaai study serve` serves the study: the new links work at once."""
     from aaai.files import write_atomic
     from aaai.study.server import link
 
@@ -112,7 +114,7 @@ def serve(study_file, host, port, grace, max_sessions, public_url):
         from aaai.study.server import StudyServer
     except ImportError as error:
         raise click.ClickException(needs_extra(error, "aaai study serve")) from None
-    store = _store(chosen)
+    store = _store(chosen, serving=True)
     try:
         settings = play_settings(chosen, grace_seconds=grace)
         server = StudyServer(chosen, store, settings, host, port, max_sessions, public_url)
@@ -164,15 +166,30 @@ def export_command(study_file, out):
     type=click.Path(file_okay=False),
     help="The baseline table's folder (baselines/): its rows on the study's trials join the report.",
 )
+@click.option(
+    "--policy-replays",
+    "replays",
+    type=click.Path(),
+    multiple=True,
+    help="The replays of `aaai eval --study STUDY_FILE --save-replays DIR`: the policy's paths, measured from them.",
+)
 @click.option("--out", "out", type=Output(file_okay=False), required=True, help="Folder for report.md, .csv, .png.")
-def report_command(study_file, scores, baselines, out):
-    """Humans against agents: pass rates (95 % Wilson intervals) per trial and level, reaction times, steps."""
+def report_command(study_file, scores, baselines, replays, out):
+    """Humans against agents: pass rates (95 % Wilson intervals) per trial and level, attempts left
+    unfinished, reaction times, paths in metres, steps."""
     from aaai.study.report import write_report
 
     chosen = _study(study_file)
     store = _store(chosen, writer=False)
     try:
-        paths = write_report(chosen, store, out, [Path(s) for s in scores], Path(baselines) if baselines else None)
+        paths = write_report(
+            chosen,
+            store,
+            out,
+            [Path(s) for s in scores],
+            Path(baselines) if baselines else None,
+            [Path(r) for r in replays],
+        )
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     except ImportError as error:

@@ -12,7 +12,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from contextlib import ExitStack
+from contextlib import ExitStack, closing
 from pathlib import Path
 
 import pytest
@@ -72,6 +72,9 @@ def test_the_example_study_reads():
         ("show: {map: 1}", "line 11, show.map: got 1; allowed: true or false"),
         ("show: {answers: true}", "line 11, show.answers: unknown key 'answers'; allowed: map, coordinates"),
         ("texts: {consent: ''}", "line 11, texts.consent: got ''; allowed: text of 1 to 5000 characters"),
+        ("store: postgresql+psycopg://me@db.example.org/study", None),
+        ("store: postgresql+psycopg://me:secret@db/x", "line 11, store: a password in the study file's address;"),
+        ("store: mysql://db/x", "line 11, store: got 'mysql://db/x'; allowed: a file name, or postgresql+psycopg://"),
     ],
 )
 def test_a_bad_study_file_is_refused_by_line_naming_the_key_value_and_what_is_allowed(tmp_path, change, expected):
@@ -135,6 +138,15 @@ def test_the_commands_refuse_a_bad_study_file_or_a_missing_store_with_one_messag
     assert result.exit_code == 2 and "its practice, battery or order changed since" in result.output
 
 
+def test_a_postgresql_store_that_cannot_be_reached_is_one_message(tmp_path):
+    pytest.importorskip("psycopg", reason="the PostgreSQL store needs psycopg (the play extra)")
+    path = write_study(tmp_path, TINY + "store: postgresql+psycopg://aaai@127.0.0.1:1/nothing\n")
+    assert load_study(path).store == "postgresql+psycopg://aaai@127.0.0.1:1/nothing"
+    result = CliRunner().invoke(cli, ["study", "participants", str(path), "-n", "1"])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert "study store 'postgresql+psycopg://aaai@127.0.0.1:1/nothing': connection failed" in result.output
+
+
 def test_feedback_and_reaction_time_in_plain_terms():
     from aaai.study.participant import feedback_of, first_move
 
@@ -175,11 +187,11 @@ def test_counterbalanced_order_puts_every_trial_in_every_position_equally_often(
 # --- the store ----------------------------------------------------------------------------------
 def test_the_store_is_wal_with_one_writer_and_gives_each_participant_a_token_and_order(tmp_path):
     study = load_study(write_study(tmp_path, TINY.replace("order: fixed", "order: random")))
-    store = Store(study.store, study.name)
+    store = Store(study.store, study.name, serving=True)
     try:
         assert store.journal_mode() == "wal"
-        with pytest.raises(InUse, match="is being written by process"):
-            Store(study.store, study.name)
+        with pytest.raises(InUse, match=f"is being served by process {os.getpid()} .*one server per store"):
+            Store(study.store, study.name, serving=True)
         added = store.add_participants(study, 3)
         assert [p["id"] for p in added] == ["P001", "P002", "P003"]
         assert len({p["token"] for p in added}) == 3 and all(len(p["token"]) >= 24 for p in added)
@@ -193,6 +205,33 @@ def test_the_store_is_wal_with_one_writer_and_gives_each_participant_a_token_and
         store.close()
     with pytest.raises(ConfigError, match="holds study 'tiny', not 'other'"):
         Store(study.store, "other", writer=False)
+
+
+def test_a_write_waits_for_another_writers_transaction_and_is_refused_naming_it_if_it_never_ends(tmp_path, monkeypatch):
+    import threading
+
+    from aaai.files import hold
+    from aaai.study import store as store_module
+
+    study = load_study(write_study(tmp_path))
+    store = Store(study.store, study.name)
+    try:
+        [added] = store.add_participants(study, 1)
+        other = hold(store.write_lock_path, lambda pid: "held")  # another process's write transaction
+        writing = threading.Thread(target=store.consent, args=(added["id"],))
+        writing.start()
+        time.sleep(0.3)
+        assert writing.is_alive() and store.participants()[0]["status"] == "new"  # it waits its turn
+        other.release()
+        writing.join(5)
+        assert store.participants()[0]["status"] == "consented"  # then writes
+        monkeypatch.setattr(store_module, "WRITE_WAIT", 0.2)
+        with hold(store.write_lock_path, lambda pid: "held"):
+            with pytest.raises(InUse, match=f"is being written by process {os.getpid()} and was for over 0.2 s"):
+                store.finish(added["id"])
+        assert store.participants()[0]["status"] == "consented"
+    finally:
+        store.close()
 
 
 # --- serving: a WebSocket client, and the server killed mid-trial ----------------------------------
@@ -274,6 +313,11 @@ def test_a_server_killed_mid_trial_loses_no_finished_trial_and_the_participant_r
             time.sleep(1.05)  # keys start a trial a second after the last one ended (a held key is no start)
             page.send({"type": "key", "key": "ArrowUp", "down": True})  # the first battery trial starts
             page.pump(lambda s: s["phase"] == "running")
+            reader = stack.enter_context(closing(Store(load_study(path).store, "tiny", writer=False)))
+            end = time.monotonic() + 5
+            while len(reader.attempts("P001")) < 2:  # its attempt has begun
+                assert time.monotonic() < end, reader.attempts("P001")
+                time.sleep(0.02)
             os.kill(process.pid, signal.SIGKILL)  # mid-trial
             process.wait(10)
     finally:
@@ -284,9 +328,12 @@ def test_a_server_killed_mid_trial_loses_no_finished_trial_and_the_participant_r
     try:
         trials = store.trials("P001")
         assert trials[0]["finished"] and json.loads(trials[0]["row"])["steps"] == 20
+        assert trials[0]["path_m"] is not None
         assert json.loads(trials[0]["replay"])["steps"] == 20
         assert trials[1]["started"] and trials[1]["finished"] is None  # the trial killed mid-way
         assert trials[2]["started"] is None
+        attempts = store.attempts("P001")
+        assert [(a["position"], a["state"]) for a in attempts] == [(1, "finished"), (2, "playing")]
     finally:
         store.close()
     process, port = serve_in_subprocess(path)  # served again: the link resumes at the unfinished trial
@@ -297,6 +344,24 @@ def test_a_server_killed_mid_trial_loses_no_finished_trial_and_the_participant_r
             page.send({"type": "start"})
             status = page.pump(lambda s: s["phase"] == "ready")
             assert status["kind"] == "battery" and status["progress"] == {"done": 0, "total": 2}
+            # participants added while it serves: their links work at once, without a restart
+            result = CliRunner().invoke(cli, ["study", "participants", str(path), "-n", "1"])
+            assert result.exit_code == 0, result.output
+            rows = list(csv.DictReader(open(tmp_path / "study_links.csv")))
+            assert [row["id"] for row in rows] == ["P001", "P002"] and rows[0]["link"].endswith(token)
+            newcomer = Client(stack, port, rows[1]["link"].split("?p=")[1])
+            assert newcomer.joined["participant"] == "P002" and not newcomer.joined["consented"]
+            newcomer.send({"type": "consent"})  # the server writes beside the command that added it
+            newcomer.next("consented")
+            with pytest.raises(InUse, match=f"is being served by process {process.pid} "):
+                Store(study.store, study.name, serving=True)  # a second server of the store
+            reader = Store(study.store, study.name, writer=False)
+            try:  # the attempt its killed predecessor left playing: interrupted, at its last saved progress
+                killed = reader.attempts("P001")[1]
+                assert (killed["position"], killed["state"]) == (2, "interrupted")
+                assert killed["reason"].startswith("the server stopped") and killed["ended"] == killed["saved"]
+            finally:
+                reader.close()
     finally:
         process.send_signal(signal.SIGINT)
         try:
@@ -412,6 +477,7 @@ def test_two_participants_play_a_study_at_once_in_a_browser_and_their_rows_and_r
     ]
     assert [(r["difficulty"], r["seed"]) for r in rows[:3]] == [("0", "7"), ("0", "1"), ("1", "2")]
     assert all(r["steps"] == "20" and r["reaction_time"] == "" for r in rows)  # nobody moved: no reaction time
+    assert all(0 <= float(r["path_m"]) < 0.5 for r in rows)  # nor walked: the trunk only settled
     replays = sorted((tmp_path / "out" / "replays").iterdir())
     assert len(replays) == 6 and replays[0].name.startswith("P001_001_")
     replay = load_replay(replays[1])

@@ -36,6 +36,9 @@ PEOPLE = {
     "P002": [("succeeded", 1.1), ("failed", None), ("failed", 2.0)],
 }
 
+# Each participant's path (metres the trunk travelled) per battery trial.
+PATHS = {"P001": [4.0, 6.5, 3.0], "P002": [12.25, 20.0, 9.0]}
+
 
 def human_row(trial, outcome: str, steps: int) -> dict:
     return {
@@ -71,7 +74,14 @@ def simulate(study) -> None:
                 store.finish_trial(pid, trial["position"], human_row(trial, "failed", 50), {}, 0.1)
             for number, (trial, (outcome, reaction)) in enumerate(zip(battery, results)):
                 store.start_trial(pid, trial["position"])
-                store.finish_trial(pid, trial["position"], human_row(trial, outcome, 100 + 10 * number), {}, reaction)
+                if (pid, number) in (("P002", 1), ("P002", 2)):  # two trials of P002 were left once first
+                    attempt = store.begin_attempt(pid, trial["position"])
+                    store.save_attempt(
+                        pid, trial["position"], attempt, {"steps": 40}, "abandoned", "the tab was closed"
+                    )
+                    store.begin_attempt(pid, trial["position"])  # the attempt that finishes
+                row, path = human_row(trial, outcome, 100 + 10 * number), PATHS[pid][number]
+                store.finish_trial(pid, trial["position"], row, {}, reaction, path)
             store.finish(pid)
     finally:
         store.close()
@@ -87,8 +97,9 @@ def made(tmp_path_factory):
     boards = {}
     for policy in ("reference", "random"):
         boards[policy] = folder / f"{policy}.csv"
+        replays = ["--save-replays", str(folder / "reference_replays")] if policy == "reference" else []
         result = runner.invoke(
-            cli, ["eval", "--study", str(study_file), "--policy", policy, "--out", str(boards[policy])]
+            cli, ["eval", "--study", str(study_file), "--policy", policy, "--out", str(boards[policy]), *replays]
         )
         assert result.exit_code == 0, result.output
     # The baseline table: two committed tables, and one with no row on the study's trials (left out).
@@ -104,6 +115,7 @@ def made(tmp_path_factory):
     arguments = ["study", "report", str(study_file), "--out", str(out), "--baselines", str(baselines)]
     for board in boards.values():
         arguments += ["--policy-scores", str(board)]
+    arguments += ["--policy-replays", str(folder / "reference_replays")]
     result = runner.invoke(cli, arguments)
     assert result.exit_code == 0, result.output
     with open(out / "report.csv", newline="") as handle:
@@ -132,6 +144,21 @@ def test_the_report_counts_each_players_trials_with_wilson_intervals(made):
     assert rows[("trial", "L0 d0 s1", "humans")]["high"] == "1"
     assert float(humans["reaction_median"]) == pytest.approx(0.9)  # of 0.5, 0.7, 0.9, 1.1, 2.0
     assert float(rows[("trial", "L0 d0 s1", "humans")]["steps_median"]) == 100
+    # paths in metres: of 3, 4, 6.5, 9, 12.25, 20 the median is 7.75, the quartiles 4.625 and 11.44
+    assert float(humans["path_median_m"]) == pytest.approx(7.75)
+    assert (humans["path_q1_m"], humans["path_q3_m"]) == ("4.625", "11.44")
+    assert rows[("trial", "L0 d1 s2", "humans")]["path_median_m"] == "13.25"
+    # a policy's paths, from its replays (random's were not saved: no paths)
+    assert 2.0 < float(rows[("level", "L0", "reference")]["path_median_m"]) < 20.0
+    assert (
+        rows[("trial", "L0 d0 s1", "reference")]["path_q1_m"]
+        == rows[("trial", "L0 d0 s1", "reference")]["path_median_m"]
+    )
+    assert rows[("level", "L0", "random")]["path_median_m"] == ""
+    # attempts left unfinished, and played again, are counted for the humans
+    assert humans["abandoned"] == "2" and rows[("trial", "L0 d1 s2", "humans")]["abandoned"] == "1"
+    assert rows[("trial", "L0 d0 s1", "humans")]["abandoned"] == "0"
+    assert rows[("level", "L0", "reference")]["abandoned"] == ""
     for policy in ("reference", "random"):
         assert rows[("level", "L0", policy)]["episodes"] == "3"
         assert rows[("trial", "L0 d0 s1", policy)]["episodes"] == "1"
@@ -147,8 +174,10 @@ def test_the_report_writes_its_table_and_a_png_figure(made):
     _, _, _, out, _ = made
     text = (out / "report.md").read_text()
     low, high = wilson(4, 6)
-    assert f"| L0 | humans | 67% | {100 * low:.0f}-{100 * high:.0f}% | 4/6 | 0.90 (0.70-1.10) | 110 |" in text
-    assert "2 participants" in text and "| L0 | baseline:reference | 100% | 21-100% | 1/1 | - | 93 |" in text
+    interval = f"{100 * low:.0f}-{100 * high:.0f}%"
+    assert f"| L0 | humans | 67% | {interval} | 4/6 | 2 | 0.90 (0.70-1.10) | 7.8 (4.6-11.4) | 110 |" in text
+    assert "2 participants" in text and "| L0 | baseline:reference | 100% | 21-100% | 1/1 | - | - | - | 93 |" in text
+    assert "path the body's trunk travelled in metres (1 world unit = 1 m)" in text
     assert (out / "report.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
@@ -188,3 +217,31 @@ def test_report_refuses_a_scoreboard_of_other_trials(made, tmp_path):
     )
     assert result.exit_code == 2, result.output
     assert "--policy-scores: the scoreboard of 'levels' holds none of study 'versus''s trials" in result.output
+
+
+def test_report_refuses_policy_replays_it_cannot_use_naming_them(made, tmp_path):
+    folder, study_file, boards, _, _ = made
+    base = [
+        "study",
+        "report",
+        str(study_file),
+        "--policy-scores",
+        str(boards["reference"]),
+        "--out",
+        str(tmp_path / "r"),
+    ]
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    result = CliRunner().invoke(cli, [*base, "--policy-replays", str(empty)])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert f"--policy-replays: {str(empty)!r} holds no replay of a --policy-scores policy" in result.output
+    assert "(policies: reference)" in result.output
+    altered = tmp_path / "altered"
+    altered.mkdir()
+    original = sorted((folder / "reference_replays").glob("*.json"))[0]
+    replay = json.loads(original.read_text())
+    replay["return"] = 0.0  # not what its actions give
+    (altered / original.name).write_text(json.dumps(replay))
+    result = CliRunner().invoke(cli, [*base, "--policy-replays", str(altered)])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert f"--policy-replays: {str(altered / original.name)!r}: it does not run as recorded (return" in result.output

@@ -4,7 +4,9 @@
 clock, pause on a lost focus or a dropped tab) whose battery is the participant's unfinished
 trials from the store, in their order. Each trial is one episode, recorded as a replay; its row
 and replay are committed to the store before the next trial starts, so a killed server loses no
-finished trial and the participant resumes at the unfinished one. What the page is told
+finished trial and the participant resumes at the unfinished one. Each attempt at a trial (from its
+first step) is kept in the store with its progress; one left unfinished is recorded as abandoned
+(with why) and the trial is played again. What the page is told
 (:meth:`StudySession.participant_status`) leaves out the map, coordinates, seed, returns and file
 names unless the study shows them.
 """
@@ -18,9 +20,12 @@ from aaai.config import ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
 from aaai.scoring.episodes import run_episode
 from aaai.scoring.replays import Recorder, with_arena
+from aaai.study.paths import Odometer
 from aaai.study.store import Store, trial_of
 from aaai.study.studyfile import Study
 from aaai.tools.play.session import Abandoned, HumanPolicy, PlaySettings, Session
+
+PROGRESS_STEPS = 25  # an attempt's progress is saved every 25 control steps (0.5 s of play)
 
 FEEDBACK = {
     "found": "You found the food!",
@@ -86,6 +91,9 @@ class StudySession(Session):
         self.battery_done = 0
         self.feedback = ""
         self.show_break = False
+        self.control_dt = settings.config.physics.control_dt
+        self.odometer = Odometer(self.control_dt)
+        self.attempt: int | None = None  # the number of the attempt in play (its clock started), if any
 
     def _play(self) -> None:
         try:
@@ -99,13 +107,16 @@ class StudySession(Session):
             self.store.finish(self.pid)
             self._finish(self.study.texts["completion"])
         except Abandoned as left:
+            self._end_attempt(str(left))
             with self.cond:
                 self._set_phase("abandoned", str(left))
                 self._changed()
         except ConfigError as error:
+            self._end_attempt(f"the server failed: {error}")
             self._fail(str(error))
         except Exception as error:  # noqa: BLE001 - this participant's page is told; the others play on
             traceback.print_exc()
+            self._end_attempt(f"the server failed: {type(error).__name__}: {error}")
             self._fail(f"{type(error).__name__}: {error}")
 
     @staticmethod
@@ -123,7 +134,9 @@ class StudySession(Session):
                 row = run_episode(env, recorder, level or 0, difficulty or 0, seed, arena)
                 replay = with_arena(recorder.last or {}, arena)
                 reaction = first_move(recorder.actions, env.control_dt)
-                self.store.finish_trial(self.pid, trial["position"], row, replay, reaction)  # durable from here
+                path, seconds = self.odometer.metres, round(row["steps"] * env.control_dt, 3)
+                self.store.finish_trial(self.pid, trial["position"], row, replay, reaction, path, seconds)  # durable
+                self.attempt = None
                 self.planned.pop(0)
                 self.battery_done += trial["kind"] == "battery"
                 self.feedback = feedback_of(row, replay.get("end"))
@@ -139,10 +152,54 @@ class StudySession(Session):
             trial["kind"] == "battery" and breaks and self.battery_done and self.battery_done % breaks == 0
         )
         first_battery = trial["kind"] == "battery" and self.battery_done == 0 and bool(self.study.practice)
+        self.odometer.reset()
         super()._episode_reset(env)
         with self.cond:
             self.episode.update(kind=trial["kind"], position=trial["position"], first_battery=first_battery)
             self._changed()
+
+    def _next_action(self, env, observation):
+        """``Session``'s (the keys' command when the clock says so); the trial's attempt begins with
+        its first step, and its progress is saved every PROGRESS_STEPS steps."""
+        action = super()._next_action(env, observation)
+        position = self.planned[0]["position"]
+        if self.attempt is None:
+            self.attempt = self.store.begin_attempt(self.pid, position)
+        elif env.steps % PROGRESS_STEPS == 0:
+            self.store.save_attempt(self.pid, position, self.attempt, self._progress())
+        return action
+
+    def _progress(self) -> dict:
+        """How far the attempt in play got: steps, seconds, food eaten and path (m)."""
+        with self.cond:
+            steps, food = int(self.live.get("steps", 0)), int(self.live.get("food_eaten", 0))
+        return {
+            "steps": steps,
+            "seconds": round(steps * self.control_dt, 3),
+            "food_eaten": food,
+            "path_m": self.odometer.metres,
+        }
+
+    def _end_attempt(self, reason: str) -> None:
+        """The attempt in play (if its clock started) recorded as abandoned, with how far it got and why."""
+        if self.attempt is None or not self.planned:
+            return
+        attempt, self.attempt = self.attempt, None
+        try:
+            self.store.save_attempt(
+                self.pid, self.planned[0]["position"], attempt, self._progress(), "abandoned", reason
+            )
+        except Exception:  # noqa: BLE001 - the store failed: it stays playing, interrupted at the next start
+            traceback.print_exc()
+
+    def _update(self, env, observation, force: bool = False) -> None:
+        """The page's figures and frame (``Session``'s), and the trunk's position on the trial's path."""
+        position, _ = env.body.head_pose()
+        if force:  # the trial's end
+            self.odometer.end(float(position[0]), float(position[1]))
+        else:
+            self.odometer.at(env.steps, float(position[0]), float(position[1]))
+        super()._update(env, observation, force)
 
     def participant_status(self) -> dict:
         """What the participant's page is told: the phase, the progress, the feedback; the map's

@@ -4,8 +4,9 @@ Participants' finished battery trials (read from the study's store) beside each 
 the same trials: scoreboards written by ``aaai eval --study``, and the committed baseline table's
 rows (``baselines/*.csv``) for the same (level, difficulty, seed). Per trial and per level: the
 pass rate (passed or succeeded) with its 95 % Wilson interval, and for participants the reaction
-time to the first move (median and quartiles); for everyone the median path length in control
-steps. Written as ``report.md``, ``report.csv`` and one figure, ``report.png``.
+time to the first move (median and quartiles), the path the trunk travelled in metres (median and
+quartiles; a policy's from its replays, measured the same way: :mod:`aaai.study.paths`) and the
+median episode length in control steps. Written as ``report.md``, ``report.csv`` and one figure, ``report.png``.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from aaai.errors import ConfigError
 from aaai.files import atomic_path, write_atomic
 from aaai.levels import get_level
 from aaai.scoring.evaluation import record_path, scored_episodes
-from aaai.study.store import Store
+from aaai.study.store import METRES_PER_UNIT, UNFINISHED, Store, trial_of
 from aaai.study.studyfile import Study, Trial
 from aaai.tools.baselines import passed, wilson
 
@@ -38,6 +39,10 @@ CSV_COLUMNS = [
     "reaction_median",
     "reaction_q1",
     "reaction_q3",
+    "abandoned",
+    "path_median_m",
+    "path_q1_m",
+    "path_q3_m",
     "steps_median",
 ]
 Key = tuple  # (level, difficulty, seed, arena name or "")
@@ -71,10 +76,12 @@ class Line:
     passes: int
     reactions: list[float]
     steps: list[int]
+    paths: list[float]
+    abandoned: int | None = None  # attempts left unfinished (humans only)
 
     def csv_row(self) -> dict:
         low, high = wilson(self.passes, self.episodes) if self.episodes else (None, None)
-        quartiles = _quartiles(self.reactions)
+        quartiles, paths = _quartiles(self.reactions), _quartiles(self.paths)
         return {
             "scope": self.scope,
             "name": self.name,
@@ -87,6 +94,10 @@ class Line:
             "reaction_median": _num(quartiles[1]),
             "reaction_q1": _num(quartiles[0]),
             "reaction_q3": _num(quartiles[2]),
+            "abandoned": "" if self.abandoned is None else self.abandoned,
+            "path_median_m": _num(paths[1]),
+            "path_q1_m": _num(paths[0]),
+            "path_q3_m": _num(paths[2]),
             "steps_median": _num(statistics.median(self.steps) if self.steps else None),
         }
 
@@ -104,14 +115,28 @@ def _quartiles(values: list[float]) -> tuple[float | None, float | None, float |
     return q1, median, q3
 
 
+def _spread(values: list[float], digits: int) -> str:
+    """'median (q1-q3)', or '-' with no values."""
+    q1, median, q3 = _quartiles(values)
+    if median is None or q1 is None or q3 is None:
+        return "-"
+    return f"{median:.{digits}f} ({q1:.{digits}f}-{q3:.{digits}f})"
+
+
 def human_rows(store: Store) -> list[dict]:
-    """The participants' finished battery trials: each its scoreboard row, ``reaction_time`` and ``participant``."""
+    """The participants' finished battery trials: each its scoreboard row, ``reaction_time``,
+    ``path_m`` and ``participant``."""
     rows = []
     for trial in store.trials():
         if trial["kind"] != "battery" or trial["finished"] is None or not trial["row"]:
             continue
         rows.append(
-            {**json.loads(trial["row"]), "reaction_time": trial["reaction_time"], "participant": trial["participant"]}
+            {
+                **json.loads(trial["row"]),
+                "reaction_time": trial["reaction_time"],
+                "path_m": trial.get("path_m"),
+                "participant": trial["participant"],
+            }
         )
     return rows
 
@@ -152,7 +177,55 @@ def baseline_boards(folder: Path, keys: set[Key]) -> dict[str, list[dict]]:
     return boards
 
 
-def lines_for(study: Study, humans: list[dict], boards: dict[str, list[dict]]) -> list[Line]:
+def replay_key(replay: dict) -> Key:
+    if replay.get("arena"):
+        return (None, None, int(replay["seed"]), replay["arena"]["name"])
+    return (int(replay["level"]), int(replay["difficulty"]), int(replay["seed"]), "")
+
+
+def attach_replay_paths(boards: dict[str, list[dict]], folders: list[Path], keys: set[Key]) -> None:
+    """Each policy row's ``path_m``, measured from its replay (``aaai eval --study --save-replays
+    DIR``) as a participant's is: a replay of a policy with a scoreboard here, on a study trial."""
+    from aaai.scoring.replays import load_replay
+    from aaai.study.paths import replay_path
+
+    for folder in folders:
+        if not folder.is_dir():
+            raise ConfigError(
+                f"--policy-replays: {str(folder)!r} is not a folder; allowed: the folder of "
+                "`aaai eval --study STUDY_FILE --save-replays DIR`"
+            )
+        used = 0
+        for path in sorted(folder.glob("*.json")):
+            replay = load_replay(path)
+            who, key = replay.get("policy"), replay_key(replay)
+            if who not in boards or key not in keys:
+                continue
+            rows = [row for row in boards[who] if row_key(row) == key and row.get("path_m") in (None, "")]
+            if rows:
+                rows[0]["path_m"] = replay_path(replay, f"--policy-replays: {str(path)!r}")
+                used += 1
+        if not used:
+            raise ConfigError(
+                f"--policy-replays: {str(folder)!r} holds no replay of a --policy-scores policy on the study's "
+                f"trials (policies: {', '.join(sorted(boards)) or 'none'}); allowed: the replays "
+                "`aaai eval --study STUDY_FILE --save-replays DIR` wrote beside that scoreboard"
+            )
+
+
+def abandoned_attempts(store: Store) -> dict[Key, int]:
+    """Battery trials' attempts left unfinished (abandoned or interrupted), by trial."""
+    counts: dict[Key, int] = {}
+    for attempt in store.attempts():
+        if attempt["kind"] == "battery" and attempt["state"] in UNFINISHED:
+            key = trial_key(trial_of(attempt))
+            counts[key] = counts.get(key, 0) + 1
+    return counts
+
+
+def lines_for(
+    study: Study, humans: list[dict], boards: dict[str, list[dict]], abandoned: dict[Key, int] | None = None
+) -> list[Line]:
     """Per trial (in the battery's order), then per level: a line for the humans and one per policy."""
     players = {HUMANS: humans, **boards}
     by_key: dict[str, dict[Key, list[dict]]] = {}
@@ -180,6 +253,8 @@ def lines_for(study: Study, humans: list[dict], boards: dict[str, list[dict]]) -
                     sum(map(passed, rows)),
                     [float(r["reaction_time"]) for r in rows if r.get("reaction_time") not in (None, "")],
                     [int(r["steps"]) for r in rows],
+                    [float(r["path_m"]) for r in rows if r.get("path_m") not in (None, "")],
+                    sum((abandoned or {}).get(key, 0) for key in dict.fromkeys(keys)) if who == HUMANS else None,
                 )
             )
     return lines
@@ -200,25 +275,26 @@ def report_markdown(study: Study, lines: list[Line], participants: int) -> str:
     parts = [
         f"# {study.name}: humans against agents\n",
         f"{participants} participant{'s' * (participants != 1)}; pass rate = passed or succeeded, with its "
-        "95 % Wilson interval and passed/episodes; reaction time to the first move in seconds, median "
-        "(quartiles); path length in control steps (median).\n",
+        "95 % Wilson interval and passed/episodes; abandoned: attempts left unfinished (the tab closed, "
+        "the server stopped), each played again; reaction time to the first move in seconds and the "
+        f"path the body's trunk travelled in metres (1 world unit = {METRES_PER_UNIT:g} m), median (quartiles); "
+        "episode length in control steps (median).\n",
     ]
     for scope, title in (("trial", "Per trial"), ("level", "Per level")):
         table = [
             f"## {title}\n",
-            f"| {scope} | player | pass rate | 95 % interval | passed | reaction s | steps |",
-            "|---|---|---:|---:|---:|---:|---:|",
+            f"| {scope} | player | pass rate | 95 % interval | passed | abandoned | reaction s | path m | steps |",
+            "|---|---|---:|---:|---:|---:|---:|---:|---:|",
         ]
         for line in lines:
             if line.scope != scope or not line.episodes:
                 continue
             low, high = wilson(line.passes, line.episodes)
-            q1, median, q3 = _quartiles(line.reactions)
-            reaction = "-" if median is None or q1 is None or q3 is None else f"{median:.2f} ({q1:.2f}-{q3:.2f})"
             table.append(
                 f"| {line.name} | {line.who} | {100 * line.passes / line.episodes:.0f}% | "
-                f"{100 * low:.0f}-{100 * high:.0f}% | {line.passes}/{line.episodes} | {reaction} | "
-                f"{statistics.median(line.steps):g} |"
+                f"{100 * low:.0f}-{100 * high:.0f}% | {line.passes}/{line.episodes} | "
+                f"{'-' if line.abandoned is None else line.abandoned} | {_spread(line.reactions, 2)} | "
+                f"{_spread(line.paths, 1)} | {statistics.median(line.steps):g} |"
             )
         parts.append("\n".join(table) + "\n")
     return "\n".join(parts)
@@ -262,7 +338,12 @@ def write_figure(lines: list[Line], path: Path) -> None:
 
 
 def write_report(
-    study: Study, store: Store, out: str | Path, scores: list[Path] | None = None, baselines: Path | None = None
+    study: Study,
+    store: Store,
+    out: str | Path,
+    scores: list[Path] | None = None,
+    baselines: Path | None = None,
+    replays: list[Path] | None = None,
 ) -> list[Path]:
     """Writes ``out/report.md``, ``out/report.csv`` and ``out/report.png``; their paths."""
     out = Path(out)
@@ -275,9 +356,11 @@ def write_report(
                 f"--policy-scores: the scoreboard of {name!r} holds none of study {study.name!r}'s trials; "
                 "allowed: a scoreboard `aaai eval --study` wrote for this study"
             )
+    if replays:
+        attach_replay_paths(boards, list(replays), keys)
     if baselines is not None:
         boards.update(baseline_boards(Path(baselines), keys))
-    lines = lines_for(study, humans, boards)
+    lines = lines_for(study, humans, boards, abandoned_attempts(store))
     participants = len({row["participant"] for row in humans})
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "report.md", out / "report.csv", out / "report.png"]

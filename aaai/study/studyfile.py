@@ -37,6 +37,7 @@ MAX_TRIALS = 1000
 MAX_TEXT_CHARS = 5000
 MAX_TIME_LIMIT = 600.0
 STUDY_NAME = r"[A-Za-z0-9_-]{1,60}"
+SERVER_SCHEMES = ("postgresql", "postgresql+psycopg")  # the store on a PostgreSQL server (psycopg 3)
 
 DEFAULT_TEXTS = {
     "consent": "This is a short study about finding food in a small 3D world. It takes about ten minutes. "
@@ -78,7 +79,7 @@ class Study:
     texts: dict[str, str] = field(default_factory=lambda: dict(DEFAULT_TEXTS))
     show: dict[str, bool] = field(default_factory=lambda: dict.fromkeys(SHOW_KEYS, False))
     camera_resolution: int = 84
-    store: Path = Path("study.sqlite")
+    store: Path | str = Path("study.sqlite")  # a SQLite file, or a PostgreSQL server's address
 
 
 def _allowed_int(value: Any) -> bool:
@@ -144,6 +145,30 @@ def _shown(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+def _server_url(source: Source, url: str) -> str:
+    """``store:`` a PostgreSQL address, checked: its scheme, a host and a database, and no password
+    (a study file is shared: the password comes from PGPASSWORD or ~/.pgpass)."""
+    from urllib.parse import urlsplit
+
+    try:
+        parts = urlsplit(url)
+        parts.port  # noqa: B018 - a port that is not a number raises
+    except ValueError:
+        parts = None
+    if parts is None or parts.scheme not in SERVER_SCHEMES or not parts.hostname or parts.path.strip("/") == "":
+        raise source.error(
+            ("store",),
+            f"got {_shown(url)}; allowed: a file name, or postgresql+psycopg://USER@HOST[:PORT]/DATABASE",
+        )
+    if parts.password is not None:
+        raise source.error(
+            ("store",),
+            "a password in the study file's address; allowed: the address without it (the password comes "
+            "from the PGPASSWORD variable or ~/.pgpass)",
+        )
+    return url
+
+
 def load_study(path: str | Path) -> Study:
     """The study file at ``path``, checked; ConfigError names the line, the key, the value and what is allowed."""
     import re
@@ -204,8 +229,16 @@ def load_study(path: str | Path) -> Study:
     if not _allowed_int(resolution) or not 8 <= resolution <= 512:
         raise source.error(("camera_resolution",), f"got {_shown(resolution)}; allowed: a whole number 8 to 512")
     store = data.get("store", f"{path.stem}.sqlite")
-    if not isinstance(store, str) or not store or store.endswith(("/", "\\")):
-        raise source.error(("store",), f"got {_shown(store)}; allowed: a file name (relative to the study file)")
+    if isinstance(store, str) and "://" in store:
+        store_at: Path | str = _server_url(source, store)
+    elif not isinstance(store, str) or not store or store.endswith(("/", "\\")):
+        raise source.error(
+            ("store",),
+            f"got {_shown(store)}; allowed: a file name (relative to the study file) or a "
+            "postgresql+psycopg://USER@HOST[:PORT]/DATABASE address",
+        )
+    else:
+        store_at = base / store
     return Study(
         path=path,
         name=name,
@@ -217,7 +250,7 @@ def load_study(path: str | Path) -> Study:
         texts=texts,
         show=show,
         camera_resolution=resolution,
-        store=base / store,
+        store=store_at,
     )
 
 
