@@ -71,7 +71,13 @@ play-screenshot: install-all $(CHROMIUM_BINARIES)
 
 # The long checks (docs: Development, Long checks), about 25 minutes on 2 idle cores; CI runs them
 # after make test. The 20 slowest tests are listed at the end.
-test-long: install-all
+# PostgreSQL's programs, for the long test of a study kept on a PostgreSQL server (tests/test_study_postgres.py).
+POSTGRES_PROGRAMS := /usr/lib/postgresql
+$(POSTGRES_PROGRAMS):
+	DEBIAN_FRONTEND=noninteractive apt-get update -qq >/dev/null
+	DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends postgresql >/dev/null
+
+test-long: install-all $(POSTGRES_PROGRAMS)
 	$(BIN)/python -m pytest -q -m long --durations=20 $(PYTEST_ARGS)
 
 # Every command of the documentation, run page by page on a fresh copy (tests/test_docs_commands.py;
