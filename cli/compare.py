@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import click
 
 from aaai.config import ConfigError
@@ -18,15 +16,16 @@ from .options import Output
 def compare_command(base, other, output):
     """Compare the scoreboard OTHER with BASE (e.g. a fine-tuned student with baselines/student.csv)
     on the episodes both hold: per level, each pass rate with its 95 % Wilson interval, the difference
-    with its 95 % interval (Newcombe) and whether OTHER is better, worse or not shown to differ."""
+    with its 95 % interval (Newcombe) and whether OTHER is better, worse or not shown to differ. Each
+    is named by its file (a run's scoreboard_*.csv by its run folder)."""
     from aaai.files import write_atomic
-    from aaai.tools.compare import compare, comparison_markdown, read_scoreboard
+    from aaai.tools.compare import board_name, compare, comparison_markdown, read_scoreboard
 
     try:
         lines = compare(read_scoreboard(base), read_scoreboard(other))
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
-    table = comparison_markdown(lines, Path(base).stem, Path(other).stem)
+    table = comparison_markdown(lines, board_name(base), board_name(other))
     click.echo(table, nl=False)
     if output:
         write_atomic(output, table)

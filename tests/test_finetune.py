@@ -134,3 +134,31 @@ def test_the_anchor_needs_a_policy_to_start_from():
         check_finetune(load_config(train={"value_warmup_steps": 2048}))
     check_finetune(load_config(train={"bc_coef": 0.5, "init_from": "runs/student"}))
     assert anchor_from_config(load_config(), None) is None  # ordinary PPO: no callback
+    anchor = anchor_from_config(load_config("configs/student_ppo.yaml"), {})
+    assert anchor is not None and (anchor.warmup_steps, anchor.bc_coef, anchor.decay_steps) == (20480, 1.0, 100000)
+
+
+@pytest.mark.long  # RecurrentPPO's first update takes about 5 s
+def test_the_warmup_fits_a_recurrent_policy_s_value_only_and_the_anchor_refuses_it():
+    contrib = pytest.importorskip("sb3_contrib")
+    model = contrib.RecurrentPPO(
+        "MultiInputLstmPolicy",
+        DummyVecEnv([Target]),
+        n_steps=16,
+        batch_size=16,
+        n_epochs=1,
+        policy_kwargs={"net_arch": [16, 16], "lstm_hidden_size": 4},
+        seed=0,
+        device="cpu",
+    )
+    before = {k: v.clone() for k, v in model.policy.state_dict().items()}
+    model.learn(16, callback=StudentAnchor(None, warmup_steps=16, warmup_epochs=2))
+    changed = {k.split(".")[0] for k, v in model.policy.state_dict().items() if not torch.equal(v, before[k])}
+    assert changed == {"lstm_critic", "mlp_extractor", "value_net"}
+    assert all(
+        torch.equal(v, before[k])
+        for k, v in model.policy.state_dict().items()
+        if "value" not in k and "critic" not in k
+    )
+    with pytest.raises(ConfigError, match="not built for recurrent policies yet"):
+        model.learn(16, callback=StudentAnchor(before, bc_coef=1.0))

@@ -80,6 +80,12 @@ def test_the_command_prints_and_writes_the_table_and_refuses_what_is_not_a_score
         "| **all levels** | 120 | 60% (51-68) | 61% (52-69) | +1 (-11 to +13) | no difference shown |" in result.output
     )
     assert out.read_text() in result.output
+    (tmp_path / "tuned").mkdir()
+    write(tmp_path / "tuned" / "scoreboard_reserved.csv", board(OTHER))
+    result = CliRunner().invoke(
+        cli, ["compare", str(tmp_path / "student.csv"), str(tmp_path / "tuned" / "scoreboard_reserved.csv")]
+    )
+    assert "| level | episodes | student | tuned |" in result.output  # a run's scoreboard named by its run
     (tmp_path / "notes.csv").write_text("name,score\na,1\n")
     result = CliRunner().invoke(cli, ["compare", str(tmp_path / "student.csv"), str(tmp_path / "notes.csv")])
     assert result.exit_code == 2

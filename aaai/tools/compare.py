@@ -107,6 +107,13 @@ def read_scoreboard(path: str | Path) -> list[dict]:
     return rows
 
 
+def board_name(path: str | Path) -> str:
+    """A scoreboard's name in the table: its file's name, or for a run's ``scoreboard_*.csv`` its run
+    folder's (``runs/student_ppo/scoreboard_reserved.csv``: student_ppo)."""
+    path = Path(path)
+    return path.parent.name if path.stem.startswith("scoreboard") and path.parent.name else path.stem
+
+
 def _key(row: dict) -> tuple[int, int, int]:
     return int(row["level"]), int(row["difficulty"]), int(row["seed"])
 
