@@ -18,6 +18,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv  # noqa: E402
 
 from aaai.config import ConfigError, load_config  # noqa: E402
 from aaai.train.finetune import StudentAnchor, anchor_from_config, bc_weight, check_finetune  # noqa: E402
+from aaai.train.training import train  # noqa: E402
 
 
 class Target(gym.Env):
@@ -127,13 +128,18 @@ def test_a_heavy_anchor_holds_the_policy_at_the_student():
     assert held < free / 5
 
 
-def test_the_anchor_needs_a_policy_to_start_from():
+def test_the_anchor_needs_a_policy_to_start_from(tmp_path):
     with pytest.raises(ConfigError, match=r"'train.bc_coef': got 0.5 for a run that starts from no policy"):
         check_finetune(load_config(train={"bc_coef": 0.5}))
     with pytest.raises(ConfigError, match=r"'train.value_warmup_steps': got 2048 .*--init-from"):
         check_finetune(load_config(train={"value_warmup_steps": 2048}))
     check_finetune(load_config(train={"bc_coef": 0.5, "init_from": "runs/student"}))
     assert anchor_from_config(load_config(), None) is None  # ordinary PPO: no callback
+    with pytest.raises(
+        ConfigError, match="'train.value_warmup_steps': got 20480"
+    ):  # aaai train, before its run folder exists
+        train(tmp_path / "run", load_config("configs/student_ppo.yaml"))
+    assert not (tmp_path / "run").exists()
     anchor = anchor_from_config(load_config("configs/student_ppo.yaml"), {})
     assert anchor is not None and (anchor.warmup_steps, anchor.bc_coef, anchor.decay_steps) == (20480, 1.0, 100000)
 

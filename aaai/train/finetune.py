@@ -121,8 +121,11 @@ class StudentAnchor(BaseCallback):
     # --- the callback's hooks ---------------------------------------------------------------
     def _on_training_start(self) -> None:
         policy = self._ppo.policy
-        if not value_parameters(policy):
-            raise ConfigError("train.value_warmup_steps: this policy has no parameters of its own for the value")
+        if self.warmup_steps and not value_parameters(policy):
+            raise ConfigError(
+                f"config key 'train.value_warmup_steps': got {self.warmup_steps} for a policy without a value "
+                "head of its own (no parameter named as VALUE_PARTS lists); allowed: 0 with this policy"
+            )
         if self.bc_coef > 0:
             if hasattr(policy, "lstm_actor"):  # sb3-contrib's RecurrentActorCriticPolicy
                 raise ConfigError(
