@@ -168,3 +168,12 @@ def test_the_warmup_fits_a_recurrent_policy_s_value_only_and_the_anchor_refuses_
     )
     with pytest.raises(ConfigError, match="not built for recurrent policies yet"):
         model.learn(16, callback=StudentAnchor(before, bc_coef=1.0))
+
+
+@pytest.mark.parametrize("name", ["reward_gait", "reward_senses"])
+def test_the_one_hour_reward_recipes_learn_from_reward_alone(name):
+    config = load_config(f"configs/{name}.yaml")
+    train_ = config.train
+    assert (train_.teacher, train_.init_from, train_.bc_coef, train_.value_warmup_steps) == ("none", None, 0.0, 0)
+    assert (config.agent.action_mode, config.curriculum.sampler) == ("gait", "uniform")
+    assert len(config.curriculum.levels) == 13 and config.curriculum.difficulties == tuple(range(11))
