@@ -9,7 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from aaai.config import ConfigError
-from aaai.tools.compare import compare, comparison_markdown, read_scoreboard
+from aaai.tools.compare import compare, comparison_markdown, mcnemar, read_scoreboard
 from aaai_cli.main import cli
 
 COLUMNS = ["level", "level_name", "difficulty", "seed", "return", "outcome", "arena"]
@@ -43,11 +43,19 @@ def test_per_level_rates_differences_and_intervals():
         "no difference shown",
     ]  # fmt: skip
     assert (lines[-1].base.passes, lines[-1].other.passes, lines[-1].base.episodes) == (72, 73, 120)
+    # paired: the same seeds; on L1 only the tuned board passed 9 (seeds 10-18), on L5 only the base 16
+    assert (one.gained, one.lost, one.paired_p) == (9, 0, pytest.approx(2 / 2**9))
+    assert (lines[5].gained, lines[5].lost, lines[5].paired_p) == (0, 16, pytest.approx(2 / 2**16))
+    assert lines[0].paired_p == 1.0  # no episode differs
+    assert mcnemar(3, 5) == pytest.approx(2 * (1 + 8 + 28 + 56) / 256)  # by hand: 0.7266
 
 
 def test_the_table_marks_the_weakest_levels_and_counts_where_it_is_better():
     table = comparison_markdown(compare(board(BASE), board(OTHER)), "student", "student_ppo")
-    assert "| L1 food_retrieval (weakest) | 20 | 50% (30-70) | 95% (76-99) | +45 (+18 to +65) | better |" in table
+    assert (
+        "| L1 food_retrieval (weakest) | 20 | 50% (30-70) | 95% (76-99) | +45 (+18 to +65) | better | 9 / 0 | 0.0039 |"
+        in table
+    )
     assert "| L0 food_contact | 20 |" in table  # not among the 4 weakest (L2, L3, L1, L4)
     assert "better than student (the interval of the difference above 0) on 2 of student's 4 weakest" in table
     assert "(L1, L4); over all levels: no difference shown." in table
@@ -77,7 +85,8 @@ def test_the_command_prints_and_writes_the_table_and_refuses_what_is_not_a_score
     )
     assert result.exit_code == 0, result.output
     assert (
-        "| **all levels** | 120 | 60% (51-68) | 61% (52-69) | +1 (-11 to +13) | no difference shown |" in result.output
+        "| **all levels** | 120 | 60% (51-68) | 61% (52-69) | +1 (-11 to +13) | no difference shown | 17 / 16 | 1 |"
+        in result.output
     )
     assert out.read_text() in result.output
     (tmp_path / "tuned").mkdir()

@@ -6,6 +6,8 @@ The episodes compared are those both scoreboards hold (the same level, difficult
 scoreboard still being scored is compared on what it has. The interval of the difference treats the
 two pass rates as independent; both policies played the same seeds, so where their outcomes go
 together the interval is wider than a paired one would be (it errs towards "no difference shown").
+The pairing is used by the last columns: the episodes only one of the two passed, and McNemar's exact
+test on them.
 """
 
 from __future__ import annotations
@@ -45,12 +47,21 @@ class Rate:
 
 @dataclass(frozen=True)
 class LevelComparison:
-    """One level (``level`` None: all levels): the two pass rates on the same episodes, and the
-    difference ``other - base`` with its 95 % interval (fractions)."""
+    """One level (``level`` None: all levels): the two pass rates on the same episodes, the
+    difference ``other - base`` with its 95 % interval (fractions), and the episodes only ``other``
+    passed (``gained``) and only ``base`` passed (``lost``), for the paired test."""
 
     level: int | None
     base: Rate
     other: Rate
+    gained: int = 0
+    lost: int = 0
+
+    @property
+    def paired_p(self) -> float:
+        """McNemar's exact test on the episodes where the two differ: the two-sided binomial p of
+        ``gained`` against ``lost`` at one half each (1 when none differ)."""
+        return mcnemar(self.gained, self.lost)
 
     @property
     def difference(self) -> float:
@@ -75,6 +86,15 @@ def newcombe(base: Rate, other: Rate) -> tuple[float, float]:
         b - a - math.sqrt((b - low_b) ** 2 + (high_a - a) ** 2),
         b - a + math.sqrt((high_b - b) ** 2 + (a - low_a) ** 2),
     )
+
+
+def mcnemar(gained: int, lost: int) -> float:
+    """McNemar's exact two-sided p: the chance, at one half each, of a split of ``gained + lost``
+    discordant episodes at least as uneven as this one."""
+    n, k = gained + lost, min(gained, lost)
+    if n == 0:
+        return 1.0
+    return min(1.0, 2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n)
 
 
 def read_scoreboard(path: str | Path) -> list[dict]:
@@ -133,6 +153,8 @@ def compare(base: list[dict], other: list[dict]) -> list[LevelComparison]:
                 level,
                 Rate(sum(ours[key] for key in keys), len(keys)),
                 Rate(sum(theirs[key] for key in keys), len(keys)),
+                gained=sum(theirs[key] and not ours[key] for key in keys),
+                lost=sum(ours[key] and not theirs[key] for key in keys),
             )
         )
     return lines
@@ -146,12 +168,13 @@ def weakest(lines: list[LevelComparison], count: int = WEAKEST) -> list[int]:
 
 def comparison_markdown(lines: list[LevelComparison], base_name: str, other_name: str) -> str:
     """The per-level table: episodes, each pass rate with its 95 % interval, the difference in
-    points with its 95 % interval and its verdict; the base's weakest levels marked, and a last line
+    points with its 95 % interval and its verdict, the episodes only ``other`` passed and only the
+    base passed with McNemar's exact p on them; the base's weakest levels marked, and a last line
     counting where ``other`` is better there and overall."""
     marked = weakest(lines)
     out = [
-        f"| level | episodes | {base_name} | {other_name} | difference (points, 95 %) | |",
-        "|---|---:|---:|---:|---:|---|",
+        f"| level | episodes | {base_name} | {other_name} | difference (points, 95 %) | | gained / lost | paired p |",
+        "|---|---:|---:|---:|---:|---|---:|---:|",
     ]
     for line in lines:
         if line.level is None:
@@ -162,7 +185,8 @@ def comparison_markdown(lines: list[LevelComparison], base_name: str, other_name
         low, high = line.interval
         out.append(
             f"| {label} | {line.base.episodes} | {line.base.text()} | {line.other.text()} | "
-            f"{100 * line.difference:+.0f} ({100 * low:+.0f} to {100 * high:+.0f}) | {line.verdict} |"
+            f"{100 * line.difference:+.0f} ({100 * low:+.0f} to {100 * high:+.0f}) | {line.verdict} | "
+            f"{line.gained} / {line.lost} | {line.paired_p:.2g} |"
         )
     by_level = {line.level: line for line in lines}
     better = [get_level(level).label for level in marked if by_level[level].verdict == "better"]
