@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: lint check install install-train install-all test test-gym test-docs docs play-screenshot test-long demo baselines baselines-learned competence gait tune-gait bench mutants curricula clean
+.PHONY: lint check install install-train install-all test test-gym test-docs docs play-screenshot test-long demo baselines baselines-learned student-ppo competence gait tune-gait bench mutants curricula clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -113,6 +113,16 @@ baselines-learned: install-all
 	if [ ! -f $(PPO_GAIT_RUN)/final/model.zip ]; then if [ -f $(PPO_GAIT_RUN)/config.yaml ]; then \
 	  $(BIN)/aaai train --resume $(PPO_GAIT_RUN); else $(BIN)/aaai train --config configs/ppo_gait.yaml --run $(PPO_GAIT_RUN); fi; fi
 	$(BIN)/aaai baselines --student-run $(STUDENT_RUN) --ppo-gait-run $(PPO_GAIT_RUN) --only student,ppo_gait --out baselines
+
+# The student reinforced (docs: Training, Reinforcing the student): PPO from the committed student
+# (baselines/models/student.zip) with configs/student_ppo.yaml, trained or resumed, then scored on all
+# 1,430 reserved episodes (resumes with the same --out) and compared per level with baselines/student.csv.
+STUDENT_PPO_RUN ?= runs/student_ppo
+student-ppo: install-train
+	if [ -f $(STUDENT_PPO_RUN)/config.yaml ]; then $(BIN)/aaai train --resume $(STUDENT_PPO_RUN); else \
+	  $(BIN)/aaai train --init-from baselines/models/student.zip --config configs/student_ppo.yaml --run $(STUDENT_PPO_RUN); fi
+	$(BIN)/aaai eval --policy $(STUDENT_PPO_RUN) --seeds reserved --out $(STUDENT_PPO_RUN)/scoreboard_reserved.csv
+	$(BIN)/aaai compare baselines/student.csv $(STUDENT_PPO_RUN)/scoreboard_reserved.csv --out $(STUDENT_PPO_RUN)/comparison.md
 
 # Time to competence (docs: Learned agents): PPO on L0 d0-2 in gait and in rotation mode, each
 # checkpoint scored on the 30 reserved episodes; resumes where it stopped.

@@ -190,6 +190,10 @@ RULES: dict[str, Rule] = {
     "train.proprioception": Rule("bool"),
     "train.reward_shaping": Rule("float", 0, 1e3),
     "train.init_from": Rule("path"),
+    "train.value_warmup_steps": Rule("int", 0, 10**10),  # aaai.train.finetune: decisions fitting only the value
+    "train.value_warmup_epochs": Rule("int", 1, 1000),
+    "train.bc_coef": Rule("float", 0, 1e6),  # aaai.train.finetune: the anchor to the student (0: none)
+    "train.bc_decay_steps": Rule("int", 1, 10**10),
     "train.teacher": Rule("choice", choices=("none", "reference")),
     "train.dagger_iterations": Rule("int", 1, 1000),
     "train.dagger_episodes": Rule("int", 1, 10**6),
@@ -311,6 +315,10 @@ class TrainConfig:
     proprioception: bool
     reward_shaping: float
     init_from: str | None
+    value_warmup_steps: int
+    value_warmup_epochs: int
+    bc_coef: float
+    bc_decay_steps: int
     teacher: str
     dagger_iterations: int
     dagger_episodes: int

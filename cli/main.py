@@ -6,6 +6,7 @@ import click
 
 from .baselines import baselines_command
 from .bench import bench_command
+from .compare import compare_command
 from .demos import demos_command
 from .diagnose import diagnose_command
 from .eval import eval_command
@@ -38,6 +39,7 @@ for command in (
     demos_command,
     diagnose_command,
     baselines_command,
+    compare_command,
     seeds_command,
     bench_command,
     plot_command,

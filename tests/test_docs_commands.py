@@ -59,6 +59,18 @@ SMALLER = [
     ("aaai experiment curricula --steps 20000", "--steps 20000", "--steps 1000", "minutes per run"),
     ("aaai experiment curricula --steps", "--out /tmp/small", "--out small", "a folder of this copy's own"),
     (
+        "aaai train --init-from baselines/models/student.zip",
+        "--run runs/student_ppo",
+        "--run runs/student_ppo --steps 1024",
+        "400,000 decisions of training",
+    ),
+    (
+        "aaai eval --policy runs/student_ppo",
+        "--seeds reserved",
+        "--seeds reserved --levels 0 --difficulty 0 -k 2",
+        "1,430 episodes",
+    ),
+    (
         "aaai demos --policy reference",
         "--levels all --difficulty 0-10 -k 5",
         "--levels 0 --difficulty 0",

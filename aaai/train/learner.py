@@ -163,11 +163,19 @@ def train_ppo(
         model = ppo_from_config(monitored, config, run)
         if config.train.init_from:
             start_from(model, config.train.init_from)
+    callbacks: list[BaseCallback] = [TrackerCallback(env, tracker, progress, config=config)]
+    if config.train.value_warmup_steps or config.train.bc_coef:  # from a student's weights (docs: Training)
+        from aaai.train.finetune import anchor_from_config
+
+        student = student_weights(config.train.init_from) if config.train.bc_coef and config.train.init_from else None
+        anchor = anchor_from_config(config, student)
+        if anchor is not None:
+            callbacks.append(anchor)
     remaining = config.train.total_steps - model.num_timesteps
     if remaining > 0:
         model.learn(
             remaining,
-            callback=TrackerCallback(env, tracker, progress, config=config),
+            callback=callbacks,
             reset_num_timesteps=checkpoint is None,
             tb_log_name="ppo",
         )
@@ -181,20 +189,9 @@ def start_from(model: PPO, source: str | Path) -> None:
     ``torch.load(weights_only=True)``, so nothing in it can run. Refused, naming both, when the
     networks differ (another action mode, senses or net_width)."""
     from aaai.config import ConfigError
-    from aaai.scoring.model_archive import read_tensors
 
-    path = Path(source)
-    if path.is_dir():
-        newest = RunFolder(path).latest_checkpoint()
-        if newest is None:
-            raise ConfigError(
-                f"--init-from: run folder {str(source)!r} holds no model (final/ or checkpoints/*/model.zip)"
-            )
-        path = newest / "model.zip"
-    try:
-        weights = read_tensors(path, "policy.pth", trust_helps=False)  # within budgets, weights_only, finite
-    except ConfigError as error:
-        raise ConfigError(f"--init-from: {error}") from None
+    path = model_path(source)
+    weights = student_weights(path)
     own = model.policy.state_dict()
     differ = sorted(
         k for k in set(own) | set(weights) if k not in own or k not in weights or own[k].shape != weights[k].shape
@@ -207,3 +204,30 @@ def start_from(model: PPO, source: str | Path) -> None:
             "trained with the same action mode, senses and train.net_width"
         )
     model.policy.load_state_dict(weights)
+
+
+def model_path(source: str | Path) -> Path:
+    """The model file ``source`` names: a run folder's newest model, or the model .zip itself."""
+    from aaai.config import ConfigError
+
+    path = Path(source)
+    if path.is_dir():
+        newest = RunFolder(path).latest_checkpoint()
+        if newest is None:
+            raise ConfigError(
+                f"--init-from: run folder {str(source)!r} holds no model (final/ or checkpoints/*/model.zip)"
+            )
+        path = newest / "model.zip"
+    return path
+
+
+def student_weights(source: str | Path) -> dict:
+    """The policy weights of ``source`` (:func:`model_path`), read as data: only the weights file,
+    with ``torch.load(weights_only=True)``, within the model files' budgets."""
+    from aaai.config import ConfigError
+    from aaai.scoring.model_archive import read_tensors
+
+    try:
+        return read_tensors(model_path(source), "policy.pth", trust_helps=False)  # budgets, weights_only, finite
+    except ConfigError as error:
+        raise ConfigError(f"--init-from: {error}") from None

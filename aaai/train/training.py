@@ -229,6 +229,10 @@ def train(
         config = with_proprioception(config)
         check_trainable(config)  # before the run folder exists: a refused config leaves nothing behind
         check_init_from(config)
+        if config.train.value_warmup_steps or config.train.bc_coef:  # a fine-tune of a student (torch)
+            from aaai.train.finetune import check_finetune
+
+            check_finetune(config)
     with run.locked("--resume" if resume else "--run"):
         return _train(run, config, resume, progress, asynchronous, total_steps, say, on_episodes, trust)
 

@@ -1,0 +1,200 @@
+"""`aaai compare`: two scoreboards of the same reserved episodes, level by level: each one's pass
+rate with its 95 % Wilson interval (as the baseline table gives it), and the difference with its 95 %
+interval (Newcombe's hybrid score interval, built from the two Wilson intervals).
+
+The episodes compared are those both scoreboards hold (the same level, difficulty and seed), so a
+scoreboard still being scored is compared on what it has. The interval of the difference treats the
+two pass rates as independent; both policies played the same seeds, so where their outcomes go
+together the interval is wider than a paired one would be (it errs towards "no difference shown").
+The pairing is used by the last columns: the episodes only one of the two passed, and McNemar's exact
+test on them.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from aaai.config import ConfigError
+from aaai.levels import get_level
+from aaai.tools.baselines import passed, wilson
+
+NEEDED = ("level", "difficulty", "seed", "outcome")
+WEAKEST = 4  # the baseline's weakest levels, marked in the table and counted in its last line
+
+
+@dataclass(frozen=True)
+class Rate:
+    """A pass rate: passes of episodes, with its 95 % Wilson interval (fractions)."""
+
+    passes: int
+    episodes: int
+
+    @property
+    def value(self) -> float:
+        return self.passes / self.episodes
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        return wilson(self.passes, self.episodes)
+
+    def text(self) -> str:
+        low, high = self.interval
+        return f"{100 * self.value:.0f}% ({100 * low:.0f}-{100 * high:.0f})"
+
+
+@dataclass(frozen=True)
+class LevelComparison:
+    """One level (``level`` None: all levels): the two pass rates on the same episodes, the
+    difference ``other - base`` with its 95 % interval (fractions), and the episodes only ``other``
+    passed (``gained``) and only ``base`` passed (``lost``), for the paired test."""
+
+    level: int | None
+    base: Rate
+    other: Rate
+    gained: int = 0
+    lost: int = 0
+
+    @property
+    def paired_p(self) -> float:
+        """McNemar's exact test on the episodes where the two differ: the two-sided binomial p of
+        ``gained`` against ``lost`` at one half each (1 when none differ)."""
+        return mcnemar(self.gained, self.lost)
+
+    @property
+    def difference(self) -> float:
+        return self.other.value - self.base.value
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        return newcombe(self.base, self.other)
+
+    @property
+    def verdict(self) -> str:
+        low, high = self.interval
+        return "better" if low > 0 else "worse" if high < 0 else "no difference shown"
+
+
+def newcombe(base: Rate, other: Rate) -> tuple[float, float]:
+    """Newcombe's hybrid score interval (1998, method 10) of ``other - base``: 95 %, from the Wilson
+    intervals of the two rates."""
+    (low_a, high_a), (low_b, high_b) = base.interval, other.interval
+    a, b = base.value, other.value
+    return (
+        b - a - math.sqrt((b - low_b) ** 2 + (high_a - a) ** 2),
+        b - a + math.sqrt((high_b - b) ** 2 + (a - low_a) ** 2),
+    )
+
+
+def mcnemar(gained: int, lost: int) -> float:
+    """McNemar's exact two-sided p: the chance, at one half each, of a split of ``gained + lost``
+    discordant episodes at least as uneven as this one."""
+    n, k = gained + lost, min(gained, lost)
+    if n == 0:
+        return 1.0
+    return min(1.0, 2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n)
+
+
+def read_scoreboard(path: str | Path) -> list[dict]:
+    """A scoreboard CSV's rows (``aaai eval --out``), refused with one message naming the file when it
+    is not a scoreboard of level cells."""
+    path = Path(path)
+    try:
+        with open(path, newline="") as handle:
+            reader = csv.DictReader(handle)
+            rows = list(reader)
+            columns = reader.fieldnames or []
+    except (OSError, UnicodeDecodeError, csv.Error) as error:
+        raise ConfigError(f"scoreboard {str(path)!r}: cannot be read ({error})") from None
+    missing = [column for column in NEEDED if column not in columns]
+    if missing:
+        raise ConfigError(
+            f"scoreboard {str(path)!r}: has no column {missing[0]!r}; allowed: a scoreboard CSV of aaai eval"
+        )
+    if any(row.get("arena") for row in rows):
+        raise ConfigError(
+            f"scoreboard {str(path)!r}: holds arena files' episodes; allowed: a scoreboard of level cells (aaai eval)"
+        )
+    try:
+        for row in rows:
+            int(row["level"]), int(row["difficulty"]), int(row["seed"])
+    except (TypeError, ValueError):
+        raise ConfigError(
+            f"scoreboard {str(path)!r}: a row's level, difficulty or seed is not a whole number"
+        ) from None
+    return rows
+
+
+def board_name(path: str | Path) -> str:
+    """A scoreboard's name in the table: its file's name, or for a run's ``scoreboard_*.csv`` its run
+    folder's (``runs/student_ppo/scoreboard_reserved.csv``: student_ppo)."""
+    path = Path(path)
+    return path.parent.name if path.stem.startswith("scoreboard") and path.parent.name else path.stem
+
+
+def _key(row: dict) -> tuple[int, int, int]:
+    return int(row["level"]), int(row["difficulty"]), int(row["seed"])
+
+
+def compare(base: list[dict], other: list[dict]) -> list[LevelComparison]:
+    """Per level, then all levels: the pass rates of ``base`` and ``other`` on the episodes both hold
+    (by level, difficulty and seed; a seed scored twice on one board counts once, its last row)."""
+    ours, theirs = {_key(r): passed(r) for r in base}, {_key(r): passed(r) for r in other}
+    common = sorted(set(ours) & set(theirs))
+    if not common:
+        raise ConfigError("compare: the two scoreboards share no episode (level, difficulty and seed)")
+    lines = []
+    for level in sorted({key[0] for key in common}) + [None]:
+        keys = [key for key in common if level is None or key[0] == level]
+        lines.append(
+            LevelComparison(
+                level,
+                Rate(sum(ours[key] for key in keys), len(keys)),
+                Rate(sum(theirs[key] for key in keys), len(keys)),
+                gained=sum(theirs[key] and not ours[key] for key in keys),
+                lost=sum(ours[key] and not theirs[key] for key in keys),
+            )
+        )
+    return lines
+
+
+def weakest(lines: list[LevelComparison], count: int = WEAKEST) -> list[int]:
+    """The ``count`` levels where the base passes least (ties by level id)."""
+    levels = [line for line in lines if line.level is not None]
+    return [line.level for line in sorted(levels, key=lambda line: (line.base.value, line.level))[:count]]  # type: ignore[misc]
+
+
+def comparison_markdown(lines: list[LevelComparison], base_name: str, other_name: str) -> str:
+    """The per-level table: episodes, each pass rate with its 95 % interval, the difference in
+    points with its 95 % interval and its verdict, the episodes only ``other`` passed and only the
+    base passed with McNemar's exact p on them; the base's weakest levels marked, and a last line
+    counting where ``other`` is better there and overall."""
+    marked = weakest(lines)
+    out = [
+        f"| level | episodes | {base_name} | {other_name} | difference (points, 95 %) | | gained / lost | paired p |",
+        "|---|---:|---:|---:|---:|---|---:|---:|",
+    ]
+    for line in lines:
+        if line.level is None:
+            label = "**all levels**"
+        else:
+            level = get_level(line.level)
+            label = f"{level.label} {level.name}" + (" (weakest)" if line.level in marked else "")
+        low, high = line.interval
+        out.append(
+            f"| {label} | {line.base.episodes} | {line.base.text()} | {line.other.text()} | "
+            f"{100 * line.difference:+.0f} ({100 * low:+.0f} to {100 * high:+.0f}) | {line.verdict} | "
+            f"{line.gained} / {line.lost} | {line.paired_p:.2g} |"
+        )
+    by_level = {line.level: line for line in lines}
+    better = [get_level(level).label for level in marked if by_level[level].verdict == "better"]
+    overall = by_level[None]
+    out += [
+        "",
+        f"{other_name} is better than {base_name} (the interval of the difference above 0) on {len(better)} of "
+        f"{base_name}'s {len(marked)} weakest levels" + (f" ({', '.join(better)})" if better else "") + "; "
+        f"over all levels: {overall.verdict}.",
+    ]
+    return "\n".join(out) + "\n"
