@@ -40,6 +40,7 @@ SKIPPED = {
     "aaai play L1 -d 3 -s 7": "a server that runs until stopped (tests/test_play.py plays it in a browser)",
     "aaai play --seeds reserved": "a server that runs until stopped (tests/test_play.py plays it in a browser)",
     "tensorboard --logdir": "a server that runs until stopped",
+    "caddy reverse-proxy": "a TLS proxy in front of a study server, needing a public name; one example of many",
     "make curricula": "about 25 minutes on 2 cores; the small version below runs",
     "aaai train --config configs/student.yaml": "9 minutes of DAgger (make baselines-learned trains it)",
     "aaai eval --policy runs/student": "needs runs/student (above, not run) and 17 minutes of scoring",
