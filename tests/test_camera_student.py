@@ -80,6 +80,11 @@ def test_one_dagger_round_from_the_camera_trains_and_saves_a_model_that_loads_wi
     with np.load(run / "dagger" / "iteration_001.npz") as data:
         assert data["obs_camera"].shape == (10, 3, 36, 36) and data["obs_camera"].dtype == np.uint8
         assert "obs_rays" not in data.files
+        last = data["obs_camera"]
+    resumed = Dataset(20)  # what --resume reads back: the rounds, one at a time, into the one buffer
+    resumed.load(run / "dagger", 2)
+    assert resumed.size == 20 and np.array_equal(resumed.observations["camera"][10:], last)
+    assert resumed.nbytes == 20 * (3 * 36 * 36 + 8 * 4 + 3 * 4)  # camera, joint angles, label
 
 
 def test_the_camera_student_scores_through_aaai_eval(camera_run, tmp_path):
