@@ -200,6 +200,7 @@ RULES: dict[str, Rule] = {
     "train.dagger_beta": Rule("float", 0, 1),
     "train.dagger_epochs": Rule("int", 1, 1000),
     "train.dagger_episode_cap": Rule("int", 1, 10**6),
+    "train.dagger_max_decisions": Rule("int", 0, 10**9),  # aaai.train.camera_student.Dataset; 0: no cap
     "eval.seeds_per_cell": Rule("int", 1, 1000),
 }
 
@@ -325,6 +326,7 @@ class TrainConfig:
     dagger_beta: float
     dagger_epochs: int
     dagger_episode_cap: int
+    dagger_max_decisions: int
 
 
 @dataclass(frozen=True)

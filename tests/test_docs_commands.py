@@ -46,6 +46,8 @@ SKIPPED = {
     "aaai eval --policy runs/student": "needs runs/student (above, not run) and 17 minutes of scoring",
     "aaai train --init-from runs/student": "needs runs/student (above, not run)",
     "aaai diagnose --policy runs/student": "needs runs/student (above, not run)",
+    "aaai train --config configs/student_camera": "about 75 CPU minutes of DAgger each (tests/test_camera_student.py)",
+    "aaai train --resume runs/student_camera": "needs runs/student_camera (above, not run)",
     "aaai import-animalai animal-ai/": "needs a clone of Animal-AI's repository in animal-ai/",
     "aaai validate --arena /tmp/aai": "needs the arenas imported from Animal-AI's repository (above, not run)",
     "python -m aaai.tools.animalai /tmp/aai": "needs the arenas imported from Animal-AI's repository (above, not run)",

@@ -47,6 +47,15 @@ from aaai.config import Config, ConfigError, env_part, load_config
 from aaai.levels.seeds import TRAIN_SEEDS
 from aaai.scoring.model_config import save_model
 from aaai.scoring.runs import RunFolder, check_writable
+from aaai.train.camera_student import (
+    Dataset,
+    as_stored,
+    check_memory,
+    decision_bytes,
+    keep_round,
+    round_share,
+    seen_space,
+)
 from aaai.train.vector import Episode, worker_processes
 
 BATCH_SIZE = 1024
@@ -137,7 +146,7 @@ def play_job(job: Job) -> dict:
     teacher = ReferenceController(env)
     student = None
     if job.weights is not None:
-        student = build_policy(env.observation_space, env.action_space, job.net_width)
+        student = build_policy(seen_space(env.observation_space), env.action_space, job.net_width)
         student.load_state_dict(job.weights)
         student.set_training_mode(False)
     observations: dict[str, list] = {key: [] for key in env.observation_space.spaces}
@@ -183,7 +192,7 @@ def play_job(job: Job) -> dict:
     finally:
         env.close()
     return {
-        "observations": {key: np.stack(values) for key, values in observations.items()},
+        "observations": as_stored(observations, env.observation_space),  # images uint8, channel-first
         "labels": np.stack(labels),
         "episodes": records,
         "taught": taught,
@@ -206,7 +215,10 @@ def fit(policy, observations: dict, labels: np.ndarray, epochs: int, seed: int) 
     import torch
 
     generator = torch.Generator().manual_seed(seed)
-    inputs = {key: torch.as_tensor(value, dtype=torch.float32) for key, value in observations.items()}
+    inputs = {  # images stay uint8 (a quarter of float32's size); the policy reads each batch as floats
+        key: torch.as_tensor(value) if value.dtype == np.uint8 else torch.as_tensor(value, dtype=torch.float32)
+        for key, value in observations.items()
+    }
     targets = torch.as_tensor(labels, dtype=torch.float32)
     optimizer = torch.optim.Adam(policy.parameters(), lr=LEARNING_RATE)
     policy.set_training_mode(True)
@@ -245,6 +257,7 @@ def check_teachable(config: Config) -> None:
             "config key 'agent.action_mode': got 'velocity'; allowed for a student of the reference: "
             "gait or rotation (the reference steers the gait by joint angles)"
         )
+    check_memory(config)  # a student with images: its labelled data within a stated bound
 
 
 def _save_data(folder: Path, iteration: int, observations: dict, labels: np.ndarray) -> None:
@@ -253,21 +266,6 @@ def _save_data(folder: Path, iteration: int, observations: dict, labels: np.ndar
     partial = final.with_name(final.name + ".partial.npz")
     np.savez(partial, labels=labels, **{f"obs_{key}": value for key, value in observations.items()})
     partial.replace(final)
-
-
-def _load_data(folder: Path, iterations: int) -> tuple[dict, np.ndarray]:
-    observations: dict[str, list] = {}
-    labels = []
-    for iteration in range(iterations):
-        path = folder / f"iteration_{iteration:03d}.npz"
-        if not path.is_file():
-            raise ConfigError(f"--resume: {str(path)!r} is missing; the run's data cannot be rebuilt")
-        with np.load(path) as data:
-            labels.append(data["labels"])
-            for name in data.files:
-                if name.startswith("obs_"):
-                    observations.setdefault(name[4:], []).append(data[name])
-    return {key: np.concatenate(parts) for key, parts in observations.items()}, np.concatenate(labels)
 
 
 def train_student(
@@ -322,15 +320,14 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
     )
     env.close()
     data_folder = run.path / DATA_FOLDER
+    data = Dataset(config.train.dagger_max_decisions or None)  # aaai.train.camera_student: images as uint8
+    if data.capacity:
+        say(data.bound(decision_bytes(model.observation_space, model.action_space.shape or ())))
     if done:
-        observations, labels = _load_data(data_folder, done)
+        data.load(data_folder, done)
         latest = run.latest_checkpoint()
         assert latest is not None, "a resumed student's iterations were read from its checkpoint"
         model.policy.load_state_dict(torch.load(latest / "student.pth", weights_only=True))
-    else:
-        action_shape = model.action_space.shape
-        assert action_shape is not None, "a Box action space has a shape"
-        observations, labels = {}, np.zeros((0, *action_shape), np.float32)
     cells = [(level, d) for level in config.curriculum.levels for d in config.curriculum.difficulties]
     episodes_logged = 0
     context = get_context("spawn")  # workers start clean: no copy of this process's torch or PyBullet state
@@ -354,32 +351,28 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
                 for i in range(0, len(plan), EPISODES_PER_JOB)
             ]
             results = list(pool.map(play_job, jobs))
-            new_obs = {
-                key: np.concatenate([r["observations"][key] for r in results]) for key in results[0]["observations"]
-            }
-            new_labels = np.concatenate([r["labels"] for r in results])
-            finished = [episode for r in results for episode in r["episodes"]]
-            _save_data(data_folder, iteration, new_obs, new_labels)
-            observations = (
-                new_obs
-                if not observations
-                else {key: np.concatenate([observations[key], new_obs[key]]) for key in observations}
+            gathered = sum(len(r["labels"]) for r in results)
+            new_obs, new_labels = keep_round(
+                results, round_share(config), np.random.default_rng([settings.seed, iteration, 1])
             )
-            labels = np.concatenate([labels, new_labels])
-            loss = fit(model.policy, observations, labels, settings.epochs, settings.seed + iteration)
+            finished = [episode for r in results for episode in r["episodes"]]
+            taught = sum(r["taught"] for r in results)
+            del results  # the round's whole data: only its kept sample stays in memory
+            _save_data(data_folder, iteration, new_obs, new_labels)
+            data.add(new_obs, new_labels)
+            loss = fit(model.policy, data.observations, data.labels, settings.epochs, settings.seed + iteration)
             with torch.no_grad():
                 model.policy.log_std.fill_(settings.log_std_init)
-            step = len(labels)
+            step = data.size
             run.log_episodes(step, finished)
             episodes_logged += len(finished)
             passed = sum(e.max_reward > 0 and e.task_return / e.max_reward >= 0.8 for e in finished)
-            taught = sum(r["taught"] for r in results)
             line = {
                 "iteration": iteration,
                 "beta": round(beta, 6),
                 "episodes": len(finished),
-                "decisions": len(new_labels),
-                "teacher_share": round(taught / max(len(new_labels), 1), 4),
+                "decisions": gathered,
+                "teacher_share": round(taught / max(gathered, 1), 4),
                 "passed": passed,
                 "pass_rate": round(passed / max(len(finished), 1), 4),
                 "dataset": step,
@@ -402,7 +395,7 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
             run.save_checkpoint(
                 step, {"curriculum": None, "agent": {"iterations_done": iteration + 1}}, save, final=last
             )
-    return StudentResult(run, len(labels), episodes_logged, done)
+    return StudentResult(run, data.size, episodes_logged, done)
 
 
 def _log_iteration(path: Path, line: dict) -> None:
