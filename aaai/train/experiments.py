@@ -60,6 +60,8 @@ class Experiment:
     seeds: list[int]
     config: Config  # the resolved base config: cells, budget, action mode; sampler and seed set per run
     seeds_per_cell: int
+    # reserved seeds per cell each checkpoint (train.checkpoint_every apart) is scored on: 0, none
+    curve_seeds_per_cell: int = 0
 
     def run_config(self, sampler: str, seed: int) -> Config:
         return load_config(self.config, mode="curriculum", sampler=sampler, seed=seed)
@@ -68,15 +70,20 @@ class Experiment:
         return self.folder / f"{sampler}-seed{seed}"
 
     def record(self) -> dict:
-        return {
-            "samplers": self.samplers,
-            "seeds": self.seeds,
-            "seeds_per_cell": self.seeds_per_cell,
-            "config": self.config.to_dict(),
-        }
+        record: dict = {"samplers": self.samplers, "seeds": self.seeds, "seeds_per_cell": self.seeds_per_cell}
+        if self.curve_seeds_per_cell:  # an experiment without checkpoint curves keeps its record as it was
+            record["curve_seeds_per_cell"] = self.curve_seeds_per_cell
+        return {**record, "config": self.config.to_dict()}
 
 
-def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: Config, seeds_per_cell: int) -> Experiment:
+def plan(
+    folder: str | Path,
+    samplers: list[str],
+    seeds: list[int],
+    config: Config,
+    seeds_per_cell: int,
+    curve_seeds_per_cell: int = 0,
+) -> Experiment:
     """The experiment in ``folder``; refused if the folder holds another experiment."""
     bad = [s for s in samplers if s not in SAMPLERS]
     if bad or not samplers:
@@ -84,7 +91,12 @@ def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: Conf
         raise ConfigError(f"--samplers: got {','.join(samplers)!r}{unknown}; allowed: a list of {', '.join(SAMPLERS)}")
     if not seeds:
         raise ConfigError("--seeds: got none; allowed: 1 or more training seeds")
-    experiment = Experiment(Path(folder), list(samplers), list(seeds), config, seeds_per_cell)
+    if curve_seeds_per_cell > seeds_per_cell:
+        raise ConfigError(
+            f"--curve-seeds-per-cell: got {curve_seeds_per_cell}; allowed: 0 to K (-k, {seeds_per_cell}): the "
+            "final point of a curve is the run's reserved scoreboard"
+        )
+    experiment = Experiment(Path(folder), list(samplers), list(seeds), config, seeds_per_cell, curve_seeds_per_cell)
     path = experiment.folder / "experiment.yaml"
     if path.exists():
         earlier = safe_yaml.load_mapping(path, "experiment record")  # plain data within limits
@@ -92,6 +104,10 @@ def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: Conf
         differences = config_differences(load_config(earlier.get("config") or {}), load_config(config))
         if earlier.get("seeds_per_cell") != seeds_per_cell:
             differences.insert(0, ("K (-k, seeds per cell)", earlier.get("seeds_per_cell"), seeds_per_cell))
+        if (earlier.get("curve_seeds_per_cell") or 0) != curve_seeds_per_cell:
+            differences.insert(
+                0, ("--curve-seeds-per-cell", earlier.get("curve_seeds_per_cell") or 0, curve_seeds_per_cell)
+            )
         if differences:
             raise ConfigError(refusal(experiment.folder, differences))
         # more samplers or seeds than before: the runs already done are kept
@@ -233,8 +249,10 @@ def run_one(
     seed: int,
     echo: Callable[[str], None] = print,
     progress_every: float | None = None,
+    prune: bool = False,
 ) -> None:
-    """Trains and scores one (sampler, seed), as far as not done."""
+    """Trains and scores one (sampler, seed), as far as not done: its two scoreboards, then (with
+    curve seeds) every checkpoint on the reserved seeds; ``prune`` then deletes its scored checkpoints."""
     from aaai.jobs import print_lines
     from aaai.train.training import Progress
 
@@ -249,10 +267,14 @@ def run_one(
         )
     run = train_run(experiment, sampler, seed, echo, report)
     score_run(experiment, run, echo)
+    if experiment.curve_seeds_per_cell:
+        score_checkpoints(experiment, run, echo)
+        if prune:
+            prune_checkpoints(experiment, run, echo)
 
 
-def _job(experiment: Experiment, sampler: str, seed: int, progress_every: float | None) -> None:
-    run_one(experiment, sampler, seed, print_flushed, progress_every)
+def _job(experiment: Experiment, sampler: str, seed: int, progress_every: float | None, prune: bool) -> None:
+    run_one(experiment, sampler, seed, print_flushed, progress_every, prune)
 
 
 def print_flushed(text: str) -> None:
@@ -270,23 +292,128 @@ def one_torch_thread() -> None:
 
 
 def run_experiment(
-    experiment: Experiment, echo: Callable[[str], None] = print, progress_every: float | None = None, jobs: int = 1
+    experiment: Experiment,
+    echo: Callable[[str], None] = print,
+    progress_every: float | None = None,
+    jobs: int = 1,
+    prune: bool = False,
 ) -> list[dict]:
     """Trains and scores every (sampler, seed) not yet done, ``jobs`` runs at a time (each in its
     own process), then writes the table and the plot. Runs go seed by seed: an experiment stopped
     early has every sampler on its first seeds."""
-    pairs = [(sampler, seed) for seed in experiment.seeds for sampler in experiment.samplers]
+    pairs = run_order(experiment)
     if jobs <= 1:
         for sampler, seed in pairs:
-            run_one(experiment, sampler, seed, echo, progress_every)
+            run_one(experiment, sampler, seed, echo, progress_every, prune)
     else:
         context = multiprocessing.get_context("forkserver")
         with concurrent.futures.ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
-            futures = [pool.submit(_job, experiment, sampler, seed, progress_every) for sampler, seed in pairs]
+            futures = [pool.submit(_job, experiment, sampler, seed, progress_every, prune) for sampler, seed in pairs]
             for future in futures:
                 future.result()  # the first failure is raised here, after the runs under way end
     rows = [run_row(experiment, sampler, seed) for sampler in experiment.samplers for seed in experiment.seeds]
     write_results(experiment, rows)
+    return rows
+
+
+def run_order(experiment: Experiment) -> list[tuple[str, int]]:
+    """(sampler, seed) in the order they run: seed-major (every sampler's first seed, then every
+    sampler's second...), so that an experiment stopped early has as many runs of each sampler, give or take one."""
+    return [(sampler, seed) for seed in experiment.seeds for sampler in experiment.samplers]
+
+
+# --- learning curves on reserved seeds ----------------------------------------------------------
+CURVE_FOLDER = "curve"  # in each run: reserved_<step>.csv per checkpoint scored
+CURVE_COLUMNS = ["step", "seconds", "episodes", "passed", "pass_pct"]
+RESERVED_CURVE_COLUMNS = ["sampler", "seed", *CURVE_COLUMNS]
+
+
+def checkpoint_points(run: RunFolder, needs_model: bool = True) -> list[tuple[int, Path]]:
+    """(step, folder) of the run's checkpoints/step_* (with a model if ``needs_model``), oldest first
+    (final/ not included)."""
+    points = []
+    for folder in sorted(run.checkpoints.glob("step_*")) if run.checkpoints.is_dir() else []:
+        if (folder / "model.zip").is_file() or not needs_model and (folder / "state.json").is_file():
+            points.append((int(RunFolder.read_state(folder)["step"]), folder))
+    return sorted(points)
+
+
+def training_seconds(point: Path) -> float:
+    """The wall time of training to a saved point (its state's ``seconds``); NaN if it predates that record."""
+    try:
+        return float(RunFolder.read_state(point).get("seconds", math.nan))
+    except (OSError, ValueError, TypeError):
+        return math.nan
+
+
+def read_curve(run: RunFolder) -> dict[int, dict]:
+    """The run's curve.csv by step (empty if none yet)."""
+    return {int(r["step"]): r for r in read_board(run.path / "curve.csv")}
+
+
+def curve_row(step: int, seconds: float, rows: list[dict]) -> dict:
+    passed = sum(r["outcome"] != "failed" for r in rows)
+    return {"step": step, "seconds": seconds, "episodes": len(rows), "passed": passed, "pass_pct": pass_pct(rows)}
+
+
+def score_checkpoints(experiment: Experiment, run: RunFolder, echo: Callable[[str], None]) -> Path:
+    """Scores each checkpoint of a trained run on the first ``curve_seeds_per_cell`` reserved seeds of
+    its cells (curve/reserved_<step>.csv, played only as far as missing; a checkpoint in curve.csv is
+    skipped) and writes curve.csv: per checkpoint its step, training wall time and reserved pass rate.
+    The final point is the run's reserved scoreboard on those seeds (no episode played again)."""
+    from aaai.scoring.evaluation import cells_for, evaluate, policy_record
+    from aaai.scoring.policies import resolve
+
+    config = load_config(run.read_config())
+    cur = config.curriculum
+    cells = cells_for(list(cur.levels), list(cur.difficulties), "reserved", experiment.curve_seeds_per_cell)
+    wanted = {(c.level, c.difficulty, seed) for c in cells for seed in c.seeds}
+    curve = read_curve(run)
+    final_step = int(RunFolder.read_state(run.final)["step"])
+    random_agent = config.train.agent == "random"  # its checkpoints hold no model: scored with random actions
+    points = [
+        (step, point) for step, point in checkpoint_points(run, needs_model=not random_agent) if step < final_step
+    ]
+    done = [step for step, _ in points if step in curve]
+    if done:
+        echo(f"{run.path / 'curve.csv'}: {len(done)} checkpoint(s) scored, skipped")
+    for step, point in points:
+        if step in curve:
+            continue
+        board = run.path / CURVE_FOLDER / f"reserved_{step:012d}.csv"
+        echo(f"{board}: scoring the checkpoint at {step} steps on {len(wanted)} reserved episodes")
+        one_torch_thread()
+        policy = resolve(str(run.path if random_agent else point / "model.zip"))
+        rows = evaluate(policy, cells, board, config, record=policy_record(policy, "reserved"))
+        curve[step] = curve_row(step, training_seconds(point), rows)
+        write_atomic(run.path / "curve.csv", csv_text([curve[s] for s in sorted(curve)], CURVE_COLUMNS))
+    reserved = [
+        r
+        for r in read_board(run.path / "scoreboard_reserved.csv")
+        if (int(r["level"]), int(r["difficulty"]), int(r["seed"])) in wanted
+    ]
+    curve[final_step] = curve_row(final_step, training_seconds(run.final), reserved)
+    write_atomic(run.path / "curve.csv", csv_text([curve[s] for s in sorted(curve)], CURVE_COLUMNS))
+    return run.path / "curve.csv"
+
+
+def prune_checkpoints(experiment: Experiment, run: RunFolder, echo: Callable[[str], None]) -> None:
+    """Deletes a finished run's checkpoints/step_* once curve.csv holds each of them (final/ stays)."""
+    if not finished(run, experiment.config.train.total_steps):
+        return
+    curve = read_curve(run)
+    points = checkpoint_points(run, needs_model=False)
+    if points and all(step in curve for step, _ in points):
+        shutil.rmtree(run.checkpoints)
+        echo(f"{run.checkpoints}: {len(points)} checkpoint(s) scored, deleted")
+
+
+def reserved_curves(experiment: Experiment) -> list[dict]:
+    """Every run's curve.csv rows, with its sampler and seed."""
+    rows = []
+    for sampler, seed in run_order(experiment):
+        for row in read_curve(RunFolder(experiment.run_dir(sampler, seed))).values():
+            rows.append({"sampler": sampler, "seed": seed, **row})
     return rows
 
 
@@ -480,6 +607,8 @@ def write_results(experiment: Experiment, rows: list[dict]) -> None:
     summary = table(rows)
     write_atomic(folder / "table.csv", csv_text(summary, TABLE_COLUMNS))
     write_atomic(folder / "table.md", table_markdown(summary, experiment))
+    if experiment.curve_seeds_per_cell:
+        write_atomic(folder / "reserved_curves.csv", csv_text(reserved_curves(experiment), RESERVED_CURVE_COLUMNS))
     steps, curve_rows = curves(experiment)
     write_atomic(folder / "curves.csv", csv_text(curve_rows, ["sampler", "seed", "step", "cell_pass_rate"]))
     series = {}
