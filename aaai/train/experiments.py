@@ -305,15 +305,33 @@ def run_experiment(
     if jobs <= 1:
         for sampler, seed in pairs:
             run_one(experiment, sampler, seed, echo, progress_every, prune)
+            write_results(experiment, finished_rows(experiment))  # the tables so far, after every run
     else:
         context = multiprocessing.get_context("forkserver")
         with concurrent.futures.ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
             futures = [pool.submit(_job, experiment, sampler, seed, progress_every, prune) for sampler, seed in pairs]
             for future in futures:
                 future.result()  # the first failure is raised here, after the runs under way end
-    rows = [run_row(experiment, sampler, seed) for sampler in experiment.samplers for seed in experiment.seeds]
+    rows = finished_rows(experiment)
     write_results(experiment, rows)
     return rows
+
+
+def scored_pairs(experiment: Experiment) -> list[tuple[str, int]]:
+    """(sampler, seed) of the runs whose reserved scoreboard is whole, sampler by sampler."""
+    cur = experiment.config.curriculum
+    wanted = len(cur.levels) * len(cur.difficulties) * experiment.seeds_per_cell
+    return [
+        (sampler, seed)
+        for sampler in experiment.samplers
+        for seed in experiment.seeds
+        if len(read_board(experiment.run_dir(sampler, seed) / "scoreboard_reserved.csv")) >= wanted
+    ]
+
+
+def finished_rows(experiment: Experiment) -> list[dict]:
+    """runs.csv's rows: one per run scored on its reserved seeds (an experiment under way has fewer)."""
+    return [run_row(experiment, sampler, seed) for sampler, seed in scored_pairs(experiment)]
 
 
 def run_order(experiment: Experiment) -> list[tuple[str, int]]:
@@ -578,26 +596,20 @@ def cell_pass_curve(episodes: list[dict], cells: list[tuple[int, int]], steps: n
     return curve / len(cells)
 
 
-def curves(experiment: Experiment) -> tuple[np.ndarray, list[dict]]:
+def curves(experiment: Experiment, pairs: list[tuple[str, int]]) -> tuple[np.ndarray, list[dict]]:
+    """The training pass rate of the runs ``pairs`` (sampler, seed) at CURVE_POINTS steps."""
     cur = experiment.config.curriculum
     cells = [(level, d) for level in cur.levels for d in cur.difficulties]
-    runs = {
-        (sampler, seed): read_episodes(experiment.run_dir(sampler, seed))
-        for sampler in experiment.samplers
-        for seed in experiment.seeds
-    }
+    runs = {(sampler, seed): read_episodes(experiment.run_dir(sampler, seed)) for sampler, seed in pairs}
     last = max((int(e["step"]) for episodes in runs.values() for e in episodes), default=0)
     total = max(experiment.config.train.total_steps, last)  # PPO ends on a whole rollout
     steps = np.linspace(0, total, CURVE_POINTS + 1)[1:].round().astype(np.int64)
     rows = []
-    for sampler in experiment.samplers:
-        for seed in experiment.seeds:
-            episodes = runs[(sampler, seed)]
-            curve = cell_pass_curve(episodes, cells, steps, cur.window)
-            rows += [
-                {"sampler": sampler, "seed": seed, "step": int(s), "cell_pass_rate": float(v)}
-                for s, v in zip(steps, curve)
-            ]
+    for sampler, seed in pairs:
+        curve = cell_pass_curve(runs[(sampler, seed)], cells, steps, cur.window)
+        rows += [
+            {"sampler": sampler, "seed": seed, "step": int(s), "cell_pass_rate": float(v)} for s, v in zip(steps, curve)
+        ]
     return steps, rows
 
 
@@ -609,7 +621,8 @@ def write_results(experiment: Experiment, rows: list[dict]) -> None:
     write_atomic(folder / "table.md", table_markdown(summary, experiment))
     if experiment.curve_seeds_per_cell:
         write_atomic(folder / "reserved_curves.csv", csv_text(reserved_curves(experiment), RESERVED_CURVE_COLUMNS))
-    steps, curve_rows = curves(experiment)
+    pairs = [(r["sampler"], r["seed"]) for r in rows]
+    steps, curve_rows = curves(experiment, pairs)
     write_atomic(folder / "curves.csv", csv_text(curve_rows, ["sampler", "seed", "step", "cell_pass_rate"]))
     series = {}
     for sampler in experiment.samplers:
@@ -617,14 +630,17 @@ def write_results(experiment: Experiment, rows: list[dict]) -> None:
             [
                 [r["cell_pass_rate"] for r in curve_rows if r["sampler"] == sampler and r["seed"] == seed]
                 for seed in experiment.seeds
+                if (sampler, seed) in pairs
             ]
         )
         series[sampler] = values
+    whole = len(pairs) == len(experiment.samplers) * len(experiment.seeds)
+    runs_text = f"{len(experiment.seeds)} seed(s) per sampler" if whole else f"{len(pairs)} run(s) scored so far"
     plot_spread(
         steps,
         series,
         folder / "curves.png",
-        title=f"{len(experiment.seeds)} seed(s) per sampler: mean, band = min to max over seeds",
+        title=f"{runs_text}: mean, band = min to max over seeds",
         ylabel="training pass rate (mean over cells)",
     )
 
