@@ -155,6 +155,23 @@ def curricula_command(
     click.echo(f"table {experiment.folder / 'table.md'}, plot {experiment.folder / 'curves.png'}")
 
 
+@experiment_group.command("report")
+@click.argument("folder", type=click.Path(exists=True, file_okay=False))
+def report_command(folder):
+    """Write the tables and plots of an `aaai experiment curricula` FOLDER from the runs scored so far,
+    training and scoring nothing (safe while the experiment runs)."""
+    from aaai.train.experiments import finished_rows, recorded, write_results
+
+    try:
+        experiment = recorded(folder)
+        write_results(experiment, finished_rows(experiment))
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai experiment report")) from None
+    click.echo((experiment.folder / "table.md").read_text(), nl=False)
+
+
 @experiment_group.command("power")
 @click.option(
     "--from",

@@ -49,7 +49,7 @@ def curricula_args(tmp_path, *extra):
 
 
 def test_each_checkpoint_is_scored_on_reserved_seeds_once_and_kept_when_pruned(tmp_path):
-    args = curricula_args(tmp_path, "--prune-checkpoints")
+    args = curricula_args(tmp_path)
     first = aaai_here(*args)
     folder = tmp_path / "exp"
     run = folder / "paper-seed0"
@@ -59,7 +59,7 @@ def test_each_checkpoint_is_scored_on_reserved_seeds_once_and_kept_when_pruned(t
     seconds = [float(r["seconds"]) for r in curve]
     assert 0 < seconds[0] <= seconds[1] <= seconds[2]  # training wall time, growing
     assert first.stdout.count("scoring the checkpoint") == 4  # two per run
-    assert not (run / "checkpoints").exists()  # scored, then deleted
+    assert len(list((run / "checkpoints").glob("step_*"))) == 3  # kept without --prune-checkpoints
     boards = sorted(p.name for p in (run / "curve").glob("reserved_*.csv"))
     assert boards == ["reserved_000000000100.csv", "reserved_000000000200.csv"]
     both = read(folder / "reserved_curves.csv")
@@ -70,4 +70,7 @@ def test_each_checkpoint_is_scored_on_reserved_seeds_once_and_kept_when_pruned(t
         ("uniform", "100"),
     ]
     again = aaai_here(*args)
-    assert "scoring" not in again.stdout and read(run / "curve.csv") == curve
+    assert "scoring" not in again.stdout and "2 checkpoint(s) scored, skipped" in again.stdout
+    pruned = aaai_here(*args, "--prune-checkpoints")
+    assert "scoring" not in pruned.stdout and not (run / "checkpoints").exists()  # scored, then deleted
+    assert read(run / "curve.csv") == curve and read(folder / "uniform-seed0" / "curve.csv")[0]["step"] == "100"

@@ -76,6 +76,28 @@ class Experiment:
         return {**record, "config": self.config.to_dict()}
 
 
+def recorded(folder: str | Path) -> Experiment:
+    """The experiment ``folder`` records (its experiment.yaml), as it was planned: to write its tables
+    without running anything."""
+    path = Path(folder) / "experiment.yaml"
+    if not path.is_file():
+        raise ConfigError(
+            f"FOLDER: {str(folder)!r} has no experiment.yaml; allowed: a folder of `aaai experiment curricula`"
+        )
+    record = safe_yaml.load_mapping(path, "experiment record")
+    try:
+        return Experiment(
+            Path(folder),
+            [str(s) for s in record["samplers"]],
+            [int(s) for s in record["seeds"]],
+            load_config(record["config"]),
+            int(record["seeds_per_cell"]),
+            int(record.get("curve_seeds_per_cell") or 0),
+        )
+    except (KeyError, TypeError, ValueError) as error:
+        raise ConfigError(f"FOLDER: {str(path)!r} is not an experiment record ({error!r})") from None
+
+
 def plan(
     folder: str | Path,
     samplers: list[str],
@@ -498,11 +520,19 @@ def run_row(experiment: Experiment, sampler: str, seed: int) -> dict:
     return row
 
 
+REFERENCES = ("uniform", "paper")  # each sampler's reserved pass rate is compared with these
 TABLE_COLUMNS = [
     "sampler",
     "runs",
     "reserved_pass_pct_mean",
     "reserved_pass_pct_std",
+    "reserved_pass_pct_ci95_low",
+    "reserved_pass_pct_ci95_high",
+    *[
+        f"{part}_vs_{reference}"
+        for reference in REFERENCES
+        for part in ("difference", "welch_t", "welch_df", "welch_p", "bootstrap95_low", "bootstrap95_high")
+    ],
     "reserved_mean_return",
     "trained_pass_pct_mean",
     "trained_pass_pct_std",
@@ -512,8 +542,48 @@ TABLE_COLUMNS = [
 ]
 
 
+def reserved_rates(rows: list[dict]) -> dict[str, list[float]]:
+    """Per sampler, the reserved pass rates (%) of its scored runs."""
+    rates: dict[str, list[float]] = {}
+    for row in rows:
+        value = float(row["reserved_pass_pct"])
+        rates.setdefault(row["sampler"], [])
+        if not math.isnan(value):
+            rates[row["sampler"]].append(value)
+    return rates
+
+
+def comparisons(rows: list[dict]) -> dict[str, dict]:
+    """Per sampler: its reserved pass rate's 95 % t interval over seeds and, against each of
+    REFERENCES present, the difference of means, Welch's t test and a bootstrap 95 % interval."""
+    from aaai.train.power import bootstrap_difference, mean_interval, welch
+
+    rates = reserved_rates(rows)
+    out: dict[str, dict] = {}
+    for sampler, values in rates.items():
+        _, low, high = mean_interval(values)
+        tests: dict[str, float] = {"reserved_pass_pct_ci95_low": low, "reserved_pass_pct_ci95_high": high}
+        for reference in REFERENCES:
+            other = rates.get(reference, [])
+            same = reference == sampler or not other or not values
+            t, df, p = (math.nan,) * 3 if same else welch(values, other)
+            boot = (math.nan, math.nan) if same else bootstrap_difference(values, other)
+            tests |= {
+                f"difference_vs_{reference}": math.nan if same else float(np.mean(values) - np.mean(other)),
+                f"welch_t_vs_{reference}": t,
+                f"welch_df_vs_{reference}": df,
+                f"welch_p_vs_{reference}": p,
+                f"bootstrap95_low_vs_{reference}": boot[0],
+                f"bootstrap95_high_vs_{reference}": boot[1],
+            }
+        out[sampler] = tests
+    return out
+
+
 def table(rows: list[dict]) -> list[dict]:
-    """Per sampler: mean and (sample) standard deviation over its runs."""
+    """Per sampler: mean and (sample) standard deviation over its runs, the interval of its
+    reserved pass rate and its tests against REFERENCES (:func:`comparisons`)."""
+    tests = comparisons(rows)
     out = []
     for sampler in dict.fromkeys(r["sampler"] for r in rows):
         group = [r for r in rows if r["sampler"] == sampler]
@@ -532,6 +602,7 @@ def table(rows: list[dict]) -> list[dict]:
                 "runs": len(group),
                 "reserved_pass_pct_mean": mean("reserved_pass_pct"),
                 "reserved_pass_pct_std": std("reserved_pass_pct"),
+                **tests[sampler],
                 "reserved_mean_return": mean("reserved_mean_return"),
                 "trained_pass_pct_mean": mean("trained_pass_pct"),
                 "trained_pass_pct_std": std("trained_pass_pct"),
@@ -543,18 +614,21 @@ def table(rows: list[dict]) -> list[dict]:
     return out
 
 
-def table_markdown(summary: list[dict], experiment: Experiment) -> str:
+def table_markdown(summary: list[dict], experiment: Experiment, rows: list[dict] | None = None) -> str:
     cur, train = experiment.config.curriculum, experiment.config.train
 
     def pm(mean, std):
         return "-" if math.isnan(mean) else f"{mean:.1f}" + ("" if math.isnan(std) else f" ± {std:.1f}")
 
+    runs = sum(s["runs"] for s in summary)
+    planned = len(experiment.samplers) * len(experiment.seeds)
     lines = [
         f"Levels {list(cur.levels)} x difficulties {list(cur.difficulties)}, "
         f"{train.total_steps} steps per run, action mode {experiment.config.agent.action_mode}, "
         f"warm-up {cur.warmup}, seeds {experiment.seeds}, K = {experiment.seeds_per_cell} seeds per cell. "
         "Pass rates in %, mean ± standard deviation over the training seeds.",
         "",
+        *([] if runs == planned else [f"**Under way: {runs} of {planned} runs scored.**", ""]),
         "| sampler | runs | reserved seeds: pass % | mean return | trained seeds: pass % | gap (trained - reserved) "
         "| cells played | fewest episodes in a cell |",
         "|---|---:|---:|---:|---:|---:|---:|---:|",
@@ -565,6 +639,50 @@ def table_markdown(summary: list[dict], experiment: Experiment) -> str:
             f"| {s['reserved_mean_return']:.3f} | {pm(s['trained_pass_pct_mean'], s['trained_pass_pct_std'])} "
             f"| {s['gap_pct_mean']:+.1f} | {s['cells_played_mean']:.1f} | {s['fewest_episodes_per_cell_mean']:.1f} |"
         )
+    return "\n".join(lines) + "\n" + tests_markdown(summary, rows or [])
+
+
+def number(value: float, digits: int = 1) -> str:
+    return "-" if math.isnan(value) else f"{value:.{digits}f}"
+
+
+def tests_markdown(summary: list[dict], rows: list[dict]) -> str:
+    """The reserved pass rate's intervals and the tests of its differences, as markdown."""
+    from aaai.train.power import RESAMPLES, anova, permutation_anova
+
+    lines = [
+        "",
+        "Reserved pass rate: mean over seeds with its 95 % t interval; against each reference, the difference of "
+        f"means, Welch's t test (t, degrees of freedom, two-sided p) and a percentile bootstrap 95 % interval of the "
+        f"difference ({RESAMPLES:,} resamples of the runs, seed 0). scipy.stats.",
+        "",
+        "| sampler | runs | reserved pass % [95 % interval] |"
+        + "".join(f" against {r}: difference, Welch t (df), p | bootstrap 95 % |" for r in REFERENCES),
+        "|---|---:|---:|" + "---:|---:|" * len(REFERENCES),
+    ]
+    for s in summary:
+        cells = [
+            f"| {s['sampler']} | {s['runs']} | {number(s['reserved_pass_pct_mean'])} "
+            f"[{number(s['reserved_pass_pct_ci95_low'])}, {number(s['reserved_pass_pct_ci95_high'])}] |"
+        ]
+        for r in REFERENCES:
+            if math.isnan(s[f"difference_vs_{r}"]):
+                cells.append(" - | - |")
+                continue
+            cells.append(
+                f" {s[f'difference_vs_{r}']:+.1f}, t = {number(s[f'welch_t_vs_{r}'], 2)} "
+                f"({number(s[f'welch_df_vs_{r}'])}), p = {number(s[f'welch_p_vs_{r}'], 3)} "
+                f"| [{number(s[f'bootstrap95_low_vs_{r}'])}, {number(s[f'bootstrap95_high_vs_{r}'])}] |"
+            )
+        lines.append("".join(cells))
+    groups = list(reserved_rates(rows).values())
+    f, p = anova(groups)
+    permuted = permutation_anova(groups)
+    lines += [
+        "",
+        f"All samplers at once: one-way ANOVA F = {number(f, 2)}, p = {number(p, 3)}; permutation test of F "
+        f"({RESAMPLES:,} relabellings of the runs, seed 0): p = {number(permuted, 3)}.",
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -618,7 +736,7 @@ def write_results(experiment: Experiment, rows: list[dict]) -> None:
     write_atomic(folder / "runs.csv", csv_text(rows, RUN_COLUMNS))
     summary = table(rows)
     write_atomic(folder / "table.csv", csv_text(summary, TABLE_COLUMNS))
-    write_atomic(folder / "table.md", table_markdown(summary, experiment))
+    write_atomic(folder / "table.md", table_markdown(summary, experiment, rows))
     if experiment.curve_seeds_per_cell:
         write_atomic(folder / "reserved_curves.csv", csv_text(reserved_curves(experiment), RESERVED_CURVE_COLUMNS))
     pairs = [(r["sampler"], r["seed"]) for r in rows]
@@ -723,3 +841,108 @@ def running_mean(values: np.ndarray, width: int) -> np.ndarray:
     ends = np.arange(1, len(values) + 1)
     starts = np.maximum(0, ends - width)
     return (sums[ends] - sums[starts]) / (ends - starts)
+
+
+# --- learning curves on reserved seeds, from checkpoint scoreboards -----------------------------
+GROUP_COLUMNS = ("sampler", "recipe", "mode", "label")  # the first a scoreboard has names its lines
+
+
+def is_checkpoint_source(path: Path) -> bool:
+    """A source `aaai plot` draws reserved-seed curves from: an experiment folder or a CSV file."""
+    return path.is_file() or (path / "experiment.yaml").is_file()
+
+
+def checkpoint_rows(source: Path) -> list[dict]:
+    """(group, seed, step, seconds, pass_pct) rows of a checkpoint scoreboard: an experiment folder
+    (its runs' curve.csv) or a CSV with a step (or decisions) column and pass_pct (or pass_rate, a
+    fraction); optional seconds, seed and a group column (GROUP_COLUMNS; else the file's name)."""
+    if source.is_dir():
+        return [
+            {"group": r["sampler"], "seed": str(r["seed"]), **{k: r[k] for k in ("step", "seconds", "pass_pct")}}
+            for r in reserved_curves(recorded(source))
+        ]
+    rows = read_board(source)
+    columns = set(rows[0]) if rows else set()
+    step = next((c for c in ("step", "decisions") if c in columns), None)
+    rate = next((c for c in ("pass_pct", "pass_rate") if c in columns), None)
+    if step is None or rate is None:
+        raise ConfigError(
+            f"SOURCE: {str(source)!r} has no {'step (or decisions)' if step is None else 'pass_pct (or pass_rate)'} "
+            "column; allowed: a checkpoint scoreboard (step, pass_pct[, seconds, seed, sampler]) or a folder"
+        )
+    group = next((c for c in GROUP_COLUMNS if c in columns), None)
+    name = source.parent.name if source.name == "curve.csv" else source.stem  # a run's curve.csv: the run's name
+    scale = 100.0 if rate == "pass_rate" else 1.0
+    return [
+        {
+            "group": r[group] if group else name,
+            "seed": f"{source}:{r.get('seed', '0')}",  # a seed of one file, never merged with another's
+            "step": r[step],
+            "seconds": r.get("seconds", "nan") or "nan",
+            "pass_pct": float(r[rate]) * scale,
+        }
+        for r in rows
+    ]
+
+
+def band_over_seeds(by_seed: dict[str, list[dict]]) -> dict[str, np.ndarray]:
+    """One group's seeds on the union of their steps (each seed interpolated within its own range):
+    steps, mean seconds, mean pass rate and its 95 % t interval over the seeds present at each step."""
+    from scipy import stats
+
+    steps = np.array(sorted({float(r["step"]) for rows in by_seed.values() for r in rows}))
+    passes: list[np.ndarray] = []
+    seconds: list[np.ndarray] = []
+    for rows in by_seed.values():
+        rows = sorted(rows, key=lambda r: float(r["step"]))
+        at = np.array([float(r["step"]) for r in rows])
+        inside = (steps >= at[0]) & (steps <= at[-1])
+        for values, column in ((passes, "pass_pct"), (seconds, "seconds")):
+            y = np.interp(steps, at, np.array([float(r[column]) for r in rows]))
+            values.append(np.where(inside, y, np.nan))
+    pass_array, second_array = np.array(passes), np.array(seconds)
+    count = np.sum(~np.isnan(pass_array), axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.nanmean(pass_array, axis=0)
+        spread = np.nanstd(pass_array, axis=0, ddof=1) if len(pass_array) > 1 else np.full(len(steps), np.nan)
+        half = np.where(count > 1, stats.t.ppf(0.975, np.maximum(count - 1, 1)) * spread / np.sqrt(count), np.nan)
+        time = np.nanmean(second_array, axis=0) if not np.isnan(second_array).all() else np.full(len(steps), np.nan)
+    return {"steps": steps, "seconds": time, "mean": mean, "low": mean - half, "high": mean + half, "seeds": count}
+
+
+def plot_checkpoints(sources: list[str | Path], path: str | Path) -> Path:
+    """`aaai plot` of checkpoint scoreboards: the reserved pass rate against decisions and against
+    training wall time, one line per group (sampler, recipe) with its 95 % interval over seeds."""
+    rows = []
+    for source in sources:
+        rows += checkpoint_rows(Path(source))
+    if not rows:
+        raise ConfigError(f"SOURCE: {', '.join(map(str, sources))} holds no scored checkpoint yet")
+    groups: dict[str, dict[str, list[dict]]] = {}
+    for row in rows:
+        groups.setdefault(row["group"], {}).setdefault(row["seed"], []).append(row)
+    bands = {name: band_over_seeds(by_seed) for name, by_seed in groups.items()}
+    timed = any(not np.isnan(b["seconds"]).all() for b in bands.values())
+    plt = _pyplot()
+    figure, axes = plt.subplots(1, 2 if timed else 1, figsize=(11 if timed else 6.5, 4.2), dpi=110, squeeze=False)
+    for name, band in bands.items():
+        seeds = len(groups[name])
+        label = f"{name} ({seeds} seed{'s' if seeds > 1 else ''})"
+        panels = [(axes[0][0], band["steps"])] + ([(axes[0][1], band["seconds"] / 60.0)] if timed else [])
+        for panel, x in panels:
+            keep = ~np.isnan(x)
+            (line,) = panel.plot(x[keep], band["mean"][keep], marker="o", markersize=3, label=label)
+            if (band["seeds"] > 1).any():
+                panel.fill_between(x[keep], band["low"][keep], band["high"][keep], color=line.get_color(), alpha=0.2)
+    axes[0][0].xaxis.set_major_formatter(lambda x, _: f"{x / 1000:g}k" if x else "0")
+    axes[0][0].set_xlabel("training decisions (agent steps)")
+    if timed:
+        axes[0][1].set_xlabel("training wall time (minutes, mean over seeds)")
+    for panel in axes[0]:
+        panel.set_ylabel("pass rate on reserved seeds (%)")
+        panel.set_ylim(-2, 102)
+        panel.grid(alpha=0.3)
+    axes[0][0].legend(fontsize=8)
+    figure.suptitle("Pass rate on reserved seeds at each checkpoint: mean, band = 95 % interval over seeds", fontsize=9)
+    save(figure, Path(path))
+    return Path(path)

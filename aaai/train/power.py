@@ -1,4 +1,5 @@
-"""How many training seeds and reserved episodes a comparison of samplers needs (``aaai experiment power``).
+"""The statistics of a comparison of samplers: before, how many training seeds and reserved episodes
+it needs (``aaai experiment power``); after, intervals and tests of the differences (its table).
 
 A run's reserved pass rate varies for two reasons: the training seed (the run learns more or less),
 and the reserved episodes it is scored on (a finite sample of each cell's seeds). From an experiment's
@@ -118,6 +119,92 @@ def detectable(n: int, sd: float, alpha: float = ALPHA, power: float = POWER) ->
         else:
             low = middle
     return high
+
+
+# --- after the runs: intervals and tests ---------------------------------------------------------
+RESAMPLES = 10_000  # bootstrap and permutation draws
+CONFIDENCE = 0.95
+
+
+def mean_interval(values: list[float], confidence: float = CONFIDENCE) -> tuple[float, float, float]:
+    """Mean and its two-sided t interval over ``values`` (NaN bounds with fewer than 2)."""
+    from scipy import stats
+
+    x = np.asarray(values, dtype=float)
+    if len(x) == 0:
+        return math.nan, math.nan, math.nan
+    mean = float(x.mean())
+    if len(x) < 2:
+        return mean, math.nan, math.nan
+    half = float(stats.t.ppf(0.5 + confidence / 2, len(x) - 1)) * float(x.std(ddof=1)) / math.sqrt(len(x))
+    return mean, mean - half, mean + half
+
+
+def welch(a: list[float], b: list[float]) -> tuple[float, float, float]:
+    """Welch's t test of mean(a) - mean(b): (t, degrees of freedom, two-sided p); NaN with fewer than
+    2 values on a side. Two groups without any spread give t = ±inf (p = 0) or NaN (equal means)."""
+    x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if len(x) < 2 or len(y) < 2:
+        return math.nan, math.nan, math.nan
+    from scipy import stats
+
+    va, vb = x.var(ddof=1) / len(x), y.var(ddof=1) / len(y)
+    if va + vb == 0:
+        difference = x.mean() - y.mean()
+        return (math.copysign(math.inf, difference), math.nan, 0.0) if difference else (math.nan, math.nan, math.nan)
+    df = (va + vb) ** 2 / (va**2 / (len(x) - 1) + vb**2 / (len(y) - 1))
+    result = stats.ttest_ind(x, y, equal_var=False)
+    return float(result.statistic), float(df), float(result.pvalue)
+
+
+def anova(groups: list[list[float]]) -> tuple[float, float]:
+    """One-way ANOVA over the groups with 2 or more values: (F, p); NaN with fewer than 2 such groups."""
+    kept = [np.asarray(g, dtype=float) for g in groups if len(g) > 1]
+    if len(kept) < 2 or all(g.var() == 0 for g in kept):
+        return math.nan, math.nan
+    from scipy import stats
+
+    result = stats.f_oneway(*kept)
+    return float(result.statistic), float(result.pvalue)
+
+
+def f_statistic(values: np.ndarray, labels: np.ndarray, groups: int) -> float:
+    means = np.array([values[labels == g].mean() for g in range(groups)])
+    sizes = np.array([(labels == g).sum() for g in range(groups)])
+    between = float((sizes * (means - values.mean()) ** 2).sum()) / (groups - 1)
+    within = float(sum(((values[labels == g] - means[g]) ** 2).sum() for g in range(groups))) / (len(values) - groups)
+    return between / within if within > 0 else math.inf
+
+
+def permutation_anova(groups: list[list[float]], resamples: int = RESAMPLES, seed: int = 0) -> float:
+    """The permutation p of the ANOVA's F: the share of relabellings of the runs (``resamples``,
+    from a generator seeded with ``seed``, the observed labelling counted once) with F at least
+    the observed. It does not assume normal pass rates."""
+    kept = [list(map(float, g)) for g in groups if len(g) > 1]
+    if len(kept) < 2:
+        return math.nan
+    values = np.concatenate([np.asarray(g) for g in kept])
+    labels = np.concatenate([np.full(len(g), i) for i, g in enumerate(kept)])
+    observed = f_statistic(values, labels, len(kept))
+    if math.isnan(observed):
+        return math.nan
+    rng = np.random.default_rng(seed)
+    hits = sum(f_statistic(values, rng.permutation(labels), len(kept)) >= observed - 1e-12 for _ in range(resamples))
+    return (hits + 1) / (resamples + 1)
+
+
+def bootstrap_difference(
+    a: list[float], b: list[float], resamples: int = RESAMPLES, seed: int = 0, confidence: float = CONFIDENCE
+) -> tuple[float, float]:
+    """The percentile bootstrap interval of mean(a) - mean(b), resampling the runs of each side."""
+    x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if len(x) < 2 or len(y) < 2:
+        return math.nan, math.nan
+    rng = np.random.default_rng(seed)
+    means_a = x[rng.integers(0, len(x), (resamples, len(x)))].mean(axis=1)
+    means_b = y[rng.integers(0, len(y), (resamples, len(y)))].mean(axis=1)
+    low, high = np.quantile(means_a - means_b, [0.5 - confidence / 2, 0.5 + confidence / 2])
+    return float(low), float(high)
 
 
 # --- reading an experiment ------------------------------------------------------------------
