@@ -62,6 +62,7 @@ def test_each_checkpoint_is_scored_on_reserved_seeds_once_and_kept_when_pruned(t
     assert len(list((run / "checkpoints").glob("step_*"))) == 3  # kept without --prune-checkpoints
     boards = sorted(p.name for p in (run / "curve").glob("reserved_*.csv"))
     assert boards == ["reserved_000000000100.csv", "reserved_000000000200.csv"]
+    assert (folder / "reserved_curves.png").stat().st_size > 1000  # the figure of the curves so far
     both = read(folder / "reserved_curves.csv")
     assert [(r["sampler"], r["step"]) for r in both][:4] == [
         ("paper", "100"),

@@ -9,9 +9,16 @@ generalisation gap. The folder (default experiments/curricula/) gets:
   <sampler>-seed<N>/       each run's folder (aaai.scoring.runs) with scoreboard_reserved.csv and
                            scoreboard_trained.csv (models, checkpoints and TensorBoard logs are
                            not committed: .gitignore)
-  runs.csv                 one row per run: pass rates on reserved and trained seeds, the gap
-  table.csv, table.md      per sampler: mean and standard deviation over its runs
-  curves.csv, curves.png   pass rate against training steps, mean and spread over seeds
+  runs.csv                 one row per run scored so far: pass rates on reserved and trained seeds, the gap
+  table.csv, table.md      per sampler: mean and standard deviation over its runs, the reserved pass
+                           rate's 95 % interval, Welch t tests and bootstrap intervals of its difference
+                           to uniform and to paper, an ANOVA and a permutation test (aaai.train.power)
+  curves.csv, curves.png   training pass rate against training steps, mean and spread over seeds
+  reserved_curves.csv/.png with --curve-seeds-per-cell: every checkpoint's pass rate on reserved seeds
+                           (each run's curve.csv and curve/), against decisions and training wall time
+
+The tables and plots are written after every run, from the runs scored so far; `aaai experiment
+report FOLDER` writes them without running anything (while the experiment runs, say).
 
 Re-running the same command continues: finished runs and whole scoreboards are skipped, an
 unfinished run resumes from its newest checkpoint, a half-written scoreboard is completed (a run
@@ -738,7 +745,10 @@ def write_results(experiment: Experiment, rows: list[dict]) -> None:
     write_atomic(folder / "table.csv", csv_text(summary, TABLE_COLUMNS))
     write_atomic(folder / "table.md", table_markdown(summary, experiment, rows))
     if experiment.curve_seeds_per_cell:
-        write_atomic(folder / "reserved_curves.csv", csv_text(reserved_curves(experiment), RESERVED_CURVE_COLUMNS))
+        scored_curves = reserved_curves(experiment)
+        write_atomic(folder / "reserved_curves.csv", csv_text(scored_curves, RESERVED_CURVE_COLUMNS))
+        if scored_curves:
+            plot_checkpoints([folder], folder / "reserved_curves.png")
     pairs = [(r["sampler"], r["seed"]) for r in rows]
     steps, curve_rows = curves(experiment, pairs)
     write_atomic(folder / "curves.csv", csv_text(curve_rows, ["sampler", "seed", "step", "cell_pass_rate"]))
