@@ -332,9 +332,11 @@ def run_experiment(
     early has every sampler on its first seeds."""
     pairs = run_order(experiment)
     if jobs <= 1:
+        done = set(scored_pairs(experiment))
         for sampler, seed in pairs:
             run_one(experiment, sampler, seed, echo, progress_every, prune)
-            write_results(experiment, finished_rows(experiment))  # the tables so far, after every run
+            if (sampler, seed) not in done and (sampler, seed) != pairs[-1]:  # the last is written below
+                write_results(experiment, finished_rows(experiment))  # the tables so far, after every run
     else:
         context = multiprocessing.get_context("forkserver")
         with concurrent.futures.ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
