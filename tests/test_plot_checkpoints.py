@@ -59,3 +59,6 @@ def test_plot_reads_a_checkpoint_csv_with_pass_rate_as_a_fraction(tmp_path):
     wrong.write_text("step,score\n1,2\n")
     result = aaai_here("plot", wrong, "--out", out, check=False)
     assert result.returncode == 2 and "pass_pct (or pass_rate)" in result.stderr
+    wrong.write_text("step,pass_pct\n1,high\n")
+    result = aaai_here("plot", wrong, "--out", out, check=False)
+    assert result.returncode == 2 and "not a number" in result.stderr

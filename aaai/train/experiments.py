@@ -873,7 +873,12 @@ def checkpoint_rows(source: Path) -> list[dict]:
             {"group": r["sampler"], "seed": str(r["seed"]), **{k: r[k] for k in ("step", "seconds", "pass_pct")}}
             for r in reserved_curves(recorded(source))
         ]
-    rows = read_board(source)
+    if source.suffix != ".csv":
+        raise ConfigError(f"SOURCE: got {str(source)!r}; allowed: a run or experiment folder, or a .csv scoreboard")
+    try:
+        rows = read_board(source)
+    except (UnicodeDecodeError, csv.Error) as error:
+        raise ConfigError(f"SOURCE: {str(source)!r} cannot be read as CSV ({error})") from None
     columns = set(rows[0]) if rows else set()
     step = next((c for c in ("step", "decisions") if c in columns), None)
     rate = next((c for c in ("pass_pct", "pass_rate") if c in columns), None)
@@ -885,16 +890,19 @@ def checkpoint_rows(source: Path) -> list[dict]:
     group = next((c for c in GROUP_COLUMNS if c in columns), None)
     name = source.parent.name if source.name == "curve.csv" else source.stem  # a run's curve.csv: the run's name
     scale = 100.0 if rate == "pass_rate" else 1.0
-    return [
-        {
-            "group": r[group] if group else name,
-            "seed": f"{source}:{r.get('seed', '0')}",  # a seed of one file, never merged with another's
-            "step": r[step],
-            "seconds": r.get("seconds", "nan") or "nan",
-            "pass_pct": float(r[rate]) * scale,
-        }
-        for r in rows
-    ]
+    try:
+        return [
+            {
+                "group": r[group] if group else name,
+                "seed": f"{source}:{r.get('seed', '0')}",  # a seed of one file, never merged with another's
+                "step": float(r[step]),
+                "seconds": float(r.get("seconds") or "nan"),
+                "pass_pct": float(r[rate]) * scale,
+            }
+            for r in rows
+        ]
+    except (TypeError, ValueError) as error:
+        raise ConfigError(f"SOURCE: {str(source)!r} has a value that is not a number ({error})") from None
 
 
 def band_over_seeds(by_seed: dict[str, list[dict]]) -> dict[str, np.ndarray]:
