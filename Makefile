@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: lint check install install-train install-all test test-gym test-docs docs play-screenshot test-long demo baselines baselines-learned student-ppo competence gait tune-gait bench mutants curricula clean
+.PHONY: lint check install install-train install-all test test-gym test-docs docs play-screenshot test-long demo baselines baselines-learned student-ppo competence gait tune-gait bench mutants curricula curricula-300k clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -140,6 +140,13 @@ competence: install-train
 CURRICULA_ARGS ?=
 curricula: install-train
 	$(BIN)/aaai experiment curricula --steps 50000 -k 5 --out experiments/curricula $(CURRICULA_ARGS)
+
+# The larger curricula experiment, sized by its power analysis (experiments/curricula-300k/power.md):
+# paper, uniform and plr, 9 seeds each, 300,000 decisions a run, one run at a time (seed by seed), each
+# checkpoint scored on reserved seeds (learning curves). About 25 minutes a run on one core; continues.
+curricula-300k: install-train
+	nice -n 10 $(BIN)/aaai experiment curricula --config configs/curricula-300k.yaml --samplers paper,uniform,plr \
+	  --seeds 0-8 --steps 300000 -k 10 --curve-seeds-per-cell 5 --jobs 1 --prune-checkpoints --out experiments/curricula-300k
 
 # The gait: measure its speeds (docs: Environment, "The body"), or tune it again (CMA-ES, the tune extra).
 gait: install

@@ -53,6 +53,25 @@ def default_action_mode() -> str:
     show_default=True,
     help="Episodes per cell on reserved seeds, and on seeds each run trained on.",
 )
+@click.option(
+    "--curve-seeds-per-cell",
+    "curve_count",
+    type=click.IntRange(0, 1000),
+    default=0,
+    show_default=True,
+    help="Reserved seeds per cell each checkpoint of a run is scored on, for its learning curve on reserved "
+    "seeds (curve.csv; 0: none). At most K; the final point is the run's reserved scoreboard.",
+)
+@click.option(
+    "--checkpoint-every",
+    type=rule("train.checkpoint_every"),
+    help="Steps between a run's checkpoints (train.checkpoint_every; default: the --config file's).",
+)
+@click.option(
+    "--prune-checkpoints",
+    is_flag=True,
+    help="Delete a finished run's checkpoints once each is scored (final/ stays).",
+)
 @click.option("--envs", "num_envs", type=rule("train.num_envs"), default=2, show_default=True, help="Workers per run.")
 @click.option(
     "--action-mode",
@@ -89,6 +108,9 @@ def curricula_command(
     levels,
     difficulty,
     count,
+    curve_count,
+    checkpoint_every,
+    prune_checkpoints,
     num_envs,
     action_mode,
     config_path,
@@ -113,8 +135,10 @@ def curricula_command(
             total_steps=total_steps,
             num_envs=num_envs,
             action_mode=action_mode or default_action_mode(),
+            **({"checkpoint_every": checkpoint_every} if checkpoint_every else {}),
         )
-        experiment = plan(folder, [s.strip() for s in samplers.split(",") if s.strip()], seeds, config, count)
+        chosen = [s.strip() for s in samplers.split(",") if s.strip()]
+        experiment = plan(folder, chosen, seeds, config, count, curve_count)
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     click.echo(
@@ -122,13 +146,66 @@ def curricula_command(
         f"{total_steps} steps each, action mode {config.agent.action_mode}"
     )
     try:
-        run_experiment(experiment, echo=click.echo, progress_every=progress_every, jobs=jobs)
+        run_experiment(experiment, echo=click.echo, progress_every=progress_every, jobs=jobs, prune=prune_checkpoints)
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
     except ImportError as error:
         raise click.ClickException(needs_extra(error, "aaai experiment")) from None
     click.echo((experiment.folder / "table.md").read_text(), nl=False)
     click.echo(f"table {experiment.folder / 'table.md'}, plot {experiment.folder / 'curves.png'}")
+
+
+@experiment_group.command("report")
+@click.argument("folder", type=click.Path(exists=True, file_okay=False))
+def report_command(folder):
+    """Write the tables and plots of an `aaai experiment curricula` FOLDER from the runs scored so far,
+    training and scoring nothing (safe while the experiment runs)."""
+    from aaai.train.experiments import finished_rows, recorded, write_results
+
+    try:
+        experiment = recorded(folder)
+        write_results(experiment, finished_rows(experiment))
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai experiment report")) from None
+    click.echo((experiment.folder / "table.md").read_text(), nl=False)
+
+
+@experiment_group.command("power")
+@click.option(
+    "--from",
+    "source",
+    type=click.Path(exists=True, file_okay=False),
+    default="experiments/curricula",
+    show_default=True,
+    help="A folder of `aaai experiment curricula` whose runs give the variances.",
+)
+@click.option(
+    "--difference",
+    type=click.FloatRange(0, 100, min_open=True),
+    default=10.0,
+    show_default=True,
+    help="Points of reserved pass rate.",
+)
+@click.option("--alpha", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=0.05, show_default=True)
+@click.option("--power", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=0.8, show_default=True)
+@click.option("--out", "output", type=Output(dir_okay=False), help="Also write the markdown to this file.")
+def power_command(source, difference, alpha, power, output):
+    """How many seeds per sampler and reserved episodes per cell a difference of pass rates needs:
+    a power analysis (two-sided t test) on the variance of the runs in --from."""
+    from aaai.files import write_atomic
+    from aaai.train.power import report
+
+    try:
+        text = report(source, difference, alpha, power)
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai experiment power")) from None
+    if output:
+        write_atomic(Path(output), text)
+    click.echo(text, nl=False)
 
 
 @experiment_group.command("competence")

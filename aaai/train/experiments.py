@@ -9,9 +9,16 @@ generalisation gap. The folder (default experiments/curricula/) gets:
   <sampler>-seed<N>/       each run's folder (aaai.scoring.runs) with scoreboard_reserved.csv and
                            scoreboard_trained.csv (models, checkpoints and TensorBoard logs are
                            not committed: .gitignore)
-  runs.csv                 one row per run: pass rates on reserved and trained seeds, the gap
-  table.csv, table.md      per sampler: mean and standard deviation over its runs
-  curves.csv, curves.png   pass rate against training steps, mean and spread over seeds
+  runs.csv                 one row per run scored so far: pass rates on reserved and trained seeds, the gap
+  table.csv, table.md      per sampler: mean and standard deviation over its runs, the reserved pass
+                           rate's 95 % interval, Welch t tests and bootstrap intervals of its difference
+                           to uniform and to paper, an ANOVA and a permutation test (aaai.train.power)
+  curves.csv, curves.png   training pass rate against training steps, mean and spread over seeds
+  reserved_curves.csv/.png with --curve-seeds-per-cell: every checkpoint's pass rate on reserved seeds
+                           (each run's curve.csv and curve/), against decisions and training wall time
+
+The tables and plots are written after every run, from the runs scored so far; `aaai experiment
+report FOLDER` writes them without running anything (while the experiment runs, say).
 
 Re-running the same command continues: finished runs and whole scoreboards are skipped, an
 unfinished run resumes from its newest checkpoint, a half-written scoreboard is completed (a run
@@ -60,6 +67,8 @@ class Experiment:
     seeds: list[int]
     config: Config  # the resolved base config: cells, budget, action mode; sampler and seed set per run
     seeds_per_cell: int
+    # reserved seeds per cell each checkpoint (train.checkpoint_every apart) is scored on: 0, none
+    curve_seeds_per_cell: int = 0
 
     def run_config(self, sampler: str, seed: int) -> Config:
         return load_config(self.config, mode="curriculum", sampler=sampler, seed=seed)
@@ -68,15 +77,42 @@ class Experiment:
         return self.folder / f"{sampler}-seed{seed}"
 
     def record(self) -> dict:
-        return {
-            "samplers": self.samplers,
-            "seeds": self.seeds,
-            "seeds_per_cell": self.seeds_per_cell,
-            "config": self.config.to_dict(),
-        }
+        record: dict = {"samplers": self.samplers, "seeds": self.seeds, "seeds_per_cell": self.seeds_per_cell}
+        if self.curve_seeds_per_cell:  # an experiment without checkpoint curves keeps its record as it was
+            record["curve_seeds_per_cell"] = self.curve_seeds_per_cell
+        return {**record, "config": self.config.to_dict()}
 
 
-def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: Config, seeds_per_cell: int) -> Experiment:
+def recorded(folder: str | Path) -> Experiment:
+    """The experiment ``folder`` records (its experiment.yaml), as it was planned: to write its tables
+    without running anything."""
+    path = Path(folder) / "experiment.yaml"
+    if not path.is_file():
+        raise ConfigError(
+            f"FOLDER: {str(folder)!r} has no experiment.yaml; allowed: a folder of `aaai experiment curricula`"
+        )
+    record = safe_yaml.load_mapping(path, "experiment record")
+    try:
+        return Experiment(
+            Path(folder),
+            [str(s) for s in record["samplers"]],
+            [int(s) for s in record["seeds"]],
+            load_config(record["config"]),
+            int(record["seeds_per_cell"]),
+            int(record.get("curve_seeds_per_cell") or 0),
+        )
+    except (KeyError, TypeError, ValueError) as error:
+        raise ConfigError(f"FOLDER: {str(path)!r} is not an experiment record ({error!r})") from None
+
+
+def plan(
+    folder: str | Path,
+    samplers: list[str],
+    seeds: list[int],
+    config: Config,
+    seeds_per_cell: int,
+    curve_seeds_per_cell: int = 0,
+) -> Experiment:
     """The experiment in ``folder``; refused if the folder holds another experiment."""
     bad = [s for s in samplers if s not in SAMPLERS]
     if bad or not samplers:
@@ -84,7 +120,12 @@ def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: Conf
         raise ConfigError(f"--samplers: got {','.join(samplers)!r}{unknown}; allowed: a list of {', '.join(SAMPLERS)}")
     if not seeds:
         raise ConfigError("--seeds: got none; allowed: 1 or more training seeds")
-    experiment = Experiment(Path(folder), list(samplers), list(seeds), config, seeds_per_cell)
+    if curve_seeds_per_cell > seeds_per_cell:
+        raise ConfigError(
+            f"--curve-seeds-per-cell: got {curve_seeds_per_cell}; allowed: 0 to K (-k, {seeds_per_cell}): the "
+            "final point of a curve is the run's reserved scoreboard"
+        )
+    experiment = Experiment(Path(folder), list(samplers), list(seeds), config, seeds_per_cell, curve_seeds_per_cell)
     path = experiment.folder / "experiment.yaml"
     if path.exists():
         earlier = safe_yaml.load_mapping(path, "experiment record")  # plain data within limits
@@ -92,6 +133,10 @@ def plan(folder: str | Path, samplers: list[str], seeds: list[int], config: Conf
         differences = config_differences(load_config(earlier.get("config") or {}), load_config(config))
         if earlier.get("seeds_per_cell") != seeds_per_cell:
             differences.insert(0, ("K (-k, seeds per cell)", earlier.get("seeds_per_cell"), seeds_per_cell))
+        if (earlier.get("curve_seeds_per_cell") or 0) != curve_seeds_per_cell:
+            differences.insert(
+                0, ("--curve-seeds-per-cell", earlier.get("curve_seeds_per_cell") or 0, curve_seeds_per_cell)
+            )
         if differences:
             raise ConfigError(refusal(experiment.folder, differences))
         # more samplers or seeds than before: the runs already done are kept
@@ -233,8 +278,10 @@ def run_one(
     seed: int,
     echo: Callable[[str], None] = print,
     progress_every: float | None = None,
+    prune: bool = False,
 ) -> None:
-    """Trains and scores one (sampler, seed), as far as not done."""
+    """Trains and scores one (sampler, seed), as far as not done: its two scoreboards, then (with
+    curve seeds) every checkpoint on the reserved seeds; ``prune`` then deletes its scored checkpoints."""
     from aaai.jobs import print_lines
     from aaai.train.training import Progress
 
@@ -249,10 +296,14 @@ def run_one(
         )
     run = train_run(experiment, sampler, seed, echo, report)
     score_run(experiment, run, echo)
+    if experiment.curve_seeds_per_cell:
+        score_checkpoints(experiment, run, echo)
+        if prune:
+            prune_checkpoints(experiment, run, echo)
 
 
-def _job(experiment: Experiment, sampler: str, seed: int, progress_every: float | None) -> None:
-    run_one(experiment, sampler, seed, print_flushed, progress_every)
+def _job(experiment: Experiment, sampler: str, seed: int, progress_every: float | None, prune: bool) -> None:
+    run_one(experiment, sampler, seed, print_flushed, progress_every, prune)
 
 
 def print_flushed(text: str) -> None:
@@ -270,23 +321,148 @@ def one_torch_thread() -> None:
 
 
 def run_experiment(
-    experiment: Experiment, echo: Callable[[str], None] = print, progress_every: float | None = None, jobs: int = 1
+    experiment: Experiment,
+    echo: Callable[[str], None] = print,
+    progress_every: float | None = None,
+    jobs: int = 1,
+    prune: bool = False,
 ) -> list[dict]:
     """Trains and scores every (sampler, seed) not yet done, ``jobs`` runs at a time (each in its
     own process), then writes the table and the plot. Runs go seed by seed: an experiment stopped
     early has every sampler on its first seeds."""
-    pairs = [(sampler, seed) for seed in experiment.seeds for sampler in experiment.samplers]
+    pairs = run_order(experiment)
     if jobs <= 1:
+        done = set(scored_pairs(experiment))
         for sampler, seed in pairs:
-            run_one(experiment, sampler, seed, echo, progress_every)
+            run_one(experiment, sampler, seed, echo, progress_every, prune)
+            if (sampler, seed) not in done and (sampler, seed) != pairs[-1]:  # the last is written below
+                write_results(experiment, finished_rows(experiment))  # the tables so far, after every run
     else:
         context = multiprocessing.get_context("forkserver")
         with concurrent.futures.ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
-            futures = [pool.submit(_job, experiment, sampler, seed, progress_every) for sampler, seed in pairs]
+            futures = [pool.submit(_job, experiment, sampler, seed, progress_every, prune) for sampler, seed in pairs]
             for future in futures:
                 future.result()  # the first failure is raised here, after the runs under way end
-    rows = [run_row(experiment, sampler, seed) for sampler in experiment.samplers for seed in experiment.seeds]
+    rows = finished_rows(experiment)
     write_results(experiment, rows)
+    return rows
+
+
+def scored_pairs(experiment: Experiment) -> list[tuple[str, int]]:
+    """(sampler, seed) of the runs whose reserved scoreboard is whole, sampler by sampler."""
+    cur = experiment.config.curriculum
+    wanted = len(cur.levels) * len(cur.difficulties) * experiment.seeds_per_cell
+    return [
+        (sampler, seed)
+        for sampler in experiment.samplers
+        for seed in experiment.seeds
+        if len(read_board(experiment.run_dir(sampler, seed) / "scoreboard_reserved.csv")) >= wanted
+    ]
+
+
+def finished_rows(experiment: Experiment) -> list[dict]:
+    """runs.csv's rows: one per run scored on its reserved seeds (an experiment under way has fewer)."""
+    return [run_row(experiment, sampler, seed) for sampler, seed in scored_pairs(experiment)]
+
+
+def run_order(experiment: Experiment) -> list[tuple[str, int]]:
+    """(sampler, seed) in the order they run: seed-major (every sampler's first seed, then every
+    sampler's second...), so that an experiment stopped early has as many runs of each sampler, give or take one."""
+    return [(sampler, seed) for seed in experiment.seeds for sampler in experiment.samplers]
+
+
+# --- learning curves on reserved seeds ----------------------------------------------------------
+CURVE_FOLDER = "curve"  # in each run: reserved_<step>.csv per checkpoint scored
+CURVE_COLUMNS = ["step", "seconds", "episodes", "passed", "pass_pct"]
+RESERVED_CURVE_COLUMNS = ["sampler", "seed", *CURVE_COLUMNS]
+
+
+def checkpoint_points(run: RunFolder, needs_model: bool = True) -> list[tuple[int, Path]]:
+    """(step, folder) of the run's checkpoints/step_* (with a model if ``needs_model``), oldest first
+    (final/ not included)."""
+    points = []
+    for folder in sorted(run.checkpoints.glob("step_*")) if run.checkpoints.is_dir() else []:
+        if (folder / "model.zip").is_file() or not needs_model and (folder / "state.json").is_file():
+            points.append((int(RunFolder.read_state(folder)["step"]), folder))
+    return sorted(points)
+
+
+def training_seconds(point: Path) -> float:
+    """The wall time of training to a saved point (its state's ``seconds``); NaN if it predates that record."""
+    try:
+        return float(RunFolder.read_state(point).get("seconds", math.nan))
+    except (OSError, ValueError, TypeError):
+        return math.nan
+
+
+def read_curve(run: RunFolder) -> dict[int, dict]:
+    """The run's curve.csv by step (empty if none yet)."""
+    return {int(r["step"]): r for r in read_board(run.path / "curve.csv")}
+
+
+def curve_row(step: int, seconds: float, rows: list[dict]) -> dict:
+    passed = sum(r["outcome"] != "failed" for r in rows)
+    return {"step": step, "seconds": seconds, "episodes": len(rows), "passed": passed, "pass_pct": pass_pct(rows)}
+
+
+def score_checkpoints(experiment: Experiment, run: RunFolder, echo: Callable[[str], None]) -> Path:
+    """Scores each checkpoint of a trained run on the first ``curve_seeds_per_cell`` reserved seeds of
+    its cells (curve/reserved_<step>.csv, played only as far as missing; a checkpoint in curve.csv is
+    skipped) and writes curve.csv: per checkpoint its step, training wall time and reserved pass rate.
+    The final point is the run's reserved scoreboard on those seeds (no episode played again)."""
+    from aaai.scoring.evaluation import cells_for, evaluate, policy_record
+    from aaai.scoring.policies import resolve
+
+    config = load_config(run.read_config())
+    cur = config.curriculum
+    cells = cells_for(list(cur.levels), list(cur.difficulties), "reserved", experiment.curve_seeds_per_cell)
+    wanted = {(c.level, c.difficulty, seed) for c in cells for seed in c.seeds}
+    curve = read_curve(run)
+    final_step = int(RunFolder.read_state(run.final)["step"])
+    random_agent = config.train.agent == "random"  # its checkpoints hold no model: scored with random actions
+    points = [
+        (step, point) for step, point in checkpoint_points(run, needs_model=not random_agent) if step < final_step
+    ]
+    done = [step for step, _ in points if step in curve]
+    if done:
+        echo(f"{run.path / 'curve.csv'}: {len(done)} checkpoint(s) scored, skipped")
+    for step, point in points:
+        if step in curve:
+            continue
+        board = run.path / CURVE_FOLDER / f"reserved_{step:012d}.csv"
+        echo(f"{board}: scoring the checkpoint at {step} steps on {len(wanted)} reserved episodes")
+        one_torch_thread()
+        policy = resolve(str(run.path if random_agent else point / "model.zip"))
+        rows = evaluate(policy, cells, board, config, record=policy_record(policy, "reserved"))
+        curve[step] = curve_row(step, training_seconds(point), rows)
+        write_atomic(run.path / "curve.csv", csv_text([curve[s] for s in sorted(curve)], CURVE_COLUMNS))
+    reserved = [
+        r
+        for r in read_board(run.path / "scoreboard_reserved.csv")
+        if (int(r["level"]), int(r["difficulty"]), int(r["seed"])) in wanted
+    ]
+    curve[final_step] = curve_row(final_step, training_seconds(run.final), reserved)
+    write_atomic(run.path / "curve.csv", csv_text([curve[s] for s in sorted(curve)], CURVE_COLUMNS))
+    return run.path / "curve.csv"
+
+
+def prune_checkpoints(experiment: Experiment, run: RunFolder, echo: Callable[[str], None]) -> None:
+    """Deletes a finished run's checkpoints/step_* once curve.csv holds each of them (final/ stays)."""
+    if not finished(run, experiment.config.train.total_steps):
+        return
+    curve = read_curve(run)
+    points = checkpoint_points(run, needs_model=False)
+    if points and all(step in curve for step, _ in points):
+        shutil.rmtree(run.checkpoints)
+        echo(f"{run.checkpoints}: {len(points)} checkpoint(s) scored, deleted")
+
+
+def reserved_curves(experiment: Experiment) -> list[dict]:
+    """Every run's curve.csv rows, with its sampler and seed."""
+    rows = []
+    for sampler, seed in run_order(experiment):
+        for row in read_curve(RunFolder(experiment.run_dir(sampler, seed))).values():
+            rows.append({"sampler": sampler, "seed": seed, **row})
     return rows
 
 
@@ -353,11 +529,19 @@ def run_row(experiment: Experiment, sampler: str, seed: int) -> dict:
     return row
 
 
+REFERENCES = ("uniform", "paper")  # each sampler's reserved pass rate is compared with these
 TABLE_COLUMNS = [
     "sampler",
     "runs",
     "reserved_pass_pct_mean",
     "reserved_pass_pct_std",
+    "reserved_pass_pct_ci95_low",
+    "reserved_pass_pct_ci95_high",
+    *[
+        f"{part}_vs_{reference}"
+        for reference in REFERENCES
+        for part in ("difference", "welch_t", "welch_df", "welch_p", "bootstrap95_low", "bootstrap95_high")
+    ],
     "reserved_mean_return",
     "trained_pass_pct_mean",
     "trained_pass_pct_std",
@@ -367,8 +551,48 @@ TABLE_COLUMNS = [
 ]
 
 
+def reserved_rates(rows: list[dict]) -> dict[str, list[float]]:
+    """Per sampler, the reserved pass rates (%) of its scored runs."""
+    rates: dict[str, list[float]] = {}
+    for row in rows:
+        value = float(row["reserved_pass_pct"])
+        rates.setdefault(row["sampler"], [])
+        if not math.isnan(value):
+            rates[row["sampler"]].append(value)
+    return rates
+
+
+def comparisons(rows: list[dict]) -> dict[str, dict]:
+    """Per sampler: its reserved pass rate's 95 % t interval over seeds and, against each of
+    REFERENCES present, the difference of means, Welch's t test and a bootstrap 95 % interval."""
+    from aaai.train.power import bootstrap_difference, mean_interval, welch
+
+    rates = reserved_rates(rows)
+    out: dict[str, dict] = {}
+    for sampler, values in rates.items():
+        _, low, high = mean_interval(values)
+        tests: dict[str, float] = {"reserved_pass_pct_ci95_low": low, "reserved_pass_pct_ci95_high": high}
+        for reference in REFERENCES:
+            other = rates.get(reference, [])
+            same = reference == sampler or not other or not values
+            t, df, p = (math.nan,) * 3 if same else welch(values, other)
+            boot = (math.nan, math.nan) if same else bootstrap_difference(values, other)
+            tests |= {
+                f"difference_vs_{reference}": math.nan if same else float(np.mean(values) - np.mean(other)),
+                f"welch_t_vs_{reference}": t,
+                f"welch_df_vs_{reference}": df,
+                f"welch_p_vs_{reference}": p,
+                f"bootstrap95_low_vs_{reference}": boot[0],
+                f"bootstrap95_high_vs_{reference}": boot[1],
+            }
+        out[sampler] = tests
+    return out
+
+
 def table(rows: list[dict]) -> list[dict]:
-    """Per sampler: mean and (sample) standard deviation over its runs."""
+    """Per sampler: mean and (sample) standard deviation over its runs, the interval of its
+    reserved pass rate and its tests against REFERENCES (:func:`comparisons`)."""
+    tests = comparisons(rows)
     out = []
     for sampler in dict.fromkeys(r["sampler"] for r in rows):
         group = [r for r in rows if r["sampler"] == sampler]
@@ -387,6 +611,7 @@ def table(rows: list[dict]) -> list[dict]:
                 "runs": len(group),
                 "reserved_pass_pct_mean": mean("reserved_pass_pct"),
                 "reserved_pass_pct_std": std("reserved_pass_pct"),
+                **tests[sampler],
                 "reserved_mean_return": mean("reserved_mean_return"),
                 "trained_pass_pct_mean": mean("trained_pass_pct"),
                 "trained_pass_pct_std": std("trained_pass_pct"),
@@ -398,18 +623,21 @@ def table(rows: list[dict]) -> list[dict]:
     return out
 
 
-def table_markdown(summary: list[dict], experiment: Experiment) -> str:
+def table_markdown(summary: list[dict], experiment: Experiment, rows: list[dict] | None = None) -> str:
     cur, train = experiment.config.curriculum, experiment.config.train
 
     def pm(mean, std):
         return "-" if math.isnan(mean) else f"{mean:.1f}" + ("" if math.isnan(std) else f" ± {std:.1f}")
 
+    runs = sum(s["runs"] for s in summary)
+    planned = len(experiment.samplers) * len(experiment.seeds)
     lines = [
         f"Levels {list(cur.levels)} x difficulties {list(cur.difficulties)}, "
         f"{train.total_steps} steps per run, action mode {experiment.config.agent.action_mode}, "
         f"warm-up {cur.warmup}, seeds {experiment.seeds}, K = {experiment.seeds_per_cell} seeds per cell. "
         "Pass rates in %, mean ± standard deviation over the training seeds.",
         "",
+        *([] if runs == planned else [f"**Under way: {runs} of {planned} runs scored.**", ""]),
         "| sampler | runs | reserved seeds: pass % | mean return | trained seeds: pass % | gap (trained - reserved) "
         "| cells played | fewest episodes in a cell |",
         "|---|---:|---:|---:|---:|---:|---:|---:|",
@@ -420,6 +648,50 @@ def table_markdown(summary: list[dict], experiment: Experiment) -> str:
             f"| {s['reserved_mean_return']:.3f} | {pm(s['trained_pass_pct_mean'], s['trained_pass_pct_std'])} "
             f"| {s['gap_pct_mean']:+.1f} | {s['cells_played_mean']:.1f} | {s['fewest_episodes_per_cell_mean']:.1f} |"
         )
+    return "\n".join(lines) + "\n" + tests_markdown(summary, rows or [])
+
+
+def number(value: float, digits: int = 1) -> str:
+    return "-" if math.isnan(value) else f"{value:.{digits}f}"
+
+
+def tests_markdown(summary: list[dict], rows: list[dict]) -> str:
+    """The reserved pass rate's intervals and the tests of its differences, as markdown."""
+    from aaai.train.power import RESAMPLES, anova, permutation_anova
+
+    lines = [
+        "",
+        "Reserved pass rate: mean over seeds with its 95 % t interval; against each reference, the difference of "
+        f"means, Welch's t test (t, degrees of freedom, two-sided p) and a percentile bootstrap 95 % interval of the "
+        f"difference ({RESAMPLES:,} resamples of the runs, seed 0). scipy.stats.",
+        "",
+        "| sampler | runs | reserved pass % [95 % interval] |"
+        + "".join(f" against {r}: difference, Welch t (df), p | bootstrap 95 % |" for r in REFERENCES),
+        "|---|---:|---:|" + "---:|---:|" * len(REFERENCES),
+    ]
+    for s in summary:
+        cells = [
+            f"| {s['sampler']} | {s['runs']} | {number(s['reserved_pass_pct_mean'])} "
+            f"[{number(s['reserved_pass_pct_ci95_low'])}, {number(s['reserved_pass_pct_ci95_high'])}] |"
+        ]
+        for r in REFERENCES:
+            if math.isnan(s[f"difference_vs_{r}"]):
+                cells.append(" - | - |")
+                continue
+            cells.append(
+                f" {s[f'difference_vs_{r}']:+.1f}, t = {number(s[f'welch_t_vs_{r}'], 2)} "
+                f"({number(s[f'welch_df_vs_{r}'])}), p = {number(s[f'welch_p_vs_{r}'], 3)} "
+                f"| [{number(s[f'bootstrap95_low_vs_{r}'])}, {number(s[f'bootstrap95_high_vs_{r}'])}] |"
+            )
+        lines.append("".join(cells))
+    groups = list(reserved_rates(rows).values())
+    f, p = anova(groups)
+    permuted = permutation_anova(groups)
+    lines += [
+        "",
+        f"All samplers at once: one-way ANOVA F = {number(f, 2)}, p = {number(p, 3)}; permutation test of F "
+        f"({RESAMPLES:,} relabellings of the runs, seed 0): p = {number(permuted, 3)}.",
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -451,26 +723,20 @@ def cell_pass_curve(episodes: list[dict], cells: list[tuple[int, int]], steps: n
     return curve / len(cells)
 
 
-def curves(experiment: Experiment) -> tuple[np.ndarray, list[dict]]:
+def curves(experiment: Experiment, pairs: list[tuple[str, int]]) -> tuple[np.ndarray, list[dict]]:
+    """The training pass rate of the runs ``pairs`` (sampler, seed) at CURVE_POINTS steps."""
     cur = experiment.config.curriculum
     cells = [(level, d) for level in cur.levels for d in cur.difficulties]
-    runs = {
-        (sampler, seed): read_episodes(experiment.run_dir(sampler, seed))
-        for sampler in experiment.samplers
-        for seed in experiment.seeds
-    }
+    runs = {(sampler, seed): read_episodes(experiment.run_dir(sampler, seed)) for sampler, seed in pairs}
     last = max((int(e["step"]) for episodes in runs.values() for e in episodes), default=0)
     total = max(experiment.config.train.total_steps, last)  # PPO ends on a whole rollout
     steps = np.linspace(0, total, CURVE_POINTS + 1)[1:].round().astype(np.int64)
     rows = []
-    for sampler in experiment.samplers:
-        for seed in experiment.seeds:
-            episodes = runs[(sampler, seed)]
-            curve = cell_pass_curve(episodes, cells, steps, cur.window)
-            rows += [
-                {"sampler": sampler, "seed": seed, "step": int(s), "cell_pass_rate": float(v)}
-                for s, v in zip(steps, curve)
-            ]
+    for sampler, seed in pairs:
+        curve = cell_pass_curve(runs[(sampler, seed)], cells, steps, cur.window)
+        rows += [
+            {"sampler": sampler, "seed": seed, "step": int(s), "cell_pass_rate": float(v)} for s, v in zip(steps, curve)
+        ]
     return steps, rows
 
 
@@ -479,8 +745,14 @@ def write_results(experiment: Experiment, rows: list[dict]) -> None:
     write_atomic(folder / "runs.csv", csv_text(rows, RUN_COLUMNS))
     summary = table(rows)
     write_atomic(folder / "table.csv", csv_text(summary, TABLE_COLUMNS))
-    write_atomic(folder / "table.md", table_markdown(summary, experiment))
-    steps, curve_rows = curves(experiment)
+    write_atomic(folder / "table.md", table_markdown(summary, experiment, rows))
+    if experiment.curve_seeds_per_cell:
+        scored_curves = reserved_curves(experiment)
+        write_atomic(folder / "reserved_curves.csv", csv_text(scored_curves, RESERVED_CURVE_COLUMNS))
+        if scored_curves:
+            plot_checkpoints([folder], folder / "reserved_curves.png")
+    pairs = [(r["sampler"], r["seed"]) for r in rows]
+    steps, curve_rows = curves(experiment, pairs)
     write_atomic(folder / "curves.csv", csv_text(curve_rows, ["sampler", "seed", "step", "cell_pass_rate"]))
     series = {}
     for sampler in experiment.samplers:
@@ -488,14 +760,17 @@ def write_results(experiment: Experiment, rows: list[dict]) -> None:
             [
                 [r["cell_pass_rate"] for r in curve_rows if r["sampler"] == sampler and r["seed"] == seed]
                 for seed in experiment.seeds
+                if (sampler, seed) in pairs
             ]
         )
         series[sampler] = values
+    whole = len(pairs) == len(experiment.samplers) * len(experiment.seeds)
+    runs_text = f"{len(experiment.seeds)} seed(s) per sampler" if whole else f"{len(pairs)} run(s) scored so far"
     plot_spread(
         steps,
         series,
         folder / "curves.png",
-        title=f"{len(experiment.seeds)} seed(s) per sampler: mean, band = min to max over seeds",
+        title=f"{runs_text}: mean, band = min to max over seeds",
         ylabel="training pass rate (mean over cells)",
     )
 
@@ -578,3 +853,116 @@ def running_mean(values: np.ndarray, width: int) -> np.ndarray:
     ends = np.arange(1, len(values) + 1)
     starts = np.maximum(0, ends - width)
     return (sums[ends] - sums[starts]) / (ends - starts)
+
+
+# --- learning curves on reserved seeds, from checkpoint scoreboards -----------------------------
+GROUP_COLUMNS = ("sampler", "recipe", "mode", "label")  # the first a scoreboard has names its lines
+
+
+def is_checkpoint_source(path: Path) -> bool:
+    """A source `aaai plot` draws reserved-seed curves from: an experiment folder or a CSV file."""
+    return path.is_file() or (path / "experiment.yaml").is_file()
+
+
+def checkpoint_rows(source: Path) -> list[dict]:
+    """(group, seed, step, seconds, pass_pct) rows of a checkpoint scoreboard: an experiment folder
+    (its runs' curve.csv) or a CSV with a step (or decisions) column and pass_pct (or pass_rate, a
+    fraction); optional seconds, seed and a group column (GROUP_COLUMNS; else the file's name)."""
+    if source.is_dir():
+        return [
+            {"group": r["sampler"], "seed": str(r["seed"]), **{k: r[k] for k in ("step", "seconds", "pass_pct")}}
+            for r in reserved_curves(recorded(source))
+        ]
+    if source.suffix != ".csv":
+        raise ConfigError(f"SOURCE: got {str(source)!r}; allowed: a run or experiment folder, or a .csv scoreboard")
+    try:
+        rows = read_board(source)
+    except (UnicodeDecodeError, csv.Error) as error:
+        raise ConfigError(f"SOURCE: {str(source)!r} cannot be read as CSV ({error})") from None
+    columns = set(rows[0]) if rows else set()
+    step = next((c for c in ("step", "decisions") if c in columns), None)
+    rate = next((c for c in ("pass_pct", "pass_rate") if c in columns), None)
+    if step is None or rate is None:
+        raise ConfigError(
+            f"SOURCE: {str(source)!r} has no {'step (or decisions)' if step is None else 'pass_pct (or pass_rate)'} "
+            "column; allowed: a checkpoint scoreboard (step, pass_pct[, seconds, seed, sampler]) or a folder"
+        )
+    group = next((c for c in GROUP_COLUMNS if c in columns), None)
+    name = source.parent.name if source.name == "curve.csv" else source.stem  # a run's curve.csv: the run's name
+    scale = 100.0 if rate == "pass_rate" else 1.0
+    try:
+        return [
+            {
+                "group": r[group] if group else name,
+                "seed": f"{source}:{r.get('seed', '0')}",  # a seed of one file, never merged with another's
+                "step": float(r[step]),
+                "seconds": float(r.get("seconds") or "nan"),
+                "pass_pct": float(r[rate]) * scale,
+            }
+            for r in rows
+        ]
+    except (TypeError, ValueError) as error:
+        raise ConfigError(f"SOURCE: {str(source)!r} has a value that is not a number ({error})") from None
+
+
+def band_over_seeds(by_seed: dict[str, list[dict]]) -> dict[str, np.ndarray]:
+    """One group's seeds on the union of their steps (each seed interpolated within its own range):
+    steps, mean seconds, mean pass rate and its 95 % t interval over the seeds present at each step."""
+    from scipy import stats
+
+    steps = np.array(sorted({float(r["step"]) for rows in by_seed.values() for r in rows}))
+    passes: list[np.ndarray] = []
+    seconds: list[np.ndarray] = []
+    for rows in by_seed.values():
+        rows = sorted(rows, key=lambda r: float(r["step"]))
+        at = np.array([float(r["step"]) for r in rows])
+        inside = (steps >= at[0]) & (steps <= at[-1])
+        for values, column in ((passes, "pass_pct"), (seconds, "seconds")):
+            y = np.interp(steps, at, np.array([float(r[column]) for r in rows]))
+            values.append(np.where(inside, y, np.nan))
+    pass_array, second_array = np.array(passes), np.array(seconds)
+    count = np.sum(~np.isnan(pass_array), axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.nanmean(pass_array, axis=0)
+        spread = np.nanstd(pass_array, axis=0, ddof=1) if len(pass_array) > 1 else np.full(len(steps), np.nan)
+        half = np.where(count > 1, stats.t.ppf(0.975, np.maximum(count - 1, 1)) * spread / np.sqrt(count), np.nan)
+        time = np.nanmean(second_array, axis=0) if not np.isnan(second_array).all() else np.full(len(steps), np.nan)
+    return {"steps": steps, "seconds": time, "mean": mean, "low": mean - half, "high": mean + half, "seeds": count}
+
+
+def plot_checkpoints(sources: list[str | Path], path: str | Path) -> Path:
+    """`aaai plot` of checkpoint scoreboards: the reserved pass rate against decisions and against
+    training wall time, one line per group (sampler, recipe) with its 95 % interval over seeds."""
+    rows = []
+    for source in sources:
+        rows += checkpoint_rows(Path(source))
+    if not rows:
+        raise ConfigError(f"SOURCE: {', '.join(map(str, sources))} holds no scored checkpoint yet")
+    groups: dict[str, dict[str, list[dict]]] = {}
+    for row in rows:
+        groups.setdefault(row["group"], {}).setdefault(row["seed"], []).append(row)
+    bands = {name: band_over_seeds(by_seed) for name, by_seed in groups.items()}
+    timed = any(not np.isnan(b["seconds"]).all() for b in bands.values())
+    plt = _pyplot()
+    figure, axes = plt.subplots(1, 2 if timed else 1, figsize=(11 if timed else 6.5, 4.2), dpi=110, squeeze=False)
+    for name, band in bands.items():
+        seeds = len(groups[name])
+        label = f"{name} ({seeds} seed{'s' if seeds > 1 else ''})"
+        panels = [(axes[0][0], band["steps"])] + ([(axes[0][1], band["seconds"] / 60.0)] if timed else [])
+        for panel, x in panels:
+            keep = ~np.isnan(x)
+            (line,) = panel.plot(x[keep], band["mean"][keep], marker="o", markersize=3, label=label)
+            if (band["seeds"] > 1).any():
+                panel.fill_between(x[keep], band["low"][keep], band["high"][keep], color=line.get_color(), alpha=0.2)
+    axes[0][0].xaxis.set_major_formatter(lambda x, _: f"{x / 1000:g}k" if x else "0")
+    axes[0][0].set_xlabel("training decisions (agent steps)")
+    if timed:
+        axes[0][1].set_xlabel("training wall time (minutes, mean over seeds)")
+    for panel in axes[0]:
+        panel.set_ylabel("pass rate on reserved seeds (%)")
+        panel.set_ylim(-2, 102)
+        panel.grid(alpha=0.3)
+    axes[0][0].legend(fontsize=8)
+    figure.suptitle("Pass rate on reserved seeds at each checkpoint: mean, band = 95 % interval over seeds", fontsize=9)
+    save(figure, Path(path))
+    return Path(path)

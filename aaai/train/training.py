@@ -7,6 +7,7 @@ random`` runs the same loop with uniform random actions and no torch.
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Protocol
@@ -49,7 +50,9 @@ class CurriculumState(Protocol):
 
 class Tracker:
     """Logs finished episodes and writes heatmaps and checkpoints as the step count passes their marks.
-    ``on_episodes`` (if set) is told of every finished episode too (a progress report)."""
+    ``on_episodes`` (if set) is told of every finished episode too (a progress report). Each saved
+    state records ``seconds``: the run's wall time of training so far, ``seconds`` (the time before
+    the point it resumed from) plus the time since the tracker started."""
 
     def __init__(
         self,
@@ -58,8 +61,10 @@ class Tracker:
         config: Config,
         start_step: int,
         on_episodes: Callable[[list[Episode]], None] | None = None,
+        seconds: float = 0.0,
     ):
         self.run, self.curriculum, self.on_episodes = run, curriculum, on_episodes
+        self.seconds_before, self.started = seconds, time.perf_counter()
         self.checkpoint_every = config.train.checkpoint_every
         self.heatmap_every = config.train.heatmap_every
         self.next_checkpoint = (start_step // self.checkpoint_every + 1) * self.checkpoint_every
@@ -86,7 +91,8 @@ class Tracker:
             self.next_checkpoint = (step // self.checkpoint_every + 1) * self.checkpoint_every
 
     def save(self, step: int, agent_state: Callable[[], dict], save_model=None, final: bool = False) -> Path:
-        state = {"curriculum": self.curriculum.state_dict(), "agent": agent_state()}
+        seconds = round(self.seconds_before + time.perf_counter() - self.started, 1)
+        state = {"curriculum": self.curriculum.state_dict(), "agent": agent_state(), "seconds": seconds}
         return self.run.save_checkpoint(step, state, save_model, final=final)
 
 
@@ -266,7 +272,9 @@ def _train(
         curriculum.load_state_dict(state["curriculum"])
     if resume:  # the log back to what the checkpoint counted: to its header if there was none
         run.trim_episodes(start_step)
-    tracker = Tracker(run, curriculum, config, start_step, on_episodes)
+    tracker = Tracker(
+        run, curriculum, config, start_step, on_episodes, float(state.get("seconds", 0.0)) if state else 0.0
+    )
     vec = CurriculumVecEnv(config, curriculum, config.train.num_envs, asynchronous=asynchronous)
     progress = progress or (lambda steps: None)
     try:
