@@ -190,7 +190,7 @@ RULES: dict[str, Rule] = {
     "train.proprioception": Rule("bool"),
     "train.reward_shaping": Rule("float", 0, 1e3),
     "train.init_from": Rule("path"),
-    "train.teacher": Rule("choice", choices=("none", "reference")),
+    "train.teacher": Rule("choice", choices=("none", "reference", "search")),
     "train.dagger_iterations": Rule("int", 1, 1000),
     "train.dagger_episodes": Rule("int", 1, 10**6),
     "train.dagger_beta": Rule("float", 0, 1),
