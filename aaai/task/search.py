@@ -46,6 +46,7 @@ MOTION_GAP = 1.0  # two sightings this close in time give a velocity
 MISS = 0.5  # a ray passing within this fraction of a piece's radius of where it should be would have hit it
 LOOK_MARGIN = math.radians(20)  # a look round turns this much beyond what the fan already covers
 LOOK_SECONDS = 12.0  # ... or for at most this long
+SECTOR_TURNS = 2  # in a level of sectors (L9) it turns round this many times before it counts the food it saw
 BODY_SEEN = 2.0  # cells this close to the head count as swept (it stands there)
 GAIN_SPAN = 8.0  # unexplored space is weighed within a square this wide round a candidate cell
 GAIN_WEIGHT = 20.0  # units of path cost one fully unswept neighbourhood is worth
@@ -251,8 +252,10 @@ class SearchController(ReferenceController):
         if self.looking:
             self.look_turned += abs(_angle(yaw - self.look_yaw)) if self.look_yaw is not None else 0.0
             self.look_yaw = yaw
-            done = (
-                self.look_turned >= 2 * math.pi - 2 * self.fan + LOOK_MARGIN or now - self.look_started > LOOK_SECONDS
+            counting = self.sectors and self.sector is None  # L9: it counts the food in each sector first
+            turn = 2 * math.pi * SECTOR_TURNS if counting else 2 * math.pi - 2 * self.fan + LOOK_MARGIN
+            done = self.look_turned >= turn or now - self.look_started > LOOK_SECONDS * (
+                SECTOR_TURNS if counting else 1
             )
             found = bool(self.memory) and not self.sectors
             if done or found or not env.world.food:
