@@ -61,24 +61,24 @@ def test_food_behind_the_body_is_unknown_until_a_ray_hits_it_and_then_it_is_eate
 
 
 def test_with_nothing_seen_it_looks_round_on_the_spot_then_walks_to_unswept_space(gait_env):
-    """L5 d0: the food is far behind walls. First it turns on the spot (over five eighths of a turn in
-    3 s, never commanding a step forward); then it walks off, into space its rays had not swept."""
+    """L5 d0: the food is far behind walls. First it turns on the spot (over half a turn in
+    3.5 s, never commanding a step forward); then it walks off, into space its rays had not swept."""
     env = gait_env
     controller = SearchController(env)
     observation, _ = env.reset(seed=1, options={"level": 5, "difficulty": 0})
     controller.reset(1)
     start = env.body.head_pose()[0][:2]
     turned, last = 0.0, _yaw(env)
-    for _ in range(30):
+    for _ in range(35):
         action = controller(observation)
         assert action[0] == 0.0  # no step forward: on the spot
         observation = env.step(action)[0]
         turned += abs(math.remainder(_yaw(env) - last, 2 * math.pi))
         last = _yaw(env)
-    assert turned > 1.25 * math.pi and np.linalg.norm(env.body.head_pose()[0][:2] - start) < 1.0
+    assert turned > math.pi and np.linalg.norm(env.body.head_pose()[0][:2] - start) < 1.0
     swept_after_look = controller.seen.copy()
     visited = set()
-    for _ in range(90):
+    for _ in range(85):
         observation = env.step(controller(observation))[0]
         head = env.body.head_pose()[0]
         visited.add((round(head[0] / 2), round(head[1] / 2)))
@@ -125,7 +125,7 @@ def test_a_search_teacher_teaches_a_student_that_drives_part_of_the_time():
     env.close()
     gathered = play_job(Job(config, weights, 16, 0.5, 1, ((5, 0, 7),), cap=40))
     assert len(gathered["labels"]) == 40 and 0 < gathered["taught"] < 40
-    assert tuple(gathered["labels"][0]) == (0.0, 1.0, 0.0)  # the search teacher's: it looks round first
+    assert tuple(gathered["labels"][0]) == (0.0, 1.0, 1.0)  # the search teacher's: it looks round, head low
     assert np.isfinite(gathered["labels"]).all()
     with pytest.raises(ConfigError, match="train.teacher.*'serch'.*reference, search"):
         load_config({"train": {"teacher": "serch"}})

@@ -38,6 +38,7 @@ import pybullet as p
 
 from aaai.errors import ConfigError
 from aaai.levels import validate
+from aaai.sim.gait import SineGait
 from aaai.spec import ObjectSpec
 from aaai.task.reference import ReferenceController, _angle, _sector_of
 
@@ -52,11 +53,22 @@ GAIN_SPAN = 8.0  # unexplored space is weighed within a square this wide round a
 GAIN_WEIGHT = 20.0  # units of path cost one fully unswept neighbourhood is worth
 GOAL_SECONDS = 15.0  # gives up an exploration goal after this long, marking it swept
 GOAL_REACHED = 2.0
+SEARCH_CROUCH = 1.0  # it searches with its head low (about 1.7 above the floor, not 2.3): level rays see size-2 food
+
+
+class _SearchGait(SineGait):
+    """The gait, crouched at least ``low`` while it searches (as fast as upright, measured)."""
+
+    low = 0.0
+
+    def command(self, forward: float, turn: float, crouch: float = 0.0) -> None:
+        super().command(forward, turn, max(crouch, self.low))
 
 
 class SearchController(ReferenceController):
     """A policy: ``action = controller(observation)``; ``reset(seed)`` at each episode start."""
 
+    gait: _SearchGait
     memory: dict[int, list]  # body -> [spec, (x, y, z), (vx, vy), time seen]
     seen: np.ndarray  # cells some ray has swept
     look_yaw: float | None
@@ -66,6 +78,7 @@ class SearchController(ReferenceController):
 
     def __init__(self, env):
         super().__init__(env)
+        self.gait = _SearchGait(self.env.body.joint_names, "forward", self.env.control_dt)
         if self.env.rays is None:
             raise ConfigError(
                 "policy 'search': config key 'sensors.rays': got false; allowed: true (the searching "
@@ -249,6 +262,7 @@ class SearchController(ReferenceController):
         yaw = math.atan2(rotation[1, 0], rotation[0, 0])
         now = env.steps * env.control_dt
         self._look(head, now)
+        self.gait.low = SEARCH_CROUCH if self.looking or not self._foods() else 0.0
         if self.looking:
             self.look_turned += abs(_angle(yaw - self.look_yaw)) if self.look_yaw is not None else 0.0
             self.look_yaw = yaw
