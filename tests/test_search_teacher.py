@@ -60,6 +60,25 @@ def test_food_behind_the_body_is_unknown_until_a_ray_hits_it_and_then_it_is_eate
     assert ever_hit and info["food_eaten"] == 1, decision
 
 
+def test_a_piece_gone_from_where_the_rays_should_show_it_is_forgotten_and_looked_for(gait_env):
+    """L0 d0: seen 6 units ahead, then moved (by hand) out of the rays' view: the next cast passes
+    where it was without hitting it, so the piece is forgotten and the body looks round again."""
+    env = gait_env
+    controller = SearchController(env)
+    env.reset(seed=1, options={"level": 0, "difficulty": 0})
+    controller.reset(1)
+    (food,) = env.world.food
+    x, y, z = env.world.food[food].position
+    observation = _place(env, x, y - 6.0, math.pi / 2)  # facing it
+    controller(observation)
+    assert food in controller.memory and not controller.looking
+    p.resetBasePositionAndOrientation(food, (x, y - 12.0, z), (0, 0, 0, 1), physicsClientId=env.client)  # behind
+    observation = env.step(np.zeros(3))[0]
+    controller(observation)
+    assert food not in controller.memory and controller.looking
+    assert controller.hint is not None and math.dist(controller.hint, (x, y)) < 1.0
+
+
 def test_with_nothing_seen_it_looks_round_on_the_spot_then_walks_to_unswept_space(gait_env):
     """L5 d0: the food is far behind walls. First it turns on the spot (over half a turn in
     3.5 s, never commanding a step forward); then it walks off, into space its rays had not swept."""
