@@ -84,7 +84,8 @@ class Output(click.Path):
 
 
 POLICY_HELP = (
-    "random, reference (the privileged reference controller), gait (the example trot), "
+    "random, reference (the privileged reference controller), search (the reference knowing only the "
+    "food the rays have shown it), gait (the example trot), "
     "a model .zip, a run folder or module:callable"
 )
 TRUST_HELP = (

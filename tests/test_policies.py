@@ -166,8 +166,14 @@ def test_a_model_without_an_environment_is_refused_naming_it(run):
     "text, message",
     [
         ("missing.zip", r"model file 'missing.zip' does not exist"),
-        ("nonsense", r"'nonsense' is no run folder or model file here; allowed: random, reference, gait, a model .zip"),
-        ("runs/nothing", r"'runs/nothing' is no run folder or model file here; allowed: random, reference, gait"),
+        (
+            "nonsense",
+            r"'nonsense' is no run folder or model file here; allowed: random, reference, search, gait, a model .zip",
+        ),
+        (
+            "runs/nothing",
+            r"'runs/nothing' is no run folder or model file here; allowed: random, reference, search, gait",
+        ),
         ("no_such_module_here:make", r"cannot load 'no_such_module_here:make'"),
         ("json:no_such_name", r"cannot load 'json:no_such_name'"),
     ],

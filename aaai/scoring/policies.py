@@ -1,6 +1,7 @@
 """What a ``--policy`` string names, resolved once into a :class:`Policy` that builds it on any worker.
 
-A ``--policy`` is ``random``, ``reference`` (the privileged reference controller), ``gait`` (the
+A ``--policy`` is ``random``, ``reference`` (the privileged reference controller), ``search`` (the
+reference acting only on the food the agent's rays have shown it), ``gait`` (the
 example trot), a stable-baselines3 model ``.zip``, a run folder (its newest saved model, its RLlib
 checkpoint, or random actions for a run of the random agent) or ``module:callable`` (called with the
 environment to make the policy). :func:`resolve` looks at the disk once and returns a frozen, plain
@@ -32,16 +33,16 @@ from aaai.files import file_sha256, folder_sha256
 from aaai.scoring.runs import RunFolder, model_problem, rllib_checkpoint, run_backend
 from aaai.sim.gait import gait_policy
 
-BUILT_IN = ("random", "reference", "gait")
+BUILT_IN = ("random", "reference", "search", "gait")
 # How a scoreboard's actions are computed (recorded with it): a learned policy's forward pass in
 # float64, and the action that a learned policy or the reference hands to the environment put on a
 # grid of 2**-20 (the nearest multiple, then float32, which holds it exactly), so that last-bit
 # differences between CPUs' code paths (MKL's kernels, vector maths) do not reach the physics.
 NUMERICS = "f64-grid2^-20"
 GRID = 2.0**-20
-ON_GRID = ("reference", "model", "rllib")  # the kinds whose actions are put on the grid
+ON_GRID = ("reference", "search", "model", "rllib")  # the kinds whose actions are put on the grid
 KINDS = (*BUILT_IN, "model", "rllib", "callable", "external")
-ALLOWED = "random, reference, gait, a model .zip, a run folder, module:callable"
+ALLOWED = "random, reference, search, gait, a model .zip, a run folder, module:callable"
 
 
 @dataclass(frozen=True)
@@ -107,6 +108,10 @@ class Policy:
             from aaai.task.reference import ReferenceController
 
             return ReferenceController(env)
+        if self.kind == "search":
+            from aaai.task.search import SearchController
+
+            return SearchController(env)
         if self.kind == "gait":
             return gait_policy(env)
         if self.kind == "model":

@@ -84,6 +84,7 @@ class Rays:
         self._holes: np.ndarray | None = None  # (m, 4) rectangles x0, y0, x1, y1 of missing floor, or None
         self._zones: np.ndarray | None = None  # (m, 7) floor areas: centre x y, cos, sin of yaw, half x y, column
         self.threads = 1  # rayTestBatch's numThreads (0: all cores); the hits are the same for any
+        self.last: tuple = (np.zeros((0, 3)), np.zeros((0, 3)), [])  # the last cast: starts, directions, hits
 
     def set_holes(self, rectangles) -> None:
         """The level's missing floor as world rectangles (x0, y0, x1, y1); empty for none."""
@@ -118,6 +119,7 @@ class Rays:
         )
         if self.width:
             hits = self._nearest(hits, kind_index)
+        self.last = starts, dirs, hits  # what the rays reported, by body (aaai.task.search reads it)
         # A plain loop: for a few dozen rays it is several times faster than numpy's fancy indexing.
         obs = np.zeros(self.grid_shape, np.float32)
         known = len(kind_index)

@@ -62,6 +62,7 @@ BATCH_SIZE = 1024
 LEARNING_RATE = 1e-3
 EPISODES_PER_JOB = 4  # episodes a worker plays per task: small enough to share the load evenly
 DATA_FOLDER = "dagger"
+TEACHERS = ("reference", "search")  # the all-knowing reference; the one that searches (aaai.task.search)
 
 
 @dataclass(frozen=True)
@@ -140,10 +141,11 @@ def play_job(job: Job) -> dict:
 
     from aaai.env import AnimalAIEnv
     from aaai.task.reference import ReferenceController
+    from aaai.task.search import SearchController
 
     torch.set_num_threads(1)
     env = AnimalAIEnv(config=env_part(job.config, 0.0))
-    teacher = ReferenceController(env)
+    teacher = SearchController(env) if job.config.train.teacher == "search" else ReferenceController(env)
     student = None
     if job.weights is not None:
         student = build_policy(seen_space(env.observation_space), env.action_space, job.net_width)
@@ -248,9 +250,10 @@ class StudentResult:
 
 
 def check_teachable(config: Config) -> None:
-    if config.train.teacher != "reference":
+    if config.train.teacher not in TEACHERS:
         raise ConfigError(
-            f"config key 'train.teacher': got {config.train.teacher!r}; allowed for a student run: reference"
+            f"config key 'train.teacher': got {config.train.teacher!r}; allowed for a student run: "
+            + ", ".join(TEACHERS)
         )
     if config.agent.action_mode == "velocity":
         raise ConfigError(

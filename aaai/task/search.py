@@ -1,0 +1,280 @@
+"""The searching reference: the reference controller acting only on the food its rays have shown it.
+
+``SearchController(env)`` (``aaai eval --policy search``, ``train.teacher: search``) is the reference
+controller of aaai.task.reference with one thing taken away: it is not told where the food is. A piece
+becomes known to it only when one of the agent's own rays (the env's ``sensors``: fans, length,
+angle) hits it, read from what the rays reported at the last observation (``Rays.last``: the body
+each ray hit), never from a line of sight worked out from the spec. Then:
+
+- **memory**: it remembers where it last saw each piece (its position at that moment; what is
+  limited is which pieces it perceives, not how well), and how fast it was moving between two
+  sightings less than a second apart: a piece out of view is looked for where that motion carries
+  it, for at most PREDICT_SECONDS (a sliding piece behind an occluder). A remembered piece is
+  forgotten when a ray that would have hit it where it should be (passing within half its radius
+  of that place, unblocked before it) reports something else; it is then searched for from there.
+- **search**: with no food known, it turns on the spot to look round (once at the start, and after
+  losing a piece), then walks to unexplored space: the cell of the planner's grid, not yet swept by
+  any of its rays, that is cheapest to reach with the most unswept space round it (frontier
+  exploration). Rays sweep the cells they pass over, up to what they hit; a wall or an occluder
+  leaves the space behind it unswept, so that is where it goes next. When everything reachable has
+  been swept without food in sight, the sweep is forgotten and it starts again.
+- **sectors** (L9): it looks round first, then goes into the sector where it has seen the most food.
+
+What it knows of the static layout: the walls, holes and the plank of L10 are the planner's, as for the
+reference (it plans paths and keeps clear of walls on the full occupancy grid, and so knows which
+unswept places can be walked to). The food, and where to look for it, come from its rays alone.
+The one privileged fact it reads is whether any food is left to eat at all (the world's list of
+uneaten pieces): with none left it stops searching and stands, as the reference does; that ends
+the search, it never chooses where to go.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pybullet as p
+
+from aaai.errors import ConfigError
+from aaai.levels import validate
+from aaai.sim.gait import SineGait
+from aaai.spec import ObjectSpec
+from aaai.task.reference import ReferenceController, _angle, _sector_of
+
+PREDICT_SECONDS = 3.0  # a piece out of view is predicted along its seen motion for at most this long
+MOTION_GAP = 1.0  # two sightings this close in time give a velocity
+MISS = 0.5  # a ray passing within this fraction of a piece's radius of where it should be would have hit it
+LOOK_MARGIN = math.radians(20)  # a look round turns this much beyond what the fan already covers
+LOOK_SECONDS = 12.0  # ... or for at most this long
+SECTOR_TURNS = 2  # in a level of sectors (L9) it turns round this many times before it counts the food it saw
+BODY_SEEN = 2.0  # cells this close to the head count as swept (it stands there)
+GAIN_SPAN = 8.0  # unexplored space is weighed within a square this wide round a candidate cell
+GAIN_WEIGHT = 20.0  # units of path cost one fully unswept neighbourhood is worth
+GOAL_SECONDS = 15.0  # gives up an exploration goal after this long, marking it swept
+GOAL_REACHED = 2.0
+SEARCH_CROUCH = 1.0  # it searches with its head low (about 1.7 above the floor, not 2.3): level rays see size-2 food
+
+
+class _SearchGait(SineGait):
+    """The gait, crouched at least ``low`` while it searches (as fast as upright, measured)."""
+
+    low = 0.0
+
+    def command(self, forward: float, turn: float, crouch: float = 0.0) -> None:
+        super().command(forward, turn, max(crouch, self.low))
+
+
+class SearchController(ReferenceController):
+    """A policy: ``action = controller(observation)``; ``reset(seed)`` at each episode start."""
+
+    gait: _SearchGait
+    memory: dict[int, list]  # body -> [spec, (x, y, z), (vx, vy), time seen]
+    seen: np.ndarray  # cells some ray has swept
+    look_yaw: float | None
+    goal: tuple[float, float] | None
+    goals: int  # exploration goals chosen so far (each a plan key)
+    hint: tuple[float, float] | None  # where a lost piece was last expected
+
+    def __init__(self, env):
+        super().__init__(env)
+        self.gait = _SearchGait(self.env.body.joint_names, "forward", self.env.control_dt)
+        if self.env.rays is None:
+            raise ConfigError(
+                "policy 'search': config key 'sensors.rays': got false; allowed: true (the searching "
+                "reference sees food only through the agent's rays)"
+            )
+        local = self.env.rays.local_dirs
+        self.fan = float(np.max(np.abs(np.arctan2(local[:, 1], local[:, 0]))))  # half the fan's angle
+
+    # --- the episode's state -------------------------------------------------------------
+    def _start_episode(self) -> None:
+        super()._start_episode()
+        self.sectors = self.sector is not None  # the level has sectors (layout), not which holds most food
+        self.sector = None
+        self.memory = {}
+        self.seen = np.zeros(self.walk.shape, bool)
+        self.looking, self.look_turned, self.look_yaw, self.look_started = True, 0.0, None, 0.0
+        self.goal = None
+        self.goal_started, self.goals = 0.0, 0
+        self.hint = None
+
+    def student_drove(self, seconds: float) -> None:
+        super().student_drove(seconds)
+        self.goal_started += seconds
+        self.look_started += seconds
+
+    # --- what the rays show ----------------------------------------------------------------
+    def _look(self, head: np.ndarray, now: float) -> None:
+        """Reads the rays' last cast: the food they hit is known (or its memory refreshed), the
+        cells they passed over are swept, and a remembered piece a ray should have hit is lost."""
+        env = self.env
+        starts, dirs, hits = env.rays.last
+        if not len(hits):
+            return
+        fractions = np.array([hit[2] for hit in hits])
+        reach = fractions * env.rays.length
+        hit_now = set()
+        for hit in hits:
+            body = hit[0]
+            if body in env.world.food and body not in hit_now:
+                hit_now.add(body)
+                self._saw(body, env.world.food[body], now)
+        self._sweep(starts, dirs, reach, head)
+        for body in [body for body in self.memory if body not in hit_now]:
+            if body not in env.world.food:  # eaten
+                del self.memory[body]
+                continue
+            food, position = self.memory[body][0], self._where(body, now)
+            if self._should_see(starts, dirs, reach, position, food.size[0] / 2):
+                del self.memory[body]
+                self.hint = position[0], position[1]
+                self._look_round(now)
+
+    def _saw(self, body: int, food: ObjectSpec, now: float) -> None:
+        position = p.getBasePositionAndOrientation(body, physicsClientId=self.env.client)[0]
+        velocity = (0.0, 0.0)
+        before = self.memory.get(body)
+        if before is not None and 0.0 < now - before[3] <= MOTION_GAP:
+            dt = now - before[3]
+            velocity = ((position[0] - before[1][0]) / dt, (position[1] - before[1][1]) / dt)
+        elif before is not None and now == before[3]:
+            velocity = before[2]
+        self.memory[body] = [food, tuple(position), velocity, now]
+        self.hint = None
+
+    def _where(self, body: int, now: float) -> tuple[float, float, float]:
+        """Where a remembered piece should be now: where it was seen, moved on as it was moving
+        then (for at most PREDICT_SECONDS), stopped short of a wall."""
+        _, (x, y, z), (vx, vy), seen = self.memory[body]
+        lapse = min(now - seen, PREDICT_SECONDS)
+        if lapse <= 0.0 or vx == 0.0 and vy == 0.0:
+            return x, y, z
+        steps = max(1, int(math.hypot(vx, vy) * lapse / validate.GRID))
+        last = x, y
+        for k in range(1, steps + 1):
+            t = lapse * k / steps
+            if self.grid[validate.cell(self.level, x + vx * t, y + vy * t, self.grid.shape)]:
+                break
+            last = x + vx * t, y + vy * t
+        return (*last, z)
+
+    @staticmethod
+    def _should_see(starts, dirs, reach, position, radius: float) -> bool:
+        """Would one of the rays, as cast, have hit a piece of ``radius`` at ``position``?"""
+        offset = np.asarray(position) - starts
+        along = np.einsum("ij,ij->i", offset, dirs)
+        inside = (along > radius) & (along < reach - radius)
+        miss = np.linalg.norm(offset - along[:, None] * dirs, axis=1)
+        return bool(np.any(inside & (miss < MISS * radius)))
+
+    def _sweep(self, starts, dirs, reach, head: np.ndarray) -> None:
+        """Marks the cells the rays passed over (their ground track up to what they hit)."""
+        shape, level = self.seen.shape, self.level
+        samples = np.arange(0.0, float(reach.max()) + validate.GRID, validate.GRID / 2)
+        along = np.minimum(samples[None, :], reach[:, None])  # (rays, samples)
+        x = starts[:, 0:1] + dirs[:, 0:1] * along
+        y = starts[:, 1:2] + dirs[:, 1:2] * along
+        cols = np.clip(np.floor((x + level.arena_size[0] / 2) / validate.GRID).astype(int), 0, shape[1] - 1)
+        rows = np.clip(np.floor((y + level.arena_size[1] / 2) / validate.GRID).astype(int), 0, shape[0] - 1)
+        self.seen[rows, cols] = True
+        near = np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]) <= BODY_SEEN
+        self.seen |= near
+
+    # --- what to do ----------------------------------------------------------------------
+    def _look_round(self, now: float) -> None:
+        self.looking, self.look_turned, self.look_yaw, self.look_started = True, 0.0, None, now
+        self.goal = None
+
+    def _foods(self):
+        """The remembered pieces, where they should be now (in the chosen sector, in L9)."""
+        now = self.env.steps * self.env.control_dt
+        if self.sectors and self.sector is None:
+            if self.looking or not self.memory:
+                return []  # looks round before it chooses a sector
+            counts: dict[tuple[float, float], int] = {}
+            for body in self.memory:
+                sector = _sector_of(self._where(body, now))
+                counts[sector] = counts.get(sector, 0) + 1
+            self.sector = max(counts, key=lambda s: counts[s])
+        foods = []
+        for body, (food, *_) in self.memory.items():
+            position = self._where(body, now)
+            if self.sector is not None and _sector_of(position) != self.sector:
+                continue
+            foods.append((body, food, position))
+        return foods
+
+    @staticmethod
+    def _food_goal(food: ObjectSpec, position) -> tuple[float, float]:
+        return position[0], position[1]  # where it is expected now (_where), not where the spec moves it
+
+    def _target(self, head: np.ndarray):
+        target = super()._target(head)
+        if target is not None or not self.env.world.food:  # nothing left to eat: the search is over
+            return target
+        goal = self._explore_goal(head)
+        if goal is None:
+            return None
+        return goal, 0.5, ("explore", self.goals), [], False
+
+    def _explore_goal(self, head: np.ndarray) -> tuple[float, float] | None:
+        """The current exploration goal, or a new one: the unswept walkable cell cheapest to reach
+        with the most unswept space round it; None when all is swept (the sweep starts again)."""
+        now = self.env.steps * self.env.control_dt
+        if self.goal is not None:
+            row, col = validate.cell(self.level, *self.goal, self.seen.shape)
+            timed_out = now - self.goal_started > GOAL_SECONDS
+            if timed_out:
+                self.seen[row, col] = True
+            if not (self.seen[row, col] or math.dist(head[:2], self.goal) < GOAL_REACHED):
+                return self.goal
+        unswept = self.walk & ~self.seen
+        if not unswept.any():
+            self.seen[:] = False
+            self._look_round(now)
+            return None
+        span = int(GAIN_SPAN / validate.GRID) | 1
+        gain = cv2.blur(unswept.astype(np.float32), (span, span))
+        here = np.zeros(self.walk.shape, bool)
+        here[validate.cell(self.level, head[0], head[1], here.shape)] = True
+        if not (here & self.walk).any():  # beside a wall: from the nearest walkable cell
+            distance = np.where(
+                self.walk, np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]), 1e9
+            )
+            here = distance == distance.min()
+        cost = validate.path_costs(self.walk, here, self.crowding)
+        if self.hint is not None:
+            cost = cost + np.hypot(self.cell_x[None, :] - self.hint[0], self.cell_y[:, None] - self.hint[1])
+        score = np.where(unswept & np.isfinite(cost), cost - GAIN_WEIGHT * gain, np.inf)
+        if not np.isfinite(score).any():
+            self.seen |= unswept  # nothing unswept can be reached from here
+            return None
+        r, c = np.unravel_index(np.argmin(score), score.shape)
+        self.goal, self.goal_started, self.goals = (float(self.cell_x[c]), float(self.cell_y[r])), now, self.goals + 1
+        return self.goal
+
+    def _act(self) -> np.ndarray:
+        env = self.env
+        if self.spec is not env.level_spec or env.steps == 0 and self.plan_key is not None:
+            self._start_episode()
+        head, rotation = env.body.head_pose()
+        yaw = math.atan2(rotation[1, 0], rotation[0, 0])
+        now = env.steps * env.control_dt
+        self._look(head, now)
+        self.gait.low = SEARCH_CROUCH if self.looking or not self._foods() else 0.0
+        if self.looking:
+            self.look_turned += abs(_angle(yaw - self.look_yaw)) if self.look_yaw is not None else 0.0
+            self.look_yaw = yaw
+            counting = self.sectors and self.sector is None  # L9: it counts the food in each sector first
+            turn = 2 * math.pi * SECTOR_TURNS if counting else 2 * math.pi - 2 * self.fan + LOOK_MARGIN
+            done = self.look_turned >= turn or now - self.look_started > LOOK_SECONDS * (
+                SECTOR_TURNS if counting else 1
+            )
+            found = bool(self.memory) and not self.sectors
+            if done or found or not env.world.food:
+                self.looking = False
+            else:
+                self.gait.command(0.0, 1.0)
+                return self.gait()
+        return super()._act()

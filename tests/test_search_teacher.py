@@ -1,0 +1,159 @@
+"""The searching reference (aaai.task.search): it knows food only once the agent's rays have hit it,
+goes to it once seen, and looks round and explores when it has seen none."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as p
+import pytest
+
+from aaai.config import ConfigError, load_config
+from aaai.env import AnimalAIEnv
+from aaai.task.search import SearchController
+
+
+@pytest.fixture(scope="module")
+def gait_env():
+    env = AnimalAIEnv(config={"agent": {"action_mode": "gait"}})  # the default senses: 17 rays over 90 degrees
+    yield env
+    env.close()
+
+
+def _place(env, x: float, y: float, yaw: float) -> dict:
+    """The body set down at (x, y) facing ``yaw``; one standing decision so the rays cast from there."""
+    p.resetBasePositionAndOrientation(
+        env.body.id, (x, y, 1.5), p.getQuaternionFromEuler((0, 0, yaw)), physicsClientId=env.client
+    )
+    return env.step(np.zeros(3))[0]
+
+
+def _yaw(env) -> float:
+    rotation = env.body.head_pose()[1]
+    return math.atan2(rotation[1, 0], rotation[0, 0])
+
+
+def _rays_hit(env, body: int) -> bool:
+    return any(hit[0] == body for hit in env.rays.last[2])
+
+
+def test_food_behind_the_body_is_unknown_until_a_ray_hits_it_and_then_it_is_eaten(gait_env):
+    """L0 d0: set down 6 units from the food facing away, it does not know the food; it knows it from
+    the first decision a ray hits it (never before), and then walks to it and eats it."""
+    env = gait_env
+    controller = SearchController(env)
+    env.reset(seed=1, options={"level": 0, "difficulty": 0})
+    controller.reset(1)
+    (food,) = env.world.food
+    x, y, _ = env.world.food[food].position
+    observation = _place(env, x, y - 6.0, -math.pi / 2)  # the food straight behind
+    assert not _rays_hit(env, food)
+    ever_hit = False
+    for decision in range(200):
+        ever_hit = ever_hit or _rays_hit(env, food)
+        action = controller(observation)
+        assert (food in controller.memory) == ever_hit, decision
+        observation, _, terminated, _, info = env.step(action)
+        if terminated:
+            break
+    assert ever_hit and info["food_eaten"] == 1, decision
+
+
+def test_a_piece_gone_from_where_the_rays_should_show_it_is_forgotten_and_looked_for(gait_env):
+    """L0 d0: seen 6 units ahead, then moved (by hand) out of the rays' view: the next cast passes
+    where it was without hitting it, so the piece is forgotten and the body looks round again."""
+    env = gait_env
+    controller = SearchController(env)
+    env.reset(seed=1, options={"level": 0, "difficulty": 0})
+    controller.reset(1)
+    (food,) = env.world.food
+    x, y, z = env.world.food[food].position
+    observation = _place(env, x, y - 6.0, math.pi / 2)  # facing it
+    controller(observation)
+    assert food in controller.memory and not controller.looking
+    p.resetBasePositionAndOrientation(food, (x, y - 12.0, z), (0, 0, 0, 1), physicsClientId=env.client)  # behind
+    observation = env.step(np.zeros(3))[0]
+    controller(observation)
+    assert food not in controller.memory and controller.looking
+    assert controller.hint is not None and math.dist(controller.hint, (x, y)) < 1.0
+
+
+def test_with_nothing_seen_it_looks_round_on_the_spot_then_walks_to_unswept_space(gait_env):
+    """L5 d0: the food is far behind walls. First it turns on the spot (over half a turn in
+    3.5 s, never commanding a step forward); then it walks off, into space its rays had not swept."""
+    env = gait_env
+    controller = SearchController(env)
+    observation, _ = env.reset(seed=1, options={"level": 5, "difficulty": 0})
+    controller.reset(1)
+    start = env.body.head_pose()[0][:2]
+    turned, last = 0.0, _yaw(env)
+    for _ in range(35):
+        action = controller(observation)
+        assert action[0] == 0.0  # no step forward: on the spot
+        observation = env.step(action)[0]
+        turned += abs(math.remainder(_yaw(env) - last, 2 * math.pi))
+        last = _yaw(env)
+    assert turned > math.pi and np.linalg.norm(env.body.head_pose()[0][:2] - start) < 1.0
+    swept_after_look = controller.seen.copy()
+    visited = set()
+    for _ in range(85):
+        observation = env.step(controller(observation))[0]
+        head = env.body.head_pose()[0]
+        visited.add((round(head[0] / 2), round(head[1] / 2)))
+    assert not controller.memory  # no food seen, all the while
+    assert np.linalg.norm(env.body.head_pose()[0][:2] - start) > 8.0
+    assert len(visited) > 5
+    assert controller.seen.sum() > 1.3 * swept_after_look.sum()
+
+
+def test_an_l0_episode_with_the_food_behind_the_start_is_passed_by_searching(gait_env):
+    """L0 d3, the body set down in the middle of the arena facing away from the food (4 units
+    behind it, out of every ray): the search finds it and eats it well within the time limit."""
+    env = gait_env
+    controller = SearchController(env)
+    env.reset(seed=1, options={"level": 0, "difficulty": 3})
+    controller.reset(1)
+    (food,) = env.world.food
+    fx, fy, _ = env.world.food[food].position
+    observation = _place(env, 0.0, 0.0, math.atan2(-fy, -fx))  # facing away
+    assert not _rays_hit(env, food)
+    for decision in range(env.max_steps // env.hold):
+        observation, _, terminated, truncated, info = env.step(controller(observation))
+        if terminated or truncated:
+            break
+    assert info["food_eaten"] == 1 and terminated and decision < 150, decision
+
+
+def test_a_search_teacher_teaches_a_student_that_drives_part_of_the_time():
+    """``train.teacher: search`` in a DAgger round with the student driving about half the time:
+    every decision is labelled, some by the student's actions, and bad teachers are refused."""
+    pytest.importorskip("stable_baselines3", reason="needs the train extra")
+    from aaai.train.student import Job, build_policy, check_teachable, play_job
+
+    config = load_config(
+        {
+            "agent": {"action_mode": "gait"},
+            "curriculum": {"levels": "5", "difficulties": "0"},
+            "train": {"teacher": "search", "num_envs": 1, "net_width": 16},
+        }
+    )
+    check_teachable(config)
+    env = AnimalAIEnv(config=config.env_dict())
+    weights = build_policy(env.observation_space, env.action_space, 16).state_dict()
+    env.close()
+    gathered = play_job(Job(config, weights, 16, 0.5, 1, ((5, 0, 7),), cap=40))
+    assert len(gathered["labels"]) == 40 and 0 < gathered["taught"] < 40
+    assert tuple(gathered["labels"][0]) == (0.0, 1.0, 1.0)  # the search teacher's: it looks round, head low
+    assert np.isfinite(gathered["labels"]).all()
+    with pytest.raises(ConfigError, match="train.teacher.*'serch'.*reference, search"):
+        load_config({"train": {"teacher": "serch"}})
+
+
+def test_without_rays_the_search_is_refused_naming_the_key():
+    env = AnimalAIEnv(config={"sensors": {"rays": False}})
+    try:
+        with pytest.raises(ConfigError, match="sensors.rays"):
+            SearchController(env)
+    finally:
+        env.close()
