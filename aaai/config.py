@@ -196,6 +196,8 @@ RULES: dict[str, Rule] = {
     "train.dagger_beta": Rule("float", 0, 1),
     "train.dagger_epochs": Rule("int", 1, 1000),
     "train.dagger_episode_cap": Rule("int", 1, 10**6),
+    "train.student_policy": Rule("choice", choices=("mlp", "lstm")),
+    "train.dagger_sequence": Rule("int", 2, 10**4),
     "eval.seeds_per_cell": Rule("int", 1, 1000),
 }
 
@@ -317,6 +319,8 @@ class TrainConfig:
     dagger_beta: float
     dagger_epochs: int
     dagger_episode_cap: int
+    student_policy: str
+    dagger_sequence: int
 
 
 @dataclass(frozen=True)

@@ -107,10 +107,21 @@ class TrackerCallback(BaseCallback):
 
 
 def ppo_from_config(env, config: Config, run: RunFolder) -> PPO:
+    """PPO from the run's config; RecurrentPPO when it starts from a recurrent student (--init-from)."""
     train = config.train
     width = train.net_width
-    return PPO(
-        "MultiInputPolicy",
+    algorithm: Any = PPO
+    policy, kwargs = "MultiInputPolicy", {"net_arch": [width, width], "log_std_init": train.log_std_init}
+    if train.init_from:
+        from aaai.train import recurrent_student
+
+        if recurrent_student.is_recurrent(init_model(train.init_from)):
+            from sb3_contrib import RecurrentPPO
+
+            algorithm, policy = RecurrentPPO, recurrent_student.POLICY
+            kwargs = recurrent_student.policy_kwargs(width, train.log_std_init)
+    return algorithm(
+        policy,
         env,
         learning_rate=train.learning_rate,
         n_steps=train.n_steps,
@@ -119,7 +130,7 @@ def ppo_from_config(env, config: Config, run: RunFolder) -> PPO:
         gamma=train.gamma,
         gae_lambda=train.gae_lambda,
         ent_coef=train.ent_coef,
-        policy_kwargs={"net_arch": [width, width], "log_std_init": train.log_std_init},
+        policy_kwargs=kwargs,
         tensorboard_log=str(run.path / "tb"),
         seed=train.seed,
         device="cpu",
@@ -175,13 +186,9 @@ def train_ppo(
     return model.num_timesteps
 
 
-def start_from(model: PPO, source: str | Path) -> None:
-    """Loads the policy weights of ``source`` (a run folder's newest model, or a model .zip; e.g. a
-    student of the reference) into a fresh PPO model; only the weights file is read, with
-    ``torch.load(weights_only=True)``, so nothing in it can run. Refused, naming both, when the
-    networks differ (another action mode, senses or net_width)."""
+def init_model(source: str | Path) -> Path:
+    """The model file --init-from names: a run folder's newest model, or the model .zip itself."""
     from aaai.config import ConfigError
-    from aaai.scoring.model_archive import read_tensors
 
     path = Path(source)
     if path.is_dir():
@@ -191,6 +198,18 @@ def start_from(model: PPO, source: str | Path) -> None:
                 f"--init-from: run folder {str(source)!r} holds no model (final/ or checkpoints/*/model.zip)"
             )
         path = newest / "model.zip"
+    return path
+
+
+def start_from(model: PPO, source: str | Path) -> None:
+    """Loads the policy weights of ``source`` (a run folder's newest model, or a model .zip; e.g. a
+    student of the reference) into a fresh PPO model; only the weights file is read, with
+    ``torch.load(weights_only=True)``, so nothing in it can run. Refused, naming both, when the
+    networks differ (another action mode, senses or net_width)."""
+    from aaai.config import ConfigError
+    from aaai.scoring.model_archive import read_tensors
+
+    path = init_model(source)
     try:
         weights = read_tensors(path, "policy.pth", trust_helps=False)  # within budgets, weights_only, finite
     except ConfigError as error:
