@@ -134,6 +134,9 @@ def test_init_from_a_recurrent_student_fine_tunes_it_with_recurrent_ppo(lstm_run
     result = CliRunner().invoke(cli, args + ["--steps", "32", "--envs", "1", "--run", str(tuned), "--config", config])
     assert result.exit_code == 0, result.output
     assert policy_class_name(read_archive(tuned / "final" / "model.zip")) == "RecurrentMultiInputActorCriticPolicy"
+    rllib = CliRunner().invoke(cli, args + ["--backend", "rllib", "--run", str(tmp_path / "rllib")])
+    assert rllib.exit_code == 2 and "--init-from: got" in rllib.output and "--backend sb3" in rllib.output
+    assert not (tmp_path / "rllib").exists()
 
 
 def test_a_student_policy_that_is_not_allowed_is_refused_in_one_line(tmp_path):

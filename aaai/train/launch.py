@@ -99,6 +99,12 @@ def train_run(
     run_config = config or load_config(RunFolder(run_dir).read_config())
     total = total_steps or run_config.train.total_steps
     use_rllib = (run_backend(run_dir) if resume else backend) == "rllib"
+    if use_rllib and run_config.train.init_from:
+        raise ConfigError(
+            f"--init-from: got {run_config.train.init_from!r} with --backend rllib, whose network (an RLlib "
+            "RLModule) a stable-baselines3 model's weights do not fit, a recurrent student's LSTM least of all; "
+            "allowed: --backend sb3 (PPO, or RecurrentPPO for a recurrent student)"
+        )
     if run_config.train.teacher == "none" and run_config.train.student_policy != "mlp":
         raise ConfigError(
             f"config key 'train.student_policy': got {run_config.train.student_policy!r} for a PPO run; allowed: "
