@@ -201,6 +201,8 @@ RULES: dict[str, Rule] = {
     "train.dagger_epochs": Rule("int", 1, 1000),
     "train.dagger_episode_cap": Rule("int", 1, 10**6),
     "train.dagger_max_decisions": Rule("int", 0, 10**9),  # aaai.train.camera_student.Dataset; 0: no cap
+    "train.student_policy": Rule("choice", choices=("mlp", "lstm")),
+    "train.dagger_sequence": Rule("int", 2, 10**4),
     "eval.seeds_per_cell": Rule("int", 1, 1000),
 }
 
@@ -327,6 +329,8 @@ class TrainConfig:
     dagger_epochs: int
     dagger_episode_cap: int
     dagger_max_decisions: int
+    student_policy: str
+    dagger_sequence: int
 
 
 @dataclass(frozen=True)

@@ -335,7 +335,8 @@ def check_start_weights(
     """``aaai train --init-from``: the model's weights (only policy.pth is read, never unpickled)
     checked within the budgets against the network a new run builds (a stable-baselines3
     MultiInputPolicy with ``kwargs``), before the run's folder exists; first, the config the file
-    carries against the run's ``config`` (:func:`start_config_problems`)."""
+    carries against the run's ``config`` (:func:`start_config_problems`). A recurrent model's
+    weights are checked against sb3-contrib's MultiInputLstmPolicy, which RecurrentPPO fine-tunes."""
     from stable_baselines3.common.policies import MultiInputActorCriticPolicy
 
     path = Path(path)
@@ -350,7 +351,14 @@ def check_start_weights(
                 "allowed: a model of the same body, action mode and senses"
             )
     state = read_tensors(path, "policy.pth", trust_helps=False)
-    expected = expected_state(path, MultiInputActorCriticPolicy, observation_space, action_space, False, kwargs)
+    cls: Any = MultiInputActorCriticPolicy
+    archive = read_archive(path)
+    if policy_class_name(archive).startswith("Recurrent"):
+        _algorithm(archive)  # sb3-contrib is there, or one line says which package is missing
+        from sb3_contrib.common.recurrent.policies import RecurrentMultiInputActorCriticPolicy
+
+        cls = RecurrentMultiInputActorCriticPolicy
+    expected = expected_state(path, cls, observation_space, action_space, False, kwargs)
     check_state(path, state, expected)
 
 
@@ -485,7 +493,12 @@ def load_for_training(path: str | Path, env, fallback_kwargs: dict | None = None
         from stable_baselines3 import PPO
 
         check_before_trusted_load(path)
-        model = PPO.load(path, env=env, device="cpu", **overrides)
+        algorithm: Any = PPO
+        try:
+            algorithm = _algorithm(read_archive(path))[0]  # RecurrentPPO for a recurrent model
+        except ConfigError:
+            pass  # a class outside our registry: PPO's loader decides
+        model = algorithm.load(path, env=env, device="cpu", **overrides)
         check_trusted_model(path, model)
         return model
     archive = read_archive(path)

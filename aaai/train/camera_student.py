@@ -110,10 +110,11 @@ def round_share(config: Config) -> int | None:
     return cap // config.train.dagger_iterations if cap else None
 
 
-def keep_round(results: list[dict], keep: int | None, rng: np.random.Generator) -> tuple[dict, np.ndarray]:
-    """One round's observations and labels from its workers' results: all of them, or a uniform sample
-    of ``keep`` (drawn from ``rng``, in the order played) when there are more. Each result's part is
-    taken from it directly: the round's data is never concatenated whole first."""
+def keep_round(results: list[dict], keep: int | None, rng: np.random.Generator) -> tuple[dict, np.ndarray, np.ndarray]:
+    """One round's observations, labels and episode starts from its workers' results: all of them, or
+    a uniform sample of ``keep`` (drawn from ``rng``, in the order played) when there are more (each
+    kept decision then starts a sequence of its own: a sample is for a stateless student only). Each
+    result's part is taken from it directly: the round's data is never concatenated whole first."""
     counts = [len(result["labels"]) for result in results]
     total = sum(counts)
     chosen: list[np.ndarray | slice]
@@ -129,7 +130,11 @@ def keep_round(results: list[dict], keep: int | None, rng: np.random.Generator) 
         for key in keys
     }
     labels = np.concatenate([result["labels"][part] for result, part in zip(results, chosen)])
-    return observations, labels
+    if keep is None or total <= keep:
+        starts = np.concatenate([result["starts"] for result in results])
+    else:
+        starts = np.ones(len(labels), bool)
+    return observations, labels, starts
 
 
 class Dataset:
@@ -143,9 +148,14 @@ class Dataset:
         self.size = 0
         self._observations: dict[str, np.ndarray] = {}
         self._labels: np.ndarray | None = None
+        self._starts = np.zeros(self.capacity or 0, bool)
 
-    def add(self, observations: dict[str, np.ndarray], labels: np.ndarray) -> None:
+    def add(self, observations: dict[str, np.ndarray], labels: np.ndarray, starts: np.ndarray | None = None) -> None:
+        """Appends a round's decisions; ``starts`` marks where each episode begins (None: the round is
+        one sequence, as data saved before starts were recorded)."""
         count = len(labels)
+        if starts is None:
+            starts = np.arange(count) == 0
         if self._labels is None:
             rows = self.capacity if self.capacity is not None else 0
             self._observations = {k: np.empty((rows, *v.shape[1:]), v.dtype) for k, v in observations.items()}
@@ -155,12 +165,14 @@ class Dataset:
                 k: np.concatenate([v[: self.size], observations[k]]) for k, v in self._observations.items()
             }
             self._labels = np.concatenate([self._labels[: self.size], labels.astype(LABEL_DTYPE)])
+            self._starts = np.concatenate([self._starts[: self.size], np.asarray(starts, bool)])
         else:
             if self.size + count > self.capacity:
                 raise ValueError(f"the data holds {self.capacity} decisions; {self.size} + {count} do not fit")
             for key, array in self._observations.items():
                 array[self.size : self.size + count] = observations[key]
             self._labels[self.size : self.size + count] = labels
+            self._starts[self.size : self.size + count] = starts
         self.size += count
 
     def bound(self, size: int) -> str:
@@ -178,6 +190,11 @@ class Dataset:
         return np.zeros((0,), LABEL_DTYPE) if self._labels is None else self._labels[: self.size]
 
     @property
+    def starts(self) -> np.ndarray:
+        """Where each episode of the data begins (a recurrent student's sequences)."""
+        return self._starts[: self.size]
+
+    @property
     def nbytes(self) -> int:
         """Bytes the data's arrays hold (the whole buffer, with a capacity)."""
         arrays = list(self._observations.values()) + ([self._labels] if self._labels is not None else [])
@@ -191,4 +208,5 @@ class Dataset:
                 raise ConfigError(f"--resume: {str(path)!r} is missing; the run's data cannot be rebuilt")
             with np.load(path) as data:
                 observations = {name[4:]: data[name] for name in data.files if name.startswith("obs_")}
-                self.add(observations, data["labels"])
+                starts = data["episode_starts"] if "episode_starts" in data.files else None
+                self.add(observations, data["labels"], starts)

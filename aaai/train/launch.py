@@ -99,6 +99,18 @@ def train_run(
     run_config = config or load_config(RunFolder(run_dir).read_config())
     total = total_steps or run_config.train.total_steps
     use_rllib = (run_backend(run_dir) if resume else backend) == "rllib"
+    if use_rllib and run_config.train.init_from:
+        raise ConfigError(
+            f"--init-from: got {run_config.train.init_from!r} with --backend rllib, whose network (an RLlib "
+            "RLModule) a stable-baselines3 model's weights do not fit, a recurrent student's LSTM least of all; "
+            "allowed: --backend sb3 (PPO, or RecurrentPPO for a recurrent student)"
+        )
+    if run_config.train.teacher == "none" and run_config.train.student_policy != "mlp":
+        raise ConfigError(
+            f"config key 'train.student_policy': got {run_config.train.student_policy!r} for a PPO run; allowed: "
+            "mlp, or a student of a teacher (train.teacher: reference). A PPO run started --init-from a "
+            "recurrent student is recurrent by itself"
+        )
     if run_config.train.teacher != "none":
         if use_rllib:
             raise ConfigError("--teacher: a student is trained with stable-baselines3 (--backend sb3)")

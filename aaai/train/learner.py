@@ -107,10 +107,21 @@ class TrackerCallback(BaseCallback):
 
 
 def ppo_from_config(env, config: Config, run: RunFolder) -> PPO:
+    """PPO from the run's config; RecurrentPPO when it starts from a recurrent student (--init-from)."""
     train = config.train
     width = train.net_width
-    return PPO(
-        "MultiInputPolicy",
+    algorithm: Any = PPO
+    policy, kwargs = "MultiInputPolicy", {"net_arch": [width, width], "log_std_init": train.log_std_init}
+    if train.init_from:
+        from aaai.train import recurrent_student
+
+        if recurrent_student.is_recurrent(model_path(train.init_from)):
+            from sb3_contrib import RecurrentPPO
+
+            algorithm, policy = RecurrentPPO, recurrent_student.POLICY
+            kwargs = recurrent_student.policy_kwargs(width, train.log_std_init)
+    return algorithm(
+        policy,
         env,
         learning_rate=train.learning_rate,
         n_steps=train.n_steps,
@@ -119,7 +130,7 @@ def ppo_from_config(env, config: Config, run: RunFolder) -> PPO:
         gamma=train.gamma,
         gae_lambda=train.gae_lambda,
         ent_coef=train.ent_coef,
-        policy_kwargs={"net_arch": [width, width], "log_std_init": train.log_std_init},
+        policy_kwargs=kwargs,
         tensorboard_log=str(run.path / "tb"),
         seed=train.seed,
         device="cpu",

@@ -26,10 +26,12 @@ iteration is a checkpoint (its model, and its data in ``dagger/``), so ``--resum
 after the last finished iteration. Episodes run in worker processes (``train.processes``, by default
 ``train.num_envs`` up to the usable cores); with the same config a run repeats exactly.
 
-The student's inputs are only the observation. Its network has no state; what it remembers is
-what the senses keep (``sensors.ray_memory``: the rays' sightings of food 1, 2, 4 ... 64 decisions
-back in configs/student.yaml). What a level needs beyond that is measured by ``aaai diagnose``
-(docs, Learned agents).
+The student's inputs are only the observation. By default (``train.student_policy: mlp``) its
+network has no state; what it remembers is what the senses keep (``sensors.ray_memory``: the rays'
+sightings of food 1, 2, 4 ... 64 decisions back in configs/student.yaml). With
+``train.student_policy: lstm`` it is sb3-contrib's RecurrentPPO policy, which carries a memory
+through the episode, trained on whole episodes (aaai.train.recurrent_student). What a level needs
+beyond that is measured by ``aaai diagnose`` (docs, Learned agents).
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ from aaai.config import Config, ConfigError, env_part, load_config
 from aaai.levels.seeds import TRAIN_SEEDS
 from aaai.scoring.model_config import save_model
 from aaai.scoring.runs import RunFolder, check_writable
+from aaai.train import recurrent_student
 from aaai.train.camera_student import (
     Dataset,
     as_stored,
@@ -78,6 +81,8 @@ class DaggerSettings:
     log_std_init: float  # train.log_std_init: the exploration a PPO fine-tune starts from
     workers: int  # train.processes (aaai.train.vector.worker_processes): worker processes playing episodes
     seed: int  # train.seed
+    student_policy: str = "mlp"  # train.student_policy: mlp, or lstm (aaai.train.recurrent_student)
+    sequence: int = 64  # train.dagger_sequence: an lstm student's chunks of backpropagation through time
 
     @classmethod
     def from_config(cls, config: Config) -> "DaggerSettings":
@@ -92,6 +97,8 @@ class DaggerSettings:
             train.log_std_init,
             worker_processes(train),
             train.seed,
+            train.student_policy,
+            train.dagger_sequence,
         )
 
 
@@ -107,6 +114,13 @@ def build_policy(observation_space, action_space, net_width: int, log_std_init: 
         net_arch=[net_width, net_width],
         log_std_init=log_std_init,
     )
+
+
+def build_student(kind: str, observation_space, action_space, net_width: int):
+    """The student's network of ``kind`` (train.student_policy): mlp or lstm."""
+    if kind == "lstm":
+        return recurrent_student.build_policy(observation_space, action_space, net_width, learning_rate=LEARNING_RATE)
+    return build_policy(observation_space, action_space, net_width)
 
 
 def act(policy, observation: dict) -> np.ndarray:
@@ -132,11 +146,13 @@ class Job:
     iteration: int
     episodes: tuple[tuple[int, int, int], ...]  # (level, difficulty, seed)
     cap: int = 10**9  # decisions an episode is played for at most
+    student_policy: str = "mlp"  # train.student_policy: mlp, or lstm (its hidden state carried through an episode)
 
 
 def play_job(job: Job) -> dict:
-    """In a worker: plays the job's episodes; returns their observations, the teacher's labels and
-    one Episode record each."""
+    """In a worker: plays the job's episodes; returns their observations, the teacher's labels,
+    where each episode starts and one Episode record each. A recurrent student sees every
+    observation (its hidden state carried through the episode), the teacher's decisions too."""
     import torch
 
     from aaai.env import AnimalAIEnv
@@ -146,28 +162,34 @@ def play_job(job: Job) -> dict:
     torch.set_num_threads(1)
     env = AnimalAIEnv(config=env_part(job.config, 0.0))
     teacher = SearchController(env) if job.config.train.teacher == "search" else ReferenceController(env)
-    student = None
+    student, actor = None, None
     if job.weights is not None:
-        student = build_policy(seen_space(env.observation_space), env.action_space, job.net_width)
+        student = build_student(job.student_policy, seen_space(env.observation_space), env.action_space, job.net_width)
         student.load_state_dict(job.weights)
         student.set_training_mode(False)
+        if job.student_policy == "lstm":
+            actor = recurrent_student.RecurrentActor(student)
     observations: dict[str, list] = {key: [] for key in env.observation_space.spaces}
-    labels, records, taught = [], [], 0
+    labels, starts, records, taught = [], [], [], 0
     try:
         for level, difficulty, seed in job.episodes:
             observation, info = env.reset(seed=seed, options={"level": level, "difficulty": difficulty})
             teacher.reset(seed)
             rng = np.random.default_rng([seed, job.iteration])
             total, task, length = 0.0, 0.0, 0
+            if actor is not None:
+                actor.reset()
             while True:
                 label = np.asarray(teacher(observation), np.float32)
                 for key, value in observation.items():
                     observations[key].append(value)
                 labels.append(label)
+                starts.append(length == 0)
+                own = actor(observation) if actor is not None else None  # the memory sees every decision
                 if student is None or rng.random() < job.beta:
                     action, taught = label, taught + 1
                 else:
-                    action = act(student, observation)
+                    action = own if own is not None else act(student, observation)
                     teacher.student_drove(env.hold * env.control_dt)
                 observation, reward, terminated, truncated, info = env.step(action)
                 total += reward
@@ -196,6 +218,7 @@ def play_job(job: Job) -> dict:
     return {
         "observations": as_stored(observations, env.observation_space),  # images uint8, channel-first
         "labels": np.stack(labels),
+        "starts": np.asarray(starts, bool),
         "episodes": records,
         "taught": taught,
     }
@@ -261,13 +284,23 @@ def check_teachable(config: Config) -> None:
             "gait or rotation (the reference steers the gait by joint angles)"
         )
     check_memory(config)  # a student with images: its labelled data within a stated bound
+    if config.train.student_policy == "lstm":
+        recurrent_student.check_available()
+        if config.train.dagger_max_decisions:
+            raise ConfigError(
+                f"config key 'train.dagger_max_decisions': got {config.train.dagger_max_decisions}; allowed with "
+                "train.student_policy lstm: 0 (a sample of decisions breaks the episodes a recurrent student "
+                "learns from)"
+            )
 
 
-def _save_data(folder: Path, iteration: int, observations: dict, labels: np.ndarray) -> None:
+def _save_data(folder: Path, iteration: int, observations: dict, labels: np.ndarray, starts: np.ndarray) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     final = folder / f"iteration_{iteration:03d}.npz"
     partial = final.with_name(final.name + ".partial.npz")
-    np.savez(partial, labels=labels, **{f"obs_{key}": value for key, value in observations.items()})
+    np.savez(
+        partial, labels=labels, episode_starts=starts, **{f"obs_{key}": value for key, value in observations.items()}
+    )
     partial.replace(final)
 
 
@@ -284,7 +317,6 @@ def train_student(
 
 def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Callable[[str], None]) -> StudentResult:
     import torch
-    from stable_baselines3 import PPO
 
     from aaai.env import AnimalAIEnv
     from aaai.train.training import with_proprioception
@@ -310,17 +342,7 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
     torch.manual_seed(settings.seed)
     torch.set_num_threads(1)
     env = AnimalAIEnv(config=env_part(config, 0.0))
-    model = PPO(
-        "MultiInputPolicy",
-        env,
-        policy_kwargs={"net_arch": [settings.net_width] * 2, "log_std_init": settings.log_std_init},
-        learning_rate=config.train.learning_rate,
-        n_steps=config.train.n_steps,
-        batch_size=config.train.batch_size,
-        seed=settings.seed,
-        device="cpu",
-        verbose=0,
-    )
+    model = recurrent_student.new_model(env, config) if settings.student_policy == "lstm" else _ppo(env, config)
     env.close()
     data_folder = run.path / DATA_FOLDER
     data = Dataset(config.train.dagger_max_decisions or None)  # aaai.train.camera_student: images as uint8
@@ -350,20 +372,34 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
                     iteration,
                     tuple(plan[i : i + EPISODES_PER_JOB]),
                     settings.episode_cap,
+                    settings.student_policy,
                 )
                 for i in range(0, len(plan), EPISODES_PER_JOB)
             ]
             results = list(pool.map(play_job, jobs))
             gathered = sum(len(r["labels"]) for r in results)
-            new_obs, new_labels = keep_round(
+            new_obs, new_labels, new_starts = keep_round(
                 results, round_share(config), np.random.default_rng([settings.seed, iteration, 1])
             )
             finished = [episode for r in results for episode in r["episodes"]]
             taught = sum(r["taught"] for r in results)
             del results  # the round's whole data: only its kept sample stays in memory
-            _save_data(data_folder, iteration, new_obs, new_labels)
-            data.add(new_obs, new_labels)
-            loss = fit(model.policy, data.observations, data.labels, settings.epochs, settings.seed + iteration)
+            _save_data(data_folder, iteration, new_obs, new_labels, new_starts)
+            data.add(new_obs, new_labels, new_starts)
+            if settings.student_policy == "lstm":
+                loss = recurrent_student.fit_sequences(
+                    model.policy,
+                    data.observations,
+                    data.labels,
+                    data.starts,
+                    settings.epochs,
+                    settings.seed + iteration,
+                    settings.sequence,
+                    LEARNING_RATE,
+                    BATCH_SIZE,
+                )
+            else:
+                loss = fit(model.policy, data.observations, data.labels, settings.epochs, settings.seed + iteration)
             with torch.no_grad():
                 model.policy.log_std.fill_(settings.log_std_init)
             step = data.size
@@ -399,6 +435,24 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
                 step, {"curriculum": None, "agent": {"iterations_done": iteration + 1}}, save, final=last
             )
     return StudentResult(run, data.size, episodes_logged, done)
+
+
+def _ppo(env, config: Config):
+    """A PPO model holding the stateless student (what the run saves, and PPO fine-tunes)."""
+    from stable_baselines3 import PPO
+
+    train = config.train
+    return PPO(
+        "MultiInputPolicy",
+        env,
+        policy_kwargs={"net_arch": [train.net_width] * 2, "log_std_init": train.log_std_init},
+        learning_rate=train.learning_rate,
+        n_steps=train.n_steps,
+        batch_size=train.batch_size,
+        seed=train.seed,
+        device="cpu",
+        verbose=0,
+    )
 
 
 def _log_iteration(path: Path, line: dict) -> None:

@@ -155,11 +155,14 @@ def check_init_weights(config: Config, path: Path) -> None:
     network, before the run folder exists (a bad model leaves nothing behind)."""
     from aaai.env import AnimalAIEnv
     from aaai.scoring.model_io import check_start_weights
+    from aaai.train import recurrent_student
 
     env = AnimalAIEnv(config=config)
     try:
         width = config.train.net_width
         kwargs = {"net_arch": [width, width], "log_std_init": config.train.log_std_init}
+        if recurrent_student.is_recurrent(path):  # a recurrent student: fine-tuned by RecurrentPPO
+            kwargs = recurrent_student.policy_kwargs(width, config.train.log_std_init)
         check_start_weights(path, env.observation_space, env.action_space, kwargs, config)
     except ConfigError as error:
         raise ConfigError(f"--init-from: {error}") from None

@@ -1,0 +1,190 @@
+"""The recurrent student of ``aaai train --teacher reference`` (``train.student_policy: lstm``).
+
+DAgger as in :mod:`aaai.train.student`, with a student that remembers: sb3-contrib's
+``RecurrentPPO`` policy (``MultiInputLstmPolicy``). The observation's features go through an LSTM
+of ``train.net_width`` units, then through two layers of that width to the mean action, as the
+stateless student's do; the critic has an LSTM of its own, untrained by DAgger and there for a
+RecurrentPPO fine-tune (``aaai train --init-from RUN``, which picks RecurrentPPO for such a model).
+
+Playing (:class:`RecurrentActor`): the student's hidden state is carried from one decision to the
+next through the episode and starts from zero at its start. The student sees every observation of
+its episodes, also those where the teacher drives, so its state is the one its own history gives.
+
+Fitting (:func:`fit_sequences`): the episodes are kept whole (the data records where each one
+starts). A refit regresses the student's mean action on the teacher's labels (mean squared error,
+Adam) by truncated backpropagation through time: a batch is several episodes side by side, each
+from its start, cut into chunks of ``train.dagger_sequence`` decisions. Each chunk is one step of
+Adam on its decisions' loss (the padding after a shorter episode's end is masked out); the hidden
+state the chunk ends with is carried, detached, into the next chunk, so the gradient stops at a
+chunk's start and the memory does not. At an episode's start the state is zero, as sb3-contrib's
+recurrent rollout buffer masks it at ``episode_starts``. Episodes of similar length are batched
+together (sorted within a shuffled pool), so that little is padding.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aaai.config import Config, ConfigError
+
+BATCH_DECISIONS = 1024  # decisions per batch: lanes = BATCH_DECISIONS // train.dagger_sequence episodes side by side
+POOL = 8  # batches' worth of episodes shuffled together, then sorted by length
+MAX_GRAD_NORM = 1.0  # an LSTM's gradients clipped, as RecurrentPPO clips its own (max_grad_norm)
+POLICY = "MultiInputLstmPolicy"
+
+
+def policy_kwargs(net_width: int, log_std_init: float) -> dict:
+    """The recurrent student's network: an LSTM of ``net_width`` units, then two layers of that width."""
+    return {"lstm_hidden_size": net_width, "net_arch": [net_width, net_width], "log_std_init": log_std_init}
+
+
+def build_policy(observation_space, action_space, net_width: int, log_std_init: float = 0.0, learning_rate=1e-3):
+    """The student: sb3-contrib's MultiInputLstmPolicy as RecurrentPPO builds it."""
+    from sb3_contrib.common.recurrent.policies import RecurrentMultiInputActorCriticPolicy
+
+    return RecurrentMultiInputActorCriticPolicy(
+        observation_space, action_space, lambda _: learning_rate, **policy_kwargs(net_width, log_std_init)
+    )
+
+
+def new_model(env, config: Config) -> Any:
+    """A RecurrentPPO model holding the student (what the run saves, and a fine-tune goes on training)."""
+    from sb3_contrib import RecurrentPPO
+
+    train = config.train
+    return RecurrentPPO(
+        POLICY,
+        env,
+        policy_kwargs=policy_kwargs(train.net_width, train.log_std_init),
+        learning_rate=train.learning_rate,
+        n_steps=train.n_steps,
+        batch_size=train.batch_size,
+        seed=train.seed,
+        device="cpu",
+        verbose=0,
+    )
+
+
+def check_available() -> None:
+    """sb3-contrib is there (the train extra), or one line says so."""
+    try:
+        import sb3_contrib  # noqa: F401
+    except ImportError:
+        raise ConfigError(
+            "config key 'train.student_policy': got 'lstm', which needs sb3-contrib (the train extra: "
+            "pip install sb3-contrib); allowed without it: mlp"
+        ) from None
+
+
+def is_recurrent(path: str | Path) -> bool:
+    """Whether a model file holds a recurrent policy (its policy class read as text, nothing unpickled)."""
+    from aaai.scoring.model_archive import read_archive
+    from aaai.scoring.model_io import policy_class_name
+
+    return policy_class_name(read_archive(Path(path))).startswith("Recurrent")
+
+
+class RecurrentActor:
+    """The student acting in its episodes: its deterministic action, the hidden state carried from
+    one decision to the next; :meth:`reset` at an episode's start."""
+
+    def __init__(self, policy):
+        self.policy = policy
+        self.reset()
+
+    def reset(self) -> None:
+        self.state: Any = None
+        self.start = True
+
+    def __call__(self, observation: dict) -> np.ndarray:
+        action, self.state = self.policy.predict(
+            observation, state=self.state, episode_start=np.array([self.start]), deterministic=True
+        )
+        self.start = False
+        return action
+
+
+# --- fitting on sequences ---------------------------------------------------------------
+def episode_spans(starts: np.ndarray) -> list[tuple[int, int]]:
+    """(first, end) of each episode in data whose ``starts`` flags mark each episode's first decision."""
+    begins = np.flatnonzero(np.asarray(starts, bool))
+    if len(starts) and (not len(begins) or begins[0] != 0):
+        raise ConfigError("the student's data does not start with an episode's start; allowed: whole episodes")
+    ends = np.append(begins[1:], len(starts))
+    return [(int(b), int(e)) for b, e in zip(begins, ends)]
+
+
+def plan_batches(spans: list[tuple[int, int]], lanes: int, generator) -> list[list[int]]:
+    """The episodes of one pass, ``lanes`` to a batch: shuffled, sorted by length within pools of
+    :data:`POOL` batches, and the batches shuffled."""
+    import torch
+
+    order = torch.randperm(len(spans), generator=generator).tolist()
+    batches: list[list[int]] = []
+    for first in range(0, len(order), lanes * POOL):
+        pool = sorted(order[first : first + lanes * POOL], key=lambda e: spans[e][1] - spans[e][0])
+        batches.extend(pool[i : i + lanes] for i in range(0, len(pool), lanes))
+    return [batches[i] for i in torch.randperm(len(batches), generator=generator).tolist()]
+
+
+def chunk_means(policy, observations: dict, state: tuple, lanes: int) -> tuple[Any, tuple]:
+    """The mean actions of ``lanes`` sequences side by side (observations lane by lane, each lane's
+    decisions in order), from the hidden ``state``; the state they end with."""
+    import torch
+
+    features = policy.extract_features(observations, policy.pi_features_extractor)
+    no_starts = torch.zeros(features.shape[0])  # a lane's episode start is its zero state
+    latent, state = policy._process_sequence(features, state, no_starts, policy.lstm_actor)
+    return policy.action_net(policy.mlp_extractor.forward_actor(latent)), state
+
+
+def fit_sequences(
+    policy,
+    observations: dict,
+    labels: np.ndarray,
+    starts: np.ndarray,
+    epochs: int,
+    seed: int,
+    sequence: int,
+    learning_rate: float = 1e-3,
+    batch_decisions: int = BATCH_DECISIONS,
+) -> float:
+    """Regresses the recurrent policy's mean action on the labels by truncated backpropagation
+    through time (chunks of ``sequence`` decisions, the hidden state carried between them);
+    returns the last pass's mean loss per decision."""
+    import torch
+
+    generator = torch.Generator().manual_seed(seed)
+    inputs = {key: torch.as_tensor(value, dtype=torch.float32) for key, value in observations.items()}
+    targets = torch.as_tensor(labels, dtype=torch.float32)
+    spans = episode_spans(starts)
+    lanes = max(1, batch_decisions // sequence)
+    layers, _, hidden = policy.lstm_hidden_state_shape
+    optimizer = torch.optim.Adam(policy.parameters(), lr=learning_rate)
+    policy.set_training_mode(True)
+    loss_sum, decisions = 0.0, 0.0
+    for _ in range(epochs):
+        loss_sum, decisions = 0.0, 0.0
+        for batch in plan_batches(spans, lanes, generator):
+            begins = torch.tensor([spans[e][0] for e in batch])
+            lengths = torch.tensor([spans[e][1] - spans[e][0] for e in batch])
+            zeros = torch.zeros(layers, len(batch), hidden)
+            state: tuple = (zeros, zeros.clone())
+            for first in range(0, int(lengths.max()), sequence):
+                steps = torch.arange(first, min(first + sequence, int(lengths.max())))
+                mask = (steps[None, :] < lengths[:, None]).reshape(-1).float()
+                index = (begins[:, None] + torch.minimum(steps[None, :], lengths[:, None] - 1)).reshape(-1)
+                means, state = chunk_means(policy, {k: v[index] for k, v in inputs.items()}, state, len(batch))
+                errors = ((means - targets[index]) ** 2).mean(dim=-1)
+                loss = (errors * mask).sum() / mask.sum()
+                optimizer.zero_grad()
+                loss.backward()
+                torch.nn.utils.clip_grad_norm_(policy.parameters(), MAX_GRAD_NORM)
+                optimizer.step()
+                state = (state[0].detach(), state[1].detach())  # carried on; the gradient stops here
+                loss_sum, decisions = loss_sum + loss.item() * mask.sum().item(), decisions + mask.sum().item()
+    policy.set_training_mode(False)
+    return loss_sum / max(decisions, 1.0)

@@ -1,0 +1,178 @@
+"""The recurrent student (train.student_policy: lstm): DAgger over whole episodes with sb3-contrib's
+RecurrentPPO policy, its memory carried through each scored episode and forgotten at the next."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+from conftest import needs
+
+needs("sb3_contrib", "train")
+
+from aaai.config import env_part, load_config  # noqa: E402
+from aaai.env import AnimalAIEnv  # noqa: E402
+from aaai.scoring.episodes import play  # noqa: E402
+from aaai.scoring.model_archive import read_archive  # noqa: E402
+from aaai.scoring.model_io import policy_class_name  # noqa: E402
+from aaai.scoring.policies import resolve  # noqa: E402
+from aaai.train.recurrent_student import RecurrentActor, fit_sequences  # noqa: E402
+from aaai.train.student import train_student  # noqa: E402
+from aaai_cli.main import cli  # noqa: E402
+
+TINY_LSTM = {
+    "agent": {"action_mode": "gait"},
+    "curriculum": {"levels": "0", "difficulties": "0-1"},
+    "train": {
+        "teacher": "reference",
+        "student_policy": "lstm",
+        "dagger_sequence": 16,
+        "num_envs": 1,
+        "net_width": 16,
+        "dagger_iterations": 2,
+        "dagger_episodes": 2,
+        "dagger_epochs": 2,
+        "dagger_episode_cap": 40,
+    },
+}
+
+
+@pytest.fixture(scope="module")
+def lstm_run(tmp_path_factory):
+    """One tiny recurrent student, shared by the tests below."""
+    run = tmp_path_factory.mktemp("lstm") / "student"
+    result = train_student(run, load_config(TINY_LSTM), say=lambda message: None)
+    assert result.episodes == 4
+    return run
+
+
+def _write(folder, data) -> str:
+    path = folder / "config.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return str(path)
+
+
+def test_a_recurrent_student_is_saved_as_recurrent_ppo_and_scored_by_eval_without_unpickling(
+    lstm_run, tmp_path, monkeypatch
+):
+    import pickle
+
+    import cloudpickle
+
+    assert policy_class_name(read_archive(lstm_run / "final" / "model.zip")) == "RecurrentMultiInputActorCriticPolicy"
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a model file was unpickled")
+
+    monkeypatch.setattr(pickle, "loads", refuse)
+    monkeypatch.setattr(cloudpickle, "loads", refuse)
+    out = tmp_path / "scores.csv"
+    scored = CliRunner().invoke(
+        cli, ["eval", "--policy", str(lstm_run), "--levels", "0", "--difficulty", "0", "-k", "2", "--out", str(out)]
+    )
+    assert scored.exit_code == 0, scored.output
+    assert len(out.read_text().splitlines()) == 3
+
+
+def test_scoring_carries_the_hidden_state_through_an_episode_and_resets_it_at_the_next(lstm_run):
+    """The same observation gets another action after a history; a reset gives the first one again."""
+    policy = resolve(str(lstm_run)).build(env := AnimalAIEnv(config=resolve(str(lstm_run)).play_config()))
+    try:
+        assert policy.recurrent
+        first, _ = env.reset(seed=5, options={"level": 0, "difficulty": 1})
+        policy.reset(5)
+        start = policy(first)
+        observation = first
+        for _ in range(6):
+            observation, *_ = env.step(policy(observation))
+        assert not np.array_equal(policy(first), start)  # the same observation, after a history
+        policy.reset(5)
+        assert np.array_equal(policy(first), start)  # forgotten at the episode's start
+        # The episode loop of eval, run and show resets it: the same episode twice, the same steps.
+        ends = [play(env, policy, 5, options={"level": 0, "difficulty": 1}, max_steps=12) for _ in range(2)]
+        assert ends[0].episode_return == ends[1].episode_return
+        assert all(np.array_equal(ends[0].observation[k], ends[1].observation[k]) for k in ends[0].observation)
+    finally:
+        env.close()
+
+
+def test_demos_and_ray_tasks_reset_the_memory_between_episodes(lstm_run):
+    """A Minari recording and a Ray worker (which keeps its policy from task to task) play each
+    episode from a fresh memory: an episode played after another is the episode played alone."""
+    needs("minari", "demos")
+    from aaai.scoring.demos import record_episode
+    from aaai.scoring.distributed import _WORKER, _worker_env_and_policy
+
+    chosen = resolve(str(lstm_run))
+    config = load_config(chosen.config(), episode={"max_steps": 15})
+    env = AnimalAIEnv(config=env_part(config, shaping=0.0))
+    try:
+        policy = chosen.build(env)
+        alone = record_episode(env, policy, 0, 1, 5, 0)
+        record_episode(env, policy, 0, 0, 6, 1)
+        again = record_episode(env, policy, 0, 1, 5, 2)
+        assert np.array_equal(alone.actions, again.actions)
+    finally:
+        env.close()
+    model = [(lstm_run / "final" / "model.zip").read_bytes()]
+    ends = []
+    try:
+        for seed, difficulty in ((5, 1), (6, 0), (5, 1)):  # one Ray task each, in one worker process
+            worker_env, acting = _worker_env_and_policy(chosen, model, config)
+            ends.append(play(worker_env, acting, seed, options={"level": 0, "difficulty": difficulty}))
+    finally:
+        _WORKER.pop("env").close()
+        _WORKER.clear()
+    assert all(np.array_equal(ends[0].observation[k], ends[2].observation[k]) for k in ends[0].observation)
+
+
+def test_init_from_a_recurrent_student_fine_tunes_it_with_recurrent_ppo(lstm_run, tmp_path):
+    tuned = tmp_path / "tuned"
+    config = _write(tmp_path, {"train": {"net_width": 16, "n_steps": 32, "batch_size": 32, "n_epochs": 1}})
+    args = ["train", "--init-from", str(lstm_run), "--action-mode", "gait", "--levels", "0", "--difficulty", "0"]
+    result = CliRunner().invoke(cli, args + ["--steps", "32", "--envs", "1", "--run", str(tuned), "--config", config])
+    assert result.exit_code == 0, result.output
+    assert policy_class_name(read_archive(tuned / "final" / "model.zip")) == "RecurrentMultiInputActorCriticPolicy"
+    rllib = CliRunner().invoke(cli, args + ["--backend", "rllib", "--run", str(tmp_path / "rllib")])
+    assert rllib.exit_code == 2 and "--init-from: got" in rllib.output and "--backend sb3" in rllib.output
+    assert not (tmp_path / "rllib").exists()
+
+
+def test_a_student_policy_that_is_not_allowed_is_refused_in_one_line(tmp_path):
+    tiny = {"dagger_iterations": 1, "dagger_episodes": 1, "dagger_episode_cap": 5, "num_envs": 1}  # if not refused
+    bad = _write(tmp_path, {"train": {"teacher": "reference", "student_policy": "gru", **tiny}})
+    refused = CliRunner().invoke(cli, ["train", "--config", bad, "--levels", "0", "--run", str(tmp_path / "s")])
+    assert refused.exit_code == 2 and "Traceback" not in refused.output
+    assert "config key 'train.student_policy': got 'gru'; allowed: one of mlp, lstm" in refused.output, refused.output
+    ppo = _write(tmp_path, {"train": {"student_policy": "lstm"}})
+    refused = CliRunner().invoke(cli, ["train", "--config", ppo, "--steps", "64", "--run", str(tmp_path / "p")])
+    assert refused.exit_code == 2 and "'train.student_policy': got 'lstm' for a PPO run" in refused.output
+    assert not (tmp_path / "s").exists() and not (tmp_path / "p").exists()
+
+
+def test_backpropagation_through_time_carries_the_memory_across_chunks():
+    """A cue seen only at an episode's first decision is the label of all of its 12: learnable only
+    if the hidden state is carried from one chunk of 4 decisions into the next, and reset between
+    episodes (the cue of one episode says nothing of the next's)."""
+    import torch
+    from gymnasium import spaces
+
+    from aaai.train.recurrent_student import build_policy
+
+    torch.manual_seed(0)
+    observation_space = spaces.Dict({"x": spaces.Box(-1.0, 1.0, (2,), np.float32)})
+    action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+    policy = build_policy(observation_space, action_space, 16)
+    cues = np.random.default_rng(0).choice([-1.0, 1.0], size=48).astype(np.float32)
+    x = np.zeros((48, 12, 2), np.float32)
+    x[:, 0, 0], x[:, 0, 1] = cues, 1.0  # the cue, and "an episode starts here"
+    labels = np.repeat(cues, 12)[:, None]
+    starts = np.tile(np.arange(12) == 0, 48)
+    loss = fit_sequences(policy, {"x": x.reshape(-1, 2)}, labels, starts, 60, 0, 4, 2e-2, 48 * 4)
+    assert loss < 0.1, loss  # without the memory across chunks, 8 of 12 labels are a coin toss: 0.67
+    actor = RecurrentActor(policy)
+    for cue in (1.0, -1.0):  # the memory as it acts: the cue's sign to the end of the episode
+        actor.reset()
+        actions = [actor({"x": np.array([cue, 1.0] if t == 0 else [0.0, 0.0], np.float32)}) for t in range(12)]
+        assert all(np.sign(a[0]) == cue for a in actions[8:]), actions
