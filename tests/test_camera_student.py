@@ -115,6 +115,7 @@ def _round(rng: np.random.Generator, sizes: list[int]) -> list[dict]:
                 "camera": rng.integers(0, 256, (n, *IMAGE.shape), dtype=np.uint8),
             },
             "labels": rng.random((n, 3), dtype=np.float32),
+            "starts": np.arange(n) % 10 == 0,
         }
         for n in sizes
     ]
@@ -128,8 +129,9 @@ def test_the_labelled_data_stays_within_its_stated_bound():
     data = Dataset(cap)
     for iteration in range(iterations):
         results = _round(rng, [30, 7, 40])  # 77 decisions, of which a round keeps cap / iterations
-        observations, labels = keep_round(results, cap // iterations, np.random.default_rng([0, iteration]))
+        observations, labels, starts = keep_round(results, cap // iterations, np.random.default_rng([0, iteration]))
         assert len(labels) == 25 and observations["camera"].dtype == np.uint8
+        assert starts.all()  # a sample's decisions are sequences of one (for a stateless student)
         everything = np.concatenate([r["labels"] for r in results])
         assert (np.isin(labels, everything).all(axis=1)).all()  # a sample of the round's own decisions
         data.add(observations, labels)
@@ -138,8 +140,8 @@ def test_the_labelled_data_stays_within_its_stated_bound():
     with pytest.raises(ValueError, match="100 decisions"):
         data.add(observations, labels)
     few = _round(rng, [5])
-    kept, labels = keep_round(few, 25, rng)  # a round with fewer decisions keeps them all, in order
-    assert np.array_equal(labels, few[0]["labels"])
+    kept, labels, starts = keep_round(few, 25, rng)  # a round with fewer decisions keeps them all, in order
+    assert np.array_equal(labels, few[0]["labels"]) and np.array_equal(starts, few[0]["starts"])
 
 
 def test_the_refit_reads_the_images_as_uint8_batches(monkeypatch):

@@ -149,6 +149,12 @@ def test_a_student_policy_that_is_not_allowed_is_refused_in_one_line(tmp_path):
     refused = CliRunner().invoke(cli, ["train", "--config", ppo, "--steps", "64", "--run", str(tmp_path / "p")])
     assert refused.exit_code == 2 and "'train.student_policy': got 'lstm' for a PPO run" in refused.output
     assert not (tmp_path / "s").exists() and not (tmp_path / "p").exists()
+    capped = _write(
+        tmp_path, {"train": {"teacher": "reference", "student_policy": "lstm", "dagger_max_decisions": 99, **tiny}}
+    )
+    refused = CliRunner().invoke(cli, ["train", "--config", capped, "--levels", "0", "--run", str(tmp_path / "c")])
+    assert refused.exit_code == 2 and "'train.dagger_max_decisions': got 99; allowed with" in refused.output
+    assert not (tmp_path / "c").exists()
 
 
 def test_backpropagation_through_time_carries_the_memory_across_chunks():
