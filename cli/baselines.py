@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import click
@@ -33,11 +34,18 @@ from .options import WORKERS, Output, parse_levels, parse_range, rule
 )
 @click.option("--ppo-gait-run", type=click.Path(file_okay=False), help="A PPO run in gait mode, scored as ppo_gait.")
 @click.option(
+    "--learned",
+    "more",
+    multiple=True,
+    metavar="NAME=RUN",
+    help="Another trained run, scored as NAME (a-z, 0-9 and _; e.g. student_lstm=runs/student_lstm); repeatable.",
+)
+@click.option(
     "--only",
     help="Score only these policies (e.g. 'student,ppo_gait'); the table and heatmap still "
     "show every scoreboard already in --out.",
 )
-def baselines_command(demo_run, folder, levels, difficulty, count, workers, student_run, ppo_gait_run, only):
+def baselines_command(demo_run, folder, levels, difficulty, count, workers, student_run, ppo_gait_run, more, only):
     """Score random actions, the reference controller and trained runs on the reserved seeds of
     every cell: a scoreboard each, a pass-rate table and a heatmap (make baselines)."""
     from aaai.scoring.runs import check_writable
@@ -51,6 +59,20 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers, stud
     for name, path in learned.items():
         if not path.is_dir():
             raise click.UsageError(f"--{name.replace('_', '-')}-run: got {str(path)!r}, which is not a run folder")
+    for given in more:
+        name, _, path = given.partition("=")
+        if (
+            not re.fullmatch(r"[a-z0-9_]{1,40}", name)
+            or not path
+            or name in ("random", "reference", "ppo_demo", *learned)
+        ):
+            raise click.UsageError(
+                f"--learned: got {given!r}; allowed: NAME=RUN, NAME of 1-40 of a-z, 0-9 and _, not random, "
+                "reference, ppo_demo or a name given twice"
+            )
+        if not Path(path).is_dir():
+            raise click.UsageError(f"--learned: got {given!r}; {path!r} is not a run folder")
+        learned[name] = Path(path)
     chosen = [name.strip() for name in only.split(",")] if only else None
     needs_demo = chosen is None or "ppo_demo" in chosen
     if needs_demo and not Path(demo_run).is_dir():
