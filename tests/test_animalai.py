@@ -137,7 +137,7 @@ arenas:
       - !Vector3 {x: 1, y: 1, z: 1}
 """)
     import_animalai(source, tmp_path / "out", echo=lambda line: None)
-    spec, _, _ = parse_arena(tmp_path / "out" / "falling.yaml", 0)
+    spec, _, _ = parse_arena(tmp_path / "out" / "unfair" / "falling.yaml", 0)  # the food on the box: out of reach
     on_box, on_floor = [obj for obj in spec.objects if obj.kind == "food_green"]
     assert on_box.position[2] == pytest.approx(2 * S + S / 2) and on_floor.position[2] == pytest.approx(S / 2)
     assert spec.agent.y == pytest.approx(-20 * S + 6.0)  # 0.5 from the wall there, 6 here
@@ -166,7 +166,7 @@ arenas:
       symbolNames: ["1/0/1/0/1"]
 """)
     lines = []
-    import_animalai(source, tmp_path / "out", echo=lines.append)
+    import_animalai(source, tmp_path / "out", echo=lines.append, fitted=False)  # the mapping alone
     sign = parse_arena(tmp_path / "out" / "signs_a0.yaml", 0)[0].objects[4]
     assert sign.kind == "sign_left_arrow" and sign.size[1:] == (1.4 * S, 1.4 * S)
     assert sign.yaw == pytest.approx(math.pi / 2)  # Animal-AI's forward (+z) is our north

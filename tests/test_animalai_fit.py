@@ -114,8 +114,8 @@ def test_a_task_that_cannot_be_made_fair_is_kept_and_marked_with_the_reason(tmp_
     text = arena(AGENT.format(x=5, z=5, r=0) + box + GOAL.format(x=30, z=30))
     results, out = convert(tmp_path, {"shut.yaml": text})
     assert results["shut.yaml"].unfair == ["food out of reach"]
-    assert (out / "shut.yaml").exists()
-    spec, _, _ = parse_arena(out / "shut.yaml")
+    assert not (out / "shut.yaml").exists()  # kept apart, so that `aaai eval --arenas out` runs the fair ones
+    spec, _, _ = parse_arena(out / "unfair" / "shut.yaml")
     assert spec.extras["animalai"]["unfair"].startswith("valid at no scale from 5 to 8: food out of reach")
 
 
@@ -133,7 +133,7 @@ def test_food_out_of_reach_is_a_lure_while_the_reachable_food_gives_the_pass_mar
         ConfigError,
         match=r"food that can be reached gives at most 4.00, below the pass mark 8 \(1 piece of food out of reach\)",
     ):
-        load_arena(out / "lure.yaml")
+        load_arena(out / "unfair" / "lure.yaml")
 
 
 def test_the_report_counts_every_arena_by_cause(tmp_path):
@@ -163,6 +163,7 @@ def test_the_report_counts_every_arena_by_cause(tmp_path):
     rows = {r["source"]: r for r in csv.DictReader(open(tmp_path / "rep" / "coverage.csv"))}
     assert rows["01-1-1.yaml"]["valid_every_seed"] == "yes" and rows["01-1-1.yaml"]["valid_seeds"] == "2"
     assert rows["02-1-1.yaml"]["invalid_because"] == "food out of reach" and rows["02-1-1.yaml"]["unfair"]
+    assert rows["02-1-1.yaml"]["file"] == "unfair/02-1-1.yaml" and rows["02-1-1.yaml"]["category"] == "02"
     assert (
         rows["03-1-1.yaml"]["converted"] == "no"
         and rows["03-1-1.yaml"]["not_converted_because"] == "data zones are not built here"
@@ -173,3 +174,17 @@ def test_the_report_counts_every_arena_by_cause(tmp_path):
         "| not valid on some seed: food out of reach | 1 |" in table
         and "| marked unfair: food out of reach | 1 |" in table
     )
+
+
+def test_walls_that_cross_are_allowed_as_in_animal_ai(tmp_path):
+    cross = WALL.format(x=20, z=30, sx=10, sz=1) + WALL.format(x=20, z=30, sx=1, sz=10)
+    results, out = convert(
+        tmp_path, {"cross.yaml": arena(AGENT.format(x=20, z=5, r=0) + cross + GOAL.format(x=5, z=20))}
+    )
+    assert not results["cross.yaml"].unfair
+    spec = load_arena(out / "cross.yaml")
+    assert spec.extras["walls_cross"] is True
+    text = (out / "cross.yaml").read_text().replace("walls_cross: true\n", "")
+    (out / "plain.yaml").write_text(text)
+    with pytest.raises(ConfigError, match=r"objects\[0\] \(wall\): at \(0.0, 50.0\) overlaps objects\[1\] \(wall\)"):
+        load_arena(out / "plain.yaml")

@@ -21,9 +21,12 @@ An arena file's keys are the spec's fields (docs, "Write your own test"):
 - ``reach``: ``all`` (default: every piece of food must be reachable) or ``pass_mark`` (food out of
   reach is allowed while the reachable food gives the pass mark, as in Animal-AI's tasks whose
   food behind a barrier is a lure); kept in ``extras["reach"]``;
+- ``walls_cross``: true lets static walls cross each other (Animal-AI's arenas do; a wall is static
+  in physics, so nothing moves); kept in ``extras["walls_cross"]``;
 - and three keys that are not the spec's: ``description`` (one line for people), ``category``
   (the level name, label or id the test belongs to, e.g. ``y_maze``: the scoreboard's summary
-  groups by it) and ``arena_walls`` (true: the four walls round the arena, as the generators'
+  groups by it; an imported Animal-AI arena without one is grouped by ``extras.animalai.category``,
+  e.g. ``04 avoidance``) and ``arena_walls`` (true: the four walls round the arena, as the generators'
   ``aaai.levels.common.arena_walls`` builds them, come before ``objects``; default false).
 
 Randomisation: any number may be written ``{uniform: [low, high]}`` (a float drawn uniformly),
@@ -55,7 +58,7 @@ from aaai.spec import Blackout, InnerLevel, LevelSpec
 from aaai.spec.kinds import ENDING_KINDS, OBJECT_KINDS
 from aaai.task.arena_reader import ArenaProblems, Reader, Source
 
-META_KEYS = ("description", "category", "arena_walls", "pass_mark", "reach")
+META_KEYS = ("description", "category", "arena_walls", "pass_mark", "reach", "walls_cross")
 REACH = ("all", "pass_mark")  # which food must be reachable: every piece, or enough for the pass mark
 STEP_COSTS = 1.0  # the most the step term takes from an episode (aaai.task.rewards)
 SPEC_KEYS = (
@@ -316,10 +319,19 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, Sourc
         return value
 
     fields["extras"] = attempt(extras, {})
+    imported = (fields["extras"] or {}).get("animalai")
+    if meta["category"] is None and isinstance(imported, dict) and isinstance(imported.get("category"), str):
+        meta["category"] = imported["category"]  # an imported Animal-AI arena's category (aaai.tools.animalai_arena)
     if "pass_mark" in data:
         mark = attempt(lambda: read.number(data["pass_mark"], ("pass_mark",)))
         if mark is not None:
             fields["extras"] = {**(fields["extras"] or {}), "pass_mark": float(mark)}
+    if "walls_cross" in data:
+        cross = data["walls_cross"]
+        if not isinstance(cross, bool):
+            attempt(lambda: read.fail(("walls_cross",), f"got {cross!r}; allowed: true or false"))
+        elif cross:
+            fields["extras"] = {**(fields["extras"] or {}), "walls_cross": True}
     if "reach" in data:
         reach = attempt(lambda: read.text(data["reach"], ("reach",), REACH))
         if reach == "pass_mark" and "pass_mark" not in data:
@@ -392,6 +404,9 @@ def _located(spec: LevelSpec, source: Source, problem: str) -> str:
     return f"{source.name} line {source.line(())}: {problem}"
 
 
+_WALLS_CROSS = re.compile(r"solid objects overlap: (transparent_)?wall at \([^)]*\) and (transparent_)?wall at ")
+
+
 def reachable_return(spec: LevelSpec) -> float:
     """The most an episode can return eating only the food the body can reach: the best reachable
     episode-ending piece plus every other reachable piece, less the most the step term takes."""
@@ -406,6 +421,8 @@ def check_arena(spec: LevelSpec, source: Source, require_food: bool = True) -> l
     ``reach: pass_mark``, food that cannot be reached is no problem while the food that can be reached
     gives the pass mark (:func:`reachable_return`); when it does not, that is one more problem."""
     problems = validate.check(spec, require_food=require_food)
+    if spec.extras.get("walls_cross"):  # static walls that cross each other, as Animal-AI lets them
+        problems = [p for p in problems if not _WALLS_CROSS.match(p)]
     if spec.extras.get("reach") == "pass_mark":
         unreached = [p for p in problems if p.endswith("cannot be reached from the start")]
         if unreached:

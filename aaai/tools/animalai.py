@@ -26,6 +26,7 @@ from aaai.tools.animalai_arena import DEFAULT_SCALE, Unmappable, convert_arena, 
 from aaai.tools.animalai_fit import fit
 
 IMPORT_SEED = 20260
+UNFAIR = "unfair"  # the subfolder of --out for arenas that cannot be made fair for our body (aaai.tools.animalai_fit)
 MAX_FILE_BYTES = 1_000_000
 
 
@@ -182,7 +183,12 @@ def import_animalai(
             if result.problem:
                 echo(f"SKIPPED {result.problem}")
             else:
-                write_atomic(out / result.name, result.text)
+                if result.unfair:  # kept, apart: `aaai eval --arenas OUT` runs the fair ones
+                    (out / UNFAIR).mkdir(exist_ok=True)
+                    write_atomic(out / UNFAIR / result.name, result.text)
+                    echo(f"UNFAIR {result.source}, arena {result.arena}: {', '.join(result.unfair)}; in {UNFAIR}/")
+                else:
+                    write_atomic(out / result.name, result.text)
                 written[result.name] = f"{result.source}, arena {result.arena}"
         results += converted
     arenas = [r for r in results if r.arena or not r.refused]  # a refused file's entry is no arena
@@ -195,6 +201,9 @@ def import_animalai(
         f"{len(files)} files, {len(arenas)} arenas: {len(done)} converted into {out}, "
         f"{len(arenas) - len(done)} skipped" + (f", {unreadable} files unreadable" if unreadable else "")
     )
+    unfair = [r for r in done if r.unfair]
+    if unfair:
+        echo(f"{len(unfair)} of them cannot be made fair for this body: kept in {out / UNFAIR}, each named above")
     if kinds:
         echo("items converted: " + ", ".join(f"{name} {count}" for name, count in sorted(kinds.items())))
     reasons: dict[str, int] = {}

@@ -37,6 +37,7 @@ the timed food of aaai.spec.kinds (see TIMED). Reading the files and writing our
 from __future__ import annotations
 
 import math
+import re
 import reprlib
 from typing import Any, TypeGuard
 
@@ -128,6 +129,20 @@ NOT_HERE = {  # known Animal-AI items without a counterpart, and why
     "BadGoalMulti": "non-ending bad food is not built here",
 }
 
+# The Animal-AI Olympics' ten categories (Crosby et al. 2020), by the number a competition file's
+# name begins with; the scoreboard's summary groups the imported arenas by them.
+CATEGORIES = {
+    "01": "food retrieval",
+    "02": "preferences",
+    "03": "obstacles",
+    "04": "avoidance",
+    "05": "spatial reasoning",
+    "06": "robustness",
+    "07": "internal models",
+    "08": "object permanence",
+    "09": "advanced preferences",
+    "10": "causal reasoning",
+}
 MAX_OBJECTS = 500  # objects in one arena (Animal-AI's own arenas hold a few dozen)
 _SHOWN = reprlib.Repr()
 _SHOWN.maxlevel, _SHOWN.maxstring, _SHOWN.maxother, _SHOWN.maxlist, _SHOWN.maxdict = 3, 60, 60, 6, 6
@@ -204,7 +219,11 @@ class _Arena:
             "arena_size": [2 * self.half, 2 * self.half],
             "wall_height": WALL_HEIGHT,
             "time_limit": round(time_limit, 3),
+            "walls_cross": True,  # Animal-AI lets walls cross; ours are static too
         }
+        found = re.match(r"(\d\d)-", self.source)
+        if found and found.group(1) in CATEGORIES:  # a competition file: 04-01-02.yaml is of category 4
+            out["extras"] = {"animalai": {"category": f"{found.group(1)} {CATEGORIES[found.group(1)]}"}}
         mark = arena.get("passMark", arena.get("pass_mark"))
         if mark is not None:
             if not is_number(mark):

@@ -36,7 +36,7 @@ def measure(
     """Imports ``source`` into ``out``, checks every converted file on seeds 0..seeds-1 and writes
     ``report``/coverage.csv and coverage.md (when ``report`` is given); returns the rows."""
     from aaai.task.arena import check_arena, parse_arena
-    from aaai.tools.animalai import import_animalai
+    from aaai.tools.animalai import UNFAIR, import_animalai
 
     lines: list[str] = []
     results = import_animalai(source, out, echo=lines.append, **options)
@@ -51,10 +51,12 @@ def measure(
             rows.append(row)
             continue
         row["converted"] = "yes"
+        if result.unfair:
+            row["file"] = f"{UNFAIR}/{result.name}"
         valid, causes, first = 0, Counter[str](), ""
         for seed in range(seeds):
             try:
-                spec, _, where = parse_arena(out / result.name, seed)
+                spec, _, where = parse_arena(out / row["file"], seed)
                 problems = check_arena(spec, where)
             except ConfigError as error:
                 problems = list(getattr(error, "problems", None) or [str(error)])
