@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import io
 import re
+import time
 from collections import Counter
 from pathlib import Path
 from typing import Callable
@@ -39,6 +40,7 @@ def measure(
     from aaai.tools.animalai import UNFAIR, import_animalai
 
     lines: list[str] = []
+    began = time.process_time()
     results = import_animalai(source, out, echo=lines.append, **options)
     rows = []
     for result in results:
@@ -67,7 +69,7 @@ def measure(
         row.update(invalid_because="; ".join(sorted(causes)), first_problem=first)
         rows.append(row)
     if report is not None:
-        write(rows, Path(report), source, seeds)
+        write(rows, Path(report), source, seeds, time.process_time() - began)
     summary(rows, seeds, echo)
     return rows
 
@@ -102,7 +104,7 @@ def summary(rows: list[dict], seeds: int, echo: Callable[[str], object]) -> None
         echo(f"{what:<60} {n:>5}  {note}")
 
 
-def write(rows: list[dict], report: Path, source: Path, seeds: int) -> None:
+def write(rows: list[dict], report: Path, source: Path, seeds: int, cpu: float = 0.0) -> None:
     report.mkdir(parents=True, exist_ok=True)
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, COLUMNS, lineterminator="\n")
@@ -112,8 +114,9 @@ def write(rows: list[dict], report: Path, source: Path, seeds: int) -> None:
     lines = [
         "# Animal-AI battery: coverage of the importer",
         "",
-        f"Made by `aaai import-animalai {source.name} --out DIR --report {report.name}` (seeds 0 to {seeds - 1});",
-        "one row per arena in `coverage.csv`. Regenerate it with the same command.",
+        f"Made by `aaai import-animalai .../{source.name} --out DIR --report {report}` (every converted",
+        f"arena checked on seeds 0 to {seeds - 1}; {cpu / 60:.1f} CPU-minutes here). One row per arena in",
+        "`coverage.csv`; regenerate both with the same command.",
         "",
         "| | arenas | |",
         "|---|---:|---|",
