@@ -188,3 +188,18 @@ def test_walls_that_cross_are_allowed_as_in_animal_ai(tmp_path):
     (out / "plain.yaml").write_text(text)
     with pytest.raises(ConfigError, match=r"objects\[0\] \(wall\): at \(0.0, 50.0\) overlaps objects\[1\] \(wall\)"):
         load_arena(out / "plain.yaml")
+
+
+def test_eval_scores_the_imported_battery_by_the_olympics_categories(tmp_path):
+    body = AGENT.format(x=20, z=5, r=0) + GOAL.format(x=20, z=30)
+    files = {name: arena(body, "    t: 250\n    pass_mark: 0\n") for name in ("01-01-01.yaml", "04-02-03.yaml")}
+    _, out = convert(tmp_path, files)
+    config = tmp_path / "short.yaml"
+    config.write_text("episode:\n  max_steps: 10\n")
+    board = tmp_path / "board.csv"
+    args = ["eval", "--arenas", str(out), "--policy", "random", "-k", "1", "--config", str(config), "--out", str(board)]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    summary = (tmp_path / "board_summary.md").read_text()
+    assert "| category 01 food retrieval | 1 |" in summary and "| category 04 avoidance | 1 |" in summary
+    assert {row["outcome"] for row in csv.DictReader(open(board))} == {"failed"}  # below the pass mark in 10 steps
