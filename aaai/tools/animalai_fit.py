@@ -38,7 +38,7 @@ START_MARGIN = 0.5  # units of room beyond the body's footprint radius a moved s
 
 
 def _problems(text: str, name: str, seeds: int) -> list[list[str]]:
-    """Each seed's validate problems of an arena file's text."""
+    """Each seed's validate problems of an arena file's text, up to the first seed with any."""
     from aaai.task.arena import check_arena, parse_arena
 
     found = []
@@ -51,6 +51,8 @@ def _problems(text: str, name: str, seeds: int) -> list[list[str]]:
                 found.append(check_arena(spec, source))
             except ConfigError as error:
                 found.append(list(getattr(error, "problems", None) or [str(error)]))
+            if found[-1]:  # one failing seed is enough to try the next change
+                break
     return found
 
 
