@@ -203,3 +203,12 @@ def test_eval_scores_the_imported_battery_by_the_olympics_categories(tmp_path):
     summary = (tmp_path / "board_summary.md").read_text()
     assert "| category 01 food retrieval | 1 |" in summary and "| category 04 avoidance | 1 |" in summary
     assert {row["outcome"] for row in csv.DictReader(open(board))} == {"failed"}  # below the pass mark in 10 steps
+
+
+def test_a_start_on_a_wall_moves_to_the_side_from_which_the_food_can_be_reached(tmp_path):
+    # Animal-AI's agent on top of a low wall down the middle; the food on the right (+x) side
+    divider = WALL.format(x=20, z=20, sx=1, sz=40)
+    body = AGENT.format(x=20, z=1, r=0) + divider + GOAL.format(x=30, z=30)
+    results, out = convert(tmp_path, {"side.yaml": arena(body, "    t: 250\n    pass_mark: 0\n")})
+    assert not results["side.yaml"].unfair
+    assert load_arena(out / "side.yaml").agent.x > 0

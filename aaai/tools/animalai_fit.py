@@ -34,6 +34,8 @@ from aaai.config import ConfigError
 
 FIT_SEEDS = 10  # the seeds an arena must be valid on (those `aaai validate --arena` checks)
 SCALE_STEPS = (1.0, 1.2, 1.4, 1.6)  # times the asked scale, tried in order
+# the causes a start in another region may cure
+REGION_CAUSES = {"start not clear", "food out of reach", "reachable food below the pass mark"}
 START_MARGIN = 0.5  # units of room beyond the body's footprint radius a moved start keeps
 
 
@@ -103,7 +105,7 @@ def move_start(data: dict, dump: Callable[[dict], str], name: str) -> str | None
     for x, y in places[:8]:  # the nearest region from which the food can be reached, if one is near
         trial = {**data, "agent": {**agent, "x": round(x, 2), "y": round(y, 2)}}
         problems = _problems(dump(dict(trial)), name, 1)[0]
-        if not any("cannot be reached" in p or "is not clear" in p for p in problems):
+        if not {cause(p) for p in problems} & REGION_CAUSES:
             chosen = (x, y)
             break
     x, y = round(chosen[0], 2), round(chosen[1], 2)
