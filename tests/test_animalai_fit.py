@@ -212,3 +212,13 @@ def test_a_start_on_a_wall_moves_to_the_side_from_which_the_food_can_be_reached(
     results, out = convert(tmp_path, {"side.yaml": arena(body, "    t: 250\n    pass_mark: 0\n")})
     assert not results["side.yaml"].unfair
     assert load_arena(out / "side.yaml").agent.x > 0
+
+
+def test_a_low_wall_over_the_whole_arena_is_its_floor(tmp_path):
+    floor = WALL.format(x=20, z=20, sx=40, sz=40).replace("y: 2", "y: 0.5")
+    body = AGENT.format(x=20, z=5, r=0) + floor + GOAL.format(x=20, z=30)
+    results, out = convert(tmp_path, {"floor.yaml": arena(body)})
+    assert not results["floor.yaml"].unfair
+    spec = load_arena(out / "floor.yaml")
+    assert [obj.kind for obj in spec.objects[4:]] == ["food_green"]
+    assert spec.objects[4].position[2] == pytest.approx(2.5)  # on the floor

@@ -143,6 +143,8 @@ CATEGORIES = {
     "09": "advanced preferences",
     "10": "causal reasoning",
 }
+FLOOR_HEIGHT = 1.0  # Animal-AI units: a wall at most this high over the whole arena is its floor
+ZONES = ("death_zone", "hot_zone")
 MAX_OBJECTS = 500  # objects in one arena (Animal-AI's own arenas hold a few dozen)
 _SHOWN = reprlib.Repr()
 _SHOWN.maxlevel, _SHOWN.maxstring, _SHOWN.maxother, _SHOWN.maxlist, _SHOWN.maxdict = 3, 60, 60, 6, 6
@@ -276,9 +278,38 @@ class _Arena:
                 "yaw": self._yaw(None),
             }
         out["agent"] = agent
+        objects = self.floors(objects, out)
         supports = _supports(objects)
         out["objects"] = [_settled(obj, supports) for obj in objects]
         return out, names
+
+    def floors(self, objects: list[dict], out: dict) -> list[dict]:
+        """A low wall on the floor that covers the whole arena (Animal-AI's way of colouring the
+        floor) is the floor: taken out, its colour the floor's, and what stood on it lowered by its
+        height (a body cannot stand on a wall here)."""
+        for obj in objects:
+            if obj["kind"] != "wall" or not all(isinstance(v, (int, float)) for v in (*obj["position"], *obj["size"])):
+                continue
+            x, y, z = obj["position"]
+            width, depth, height = obj["size"]
+            if (
+                abs(z - height / 2) < 1e-6
+                and height <= FLOOR_HEIGHT * self.scale
+                and min(width, depth) >= 0.95 * 2 * self.half
+                and abs(x) + abs(y) < 0.05 * self.half
+            ):
+                rest = [other for other in objects if other is not obj]
+                for other in rest:
+                    position = other["position"]
+                    if isinstance(position[2], (int, float)):
+                        bottom = position[2] - other["size"][2] / 2 if other.get("kind") not in ZONES else 0.0
+                        if bottom >= height - 1e-6:
+                            other["position"] = [position[0], position[1], round(position[2] - height, 4)]
+                if "colour" in obj:
+                    out["colours"] = {"floor": obj["colour"]}
+                out.setdefault("extras", {}).setdefault("animalai", {})["floor"] = "a wall over the whole floor"
+                return rest
+        return objects
 
     def agent(self, item: dict) -> dict:
         position = self._entry(item.get("positions"), 0) or {}
