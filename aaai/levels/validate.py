@@ -360,6 +360,7 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
 
 
 MAX_HEIGHTS = 400 * 400  # samples of a heightfield (L11 uses 65 x 65), as many as floor tiles may be
+MAX_TIME_LIMIT = 1000.0  # seconds: an arena file's longest episode (Animal-AI's 1000 steps at scale 7.8)
 MAX_ARENA = 1000.0  # units across: far beyond any level, short of a grid that would not fit in memory
 
 
@@ -386,9 +387,10 @@ def malformed(spec: LevelSpec) -> list[str]:
             f"the agent's start ({spec.agent.x:.4g}, {spec.agent.y:.4g}) lies outside any arena "
             f"(allowed: -{MAX_ARENA / 2:g} to {MAX_ARENA / 2:g} on each axis)"
         )
-    if finite((spec.time_limit,), "the time limit") and not 0.2 <= spec.time_limit <= 200.0:
+    if finite((spec.time_limit,), "the time limit") and not 0.2 <= spec.time_limit <= MAX_TIME_LIMIT:
         problems.append(
-            f"the time limit {spec.time_limit!r} must lie between 0.2 and 200 seconds, as a level's or an arena file's"
+            f"the time limit {spec.time_limit!r} must lie between 0.2 and {MAX_TIME_LIMIT:g} seconds, as an arena "
+            "file's (a generated level's: at most 200)"
         )
     if spec.heightfield is not None:
         rows = spec.heightfield

@@ -3,6 +3,8 @@ feet and tilt; gathered each step into one Dict observation."""
 
 from __future__ import annotations
 
+import bisect
+
 import cv2
 import numpy as np
 import pybullet as p
@@ -223,17 +225,23 @@ class Camera:
 
 
 class Blackout:
-    """L7's schedule: the camera sees for ``light`` seconds, then is dark for ``dark``, repeating.
-    Held in whole control steps; a level without one is never dark."""
+    """L7's schedule: the camera sees for ``light`` seconds, then is dark for ``dark``, repeating
+    (or it switches at the listed ``switches``, dark after the first). Held in whole control steps;
+    a level without one is never dark."""
 
     def __init__(self, schedule: SpecBlackout | None = None, control_dt: float = 1.0):
         self.steps = None
-        if schedule:
+        self.switches: list[int] = []  # the steps at which the light switches, when listed
+        if schedule and schedule.switches:
+            self.switches = [round(t / control_dt) for t in schedule.switches]
+        elif schedule:
             light = round(schedule.light / control_dt)
             # at least one step a cycle (light and dark shorter than half a step: dark throughout)
             self.steps = light, max(light + round(schedule.dark / control_dt), 1)
 
     def dark(self, step: int) -> bool:
+        if self.switches:
+            return bisect.bisect_right(self.switches, step) % 2 == 1
         return self.steps is not None and step % self.steps[1] >= self.steps[0]
 
 

@@ -14,8 +14,12 @@ import hashlib
 import json
 from dataclasses import asdict, dataclass, field
 
+from aaai.spec import behaviours, dispensers, kinds
 from aaai.spec.behaviours import names as behaviour_names
 from aaai.spec.kinds import COLOURS, EDIBLE_KINDS, FOOD_KINDS, TimedFood, check_kind, kind_class
+
+# The spawner and button kinds (neither food nor edible), registered before any other module reads the tables.
+dispensers.define(kinds.Kind, kinds.register, behaviours.Behaviour, behaviours.register)
 
 SHAPES = ("box", "sphere", "cylinder")
 
@@ -25,6 +29,8 @@ def _drop_no_timing(data) -> None:
     if isinstance(data, dict):
         if "kind" in data and "timing" in data and data["timing"] is None:
             del data["timing"]
+        if "light" in data and "dark" in data and data.get("switches") == ():
+            del data["switches"]  # a periodic blackout has the digest it had before switches existed
         for value in data.values():
             _drop_no_timing(value)
     elif isinstance(data, (list, tuple)):
@@ -89,10 +95,13 @@ class AgentPose:
 
 @dataclass(frozen=True)
 class Blackout:
-    """L7's camera schedule: it sees for ``light`` seconds, then is dark for ``dark``, repeating."""
+    """L7's camera schedule: it sees for ``light`` seconds, then is dark for ``dark``, repeating; or,
+    when ``switches`` (seconds, rising) is given, it sees until the first, is dark until the second,
+    and so on (Animal-AI's blackouts at listed frames; light and dark are then 0)."""
 
     light: float
     dark: float
+    switches: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -132,7 +141,7 @@ class LevelSpec:
 
     def to_dict(self) -> dict:
         data = asdict(self)
-        _drop_no_timing(data)  # a spec without timed food has the digest it had before timing existed
+        _drop_no_timing(data)  # a spec without timed food (or switches) has the digest it had before they existed
         return data
 
     def to_json(self) -> str:

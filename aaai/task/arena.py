@@ -13,13 +13,20 @@ An arena file's keys are the spec's fields (docs, "Write your own test"):
   may also be ``{rect: [i0, j0, i1, j1]}``: every tile of that block, both ends included),
   ``heightfield`` (rows of heights, or null), ``max_food_reward`` (default: the best food reward the
   objects give: the largest green plus every yellow), ``time_limit`` (seconds), ``blackout:
-  {light, dark}`` or null, ``colours: {kind: [r, g, b, a]}``, ``bridge: [x0, y0, x1, y1]`` or null,
+  {light, dark}`` (repeating), ``{switches: [t1, t2, ...]}`` (dark from t1 to t2, from t3 to t4, ...)
+  or null, ``colours: {kind: [r, g, b, a]}``, ``bridge: [x0, y0, x1, y1]`` or null,
   ``inner: {level, name, difficulty, seed}`` or null, ``regenerated``, ``extras`` (any plain data);
 - ``pass_mark``: the return at or above which an episode of this arena passes (Animal-AI's
   ``passMark``); kept in the spec's ``extras["pass_mark"]`` (aaai.tools.animalai_coverage.passed); optional;
+- ``reach``: ``all`` (default: every piece of food must be reachable) or ``pass_mark`` (food out of
+  reach is allowed while the reachable food gives the pass mark, as in Animal-AI's tasks whose
+  food behind a barrier is a lure); kept in ``extras["reach"]``;
+- ``walls_cross``: true lets static walls cross each other (Animal-AI's arenas do; a wall is static
+  in physics, so nothing moves); kept in ``extras["walls_cross"]``;
 - and three keys that are not the spec's: ``description`` (one line for people), ``category``
   (the level name, label or id the test belongs to, e.g. ``y_maze``: the scoreboard's summary
-  groups by it) and ``arena_walls`` (true: the four walls round the arena, as the generators'
+  groups by it; an imported Animal-AI arena without one is grouped by ``extras.animalai.category``,
+  e.g. ``04 avoidance``) and ``arena_walls`` (true: the four walls round the arena, as the generators'
   ``aaai.levels.common.arena_walls`` builds them, come before ``objects``; default false).
 
 Randomisation: any number may be written ``{uniform: [low, high]}`` (a float drawn uniformly),
@@ -51,7 +58,9 @@ from aaai.spec import Blackout, InnerLevel, LevelSpec
 from aaai.spec.kinds import ENDING_KINDS, OBJECT_KINDS
 from aaai.task.arena_reader import ArenaProblems, Reader, Source
 
-META_KEYS = ("description", "category", "arena_walls", "pass_mark")
+META_KEYS = ("description", "category", "arena_walls", "pass_mark", "reach", "walls_cross")
+REACH = ("all", "pass_mark")  # which food must be reachable: every piece, or enough for the pass mark
+STEP_COSTS = 1.0  # the most the step term takes from an episode (aaai.task.rewards)
 SPEC_KEYS = (
     "level",
     "name",
@@ -260,13 +269,23 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, Sourc
 
     def time_limit():
         value = read.number(data.get("time_limit", DEFAULT_TIME_LIMIT), ("time_limit",), positive=True)
-        if not 0.2 <= value <= 200:
-            read.fail(("time_limit",), f"got {value!r}; allowed: 0.2 to 200 seconds")
+        if not 0.2 <= value <= validate.MAX_TIME_LIMIT:
+            read.fail(("time_limit",), f"got {value!r}; allowed: 0.2 to {validate.MAX_TIME_LIMIT:g} seconds")
         return value
 
     fields["time_limit"] = attempt(time_limit, DEFAULT_TIME_LIMIT)
 
     def blackout(value):
+        if isinstance(value, dict) and "switches" in value:  # listed times, as Animal-AI's listed frames
+            read.keys(value, ("switches",), ("blackout",), required=("switches",))
+            times = read.numbers(value["switches"], ("blackout", "switches"), None)
+            if not times or any(t < 0 for t in times) or any(b <= a for a, b in zip(times, times[1:])):
+                read.fail(
+                    ("blackout", "switches"),
+                    f"got {value['switches']!r}; allowed: one or more times (seconds, 0 or more, rising) at "
+                    "which the light goes off, on, off, ...",
+                )
+            return Blackout(0.0, 0.0, tuple(float(t) for t in times))
         read.keys(value, BLACKOUT_KEYS, ("blackout",), required=BLACKOUT_KEYS)
         return Blackout(*(read.number(value[k], ("blackout", k), positive=True) for k in BLACKOUT_KEYS))
 
@@ -300,10 +319,27 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, Sourc
         return value
 
     fields["extras"] = attempt(extras, {})
+    imported = (fields["extras"] or {}).get("animalai")
+    if meta["category"] is None and isinstance(imported, dict) and isinstance(imported.get("category"), str):
+        meta["category"] = imported["category"]  # an imported Animal-AI arena's category (aaai.tools.animalai_arena)
     if "pass_mark" in data:
         mark = attempt(lambda: read.number(data["pass_mark"], ("pass_mark",)))
         if mark is not None:
             fields["extras"] = {**(fields["extras"] or {}), "pass_mark": float(mark)}
+    if "walls_cross" in data:
+        cross = data["walls_cross"]
+        if not isinstance(cross, bool):
+            attempt(lambda: read.fail(("walls_cross",), f"got {cross!r}; allowed: true or false"))
+        elif cross:
+            fields["extras"] = {**(fields["extras"] or {}), "walls_cross": True}
+    if "reach" in data:
+        reach = attempt(lambda: read.text(data["reach"], ("reach",), REACH))
+        if reach == "pass_mark" and "pass_mark" not in data:
+            attempt(
+                lambda: read.fail(("reach",), "got 'pass_mark' without a pass_mark; allowed: all, or set pass_mark")
+            )
+        elif reach is not None:
+            fields["extras"] = {**(fields["extras"] or {}), "reach": reach}
     if "max_food_reward" in data:
         fields["max_food_reward"] = attempt(lambda: read.number(data["max_food_reward"], ("max_food_reward",)), 0.0)
     else:
@@ -368,9 +404,36 @@ def _located(spec: LevelSpec, source: Source, problem: str) -> str:
     return f"{source.name} line {source.line(())}: {problem}"
 
 
+_WALLS_CROSS = re.compile(r"solid objects overlap: (transparent_)?wall at \([^)]*\) and (transparent_)?wall at ")
+
+
+def reachable_return(spec: LevelSpec) -> float:
+    """The most an episode can return eating only the food the body can reach: the best reachable
+    episode-ending piece plus every other reachable piece, less the most the step term takes."""
+    region, clear = validate.reachable_region(spec)
+    reached = [food for food in spec.foods if clear and validate.food_reachable(spec, region, food)]
+    ending = [food.food_value for food in reached if food.kind in ENDING_KINDS]
+    return max(ending, default=0.0) + sum(f.food_value for f in reached if f.kind not in ENDING_KINDS) - STEP_COSTS
+
+
 def check_arena(spec: LevelSpec, source: Source, require_food: bool = True) -> list[str]:
-    """validate.check's problems with the spec, each naming the file, the line and the object."""
-    return [_located(spec, source, problem) for problem in validate.check(spec, require_food=require_food)]
+    """validate.check's problems with the spec, each naming the file, the line and the object. With
+    ``reach: pass_mark``, food that cannot be reached is no problem while the food that can be reached
+    gives the pass mark (:func:`reachable_return`); when it does not, that is one more problem."""
+    problems = validate.check(spec, require_food=require_food)
+    if spec.extras.get("walls_cross"):  # static walls that cross each other, as Animal-AI lets them
+        problems = [p for p in problems if not _WALLS_CROSS.match(p)]
+    if spec.extras.get("reach") == "pass_mark":
+        unreached = [p for p in problems if p.endswith("cannot be reached from the start")]
+        if unreached:
+            problems = [p for p in problems if p not in unreached]
+            best, mark = reachable_return(spec), spec.extras["pass_mark"]
+            if best < mark:
+                problems.append(
+                    f"the food that can be reached gives at most {best:.2f}, below the pass mark {mark:g} "
+                    f"({len(unreached)} piece{'s' if len(unreached) > 1 else ''} of food out of reach)"
+                )
+    return [_located(spec, source, problem) for problem in problems]
 
 
 def load_arena(path: str | Path, seed: int = 0, require_food: bool = True) -> LevelSpec:

@@ -23,8 +23,10 @@ from aaai import safe_yaml
 from aaai.config import ConfigError
 from aaai.files import write_atomic
 from aaai.tools.animalai_arena import DEFAULT_SCALE, Unmappable, convert_arena, is_number, shown
+from aaai.tools.animalai_fit import fit
 
 IMPORT_SEED = 20260
+UNFAIR = "unfair"  # the subfolder of --out for arenas that cannot be made fair for our body (aaai.tools.animalai_fit)
 MAX_FILE_BYTES = 1_000_000
 
 
@@ -75,6 +77,8 @@ class Converted:
     problem: str = ""
     items: list[str] = field(default_factory=list)
     refused: bool = False  # the whole file was refused (unreadable, unsafe): ``arena`` and ``name`` are empty
+    changes: list[str] = field(default_factory=list)  # what was changed to fit our body (a start moved, the scale)
+    unfair: list[str] = field(default_factory=list)  # why the task cannot be made fair for our body
 
 
 _DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml's emitter when present: the same text, faster
@@ -101,21 +105,29 @@ def _dump(data: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def convert_file(path: Path, scale: float = DEFAULT_SCALE) -> list[Converted]:
-    """Every arena of an Animal-AI file, converted or with the reason it was skipped."""
+def convert_file(path: Path, scale: float = DEFAULT_SCALE, fitted: bool = True) -> list[Converted]:
+    """Every arena of an Animal-AI file, converted or with the reason it was skipped; ``fitted``:
+    fitted to our body (aaai.tools.animalai_fit: a start moved, a larger scale, or marked unfair)."""
     data = read_arena_config(path)
     arenas = data["arenas"]
     results = []
     stem = re.sub(r"[^A-Za-z0-9_.-]", "_", path.stem)[:100]  # a file name, whatever the source file's
     for number, (key, arena) in enumerate(arenas.items()):
         name = f"{stem}.yaml" if len(arenas) == 1 else f"{stem}_a{key}.yaml"  # the keys: plain names
-        rng = np.random.default_rng([IMPORT_SEED, zlib.crc32(path.name.encode()), number])
+
+        def convert(at: float, key=key, arena=arena, number=number) -> tuple[dict, list[str]]:
+            rng = np.random.default_rng([IMPORT_SEED, zlib.crc32(path.name.encode()), number])
+            return convert_arena(path.name, key, arena, at, rng)
+
         try:
-            out, names = convert_arena(path.name, key, arena, scale, rng)
+            if fitted:
+                out, names, changes, unfair = fit(convert, _dump, name, scale)
+            else:
+                (out, names), changes, unfair = convert(scale), [], []
         except Unmappable as error:
             results.append(Converted(path.name, str(key), name, problem=str(error)))
             continue
-        results.append(Converted(path.name, str(key), name, text=_dump(out), items=names))
+        results.append(Converted(path.name, str(key), name, _dump(out), items=names, changes=changes, unfair=unfair))
     return results
 
 
@@ -134,7 +146,7 @@ def animalai_files(path: Path) -> list[Path]:
 
 
 def import_animalai(
-    source: Path, out: Path, scale: float = DEFAULT_SCALE, echo: Callable[[str], object] = print
+    source: Path, out: Path, scale: float = DEFAULT_SCALE, echo: Callable[[str], object] = print, fitted: bool = True
 ) -> list[Converted]:
     """Converts a file or a folder of them into ``out`` (one aaai arena file per arena), printing
     each skipped arena's reason and a summary; returns every arena's result, and one (``refused``)
@@ -151,7 +163,7 @@ def import_animalai(
     unreadable = 0
     for path in files:
         try:
-            converted = convert_file(path, scale)
+            converted = convert_file(path, scale, fitted)
         except ConfigError as error:
             echo(f"SKIPPED {error}")
             unreadable += 1
@@ -171,7 +183,12 @@ def import_animalai(
             if result.problem:
                 echo(f"SKIPPED {result.problem}")
             else:
-                write_atomic(out / result.name, result.text)
+                if result.unfair:  # kept, apart: `aaai eval --arenas OUT` runs the fair ones
+                    (out / UNFAIR).mkdir(exist_ok=True)
+                    write_atomic(out / UNFAIR / result.name, result.text)
+                    echo(f"UNFAIR {result.source}, arena {result.arena}: {', '.join(result.unfair)}; in {UNFAIR}/")
+                else:
+                    write_atomic(out / result.name, result.text)
                 written[result.name] = f"{result.source}, arena {result.arena}"
         results += converted
     arenas = [r for r in results if r.arena or not r.refused]  # a refused file's entry is no arena
@@ -184,6 +201,9 @@ def import_animalai(
         f"{len(files)} files, {len(arenas)} arenas: {len(done)} converted into {out}, "
         f"{len(arenas) - len(done)} skipped" + (f", {unreadable} files unreadable" if unreadable else "")
     )
+    unfair = [r for r in done if r.unfair]
+    if unfair:
+        echo(f"{len(unfair)} of them cannot be made fair for this body: kept in {out / UNFAIR}, each named above")
     if kinds:
         echo("items converted: " + ", ".join(f"{name} {count}" for name, count in sorted(kinds.items())))
     reasons: dict[str, int] = {}

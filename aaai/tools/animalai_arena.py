@@ -9,13 +9,13 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
 - size (x, y, z) -> (scale x, scale z, scale y): width, depth, height; a goal's size x is its diameter;
 - rotation r (degrees, clockwise seen from above, 0 facing +z) -> yaw -r in radians (the agent, a
   ramp and a tunnel, whose forward is their own +z: pi/2 - r);
-- ``t`` / ``timeLimit`` (steps) -> time_limit t x SECONDS_PER_STEP x scale seconds (250 steps: 160 s
-  at scale 5), at most 200 (t = 0, no limit: 200);
+- ``t`` / ``timeLimit`` (steps) -> time_limit t x SECONDS_PER_STEP x scale seconds, one rule for
+  every file (250 steps: 160 s at scale 5, 500: 320 s, 1000: 640 s), at most MAX_TIME (t = 0, no limit: MAX_TIME);
 - ``pass_mark`` / ``passMark`` p -> pass_mark: food rewards grow with the scale and the time costs
   (at most 1 in an episode in both) do not, so p <= 0 becomes scale x p and p > 0 becomes
   max(scale x p - (scale - 1) / 2, scale x p / 2);
 - ``blackouts: [-n]`` (dark and light every n frames) -> blackout {light, dark} of n steps each;
-  lists of frames cannot be mapped;
+  rising frames f1, f2, ... (dark from f1 to f2, ...) -> blackout {switches: [seconds]}, a frame a step;
 - -1 (or a missing value) in a position or rotation -> ``{uniform: [low, high]}``, drawn afresh
   for every episode seed as any arena file's randomisation; a random size is drawn once, here,
   from ``np.random.default_rng([IMPORT_SEED, crc32(file name), arena])`` (a random height would
@@ -25,8 +25,10 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
   movable block above the floor lands, as it would fall in Animal-AI, on the highest static box
   beneath it or on the floor.
 
-An item with no counterpart here (spawners, buttons, data zones, ...) is named with its file, arena
-and index (``Unmappable``), and that arena is skipped. Bouncing goals bounce (aaai.spec.behaviours.
+Dispensers and trees become a ``spawner`` and the food they give, appearing at its times
+(SPAWNERS); a button a ``button`` and the food a touch of the head gives (aaai.spec.dispensers). An
+item with no counterpart here (data zones, ...) is named with its file, arena and index
+(``Unmappable``), and that arena is skipped. Bouncing goals bounce (aaai.spec.behaviours.
 Bounce) at BOUNCE_SPEED; a cylinder tunnel becomes an arch (aaai.spec.kinds.Tunnel) open at the floor; a
 sign board with a preset symbol a ``sign_SYMBOL`` board; goals that ripen, decay, grow or shrink
 the timed food of aaai.spec.kinds (see TIMED). Reading the files and writing ours: aaai.tools.animalai.
@@ -35,6 +37,7 @@ the timed food of aaai.spec.kinds (see TIMED). Reading the files and writing our
 from __future__ import annotations
 
 import math
+import re
 import reprlib
 from typing import Any, TypeGuard
 
@@ -47,7 +50,7 @@ AAI_ARENA = 40.0
 # Seconds per Animal-AI step and unit of scale (0.64 s at scale 5): 250 steps, Animal-AI's usual
 # episode, give 160 s, in which our body (3.2 units/s) crosses the 200-unit arena two and a half times.
 SECONDS_PER_STEP = 0.128
-MAX_TIME = 200.0  # an arena file's longest time limit (aaai.task.arena)
+MAX_TIME = 1000.0  # an arena file's longest time limit (aaai.levels.validate.MAX_TIME_LIMIT): t = 0 (no limit)
 BOUNCE_SPEED = 3.0  # units/s of a bouncing goal (aaai.spec.behaviours.Bounce), off in its forward direction
 WALL_HEIGHT = 4.0
 PLANK_MASS = {"light": 2.0, "heavy": 20.0}  # movable blocks (LightBlock, HeavyBlock)
@@ -102,20 +105,46 @@ HEAVY = ("Cardbox2", "HeavyBlock")
 SIGNS = ("SignBoard", "SignPosterboard")
 SIGN_SIZE = 1.4  # Animal-AI's sign boards are this big, whatever the file says
 MOVABLE_BLOCKS = ("UObject", "UBlock", "LObject", "LBlock", "LObject2", "JBlock", "HollowBox")
+# Dispensers (aaai.spec.dispensers): name -> (body size x, y, z in Animal-AI units, food kind, default
+# seconds before the first piece, default seconds between pieces). Animal-AI's times are in its
+# seconds; one counts as AAI_STEPS_PER_SECOND steps (ML-Agents' default decision period, 5 frames of
+# Unity's 0.02 s), a step as SECONDS_PER_STEP x scale seconds here, as for every other time.
+SPAWNERS = {
+    "SpawnerTree": ((5.19, 5.95, 5.02), "multi_food", 6.0, 4.0),  # first after ripenTimes (6 s), then every 4 s
+    "SpawnerDispenser": ((1.67, 4.46, 1.67), "multi_food", 10.0, 1.5),  # after doorDelays (10 s), every 1.5 s
+    "SpawnerDispenserTall": ((1.67, 4.46, 1.67), "multi_food", 10.0, 1.5),
+    "SpawnerDispenserShort": ((1.67, 1.67, 1.67), "multi_food", 10.0, 1.5),
+    "SpawnerContainer": ((1.67, 1.67, 1.67), "multi_food", 10.0, 1.5),
+    "SpawnerContainerShort": ((1.67, 1.67, 1.67), "multi_food", 10.0, 1.5),
+}
+BUTTONS = ("SpawnerButton", "Pillar-Button")
+BUTTON_SIZE = 1.3  # Animal-AI's button, whatever the file says
+BUTTON_FOOD = {"GoodGoal": "food_green", "BadGoal": "bad_food", "GoodGoalMulti": "multi_food"}
+AAI_STEPS_PER_SECOND = 10.0
+MAX_SPAWNED = 5  # pieces a dispenser gives here when Animal-AI's spawnCounts is -1 (without end)
+SPAWNED_SIZE = 1.0  # Animal-AI units: a dispensed piece's diameter (finalValues when given)
 NOT_HERE = {  # known Animal-AI items without a counterpart, and why
-    "SpawnerTree": "spawners are not built here",
-    "SpawnerDispenser": "spawners are not built here",
-    "SpawnerDispenserTall": "spawners are not built here",
-    "SpawnerDispenserShort": "spawners are not built here",
-    "SpawnerContainer": "spawners are not built here",
-    "SpawnerContainerShort": "spawners are not built here",
-    "SpawnerButton": "buttons and spawners are not built here",
-    "Pillar-Button": "buttons are not built here",
     "DataZone": "data zones are not built here",
     "Datazone": "data zones are not built here",
     "BadGoalMulti": "non-ending bad food is not built here",
 }
 
+# The Animal-AI Olympics' ten categories (Crosby et al. 2020), by the number a competition file's
+# name begins with; the scoreboard's summary groups the imported arenas by them.
+CATEGORIES = {
+    "01": "food retrieval",
+    "02": "preferences",
+    "03": "obstacles",
+    "04": "avoidance",
+    "05": "spatial reasoning",
+    "06": "robustness",
+    "07": "internal models",
+    "08": "object permanence",
+    "09": "advanced preferences",
+    "10": "causal reasoning",
+}
+FLOOR_HEIGHT = 1.0  # Animal-AI units: a wall at most this high over the whole arena is its floor
+ZONES = ("death_zone", "hot_zone")
 MAX_OBJECTS = 500  # objects in one arena (Animal-AI's own arenas hold a few dozen)
 _SHOWN = reprlib.Repr()
 _SHOWN.maxlevel, _SHOWN.maxstring, _SHOWN.maxother, _SHOWN.maxlist, _SHOWN.maxdict = 3, 60, 60, 6, 6
@@ -192,22 +221,34 @@ class _Arena:
             "arena_size": [2 * self.half, 2 * self.half],
             "wall_height": WALL_HEIGHT,
             "time_limit": round(time_limit, 3),
+            "walls_cross": True,  # Animal-AI lets walls cross; ours are static too
         }
+        found = re.match(r"(\d\d)-", self.source)
+        if found and found.group(1) in CATEGORIES:  # a competition file: 04-01-02.yaml is of category 4
+            out["extras"] = {"animalai": {"category": f"{found.group(1)} {CATEGORIES[found.group(1)]}"}}
         mark = arena.get("passMark", arena.get("pass_mark"))
         if mark is not None:
             if not is_number(mark):
                 raise Unmappable(f"{self.source}, arena {self.key}: pass mark {shown(mark)}; allowed: a number")
             s = self.scale
             out["pass_mark"] = round(s * mark if mark <= 0 else max(s * mark - (s - 1) / 2, s * mark / 2), 4)
+            out["reach"] = "pass_mark"  # food out of reach is a lure as long as what can be reached passes
         blackouts = arena.get("blackouts")
         if blackouts:
+            frame = SECONDS_PER_STEP * self.scale
             if isinstance(blackouts, list) and len(blackouts) == 1 and is_number(blackouts[0]) and blackouts[0] < 0:
-                seconds = -blackouts[0] * SECONDS_PER_STEP * self.scale
+                seconds = -blackouts[0] * frame
                 out["blackout"] = {"light": round(seconds, 4), "dark": round(seconds, 4)}
+            elif (
+                isinstance(blackouts, list)
+                and all(is_number(b) and b >= 0 for b in blackouts)
+                and all(b > a for a, b in zip(blackouts, blackouts[1:]))
+            ):  # the frames at which the light goes off, on, off, ...
+                out["blackout"] = {"switches": [round(b * frame, 4) for b in blackouts]}
             else:
                 raise Unmappable(
-                    f"{self.source}, arena {self.key}: blackouts {shown(blackouts)} at listed frames cannot "
-                    "be mapped; allowed here: [-n], dark and light every n frames"
+                    f"{self.source}, arena {self.key}: blackouts {shown(blackouts)} cannot be mapped; allowed: "
+                    "[-n] (dark and light every n frames) or rising frames at which the light switches"
                 )
         total = sum(
             _count(item, f"{self.source}, arena {self.key}, item {index}")
@@ -237,9 +278,38 @@ class _Arena:
                 "yaw": self._yaw(None),
             }
         out["agent"] = agent
+        objects = self.floors(objects, out)
         supports = _supports(objects)
         out["objects"] = [_settled(obj, supports) for obj in objects]
         return out, names
+
+    def floors(self, objects: list[dict], out: dict) -> list[dict]:
+        """A low wall on the floor that covers the whole arena (Animal-AI's way of colouring the
+        floor) is the floor: taken out, its colour the floor's, and what stood on it lowered by its
+        height (a body cannot stand on a wall here)."""
+        for obj in objects:
+            if obj["kind"] != "wall" or not all(isinstance(v, (int, float)) for v in (*obj["position"], *obj["size"])):
+                continue
+            x, y, z = obj["position"]
+            width, depth, height = obj["size"]
+            if (
+                abs(z - height / 2) < 1e-6
+                and height <= FLOOR_HEIGHT * self.scale
+                and min(width, depth) >= 0.95 * 2 * self.half
+                and abs(x) + abs(y) < 0.05 * self.half
+            ):
+                rest = [other for other in objects if other is not obj]
+                for other in rest:
+                    position = other["position"]
+                    if isinstance(position[2], (int, float)):
+                        bottom = position[2] - other["size"][2] / 2 if other.get("kind") not in ZONES else 0.0
+                        if bottom >= height - 1e-6:
+                            other["position"] = [position[0], position[1], round(position[2] - height, 4)]
+                if "colour" in obj:
+                    out["colours"] = {"floor": obj["colour"]}
+                out.setdefault("extras", {}).setdefault("animalai", {})["floor"] = "a wall over the whole floor"
+                return rest
+        return objects
 
     def agent(self, item: dict) -> dict:
         position = self._entry(item.get("positions"), 0) or {}
@@ -361,7 +431,129 @@ class _Arena:
             objects.append(obj)
         return objects
 
+    def seconds(self, aai_seconds: float) -> float:
+        """An Animal-AI time (its seconds) in seconds here."""
+        return round(aai_seconds * AAI_STEPS_PER_SECOND * SECONDS_PER_STEP * self.scale, 4)
+
+    def dispensers(self, index: int, name: str, item: dict) -> list[dict]:
+        """A dispenser or tree: its body (aaai.spec.dispensers.Spawner) and the pieces it gives, in a
+        row in front of it, each appearing at its time (behaviour ``release``)."""
+        (bx, by, bz), food, first, every = SPAWNERS[name]
+        where = self.where(index, name)
+        objects = []
+        for k in range(_count(item, where)):
+            values = {}
+            for key in ("spawnCounts", "finalValues", "delays", "doorDelays", "ripenTimes", "timesBetweenSpawns"):
+                value = self._entry(item.get(key), k)
+                if value is not None and not is_number(value):
+                    raise Unmappable(
+                        f"{where}: cannot be mapped ({key} {shown(value)}; allowed: numbers); arena skipped"
+                    )
+                values[key] = value
+            count = values["spawnCounts"]
+            count = MAX_SPAWNED if count is None or count < 0 else min(int(count), MAX_SPAWNED)
+            size = values["finalValues"] if values["finalValues"] and values["finalValues"] > 0 else SPAWNED_SIZE
+            wait = values["ripenTimes"] if name == "SpawnerTree" else values["doorDelays"]  # before the first
+            start = (values["delays"] or 0) + (wait if wait is not None else first)
+            gap = values["timesBetweenSpawns"] if values["timesBetweenSpawns"] else every
+            position = self._entry(item.get("positions"), k)
+            position = position if isinstance(position, dict) else {}
+            rotation = self._entry(item.get("rotations"), k)
+            if not all(is_number(position.get(a)) and position.get(a) != -1 for a in "xz"):
+                raise Unmappable(
+                    f"{where}: cannot be mapped (a dispenser at a random position; allowed: x and z given); "
+                    "arena skipped"
+                )
+            yaw = self._yaw(rotation if is_number(rotation) and rotation != -1 else 0.0, math.pi / 2)  # random: 0
+            assert isinstance(yaw, float)
+            x, y = self._xy(position["x"], 0, 0), self._xy(position["z"], 0, 0)
+            assert isinstance(x, float) and isinstance(y, float)
+            objects.append(
+                {
+                    "kind": "spawner",
+                    "position": [x, y, round(by * self.scale / 2, 4)],
+                    "size": [round(bz * self.scale, 4), round(bx * self.scale, 4), round(by * self.scale, 4)],
+                    "yaw": yaw,
+                }
+            )
+            diameter = round(size * self.scale, 4)
+            for n in range(count):  # in a row out from its front, the first nearest
+                out = (bz / 2 + 0.5) * self.scale + diameter / 2 + n * (diameter + 0.5 * self.scale)
+                objects.append(
+                    {
+                        "kind": food,
+                        "shape": "sphere",
+                        "position": [
+                            round(x + out * math.cos(yaw), 4),
+                            round(y + out * math.sin(yaw), 4),
+                            round(diameter / 2, 4),
+                        ],
+                        "size": [diameter] * 3,
+                        "behaviour": {"type": "release", "after": self.seconds(start + n * gap)},
+                    }
+                )
+        return objects
+
+    def buttons(self, index: int, name: str, item: dict) -> list[dict]:
+        """A button (aaai.spec.dispensers.Button) and the piece it gives when the head touches it
+        (behaviour ``press``): the most likely of ``rewardNames`` (by ``rewardWeights``), of size
+        ``spawnedRewardSize``, at ``rewardSpawnPos``."""
+        from aaai.agent.urdf_writer import HEAD_RADIUS
+
+        where = self.where(index, name)
+        objects = []
+        names = item.get("rewardNames") or ["GoodGoal"]
+        weights = item.get("rewardWeights") or [1.0] * len(names)
+        if (
+            not isinstance(names, list)
+            or not isinstance(weights, list)
+            or len(weights) != len(names)
+            or not all(n in BUTTON_FOOD for n in names)
+            or not all(is_number(w) and w >= 0 for w in weights)
+        ):
+            raise Unmappable(
+                f"{where}: cannot be mapped (rewardNames {shown(names)}, rewardWeights {shown(weights)}; allowed: "
+                f"names from {', '.join(BUTTON_FOOD)} with as many weights, 0 or more); arena skipped"
+            )
+        food = BUTTON_FOOD[names[max(range(len(names)), key=lambda i: weights[i])]]
+        size = item.get("spawnedRewardSize", SPAWNED_SIZE)
+        if not is_number(size) or size <= 0:
+            raise Unmappable(f"{where}: cannot be mapped (spawnedRewardSize {shown(size)}; allowed: above 0)")
+        side = BUTTON_SIZE * self.scale
+        reach = self.half - side
+        diameter = round(size * self.scale, 4)
+        for k in range(_count(item, where)):
+            position = self._entry(item.get("positions"), k)
+            position = position if isinstance(position, dict) else {}
+            x, y = self._xy(position.get("x", -1), -reach, reach), self._xy(position.get("z", -1), -reach, reach)
+            if not (isinstance(x, float) and isinstance(y, float)):
+                raise Unmappable(
+                    f"{where}: cannot be mapped (a button at a random position; allowed: x and z given); arena skipped"
+                )
+            spot = item.get("rewardSpawnPos")
+            spot = self._entry(spot, k) if isinstance(spot, list) else spot
+            spot = spot if isinstance(spot, dict) else {}
+            food_reach = self.half - diameter / 2 - 1.0
+            objects.append({"kind": "button", "shape": "cylinder", "position": [x, y, side / 2], "size": [side] * 3})
+            piece: dict = {
+                "kind": food,
+                "shape": "sphere",
+                "position": [
+                    self._xy(spot.get("x", -1), -food_reach, food_reach),
+                    self._xy(spot.get("z", -1), -food_reach, food_reach),
+                    round(diameter / 2, 4),
+                ],
+                "size": [diameter] * 3,
+                "behaviour": {"type": "press", "button": [x, y], "reach": round(side / 2 + HEAD_RADIUS + 0.5, 4)},
+            }
+            objects.append(piece)
+        return objects
+
     def item(self, index: int, name: str, item: dict) -> list[dict]:
+        if name in SPAWNERS:
+            return self.dispensers(index, name, item)
+        if name in BUTTONS:
+            return self.buttons(index, name, item)
         if name in SIGNS:
             return self.signs(index, name, item)
         if name in TIMED:

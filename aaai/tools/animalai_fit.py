@@ -1,0 +1,176 @@
+"""Fitting an imported Animal-AI arena to our body (used by aaai.tools.animalai).
+
+Animal-AI's agent is a sphere 1 across; our body's walking footprint is 10 across
+(aaai.levels.validate.FOOTPRINT_RADIUS), so at the default scale some starts and passages that fit
+Animal-AI's agent do not fit ours. An arena is converted at the asked scale and checked
+(aaai.levels.validate) on seeds 0 to FIT_SEEDS - 1; when it fails:
+
+- a fixed agent start that is not clear moves to the nearest clear place (the centre of a grid
+  cell with room for the body), facing the same way; of the clear regions, the nearest one from
+  which the food can be reached, else the nearest;
+- when food still cannot be reached (a passage narrower than the body) or the start has no clear
+  place near, the arena is converted again at the next of SCALE_STEPS times the asked scale, and the
+  smallest scale at which it is valid on every seed is kept;
+- an arena valid at none of them is kept at the asked scale and marked unfair, with the problems
+  found at the largest scale (``unfair``): a task that cannot be made fair for this body is named,
+  never dropped.
+
+Every change is recorded in the arena file (``extras: {animalai: {...}}``) and returned, for the
+import report (aaai.tools.animalai_report).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tempfile
+from pathlib import Path
+from typing import Callable
+
+import cv2
+import numpy as np
+
+from aaai.config import ConfigError
+
+FIT_SEEDS = 10  # the seeds an arena must be valid on (those `aaai validate --arena` checks)
+SCALE_STEPS = (1.0, 1.2, 1.4, 1.6)  # times the asked scale, tried in order
+# the causes a start in another region may cure
+REGION_CAUSES = {"start not clear", "food out of reach", "reachable food below the pass mark"}
+START_MARGIN = 0.5  # units of room beyond the body's footprint radius a moved start keeps
+
+
+def _problems(text: str, name: str, seeds: int) -> list[list[str]]:
+    """Each seed's validate problems of an arena file's text, up to the first seed with any."""
+    from aaai.task.arena import check_arena, parse_arena
+
+    found = []
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / name
+        path.write_text(text)
+        for seed in range(seeds):
+            try:
+                spec, _, source = parse_arena(path, seed)
+                found.append(check_arena(spec, source))
+            except ConfigError as error:
+                found.append(list(getattr(error, "problems", None) or [str(error)]))
+            if found[-1]:  # one failing seed is enough to try the next change
+                break
+    return found
+
+
+def _spec(text: str, name: str, seed: int = 0):
+    from aaai.task.arena import parse_arena
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / name
+        path.write_text(text)
+        return parse_arena(path, seed)[0]
+
+
+def clear_places(spec) -> list[tuple[float, float]]:
+    """One clear place per region the body can stand in, nearest first: the clear cell nearest the
+    agent's start in each connected region of cells with room for the body."""
+    from aaai.levels.validate import FOOTPRINT_RADIUS, GRID, clearance_map
+
+    clearance = clearance_map(spec)
+    free = (clearance > FOOTPRINT_RADIUS + START_MARGIN).astype(np.uint8)
+    count, labels = cv2.connectedComponents(free, connectivity=8)
+    rows, cols = np.indices(labels.shape)
+    xs = (cols + 0.5) * GRID - spec.arena_size[0] / 2
+    ys = (rows + 0.5) * GRID - spec.arena_size[1] / 2
+    distance = np.hypot(xs - spec.agent.x, ys - spec.agent.y)
+    places = []
+    for label in range(1, count):
+        inside = labels == label
+        best = np.argmin(np.where(inside, distance, np.inf))
+        places.append((float(distance.flat[best]), float(xs.flat[best]), float(ys.flat[best])))
+    return [(x, y) for _, x, y in sorted(places)]
+
+
+def move_start(data: dict, dump: Callable[[dict], str], name: str) -> str | None:
+    """Moves a fixed agent start that is not clear (seed 0) to the nearest clear place, facing the
+    same way, recording the move in ``data["extras"]``; returns the change in words, or None."""
+    agent = data["agent"]
+    if not all(isinstance(agent.get(k), (int, float)) for k in ("x", "y")):
+        return None  # drawn per seed: left as it is
+    spec = _spec(dump(dict(data)), name)
+    from aaai.levels.validate import reachable_region
+
+    if reachable_region(spec)[1]:
+        return None
+    places = clear_places(spec)
+    if not places:
+        return None
+    chosen = places[0]
+    for x, y in places[:8]:  # the nearest region from which the food can be reached, if one is near
+        trial = {**data, "agent": {**agent, "x": round(x, 2), "y": round(y, 2)}}
+        problems = _problems(dump(dict(trial)), name, 1)[0]
+        if not {cause(p) for p in problems} & REGION_CAUSES:
+            chosen = (x, y)
+            break
+    x, y = round(chosen[0], 2), round(chosen[1], 2)
+    moved = math.hypot(x - agent["x"], y - agent["y"])
+    record = {"from": [agent["x"], agent["y"]], "to": [x, y]}
+    data["agent"] = {**agent, "x": x, "y": y}
+    data.setdefault("extras", {}).setdefault("animalai", {})["start_moved"] = record
+    return f"start moved ({moved:.1f} units, to clear the body)"
+
+
+def fit(
+    convert: Callable[[float], tuple[dict, list[str]]],
+    dump: Callable[[dict], str],
+    name: str,
+    scale: float,
+    seeds: int = FIT_SEEDS,
+) -> tuple[dict, list[str], list[str], list[str]]:
+    """The arena converted (``convert(scale)``) and fitted: its data, item names, the changes made
+    and, if it is valid at no scale tried, the causes found at the largest (why it cannot be made
+    fair for this body; else [])."""
+    last: list[str] = []
+    first = None
+    for step in SCALE_STEPS:
+        data, names = convert(scale * step)
+        changes = []
+        moved = move_start(data, dump, name)
+        if moved:
+            changes.append(moved)
+        problems = _problems(dump(dict(data)), name, seeds)
+        if first is None:
+            first = (data, names, changes)
+        if not any(problems):
+            if step != 1.0:
+                data.setdefault("extras", {}).setdefault("animalai", {})["scale"] = round(scale * step, 4)
+                changes.append(f"scale {scale * step:g} (passages narrower than the body at {scale:g})")
+            return data, names, changes, []
+        last = sorted({cause(p) for seed in problems for p in seed})
+    assert first is not None
+    data, names, changes = first
+    reason = f"valid at no scale from {scale:g} to {scale * SCALE_STEPS[-1]:g}: " + ", ".join(last)
+    data.setdefault("extras", {}).setdefault("animalai", {})["unfair"] = reason
+    return data, names, changes, last
+
+
+# A validate problem's cause, by the words of its message (aaai.levels.validate.check).
+CAUSES = (
+    ("start not clear", re.compile(r"agent's start .* is not clear")),
+    ("solids overlap", re.compile(r"overlaps|is exactly where")),
+    ("reachable food below the pass mark", re.compile(r"below the pass mark")),
+    ("food out of reach", re.compile(r"cannot be reached")),
+    ("food cuts into a solid", re.compile(r"cuts into")),
+    ("food not on solid ground", re.compile(r"not on solid ground")),
+    ("outside the arena", re.compile(r"outside the arena")),
+    ("no food", re.compile(r"has no food")),
+)
+
+
+def cause(problem: str) -> str:
+    """The cause a validate or import problem stands for (one of CAUSES, or its own words)."""
+    for name, pattern in CAUSES:
+        if pattern.search(problem):
+            return name
+    if "blackouts" in problem:
+        return "blackouts at listed frames"
+    found = re.search(r"cannot be mapped \(([^);]*)", problem)
+    if found:
+        return found.group(1)
+    return problem.split(": ", 1)[-1][:80]
