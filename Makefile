@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 TORCH_SPEC ?= torch==2.13.0
 PYTEST_ARGS ?=
 
-.PHONY: lint check install install-train install-all test test-gym test-docs docs play-screenshot test-long demo baselines baselines-learned student-ppo competence gait tune-gait bench mutants curricula curricula-300k clean
+.PHONY: lint check install install-train install-all test test-gym test-docs docs play-screenshot test-long demo baselines baselines-learned students student-ppo competence gait tune-gait bench mutants curricula curricula-300k clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -113,6 +113,20 @@ baselines-learned: install-all
 	if [ ! -f $(PPO_GAIT_RUN)/final/model.zip ]; then if [ -f $(PPO_GAIT_RUN)/config.yaml ]; then \
 	  $(BIN)/aaai train --resume $(PPO_GAIT_RUN); else $(BIN)/aaai train --config configs/ppo_gait.yaml --run $(PPO_GAIT_RUN); fi; fi
 	$(BIN)/aaai baselines --student-run $(STUDENT_RUN) --ppo-gait-run $(PPO_GAIT_RUN) --only student,ppo_gait --out baselines
+	$(MAKE) students
+
+# The students of docs/learned-agents.md ("What each level measures"), NAME:CONFIG:TRAINING-SEED each:
+# trained (or resumed) into runs/NAME if not finished, then scored on all 1,430 reserved episodes as
+# the table's column NAME. STUDENTS="student_search:configs/student_search.yaml:0" makes one.
+STUDENTS ?= student_s1:configs/student.yaml:1 student_search:configs/student_search.yaml:0 \
+  student_search_lstm:configs/student_lstm_default.yaml:0 student_lstm:configs/student_lstm.yaml:0 \
+  student_camera:configs/student_camera.yaml:0
+students: install-all
+	for entry in $(STUDENTS); do name=$${entry%%:*}; rest=$${entry#*:}; config=$${rest%%:*}; seed=$${rest#*:}; \
+	  if [ ! -f runs/$$name/final/model.zip ]; then if [ -f runs/$$name/config.yaml ]; then \
+	    $(BIN)/aaai train --resume runs/$$name || exit 1; \
+	  else $(BIN)/aaai train --config $$config --seed $$seed --run runs/$$name || exit 1; fi; fi; \
+	  $(BIN)/aaai baselines --learned $$name=runs/$$name --only $$name --out baselines || exit 1; done
 
 # The student reinforced (docs: Training, Reinforcing the student): PPO from the committed student
 # (baselines/models/student.zip) with configs/student_ppo.yaml, trained or resumed, then scored on all

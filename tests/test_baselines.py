@@ -3,6 +3,7 @@
 import csv
 
 import cv2
+import pytest
 from click.testing import CliRunner
 
 from aaai.levels.seeds import reserved_seeds
@@ -76,3 +77,24 @@ def test_the_docs_show_the_committed_baseline_table():
     readme = (root / "README.md").read_text()
     for index, policy in enumerate(policies):
         assert f"| {policy} | {cells[1 + 2 * index]} | {cells[2 + 2 * index]} |" in readme, policy
+
+
+@pytest.mark.long  # trains a tiny run and scores it in a worker process: about 15 s
+def test_aaai_baselines_scores_any_trained_run_given_as_learned(tmp_path):
+    run = tmp_path / "tiny"
+    trained = CliRunner().invoke(
+        cli, ["train", "--agent", "random", "--steps", "100", "--envs", "1", "--run", str(run)]
+    )
+    assert trained.exit_code == 0, trained.output
+    out = tmp_path / "baselines"
+    args = ["baselines", "--out", str(out), "--levels", "0", "--difficulty", "0", "-k", "1", "--workers", "1"]
+    result = CliRunner().invoke(cli, [*args, "--learned", f"my_run2={run}", "--only", "my_run2"])
+    assert result.exit_code == 0, result.output
+    assert (out / "my_run2.csv").is_file() and "my_run2" in (out / "table.md").read_text().splitlines()[0]
+
+
+def test_aaai_baselines_refuses_a_learned_run_badly_named_or_missing(tmp_path):
+    args = ["baselines", "--out", str(tmp_path / "out"), "--levels", "0", "--difficulty", "0", "-k", "1"]
+    for bad in ("My-Run=x", f"reference={tmp_path}", f"student_x={tmp_path}/missing", "noequals"):
+        refused = CliRunner().invoke(cli, [*args, "--learned", bad, "--only", "reference"])
+        assert refused.exit_code == 2 and f"--learned: got {bad!r}" in refused.output, (bad, refused.output)

@@ -34,7 +34,19 @@ SHOWN_DIFFICULTIES = (0, 5, 10)
 PROVENANCE = "provenance.json"  # per scoreboard: how its actions were computed (write_provenance)
 
 
-ORDER = ("random", "reference", "ppo_demo", "ppo_gait", "student")  # the table's columns, left to right
+# the table's columns, left to right (then any other scoreboard named when tabulating)
+ORDER = (
+    "random",
+    "reference",
+    "ppo_demo",
+    "ppo_gait",
+    "student",
+    "student_s1",
+    "student_search",
+    "student_search_lstm",
+    "student_lstm",
+    "student_camera",
+)
 
 
 def policies(
