@@ -50,8 +50,10 @@ install-train: $(VENV)/.installed-train
 
 install-all: $(VENV)/.installed-all
 
+# The suite on both cores (pytest-xdist): each test file runs whole in one of two worker processes,
+# so a file's shared fixtures are built once.
 test: install-all $(CHROMIUM_BINARIES) check
-	$(BIN)/python -m pytest -q -m "not long and not docs_commands" $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -q -m "not long and not docs_commands" -n 2 --dist loadfile $(PYTEST_ARGS)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --quiet
 
 # The tests of the environment, the scoring and the model files (the committed models included) on

@@ -9,7 +9,7 @@ import click
 from aaai.config import ConfigError, load_config
 from aaai.errors import needs_extra
 
-from .options import WORKERS, Output, Seconds, parse_levels, parse_range, rule
+from .options import WORKERS, Finite, Output, Seconds, parse_levels, parse_range, rule
 
 
 @click.group("experiment")
@@ -183,13 +183,13 @@ def report_command(folder):
 )
 @click.option(
     "--difference",
-    type=click.FloatRange(0, 100, min_open=True),
+    type=Finite(0, 100, min_open=True),
     default=10.0,
     show_default=True,
     help="Points of reserved pass rate.",
 )
-@click.option("--alpha", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=0.05, show_default=True)
-@click.option("--power", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=0.8, show_default=True)
+@click.option("--alpha", type=Finite(0, 1, min_open=True, max_open=True), default=0.05, show_default=True)
+@click.option("--power", type=Finite(0, 1, min_open=True, max_open=True), default=0.8, show_default=True)
 @click.option("--out", "output", type=Output(dir_okay=False), help="Also write the markdown to this file.")
 def power_command(source, difference, alpha, power, output):
     """How many seeds per sampler and reserved episodes per cell a difference of pass rates needs:

@@ -141,7 +141,7 @@ def _bad_specs() -> dict[str, object]:
     )
     for arena in ((0.0, 50.0), (-10.0, 50.0), (math.nan, 50.0), (math.inf, 50.0), (1e308, 1e308)):
         cases[f"arena_{arena}"] = lambda arena=arena: replace(spec, arena_size=arena)
-    for limit in (0.0, 0.1, -1.0, 200.5, math.nan, math.inf, 1e308):
+    for limit in (0.0, 0.1, -1.0, 1000.5, math.nan, math.inf, 1e308):
         cases[f"time_limit_{limit}"] = lambda limit=limit: replace(spec, time_limit=limit)
     for tiles in ((0, 1), (-1, 1)):
         cases[f"tiles_{tiles}"] = lambda tiles=tiles: replace(spec, tiles=tiles)

@@ -55,7 +55,7 @@ SKIPPED = {
     "aaai train --config configs/student_search.yaml": "about half an hour of DAgger",
     "aaai eval --policy runs/student_search": "needs runs/student_search (above, not run) and its scoring",
     "aaai import-animalai animal-ai/": "needs a clone of Animal-AI's repository in animal-ai/",
-    "aaai validate --arena /tmp/aai": "needs the arenas imported from Animal-AI's repository (above, not run)",
+    "aaai eval --arenas /tmp/aai": "needs the arenas imported from Animal-AI's repository (above, not run)",
     "python -m aaai.tools.animalai /tmp/aai": "needs the arenas imported from Animal-AI's repository (above, not run)",
 }
 

@@ -80,11 +80,17 @@ def check_available() -> None:
 
 
 def is_recurrent(path: str | Path) -> bool:
-    """Whether a model file holds a recurrent policy (its policy class read as text, nothing unpickled)."""
+    """Whether a model file holds a recurrent policy (its policy class read as text, nothing unpickled).
+    A file whose class cannot be read counts as not recurrent: the ordinary checks that follow refuse
+    it, naming what is wrong (another environment's config first)."""
+    from aaai.config import ConfigError
     from aaai.scoring.model_archive import read_archive
     from aaai.scoring.model_io import policy_class_name
 
-    return policy_class_name(read_archive(Path(path))).startswith("Recurrent")
+    try:
+        return policy_class_name(read_archive(Path(path))).startswith("Recurrent")
+    except ConfigError:
+        return False
 
 
 class RecurrentActor:
