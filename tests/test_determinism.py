@@ -43,7 +43,7 @@ def scored_now(name: str) -> bool:
     return json.loads((BASELINES / PROVENANCE).read_text())[name]["numerics"] in (NUMERICS, "none")
 
 
-@pytest.mark.parametrize("name", ["reference", "student", "ppo_gait"])
+@pytest.mark.parametrize("name", ["reference", "student", "student_s1", "ppo_gait"])
 def test_committed_baseline_rows_rescore_exactly(name):
     if not scored_now(name):
         pytest.skip(f"baselines/{name}.csv was scored before {NUMERICS} (baselines/{PROVENANCE}); re-score it")
@@ -83,7 +83,7 @@ def test_a_learned_policy_acts_in_float64_on_the_grid():
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("name", ["reference", "student", "ppo_gait"])
+@pytest.mark.parametrize("name", ["reference", "student", "student_s1", "ppo_gait"])
 def test_a_sample_rescores_identically_on_another_cpus_code_path(name):
     rows = short_rows(name)
     here = rescore(BASELINES, name, rows)

@@ -229,6 +229,7 @@ COMMITTED = {
     "random": ("random", None),
     "reference": ("reference", None),
     "student": ("models/student.zip", "models/student.yaml"),
+    "student_s1": ("models/student_s1.zip", "models/student_s1.yaml"),
     "ppo_gait": ("models/ppo_gait.zip", "models/ppo_gait.yaml"),
 }
 UNTIMED = [column for column in COLUMNS if column != "wall_seconds"]  # what a re-score must repeat
