@@ -27,10 +27,10 @@ OTHER_CPU = {
 }
 
 
-def short_rows(name: str, count: int = 10) -> list[dict]:
+def short_rows(name: str, count: int = 10, folder: Path = BASELINES) -> list[dict]:
     """The shortest committed episode of each level, the ``count`` shortest of those (fast, and
     from different levels)."""
-    with open(BASELINES / f"{name}.csv", newline="") as handle:
+    with open(folder / f"{name}.csv", newline="") as handle:
         rows = list(csv.DictReader(handle))
     shortest: dict[str, dict] = {}
     for row in rows:
@@ -49,6 +49,16 @@ def test_committed_baseline_rows_rescore_exactly(name):
         pytest.skip(f"baselines/{name}.csv was scored before {NUMERICS} (baselines/{PROVENANCE}); re-score it")
     rows = short_rows(name)
     assert len({row["level"] for row in rows}) == 10
+    assert differing(rows, rescore(BASELINES, name, rows)) == []
+
+
+@pytest.mark.parametrize("name", ["student_search", "student_search_lstm"])
+def test_the_students_of_the_level_table_rescore_exactly(name):
+    """The students of docs/learned-agents.md ("What each level measures"), scored on part of the
+    reserved seeds (experiments/students/), their models in baselines/models: 8 rows each, the
+    shortest of 8 levels, played again give the same rows (the recurrent one with its memory)."""
+    rows = short_rows(name, 8, BASELINES.parent / "experiments" / "students")
+    assert len({row["level"] for row in rows}) == 8
     assert differing(rows, rescore(BASELINES, name, rows)) == []
 
 
