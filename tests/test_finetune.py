@@ -11,8 +11,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-torch = pytest.importorskip("torch")
-sb3 = pytest.importorskip("stable_baselines3")
+torch = pytest.importorskip("torch", reason="needs the train extra (torch)")
+sb3 = pytest.importorskip("stable_baselines3", reason="needs the train extra (stable-baselines3)")
 
 from stable_baselines3.common.vec_env import DummyVecEnv  # noqa: E402
 
@@ -146,7 +146,7 @@ def test_the_anchor_needs_a_policy_to_start_from(tmp_path):
 
 @pytest.mark.long  # RecurrentPPO's first update takes about 5 s
 def test_the_warmup_fits_a_recurrent_policy_s_value_only_and_the_anchor_refuses_it():
-    contrib = pytest.importorskip("sb3_contrib")
+    contrib = pytest.importorskip("sb3_contrib", reason="needs the train extra (sb3-contrib)")
     model = contrib.RecurrentPPO(
         "MultiInputLstmPolicy",
         DummyVecEnv([Target]),
