@@ -22,10 +22,12 @@ WORKERS = click.IntRange(1, 256)  # processes or Ray CPUs (train.num_envs's boun
 MANY = 10**9  # the most steps, rounds or episodes a measurement or cap takes
 
 
-def rule(key: str, low: int | None = None) -> click.IntRange:
+def rule(key: str, low: int | None = None) -> click.IntRange | click.FloatRange:
     """The config key's own bounds (aaai.config.RULES), so that a flag and its key allow the same."""
     bounds = RULES[key]
-    assert bounds.kind == "int" and bounds.low is not None and bounds.high is not None, key
+    assert bounds.kind in ("int", "float") and bounds.low is not None and bounds.high is not None, key
+    if bounds.kind == "float":
+        return Finite(float(bounds.low if low is None else low), float(bounds.high))
     return click.IntRange(int(bounds.low if low is None else low), int(bounds.high))
 
 

@@ -31,6 +31,13 @@ def _overrides(**values) -> dict:
     "ends at the first multiple of their number at or past it.",
 )
 @click.option(
+    "--minutes",
+    "max_minutes",
+    type=rule("train.max_minutes"),
+    help="A budget of wall-clock minutes of training (train.max_minutes; 0: none): the run ends at the "
+    "first decision past it, or at --steps, whichever comes first, and saves its final model.",
+)
+@click.option(
     "--envs",
     "num_envs",
     type=rule("train.num_envs"),
@@ -87,6 +94,7 @@ def train_command(
     levels,
     difficulty,
     total_steps,
+    max_minutes,
     num_envs,
     seed,
     agent,
@@ -116,6 +124,7 @@ def train_command(
             levels=levels,
             difficulty=difficulty,
             envs=num_envs,
+            minutes=max_minutes,
             seed=seed,
             agent=agent,
             camera=camera,
@@ -144,6 +153,7 @@ def train_command(
                     levels=parse_levels(levels) if levels is not None else None,
                     difficulties=parse_range(difficulty, "--difficulty", 0, 10) if difficulty is not None else None,
                     total_steps=total_steps,
+                    max_minutes=max_minutes,
                     num_envs=num_envs,
                     seed=seed,
                     agent=agent,

@@ -267,7 +267,9 @@ def test_a_scoreboard_refuses_episodes_of_another_policy(tmp_path):
     assert resumed.exit_code == 0 and len(out.read_text().splitlines()) == 3
 
 
-@pytest.mark.parametrize("extra", [["--levels", "5-7"], ["--camera"], ["--random"], ["--envs", "4"]])
+@pytest.mark.parametrize(
+    "extra", [["--levels", "5-7"], ["--camera"], ["--random"], ["--envs", "4"], ["--minutes", "5"]]
+)
 def test_resume_refuses_options_it_cannot_honour(tmp_path, extra):
     run = tmp_path / "run"
     started = CliRunner().invoke(
@@ -471,3 +473,36 @@ def test_a_new_run_of_mode_random_with_another_sampler_is_refused_before_its_fol
         result = CliRunner().invoke(cli, ["train", "--agent", "random", "--steps", "8", "--run", str(run), *extra])
         assert result.exit_code != 0 and "'curriculum.sampler'" in result.output and "mode random" in result.output
         assert not run.exists()
+
+
+@pytest.fixture
+def clock(monkeypatch):
+    """The tracker's clock of training time made a count: each reading is one second later."""
+    from itertools import count
+
+    from aaai.train.training import Tracker
+
+    ticks = count()
+    monkeypatch.setattr(Tracker, "seconds", lambda self: self.seconds_before + next(ticks))
+
+
+@pytest.mark.parametrize("agent", ["random", "ppo"])
+def test_a_budget_of_minutes_ends_the_run_with_its_final_model_and_a_resume_says_it_is_spent(tmp_path, clock, agent):
+    run = tmp_path / "run"
+    config = small_config(tmp_path)
+    args = ["train", "--agent", agent, "--steps", "5000", "--minutes", "0.5", "--config", str(config)]
+    result = CliRunner().invoke(cli, [*args, "--run", str(run)])
+    assert result.exit_code == 0, result.output
+    state = read_state(run / "final")
+    assert 0 < state["step"] < 400 and state["seconds"] >= 30  # stopped by the 30 s, long before 5,000 steps
+    assert (run / "final" / "model.zip").is_file() == (agent == "ppo")
+    assert yaml.safe_load((run / "config.yaml").read_text())["train"]["max_minutes"] == 0.5
+    again = CliRunner().invoke(cli, ["train", "--resume", str(run)])
+    assert again.exit_code == 2 and "whole budget of train.max_minutes 0.5" in again.output
+
+
+def test_a_budget_of_minutes_is_refused_for_a_student_whose_budget_is_rounds(tmp_path):
+    run = tmp_path / "student"
+    result = CliRunner().invoke(cli, ["train", "--teacher", "reference", "--minutes", "5", "--run", str(run)])
+    assert result.exit_code == 2 and "train.max_minutes" in result.output and "rounds of DAgger" in result.output
+    assert not run.exists()

@@ -112,6 +112,11 @@ def train_run(
             "recurrent student is recurrent by itself"
         )
     if run_config.train.teacher != "none":
+        if run_config.train.max_minutes:
+            raise ConfigError(
+                f"config key 'train.max_minutes': got {run_config.train.max_minutes:g} for a student of a teacher, "
+                "whose budget is rounds of DAgger; allowed: 0 (set train.dagger_iterations and train.dagger_episodes)"
+            )
         if use_rllib:
             raise ConfigError("--teacher: a student is trained with stable-baselines3 (--backend sb3)")
         if total_steps is not None:

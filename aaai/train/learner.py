@@ -103,7 +103,7 @@ class TrackerCallback(BaseCallback):
                 self.logger.record(f"curriculum/p_L{level}_d{difficulty}", float(p))
                 if np.isfinite(q):
                     self.logger.record(f"cells/pass_rate_L{level}_d{difficulty}", float(q))
-        return True
+        return not self.tracker.out_of_time()  # train.max_minutes spent: learn() stops here
 
 
 def ppo_from_config(env, config: Config, run: RunFolder) -> PPO:

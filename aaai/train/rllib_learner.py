@@ -32,7 +32,14 @@ import numpy as np
 from aaai.config import Config, ConfigError, env_part, load_config
 from aaai.scoring.runs import CHECKPOINT_FOLDER, RunFolder, check_writable
 from aaai.train.curriculum import Curriculum
-from aaai.train.training import Tracker, TrainResult, check_trainable, move_end, with_proprioception
+from aaai.train.training import (
+    Tracker,
+    TrainResult,
+    check_budget_left,
+    check_trainable,
+    move_end,
+    with_proprioception,
+)
 from aaai.train.vector import EPISODE_INFO_KEYS, Episode, worker_processes
 
 ENV_NAME = "aaai-curriculum"
@@ -263,7 +270,7 @@ def _train_loop(
 
     agent_state = lambda: {"backend": "rllib"}  # noqa: E731 - the model's state is the rllib/ folder
     step, total = start_step, config.train.total_steps
-    while step < total:
+    while step < total and not tracker.out_of_time():
         result = algo.train()
         sampled = _sampled(result)
         if sampled <= 0:
@@ -373,7 +380,10 @@ def _train_rllib(
             actor, name = start_curriculum_actor(config, state["curriculum"] if state else None)
             try:
                 curriculum = CurriculumProxy(actor, config)
-                tracker = Tracker(run, curriculum, config, start_step)
+                tracker = Tracker(
+                    run, curriculum, config, start_step, seconds=float(state.get("seconds", 0.0)) if state else 0.0
+                )
+                check_budget_left(run, config, tracker)
                 with _trainable_logdir(logdir):
                     algo = ppo_config(config, name, env_runners).build_algo()
                 try:

@@ -52,7 +52,8 @@ class Tracker:
     """Logs finished episodes and writes heatmaps and checkpoints as the step count passes their marks.
     ``on_episodes`` (if set) is told of every finished episode too (a progress report). Each saved
     state records ``seconds``: the run's wall time of training so far, ``seconds`` (the time before
-    the point it resumed from) plus the time since the tracker started."""
+    the point it resumed from) plus the time since the tracker started. ``out_of_time`` tells the
+    learner when that time has reached ``train.max_minutes`` (never, when it is 0)."""
 
     def __init__(
         self,
@@ -66,6 +67,7 @@ class Tracker:
         self.run, self.curriculum, self.on_episodes = run, curriculum, on_episodes
         self.seconds_before, self.started = seconds, time.perf_counter()
         self.checkpoint_every = config.train.checkpoint_every
+        self.max_seconds = config.train.max_minutes * 60.0 if config.train.max_minutes > 0 else None
         self.heatmap_every = config.train.heatmap_every
         self.next_checkpoint = (start_step // self.checkpoint_every + 1) * self.checkpoint_every
         self.next_heatmap = (start_step // self.heatmap_every + 1) * self.heatmap_every
@@ -90,8 +92,16 @@ class Tracker:
             self.save(step, agent_state, save_model)
             self.next_checkpoint = (step // self.checkpoint_every + 1) * self.checkpoint_every
 
+    def seconds(self) -> float:
+        """The run's wall time of training so far, over its resumes."""
+        return self.seconds_before + time.perf_counter() - self.started
+
+    def out_of_time(self) -> bool:
+        """Has the run spent its budget of ``train.max_minutes``?"""
+        return self.max_seconds is not None and self.seconds() >= self.max_seconds
+
     def save(self, step: int, agent_state: Callable[[], dict], save_model=None, final: bool = False) -> Path:
-        seconds = round(self.seconds_before + time.perf_counter() - self.started, 1)
+        seconds = round(self.seconds(), 1)
         state = {"curriculum": self.curriculum.state_dict(), "agent": agent_state(), "seconds": seconds}
         return self.run.save_checkpoint(step, state, save_model, final=final)
 
@@ -198,6 +208,17 @@ def move_end(run: RunFolder, config: Config, checkpoint: Path | None, state: dic
     return config
 
 
+def check_budget_left(run: RunFolder, config: Config, tracker: Tracker) -> None:
+    """On resume: a run that has spent its ``train.max_minutes`` is done (ConfigError saying so)."""
+    if tracker.out_of_time():
+        raise ConfigError(
+            f"--resume: the run {run.path} has trained {tracker.seconds_before:.0f} s, its whole budget of "
+            f"train.max_minutes {config.train.max_minutes:g} ({config.train.max_minutes * 60:.0f} s): it is done, "
+            f"its model in {run.path / 'final'}; allowed: a new run (aaai train --init-from {run.path} to go on "
+            "from its weights)"
+        )
+
+
 def write_failure(error: OSError, run_dir: str | Path | None) -> str:
     """One line for an OS error while training (a full disk, a permission taken away): the file,
     the cause, and that the run resumes from its last checkpoint."""
@@ -278,6 +299,7 @@ def _train(
     tracker = Tracker(
         run, curriculum, config, start_step, on_episodes, float(state.get("seconds", 0.0)) if state else 0.0
     )
+    check_budget_left(run, config, tracker)
     vec = CurriculumVecEnv(config, curriculum, config.train.num_envs, asynchronous=asynchronous)
     progress = progress or (lambda steps: None)
     try:
@@ -310,7 +332,7 @@ def _train_random(
     shape = (vec.num_envs, *action_shape)
     step, total = start_step, config.train.total_steps
     vec.reset()
-    while step < total:
+    while step < total and not tracker.out_of_time():
         _, _, _, _, finished, _ = vec.step(rng.uniform(-1.0, 1.0, shape).astype(np.float32))
         step += vec.num_envs
         tracker.update(step, finished, agent_state)
