@@ -57,6 +57,7 @@ def test_the_experiment_runs_in_parts_scores_each_task_for_the_bodies_it_fits_an
     assert battery_row[8:10] == ["-", "1/1 (100 %)"]  # apart: the sphere's task valid for it alone
     again = runner.invoke(cli, arguments)  # both bodies again: nothing played or checked twice
     assert again.exit_code == 0, again.output
+    assert again.output.count("(0 checked now") == 2
     assert {path.name: path.read_text() for path in out.glob("*.csv")} == scored
     (out / "table.md").unlink()
     tables = runner.invoke(cli, ["experiment", "limbs", "--tables-only", "--out", str(out)])

@@ -171,7 +171,10 @@ def check_tasks(folder: Path, body: str, settings: LimbsSettings, echo: Callable
         rows.append(row)
     _write_rows(path, TASK_COLUMNS, rows)
     valid = [file for file, row in zip(files, rows) if row["valid"] == "yes"]
-    echo(f"{len(valid)} of {len(files)} arena files valid for the {body} on seeds 0-{len(seeds) - 1} ({path.name})")
+    echo(
+        f"{len(valid)} of {len(files)} arena files valid for the {body} on seeds 0-{len(seeds) - 1} "
+        f"({fresh} checked now, the others as {path.name} holds them)"
+    )
     return valid
 
 
