@@ -257,7 +257,10 @@ def competence_command(folder, gait_steps, rotation_steps):
 @click.option(
     "--arenas",
     type=click.Path(exists=True),
-    help="An arena folder (an imported Animal-AI battery): every file scored too, summarised per category.",
+    multiple=True,
+    help="An arena file or folder (an imported Animal-AI battery): every file scored too, summarised per category. "
+    "Given more than once, all of them (e.g. BATTERY and BATTERY/unfair, where the importer puts the files not fair "
+    "for the quadruped; some are valid for the sphere).",
 )
 @click.option(
     "--arena-seeds", type=click.IntRange(1, 1000), default=3, show_default=True, help="Seeds 0..N-1 of every arena."
@@ -299,7 +302,7 @@ def limbs_command(levels, difficulty, count, arenas, arena_seeds, ppo_steps, bod
         levels=parse_levels(levels),
         difficulties=parse_range(difficulty, "--difficulty", 0, 10),
         seeds_per_cell=count,
-        arenas=Path(arenas) if arenas else None,
+        arenas=tuple(Path(path) for path in arenas),
         arena_seeds=arena_seeds,
         ppo_steps=ppo_steps,
         bodies=_choices(bodies, BODIES, "--bodies"),

@@ -85,7 +85,7 @@ def test_the_gap_is_taken_on_the_tasks_valid_for_both_and_the_rest_counted_apart
 
 def test_an_imported_competition_file_is_tabled_under_its_olympics_category():
     assert _olympics("08-17-03.yaml") == "Animal-AI 08 object permanence"
-    assert _olympics("tunnel.yaml") == _olympics("11-01-01.yaml") == "uncategorised"
+    assert _olympics("tunnel.yaml") == _olympics("11-01-01.yaml") == _olympics("010101.yaml") == "uncategorised"
 
 
 def test_a_ppo_run_made_for_another_budget_is_refused(tmp_path):
@@ -102,3 +102,11 @@ def test_a_body_or_policy_not_known_gets_one_clear_message(tmp_path):
         assert result.exit_code == 2 and "Traceback" not in result.output
         assert repr(value) in result.output and "allowed: one or more of" in result.output
     assert not any(tmp_path.iterdir())  # nothing was written
+
+
+def test_two_arena_files_of_one_name_are_refused_before_anything_runs(tmp_path, battery):
+    out = tmp_path / "limbs"
+    arguments = ["experiment", "limbs", *SMALL, "--arenas", str(battery), "--arenas", str(battery / "01-01-01.yaml")]
+    result = CliRunner().invoke(cli, [*arguments, "--out", str(out)])
+    assert result.exit_code == 2 and "two arena files are named 01-01-01.yaml" in result.output
+    assert not list(out.glob("*.csv"))  # nothing scored
