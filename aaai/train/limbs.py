@@ -83,7 +83,7 @@ class LimbsSettings:
     levels: list[int] = field(default_factory=level_ids)
     difficulties: list[int] = field(default_factory=lambda: list(range(11)))
     seeds_per_cell: int = 10
-    arenas: Path | None = None
+    arenas: tuple[Path, ...] = ()  # arena files or folders
     arena_seeds: int = 3
     ppo_steps: int = 0
     seed: int = 0
@@ -139,8 +139,13 @@ def check_tasks(folder: Path, body: str, settings: LimbsSettings, echo: Callable
     are the same."""
     from aaai.task.arena import arena_files, load_arena
 
-    assert settings.arenas is not None
-    files = arena_files(settings.arenas)
+    files = [file for path in settings.arenas for file in arena_files(path)]
+    names = [file.name for file in files]
+    if len(set(names)) != len(names):
+        twice = sorted(name for name in names if names.count(name) > 1)[0]
+        raise ConfigError(
+            f"--arenas: two arena files are named {twice}; allowed: distinct names (the tables name them)"
+        )
     seeds = list(range(settings.arena_seeds))
     path = folder / f"tasks_{body}.csv"
     known = {row["arena"]: row for row in read_rows(path)}
@@ -184,7 +189,7 @@ def score_body(folder: Path, body: str, settings: LimbsSettings, echo: Callable[
     cells = cells_for(settings.levels, settings.difficulties, "reserved", settings.seeds_per_cell)
     episodes = sum(len(cell.seeds) for cell in cells)
     valid: list[Path] = []
-    if settings.arenas is not None:
+    if settings.arenas:
         lock = hold(folder / f".tasks_{body}.lock", lambda pid: f"tasks_{body}.csv is being written by process {pid}")
         with lock:
             valid = check_tasks(folder, body, settings, echo)
