@@ -110,3 +110,15 @@ def test_two_arena_files_of_one_name_are_refused_before_anything_runs(tmp_path, 
     result = CliRunner().invoke(cli, [*arguments, "--out", str(out)])
     assert result.exit_code == 2 and "two arena files are named 01-01-01.yaml" in result.output
     assert not list(out.glob("*.csv"))  # nothing scored
+
+
+def test_the_time_ratio_compares_the_episodes_both_bodies_passed():
+    def row(body, seed, won, seconds):
+        return {"body": body, "policy": "reference", "group": "L0", "episode": (0, 0, seed), "passed": won,
+                "seconds": seconds}  # fmt: skip
+
+    rows = [row("quadruped", 1, True, 40.0), row("quadruped", 2, False, 200.0)]
+    rows += [row("sphere", 1, True, 10.0), row("sphere", 2, True, 30.0)]
+    cells = _row(table_markdown(summarise(rows)), "L0")
+    assert cells[2] == "40.0 s" and cells[4] == "20.0 s"  # each body's own passed episodes
+    assert cells[6] == "0.25"  # 10 s against 40 s on seed 1, the one both passed (not 20 / 40)

@@ -69,7 +69,17 @@ OLYMPICS = {
 ALL_LEVELS = "all levels"  # the level rows together
 BATTERY = "all categories"  # the category rows together
 TASK_COLUMNS = ["arena", "sha256", "category", "seeds", "valid", "problem"]
-SUMMARY_COLUMNS = ["body", "policy", "group", "tasks", "episodes", "passed", "pass_rate", "seconds_to_food"]
+SUMMARY_COLUMNS = [
+    "body",
+    "policy",
+    "group",
+    "tasks",
+    "episodes",
+    "passed",
+    "pass_rate",
+    "seconds_to_food",
+    "seconds_both_passed",
+]
 # The task sets of a battery's summary: the tasks valid for both bodies (the gap is taken on them), and
 # those valid for this body only. The levels' rows are all "both" (every generated level is valid for both).
 BOTH, ONLY = "both", "this body only"
@@ -259,6 +269,7 @@ def _tag(row: dict, body: str, policy: str, group: str, arena: str | None = None
         "policy": policy,
         "group": group,
         "arena": arena,
+        "episode": (arena or row["level"], row["difficulty"], row["seed"]),  # the same episode on either body
         "passed": row["outcome"] != "failed",
         "seconds": int(float(row["steps"])) * control_dt,
     }
@@ -266,9 +277,14 @@ def _tag(row: dict, body: str, policy: str, group: str, arena: str | None = None
 
 def summarise(rows: list[dict], tasks: dict[str, dict[str, dict]] | None = None) -> list[dict]:
     """Per body, policy, group and task set: episodes, passed, pass rate, mean time to food of the
-    passed. A battery's episodes are split by ``tasks`` (each body's verdicts by arena name) into those
-    on tasks valid for both bodies (BOTH) and those on tasks valid for this body only (ONLY); ``tasks``
-    None counts every arena valid for both."""
+    passed, and mean time to food of the episodes both bodies passed (the time ratio's, so that it compares
+    like with like). A battery's episodes are split by ``tasks`` (each body's verdicts by arena name) into
+    those on tasks valid for both bodies (BOTH) and those on tasks valid for this body only (ONLY);
+    ``tasks`` None counts every arena valid for both."""
+    won: dict[tuple[str, str], set] = {}  # (body, policy): the episodes passed
+    for row in rows:
+        if row["passed"]:
+            won.setdefault((row["body"], row["policy"]), set()).add(row.get("episode"))
     valid = {
         body: {name for name, row in (tasks or {}).get(body, {}).items() if row["valid"] == "yes"} for body in BODIES
     }
@@ -283,6 +299,7 @@ def summarise(rows: list[dict], tasks: dict[str, dict[str, dict]] | None = None)
     summary = []
     for (body, policy, group, subset), members in groups.items():
         passed = [m for m in members if m["passed"]]
+        paired = [m for m in passed if all(m.get("episode") in won.get((other, policy), ()) for other in BODIES)]
         summary.append(
             {
                 "body": body,
@@ -293,6 +310,7 @@ def summarise(rows: list[dict], tasks: dict[str, dict[str, dict]] | None = None)
                 "passed": len(passed),
                 "pass_rate": round(len(passed) / len(members), 4),
                 "seconds_to_food": round(sum(m["seconds"] for m in passed) / len(passed), 2) if passed else "",
+                "seconds_both_passed": round(sum(m["seconds"] for m in paired) / len(paired), 2) if paired else "",
             }
         )
     return summary
@@ -334,7 +352,7 @@ def _table(summary: list[dict], groups: list[str], counts: dict[str, dict[str, i
                 header.append(f"{policy}, {body}: time to food")
         header.append(f"{policy}: sphere minus quadruped")
         if policy == "reference":
-            header.append("time to food: sphere / quadruped")
+            header.append("time to food, episodes both passed: sphere / quadruped")
         if counts is not None:
             header += [f"{policy}, {body}: passed on its own tasks" for body in BODIES]
     lines = ["| " + " | ".join(header) + " |", "|---|" + "---:|" * (len(header) - 1)]
@@ -356,7 +374,7 @@ def _table(summary: list[dict], groups: list[str], counts: dict[str, dict[str, i
             gap = sphere - quadruped if sphere is not None and quadruped is not None else None
             cells.append(f"{100 * gap:+.0f} points" if gap is not None else "-")
             if policy == "reference":
-                times = [index.get((body, policy, group, BOTH), {}).get("seconds_to_food", "") for body in BODIES]
+                times = [index.get((body, policy, group, BOTH), {}).get("seconds_both_passed", "") for body in BODIES]
                 cells.append(f"{times[1] / times[0]:.2f}" if "" not in times and times[0] else "-")
             if counts is not None:
                 cells += [_passed(index.get((body, policy, group, ONLY))) for body in BODIES]
