@@ -27,10 +27,10 @@ from aaai.sim.simulation import Simulation, display_available
 from aaai.sim.snapshot import Leg, Pose, Snapshot
 from aaai.sim.world import World
 from aaai.spec import LevelSpec
-from aaai.task.arena import load_arena
+from aaai.task.arena import footprint_for, load_arena
 from aaai.task.rewards import TERMS, FoodTask
 
-RESET_OPTIONS = ("level", "difficulty", "spec", "check")
+RESET_OPTIONS = ("level", "difficulty", "spec", "check", "arena_file")
 RENDER_SIZE = (320, 240)
 SCORE_ALLOWANCE = 0.5  # max_reward = best food reward - this, allowing for step costs
 BLOWUP_MARGIN = 20.0  # how far beyond the arena's half-size a body may be before it "flew off"
@@ -140,7 +140,8 @@ class AnimalAIEnv(gym.Env):
     - ``difficulty`` (int, default ``0``): 0..10
     - ``arena`` (str, default ``None``): an arena file (aaai.task.arena, docs/writing-levels.md): every reset loads
       it with the episode's seed instead of generating ``level`` (a reset with ``options={"spec": ...}`` still runs
-      that spec)
+      that spec; with ``"arena_file": True`` beside it, the spec is an arena file's, aaai.task.arena.load_arena, and
+      is run as the ``arena`` one is: the sphere, ``agent.body: sphere``, sized to its arena)
     - ``config`` (str, Path, mapping or Config, default ``None``): a YAML path, a nested mapping or a ``Config``
       (``aaai.config.load_config``) overriding configs/default.yaml; the keywords override it in turn
     - ``render_mode`` (str, default ``None``): None, "rgb_array" (a third-person view) or "human" (PyBullet's GUI)
@@ -249,7 +250,7 @@ class AnimalAIEnv(gym.Env):
         if arena is not None:  # checked now (its seed-0 instance), so that a bad file fails here
             if not isinstance(arena, (str, Path)):
                 raise ConfigError(f"arena: got {arena!r}; allowed: an arena file's path")
-            load_arena(arena, 0)
+            load_arena(arena, 0, body=cfg.agent.body)  # for this body's footprint
             self.arena = str(arena)
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ConfigError(f"render_mode: got {render_mode!r}; allowed: None, 'rgb_array', 'human'")
@@ -321,7 +322,9 @@ class AnimalAIEnv(gym.Env):
             if not isinstance(options["spec"], LevelSpec):
                 raise ConfigError(f"reset option 'spec': got {type(options['spec']).__name__}; allowed: a LevelSpec")
             spec = options["spec"]
-            problems = validate.check(spec, require_food=False) if options.get("check", True) else []
+            # the body's footprint, at the scale the sphere takes (aaai.agent.sphere): an arena file's, or the levels'
+            footprint = footprint_for(self.config.agent.body, spec.arena_size if options.get("arena_file") else None)
+            problems = validate.check(spec, False, footprint) if options.get("check", True) else []
             if problems:
                 raise ConfigError(
                     "reset option 'spec': the level is not valid: "
@@ -329,7 +332,7 @@ class AnimalAIEnv(gym.Env):
                     + " (options={'check': False} runs it all the same)"
                 )
         elif self.arena is not None:
-            spec = load_arena(self.arena, episode_seed)
+            spec = load_arena(self.arena, episode_seed, body=self.config.agent.body)
         else:
             spec = generate(self.level, self.difficulty, episode_seed)
         self.level_spec = spec
@@ -337,7 +340,8 @@ class AnimalAIEnv(gym.Env):
         self.sim.reset()
         self.world = World(self._live_client(), spec, motion_rng, self.visuals)
         # an arena file's arena sets the sphere's scale; the generated levels share one (aaai.agent.sphere)
-        self.body.load(spec.agent.x, spec.agent.y, spec.agent.yaw, spec.arena_size if self.arena is not None else None)
+        arena_file = self.arena is not None and "spec" not in options or bool(options.get("arena_file"))
+        self.body.load(spec.agent.x, spec.agent.y, spec.agent.yaw, spec.arena_size if arena_file else None)
         self.senses.start(spec, self.control_dt)
         self.steps = 0
         if self.gait is not None:

@@ -257,7 +257,10 @@ def competence_command(folder, gait_steps, rotation_steps):
 @click.option(
     "--arenas",
     type=click.Path(exists=True),
-    help="An arena folder (an imported Animal-AI battery): every file scored too, summarised per category.",
+    multiple=True,
+    help="An arena file or folder (an imported Animal-AI battery): every file scored too, summarised per category. "
+    "Given more than once, all of them (e.g. BATTERY and BATTERY/unfair, where the importer puts the files not fair "
+    "for the quadruped; some are valid for the sphere).",
 )
 @click.option(
     "--arena-seeds", type=click.IntRange(1, 1000), default=3, show_default=True, help="Seeds 0..N-1 of every arena."
@@ -269,20 +272,42 @@ def competence_command(folder, gait_steps, rotation_steps):
     show_default=True,
     help="PPO's budget per body, in agent decisions (0.1 s each); 0: the reference only.",
 )
+@click.option(
+    "--bodies",
+    default="quadruped,sphere",
+    show_default=True,
+    help="The bodies scored this time, comma-separated (one in each of two processes runs them side by side).",
+)
+@click.option(
+    "--policies",
+    default="reference,ppo",
+    show_default=True,
+    help="The policies scored this time, comma-separated: reference, ppo (ppo only with --ppo-steps).",
+)
+@click.option(
+    "--tables-only",
+    is_flag=True,
+    help="Write limbs.csv and table.md from what the folder holds, scoring nothing (safe while it runs).",
+)
 @click.option("--out", "folder", type=Output(file_okay=False), default="experiments/limbs", show_default=True)
-def limbs_command(levels, difficulty, count, arenas, arena_seeds, ppo_steps, folder):
+def limbs_command(levels, difficulty, count, arenas, arena_seeds, ppo_steps, bodies, policies, tables_only, folder):
     """The cost of limbs: the reference controller (and PPO at one budget) on the quadruped and on
-    Animal-AI's sphere (agent.body: sphere), per level and per Animal-AI category; writes limbs.csv
-    and table.md. Re-running continues where it stopped."""
-    from aaai.train.limbs import LimbsSettings, run_experiment
+    Animal-AI's sphere (agent.body: sphere), per level and per Animal-AI category; an arena file is
+    checked for each body's footprint and scored for the bodies it is valid for. Writes limbs.csv and
+    table.md from every scoreboard in --out. Re-running continues where it stopped; --bodies and
+    --policies run it in parts."""
+    from aaai.train.limbs import BODIES, POLICIES, LimbsSettings, run_experiment
 
     settings = LimbsSettings(
         levels=parse_levels(levels),
         difficulties=parse_range(difficulty, "--difficulty", 0, 10),
         seeds_per_cell=count,
-        arenas=Path(arenas) if arenas else None,
+        arenas=tuple(Path(path) for path in arenas),
         arena_seeds=arena_seeds,
         ppo_steps=ppo_steps,
+        bodies=_choices(bodies, BODIES, "--bodies"),
+        policies=_choices(policies, POLICIES, "--policies"),
+        tables_only=tables_only,
     )
     try:
         table = run_experiment(folder, settings, echo=click.echo)
@@ -291,3 +316,12 @@ def limbs_command(levels, difficulty, count, arenas, arena_seeds, ppo_steps, fol
     except ImportError as error:
         raise click.ClickException(needs_extra(error, "aaai experiment")) from None
     click.echo(table.read_text(), nl=False)
+
+
+def _choices(text: str, allowed: tuple[str, ...], option: str) -> tuple[str, ...]:
+    """A comma-separated list of some of ``allowed``, in their order; anything else is one clear refusal."""
+    chosen = [part.strip() for part in text.split(",") if part.strip()]
+    wrong = [part for part in chosen if part not in allowed]
+    if wrong or not chosen:
+        raise click.BadParameter(f"got {text!r}; allowed: one or more of {', '.join(allowed)}", param_hint=option)
+    return tuple(name for name in allowed if name in chosen)

@@ -182,7 +182,7 @@ def play(
                 settings.arena_seeds = [seed or 0]
             for path in settings.arenas:  # every instance is checked before anyone plays
                 for arena_seed in settings.arena_seeds:
-                    load_arena(path, arena_seed)
+                    load_arena(path, arena_seed, body=config.agent.body)  # for the body's footprint
             settings.seeds_label = ",".join(map(str, settings.arena_seeds))
         elif battery:
             from aaai.levels.seeds import read_seed_key

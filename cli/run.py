@@ -104,7 +104,7 @@ def run_command(
 
         try:  # every episode's instance is checked before any runs
             for episode in range(episodes):
-                load_arena(arena, seed + episode)
+                load_arena(arena, seed + episode, body=env.config.agent.body)  # for the body's footprint
         except ConfigError as error:
             env.close()
             raise click.UsageError(str(error)) from None

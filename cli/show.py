@@ -113,9 +113,11 @@ def show(
         raise click.UsageError("name a LEVEL or an --arena file (one of the two)")
     try:
         if arena is not None:
+            from aaai.config import load_config
             from aaai.task.arena import load_arena
 
-            load_arena(arena, check_seed(seed))  # an invalid file fails here, before anything runs
+            body = load_config(config_path).agent.body  # checked for its footprint
+            load_arena(arena, check_seed(seed), body=body)  # an invalid file fails here, before anything runs
             lvl = None
         else:
             lvl = get_level(level)

@@ -6,6 +6,7 @@ from typing import Any
 
 import click
 
+from aaai.config import RULES
 from aaai.levels import InvalidLevelError, all_levels, generate
 from aaai.levels.validate import check
 
@@ -29,8 +30,16 @@ ARENA_SEEDS = 10  # seeds an arena file is checked with unless --seeds says othe
     f"--first-seed onwards ({ARENA_SEEDS} unless --seeds is given); every problem is printed with "
     "its file, line and object.",
 )
+@click.option(
+    "--body",
+    type=click.Choice(list(RULES["agent.body"].choices or ())),
+    default="quadruped",
+    show_default=True,
+    help="The body (agent.body) whose footprint an --arena file is checked for: the quadruped's radius 5, or "
+    "the sphere's own radius in that arena plus 0.5 (3 in an imported arena 200 across).",
+)
 @click.pass_context
-def validate(ctx, levels_text, difficulty_text, seeds, first_seed, arena):
+def validate(ctx, levels_text, difficulty_text, seeds, first_seed, arena, body):
     """Check generated levels without running a policy: no overlapping solids; the start and every
     food piece inside the arena, on solid ground and clear of walls; every piece reachable by a body
     of the agent's footprint. Prints seeds checked, regenerated and failed per (level, difficulty);
@@ -46,8 +55,10 @@ def validate(ctx, levels_text, difficulty_text, seeds, first_seed, arena):
 
     if arena is not None:
         explicit = ctx.get_parameter_source("seeds") == click.core.ParameterSource.COMMANDLINE
-        validate_arenas(arena, range(first_seed, first_seed + (seeds if explicit else ARENA_SEEDS)))
+        validate_arenas(arena, range(first_seed, first_seed + (seeds if explicit else ARENA_SEEDS)), body)
         return
+    if ctx.get_parameter_source("body") == click.core.ParameterSource.COMMANDLINE:
+        raise click.UsageError("--body applies to --arena files only (the levels are generated for the quadruped)")
 
     known = all_levels()
     levels = parse_levels(levels_text)
@@ -68,8 +79,9 @@ def validate(ctx, levels_text, difficulty_text, seeds, first_seed, arena):
         raise SystemExit(1)
 
 
-def validate_arenas(path: str, seeds) -> None:
-    """``aaai validate --arena``: one line per file (seeds checked, failed); exits 1 on any failure."""
+def validate_arenas(path: str, seeds, body: str = "quadruped") -> None:
+    """``aaai validate --arena``: one line per file (seeds checked, failed) for ``body``'s footprint; exits 1 on
+    any failure."""
     from aaai.config import ConfigError
     from aaai.task.arena import arena_files, check_arena, parse_arena
 
@@ -85,7 +97,7 @@ def validate_arenas(path: str, seeds) -> None:
             try:
                 spec, meta, source = parse_arena(file, seed)
                 description = meta["description"]
-                problems = check_arena(spec, source)
+                problems = check_arena(spec, source, body=body)
             except ConfigError as error:  # every problem of the file, one line each
                 problems = list(getattr(error, "problems", None) or [str(error)])
             if problems:

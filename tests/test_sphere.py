@@ -1,5 +1,6 @@
 """agent.body: sphere, Animal-AI's own body: its spaces, its speeds measured in physics, its
-reference controller, and a bad body name."""
+reference controller, and a bad body name (on arena files: test_sphere_arenas.py; the cost of limbs:
+test_limbs.py)."""
 
 import dataclasses
 import math
@@ -122,46 +123,9 @@ def test_a_bad_body_name_gets_one_clear_message(tmp_path):
     assert "agent.body" in result.output and "'blob'" in result.output and "sphere" in result.output
 
 
-def test_the_limbs_experiment_tables_both_bodies_and_resumes(tmp_path):
-    out = tmp_path / "limbs"
-    arguments = ["experiment", "limbs", "--levels", "0", "--difficulty", "0", "-k", "1", "--out", str(out)]
-    first = CliRunner().invoke(cli, arguments)
-    assert first.exit_code == 0, first.output
-    table = (out / "table.md").read_text()
-    row = next(line for line in table.splitlines() if line.startswith("| L0 "))
-    assert row.count("1/1 (100 %)") == 2  # the reference passes with both bodies
-    assert "reference, quadruped: passed" in table and "reference, sphere: passed" in table
-    summary = (out / "limbs.csv").read_text().splitlines()
-    assert summary[0] == "body,policy,group,episodes,passed,pass_rate,seconds_to_food"
-    assert {line.split(",")[0] for line in summary[1:]} == {"quadruped", "sphere"}
-    boards = {name: (out / name).read_text() for name in ("reference_quadruped.csv", "reference_sphere.csv")}
-    again = CliRunner().invoke(cli, arguments)
-    assert again.exit_code == 0, again.output
-    assert {name: (out / name).read_text() for name in boards} == boards  # nothing played twice
-
-
 def test_the_viewer_draws_the_sphere_as_a_disc_of_its_size(env):
     from aaai.tools.viewer import live_agent
 
     _open_floor(env)
     agent = live_agent(env.unwrapped.snapshot())
     assert agent.legs == () and agent.radius == pytest.approx(0.625)
-
-
-def test_an_imported_competition_file_is_tabled_under_its_olympics_category():
-    from aaai.train.limbs import _olympics, summarise, table_markdown
-
-    assert _olympics("08-17-03.yaml") == "Animal-AI 08 object permanence"
-    assert _olympics("tunnel.yaml") == _olympics("11-01-01.yaml") == "uncategorised"
-    rows = [
-        {
-            "body": body,
-            "policy": "reference",
-            "group": "category Animal-AI 08 object permanence",
-            "passed": won,
-            "seconds": 40.0,
-        }
-        for body, won in (("quadruped", False), ("sphere", True))
-    ]
-    row = table_markdown(summarise(rows)).splitlines()[-1]
-    assert row.startswith("| category Animal-AI 08 object permanence | 0/1 (0 %) |") and "+100 points" in row

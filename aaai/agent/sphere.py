@@ -53,6 +53,11 @@ STOP_RATE = -math.log(AAI_QUICK_STOP) / AAI_PHYSICS_STEP  # per second, about 5.
 MASS = 8.5  # as the quadruped's, so that both push objects alike
 SPAWN_GAP = 0.05  # spawned this far above the floor
 AGENT_GROUP = 64  # as aaai.agent.body's: rays leave the body out
+# The room its footprint keeps beyond its radius (aaai.levels.validate's footprint): one cell of the
+# validator's occupancy grid (its GRID), because the clearance there is measured between cell centres
+# and a wall's face may lie up to a cell nearer; as the quadruped's footprint keeps 0.5 beyond the 4.5
+# its resting legs reach, for the sweep of its feet.
+FOOTPRINT_MARGIN = 0.5
 COMMAND_NAMES = ("forward", "turn")
 PROPRIOCEPTION = ("forward_speed", "turn_rate")
 
@@ -63,6 +68,12 @@ def scale_for(arena_size=None) -> float:
     if arena_size is None:
         return LEVEL_ARENA / AAI_ARENA
     return max(float(arena_size[0]), float(arena_size[1])) / AAI_ARENA
+
+
+def footprint_radius(arena_size=None) -> float:
+    """The radius of the disc the sphere needs clear round its centre (a start, a passage) in an arena of
+    ``arena_size`` (None: the generated levels'): its own radius there plus FOOTPRINT_MARGIN."""
+    return round(AAI_DIAMETER / 2 * scale_for(arena_size) + FOOTPRINT_MARGIN, 4)
 
 
 class Sphere:
@@ -94,6 +105,11 @@ class Sphere:
         self.scale = scale_for(arena_size)
         self.radius = AAI_DIAMETER / 2 * self.scale
         self.top_speed = AAI_TOP_SPEED * self.scale
+
+    @property
+    def footprint(self) -> float:
+        """The footprint radius it is validated with at its present size (:func:`footprint_radius`)."""
+        return round(self.radius + FOOTPRINT_MARGIN, 4)
 
     def load(self, x: float, y: float, yaw: float, arena_size=None) -> int:
         c = self.client

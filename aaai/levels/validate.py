@@ -278,11 +278,17 @@ def clearance_map(spec: LevelSpec, grid: np.ndarray | None = None) -> np.ndarray
     return clearance[1:-1, 1:-1] * GRID
 
 
-def walk_region(spec: LevelSpec, clearance: np.ndarray, start: tuple[float, float] | None = None) -> np.ndarray | None:
+def walk_region(
+    spec: LevelSpec,
+    clearance: np.ndarray,
+    start: tuple[float, float] | None = None,
+    footprint: float = FOOTPRINT_RADIUS,
+) -> np.ndarray | None:
     """Where the body's centre can walk from ``start`` (default: the agent's start) as a bool grid:
-    cells whose disc of FOOTPRINT_RADIUS is clear, in the start's connected region; None if the
-    start is not clear."""
-    free = (clearance > FOOTPRINT_RADIUS).astype(np.uint8)
+    cells whose disc of ``footprint`` (the body's footprint radius: the quadruped's FOOTPRINT_RADIUS,
+    or another body's, aaai.task.arena.footprint_for) is clear, in the start's connected region;
+    None if the start is not clear."""
+    free = (clearance > footprint).astype(np.uint8)
     _, labels = cv2.connectedComponents(free, connectivity=8)
     x, y = (spec.agent.x, spec.agent.y) if start is None else start
     row, col = cell(spec, x, y, clearance.shape)
@@ -290,21 +296,25 @@ def walk_region(spec: LevelSpec, clearance: np.ndarray, start: tuple[float, floa
     return None if start == 0 else labels == start
 
 
-def reachable_region(spec: LevelSpec, grid: np.ndarray | None = None) -> tuple[np.ndarray, bool]:
+def reachable_region(
+    spec: LevelSpec, grid: np.ndarray | None = None, footprint: float = FOOTPRINT_RADIUS
+) -> tuple[np.ndarray, bool]:
     """Where the head's centre can get to from the start (a bool grid), and whether the start is clear.
 
-    The body walks where a disc of FOOTPRINT_RADIUS is clear, in the start's connected region;
-    from there it can push its head on to any place with REACH_CLEARANCE.
+    The body walks where a disc of ``footprint`` (default FOOTPRINT_RADIUS) is clear, in the start's
+    connected region; from there it can push its head on to any place with REACH_CLEARANCE (for another
+    footprint, that footprint less the same FOOTPRINT_RADIUS - REACH_CLEARANCE).
     """
     clearance = clearance_map(spec, grid)
-    walk = walk_region(spec, clearance)
+    walk = walk_region(spec, clearance, footprint=footprint)
     if walk is None:
         return np.zeros_like(clearance, bool), False
+    reach = footprint - (FOOTPRINT_RADIUS - REACH_CLEARANCE)
     lean = round((FOOTPRINT_RADIUS - REACH_CLEARANCE) / GRID) + 1
     leaned = cv2.dilate(
         walk.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * lean + 1, 2 * lean + 1))
     )
-    return (leaned > 0) & (clearance > REACH_CLEARANCE), True
+    return (leaned > 0) & (clearance > reach), True
 
 
 def path_costs(region: np.ndarray, goals: np.ndarray, cell_cost: np.ndarray | None = None) -> np.ndarray:
@@ -443,9 +453,10 @@ def malformed(spec: LevelSpec) -> list[str]:
     return problems
 
 
-def check(spec: LevelSpec, require_food: bool = True) -> list[str]:
+def check(spec: LevelSpec, require_food: bool = True, footprint: float = FOOTPRINT_RADIUS) -> list[str]:
     """Every problem found in a spec; an empty list means the level is valid. A hand-made spec
-    may leave food out (``require_food=False``); a generated level may not."""
+    may leave food out (``require_food=False``); a generated level may not. ``footprint`` is the
+    body's footprint radius (default the quadruped's, FOOTPRINT_RADIUS; aaai.task.arena.footprint_for)."""
     problems = malformed(spec)
     if problems:  # nothing else can be measured on it
         return problems
@@ -453,11 +464,11 @@ def check(spec: LevelSpec, require_food: bool = True) -> list[str]:
     problems = exact_overlaps(spec) + overlapping_solids(spec, index)
     for food in spec.foods:
         problems += food_problems(spec, food, index)
-    region, clear = reachable_region(spec)
+    region, clear = reachable_region(spec, footprint=footprint)
     if not clear:
         problems.append(
             f"the agent's start {_xy((spec.agent.x, spec.agent.y))} is not clear: a body of "
-            f"radius {FOOTPRINT_RADIUS} there meets a solid, a hole or the arena's edge"
+            f"radius {footprint} there meets a solid, a hole or the arena's edge"
         )
         return problems
     for food in spec.foods:

@@ -105,8 +105,9 @@ def run_episode(
     if arena is None:
         options = {"level": level, "difficulty": difficulty}
     else:
-        spec = load_arena(arena, seed)
-        options, level, difficulty = {"spec": spec, "check": False}, spec.level, spec.difficulty  # checked on load
+        spec = load_arena(arena, seed, body=env.config.agent.body)
+        options = {"spec": spec, "check": False, "arena_file": True}  # checked on load; the sphere sized to it
+        level, difficulty = spec.level, spec.difficulty
         pass_mark = (spec.extras or {}).get("pass_mark")
     result = play(env, policy, seed, options=options)
     total, info = result.episode_return, result.info

@@ -181,7 +181,7 @@ def evaluate_arenas(
     every seed before any episode runs: nothing is run from an invalid file."""
     for arena in arenas:
         for seed in seeds:
-            load_arena(arena, seed)
+            load_arena(arena, seed, body=config.agent.body)
     names = [arena.name for arena in arenas]
     if len(set(names)) != len(names):
         raise ConfigError(

@@ -294,7 +294,8 @@ def replay_options(replay: dict, arena: str | Path | None = None) -> dict:
             f"replay: arena file {str(path)!r} has changed since the episode was recorded "
             f"(SHA-256 {file_sha256(path)[:12]}..., recorded {replay['arena']['sha256'][:12]}...)"
         )
-    return {"spec": load_arena(path, replay["seed"]), "check": False}
+    body = ((replay.get("config") or {}).get("agent") or {}).get("body", "quadruped")  # checked for its footprint
+    return {"spec": load_arena(path, replay["seed"], body=body), "check": False, "arena_file": True}
 
 
 @dataclass(frozen=True)

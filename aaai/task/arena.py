@@ -51,6 +51,7 @@ import numpy as np
 import yaml
 
 from aaai import safe_yaml
+from aaai.agent.sphere import footprint_radius
 from aaai.config import ConfigError
 from aaai.levels import all_levels, get_level, validate
 from aaai.levels.common import arena_walls
@@ -407,27 +408,35 @@ def _located(spec: LevelSpec, source: Source, problem: str) -> str:
 _WALLS_CROSS = re.compile(r"solid objects overlap: (transparent_)?wall at \([^)]*\) and (transparent_)?wall at ")
 
 
-def reachable_return(spec: LevelSpec) -> float:
+def footprint_for(body: str, arena_size=None) -> float:
+    """The footprint radius ``body`` (agent.body) is validated with in an arena of ``arena_size`` (None: the
+    generated levels'): the walking bodies' FOOTPRINT_RADIUS; the sphere's own radius there plus its margin
+    (aaai.agent.sphere.footprint_radius: 3.0 in an imported arena 200 across)."""
+    return footprint_radius(arena_size) if body == "sphere" else validate.FOOTPRINT_RADIUS
+
+
+def reachable_return(spec: LevelSpec, body: str = "quadruped") -> float:
     """The most an episode can return eating only the food the body can reach: the best reachable
     episode-ending piece plus every other reachable piece, less the most the step term takes."""
-    region, clear = validate.reachable_region(spec)
+    region, clear = validate.reachable_region(spec, footprint=footprint_for(body, spec.arena_size))
     reached = [food for food in spec.foods if clear and validate.food_reachable(spec, region, food)]
     ending = [food.food_value for food in reached if food.kind in ENDING_KINDS]
     return max(ending, default=0.0) + sum(f.food_value for f in reached if f.kind not in ENDING_KINDS) - STEP_COSTS
 
 
-def check_arena(spec: LevelSpec, source: Source, require_food: bool = True) -> list[str]:
-    """validate.check's problems with the spec, each naming the file, the line and the object. With
-    ``reach: pass_mark``, food that cannot be reached is no problem while the food that can be reached
-    gives the pass mark (:func:`reachable_return`); when it does not, that is one more problem."""
-    problems = validate.check(spec, require_food=require_food)
+def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body: str = "quadruped") -> list[str]:
+    """validate.check's problems with the spec for ``body``'s footprint (:func:`footprint_for`), each naming
+    the file, the line and the object. With ``reach: pass_mark``, food that cannot be reached is no problem
+    while the food that can be reached gives the pass mark (:func:`reachable_return`); when it does not, that
+    is one more problem."""
+    problems = validate.check(spec, require_food=require_food, footprint=footprint_for(body, spec.arena_size))
     if spec.extras.get("walls_cross"):  # static walls that cross each other, as Animal-AI lets them
         problems = [p for p in problems if not _WALLS_CROSS.match(p)]
     if spec.extras.get("reach") == "pass_mark":
         unreached = [p for p in problems if p.endswith("cannot be reached from the start")]
         if unreached:
             problems = [p for p in problems if p not in unreached]
-            best, mark = reachable_return(spec), spec.extras["pass_mark"]
+            best, mark = reachable_return(spec, body), spec.extras["pass_mark"]
             if best < mark:
                 problems.append(
                     f"the food that can be reached gives at most {best:.2f}, below the pass mark {mark:g} "
@@ -436,11 +445,12 @@ def check_arena(spec: LevelSpec, source: Source, require_food: bool = True) -> l
     return [_located(spec, source, problem) for problem in problems]
 
 
-def load_arena(path: str | Path, seed: int = 0, require_food: bool = True) -> LevelSpec:
+def load_arena(path: str | Path, seed: int = 0, require_food: bool = True, body: str = "quadruped") -> LevelSpec:
     """The level an arena file gives for an episode seed, checked as a generated level is
-    (aaai.levels.validate.check): an invalid one is a ConfigError listing its problems by file, line and object."""
+    (aaai.levels.validate.check) for ``body``'s footprint: an invalid one is a ConfigError listing its problems
+    by file, line and object."""
     spec, _, source = parse_arena(path, seed)
-    problems = check_arena(spec, source, require_food)
+    problems = check_arena(spec, source, require_food, body)
     if problems:
         raise ArenaProblems(problems)
     return spec

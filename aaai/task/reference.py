@@ -107,6 +107,8 @@ class ReferenceController:
         spec = self.spec = self.level = env.level_spec
         self.gait.reset()
         self.radius = env.body.radius  # the sphere's size follows the arena's
+        # the region it plans in is the validator's for this body (aaai.task.arena.footprint_for)
+        self.footprint = env.body.footprint if isinstance(env.body, Sphere) else FOOTPRINT_RADIUS
         self.grid = validate.blocked_grid(spec)
         self.doors_closed = 0
         self._map()
@@ -126,7 +128,7 @@ class ReferenceController:
         """Clearance, the region walkable from ``start`` (default: the agent's start) and crowding
         cost from the occupancy grid."""
         self.clearance = validate.clearance_map(self.level, self.grid)
-        walk = validate.walk_region(self.level, self.clearance, start)
+        walk = validate.walk_region(self.level, self.clearance, start, self.footprint)
         self.walk = walk if walk is not None else self.clearance > self.radius
         self.crowding = (
             1.0
