@@ -164,6 +164,7 @@ def test_the_report_counts_every_arena_by_cause(tmp_path):
     assert rows["01-1-1.yaml"]["valid_every_seed"] == "yes" and rows["01-1-1.yaml"]["valid_seeds"] == "2"
     assert rows["02-1-1.yaml"]["invalid_because"] == "food out of reach" and rows["02-1-1.yaml"]["unfair"]
     assert rows["02-1-1.yaml"]["file"] == "unfair/02-1-1.yaml" and rows["02-1-1.yaml"]["category"] == "02"
+    assert rows["02-1-1.yaml"]["cause"] == "walled off" and rows["01-1-1.yaml"]["cause"] == ""
     assert (
         rows["03-1-1.yaml"]["converted"] == "no"
         and rows["03-1-1.yaml"]["not_converted_because"] == "data zones are not built here"
@@ -174,6 +175,7 @@ def test_the_report_counts_every_arena_by_cause(tmp_path):
         "| not valid on some seed: food out of reach | 1 |" in table
         and "| marked unfair: food out of reach | 1 |" in table
     )
+    assert "| walled off | 1 | 02 1 |" in table and "| data zones are not built here | 1 | 03 1 |" in table
 
 
 def test_walls_that_cross_are_allowed_as_in_animal_ai(tmp_path):

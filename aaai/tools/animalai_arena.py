@@ -7,8 +7,9 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
 
 - position (x, y, z) -> (scale (x - 20), scale (z - 20)), the object's bottom at scale y;
 - size (x, y, z) -> (scale x, scale z, scale y): width, depth, height; a goal's size x is its diameter;
-- rotation r (degrees, clockwise seen from above, 0 facing +z) -> yaw -r in radians (the agent, a
-  ramp and a tunnel, whose forward is their own +z: pi/2 - r);
+- rotation r (degrees, clockwise seen from above, 0 facing +z) -> yaw -r in radians (the agent and
+  a tunnel, whose forward is their own +z: pi/2 - r; a ramp, which rises towards its own -z, see
+  RAMP_RISES: -pi/2 - r, as ours rises along its +x);
 - ``t`` / ``timeLimit`` (steps) -> time_limit t x SECONDS_PER_STEP x scale seconds, one rule for
   every file (250 steps: 160 s at scale 5, 500: 320 s, 1000: 640 s), at most MAX_TIME (t = 0, no limit: MAX_TIME);
 - ``pass_mark`` / ``passMark`` p -> pass_mark: food rewards grow with the scale and the time costs
@@ -143,6 +144,10 @@ CATEGORIES = {
     "09": "advanced preferences",
     "10": "causal reasoning",
 }
+# Which way a ramp rises is not in Animal-AI's documents; the competition files say it. Of their
+# arenas with food on a platform, 22 have a ramp whose high end meets the platform's top if ramps
+# rise towards their own -z, and only 6 (which meet it either way) if they rise towards +z.
+RAMP_RISES = "-z"
 FLOOR_HEIGHT = 1.0  # Animal-AI units: a wall at most this high over the whole arena is its floor
 ZONES = ("death_zone", "hot_zone")
 MAX_OBJECTS = 500  # objects in one arena (Animal-AI's own arenas hold a few dozen)
@@ -268,6 +273,12 @@ class _Arena:
             name = item["name"]
             if name == "Agent":
                 agent = self.agent(item)
+                start = self._entry(item.get("positions"), 0)
+                height = start.get("y", 0) if isinstance(start, dict) else 0
+                if is_number(height) and height > 0:  # on top of something: the import report's cause
+                    out.setdefault("extras", {}).setdefault("animalai", {})["start_height"] = round(
+                        height * self.scale, 4
+                    )
                 continue
             objects += self.item(index, name, item)
             names.append(name)
@@ -581,7 +592,9 @@ class _Arena:
                 obj.update(size=[sx, sz, ZONE_THICKNESS], yaw=self._yaw(rotation))
                 centre_z, footprint = ZONE_THICKNESS / 2, math.hypot(sx, sz) / 2
             elif form == "forward":  # its own +z is our +x: length first
-                obj.update(size=[sz, sx, sy], yaw=self._yaw(rotation, math.pi / 2))
+                # a ramp rises towards its own -z (RAMP_RISES), so our +x (the way ours rises) is its -z
+                offset = -math.pi / 2 if kind == "ramp" else math.pi / 2
+                obj.update(size=[sz, sx, sy], yaw=self._yaw(rotation, offset))
                 centre_z, footprint = bottom + sy / 2, math.hypot(sx, sz) / 2
             else:
                 obj.update(size=[sx, sz, sy], yaw=self._yaw(rotation))
