@@ -291,7 +291,8 @@ class _Arena:
         out["agent"] = agent
         objects = self.floors(objects, out)
         supports = _supports(objects)
-        out["objects"] = [_settled(obj, supports) for obj in objects]
+        ramps = [obj for obj in objects if obj["kind"] == "ramp" and _numbers(obj)]
+        out["objects"] = [_settled(obj, supports, ramps) for obj in objects]
         return out, names
 
     def floors(self, objects: list[dict], out: dict) -> list[dict]:
@@ -652,6 +653,11 @@ def _inside(x: float, y: float, box: dict) -> bool:
     return abs(u) <= box["size"][0] / 2 and abs(v) <= box["size"][1] / 2
 
 
+def _numbers(obj: dict) -> bool:
+    """Is every number of an object's place given (none drawn per seed)?"""
+    return all(isinstance(v, (int, float)) for v in (*obj["position"], *obj["size"], obj.get("yaw", 0.0)))
+
+
 def _supports(objects: list[dict]) -> list[dict]:
     """The static boxes of an arena, with every number given, on which a goal or block may land."""
     return [
@@ -663,9 +669,23 @@ def _supports(objects: list[dict]) -> list[dict]:
     ]
 
 
-def _settled(obj: dict, supports: list[dict]) -> dict:
+def _on_slope(goal: dict, ramp: dict) -> float:
+    """Where a goal's bottom comes to rest on a ramp's slope at its (x, y): touching the slope, its
+    centre above the point of the slope beneath it; 0 when its centre is not over the ramp."""
+    from aaai.levels.validate import ramp_clearance
+    from aaai.spec import ObjectSpec
+
+    x, y, _ = goal["position"]
+    radius = goal["size"][0] / 2
+    wedge = ObjectSpec("ramp", "box", tuple(ramp["position"]), tuple(ramp["size"]), ramp.get("yaw", 0.0))
+    clear = ramp_clearance(wedge, x, y, radius, radius)  # a piece on the floor there: how far clear of the slope
+    return 0.0 if clear is None else max(0.0, -clear)
+
+
+def _settled(obj: dict, supports: list[dict], ramps: list[dict] | None = None) -> dict:
     """A goal or movable block given above the floor, where Animal-AI would let it fall: onto the
-    highest of ``supports`` beneath it that it is above, or the floor (positions drawn at random stay as given)."""
+    highest of ``supports`` beneath it that it is above, a goal onto the slope of one of ``ramps``
+    beneath it, or the floor (positions drawn at random stay as given)."""
     position = obj["position"]
     if obj["kind"] in SUPPORTS and not obj.get("mass") or not all(isinstance(v, (int, float)) for v in position):
         return obj
@@ -674,6 +694,8 @@ def _settled(obj: dict, supports: list[dict]) -> dict:
     if bottom <= 0:
         return obj
     landing = 0.0
+    if obj.get("shape") == "sphere":  # a goal: onto a ramp's slope beneath it (aaai.levels.validate.ramp_clearance)
+        landing = max([0.0, *(_on_slope(obj, ramp) for ramp in ramps or () if _on_slope(obj, ramp) <= bottom + 1e-6)])
     for box in supports:
         if box is obj:
             continue

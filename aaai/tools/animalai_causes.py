@@ -82,11 +82,21 @@ def _over(obj: ObjectSpec, x: float, y: float) -> bool:
 
 def support(spec: LevelSpec, food: ObjectSpec) -> ObjectSpec | None:
     """The solid a piece of food rests on (its top at the food's bottom, beneath its centre), if any."""
+    from aaai.levels.validate import RAMP_REST, ramp_clearance
     from aaai.spec.kinds import SOLID_KINDS
 
     bottom = food.position[2] - food.size[2] / 2
     if bottom < 0.01:
         return None
+    for obj in spec.objects:  # resting on a ramp's slope: what the ramp stands on, if anything
+        if obj.kind == "ramp":
+            clear = ramp_clearance(obj, food.position[0], food.position[1], food.position[2], food.size[0] / 2)
+            if clear is not None and abs(clear) < RAMP_REST:
+                under = obj.position[2] - obj.size[2] / 2
+                lower = dataclasses.replace(
+                    food, position=(food.position[0], food.position[1], under + food.size[2] / 2)
+                )
+                return support(spec, lower) if under > 0.01 else None
     for obj in spec.objects:
         top = obj.position[2] + obj.size[2] / 2
         if obj.kind in SOLID_KINDS and abs(top - bottom) < 0.01 and _over(obj, food.position[0], food.position[1]):
