@@ -58,6 +58,8 @@ def test_death_zones_and_pushable_blocks_are_named(tmp_path):
     assert cause(tmp_path, pen(20) + zone + FOOD.format(x=50, y=50, z=2.5)) == "behind a death zone"
     inside = "  - {kind: death_zone, position: [50, 50, 0.01], size: [10.0, 10.0, 0.02]}\n"
     assert cause(tmp_path, pen(20) + inside + FOOD.format(x=50, y=50, z=2.5)) == "food in a death zone"
+    ramp = "  - {kind: ramp, position: [50, 30, 2.5], size: [8.0, 22.0, 5.0], yaw: 1.570796}\n"
+    assert cause(tmp_path, pen(20) + ramp + FOOD.format(x=50, y=50, z=2.5)) == "over a ramp the body does not climb"
     block = "  - {kind: plank, position: [50, 30, 5.0], size: [22.0, 2.0, 10.0], mass: 2.0}\n"
     assert cause(tmp_path, pen(20) + block + FOOD.format(x=50, y=50, z=2.5)) == "behind a pushable block"
 

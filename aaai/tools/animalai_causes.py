@@ -16,6 +16,8 @@ order, and the first change that brings it within reach names the cause:
   block pushed across one, or a ramp over it);
 - ``behind a pushable block``: reachable with the movable blocks (planks, U, L, J blocks, hollow
   boxes) taken away;
+- ``over a ramp the body does not climb``: reachable with the ramps walkable (those higher than
+  aaai.levels.validate.RAMP_WALKABLE_HEIGHT are obstacles);
 - ``passage narrower than the body``: reachable by Animal-AI's agent (a sphere 1 across, ANIMALAI_RADIUS
   Animal-AI units in radius at the arena's scale), not by ours;
 - ``walled off``: none of these.
@@ -44,6 +46,7 @@ OUT_OF_REACH = (
     "start on a raised floor",
     "behind a death zone",
     "behind a pushable block",
+    "over a ramp the body does not climb",
     "passage narrower than the body",
     "walled off",
 )
@@ -174,6 +177,8 @@ def unreachable_cause(spec: LevelSpec, food: ObjectSpec) -> str:
         return "behind a death zone"
     if _reachable(_without(spec, lambda obj: obj.mass > 0), food):
         return "behind a pushable block"
+    if _reachable(_without(spec, lambda obj: obj.kind == "ramp"), food):
+        return "over a ramp the body does not climb"
     if _reachable(spec, food, ANIMALAI_RADIUS * _scale(spec)):
         return "passage narrower than the body"
     return "walled off"
