@@ -129,3 +129,20 @@ def test_an_imported_ramp_rises_towards_its_own_minus_z():
         ramp["position"][1] + math.sin(ramp["yaw"]) * ramp["size"][0] / 2,
     )
     assert high == pytest.approx((0.0, -12.5), abs=1e-3)  # its high end meets the wall's south face
+
+
+def test_imported_blocks_given_one_above_another_stack_as_they_fall():
+    box = {"x": 1, "y": 1, "z": 1}
+    arena = {
+        "items": [  # listed top first: each lands on the one below, not on the floor
+            {
+                "name": "Cardbox1",
+                "positions": [{"x": 20, "y": y, "z": 20} for y in (2.1, 1.05, 0)],
+                "sizes": [box] * 3,
+                "rotations": [0, 0, 0],
+            },
+            {"name": "GoodGoal", "positions": [{"x": 20, "y": 4, "z": 20}], "sizes": [box]},
+        ]
+    }
+    data, _ = convert_arena("05-14-01.yaml", 0, arena, 5.0, np.random.default_rng(0))
+    assert [o["position"][2] for o in data["objects"]] == [12.5, 7.5, 2.5, 17.5]

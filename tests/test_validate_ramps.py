@@ -1,5 +1,6 @@
-"""Food on a ramp's slope (aaai.levels.validate.ramp_clearance): resting on it is valid, a hair
-into it cuts in, a hair above it floats; an imported goal dropped over a ramp lands on its slope."""
+"""Heights in the solvability check (aaai.levels.validate): food on a ramp's slope (resting on it is
+valid, a hair into it cuts in, a hair above it floats; an imported goal dropped over a ramp lands on
+its slope), ramps walked over up to a height, food out of the head's reach above a height."""
 
 import math
 
@@ -77,3 +78,28 @@ def test_a_low_ramp_is_walked_over_and_a_higher_one_is_an_obstacle(tmp_path, hei
         "  - {kind: food_green, shape: sphere, position: [0.0, 40.0, 1.5], size: [3.0, 3.0, 3.0]}\n"
     )
     assert (check(parse_arena(path, 0)[0]) == []) == walkable
+
+
+# the head's top rides at most 3.8 high while the body trots: a hair either side
+@pytest.mark.parametrize("bottom, reachable", [(3.7, True), (3.9, False)])
+def test_food_higher_than_the_head_reaches_is_out_of_reach(tmp_path, bottom, reachable):
+    path = tmp_path / "d.yaml"
+    path.write_text(
+        "arena_size: [100.0, 100.0]\ntime_limit: 100\nagent: {x: -40.0, y: -40.0, yaw: 0.0}\nobjects:\n"
+        f"  - {{kind: wall, position: [0.0, 0.0, {bottom / 2}], size: [0.4, 0.4, {bottom}]}}\n"  # a pole
+        f"  - {{kind: food_green, shape: sphere, position: [0.0, 0.0, {bottom + 5}], size: [10.0, 10.0, 10.0]}}\n"
+    )
+    assert (check(parse_arena(path, 0)[0]) == []) == reachable
+
+
+def test_food_on_a_sinking_pillar_is_in_reach_however_high(tmp_path):
+    path = tmp_path / "e.yaml"
+    text = (
+        "arena_size: [100.0, 100.0]\ntime_limit: 100\nagent: {x: -40.0, y: -40.0, yaw: 0.0}\nobjects:\n"
+        "  - {kind: wall, position: [0.0, 0.0, 5.0], size: [4.0, 4.0, 10.0]BEHAVIOUR}\n"
+        "  - {kind: food_green, shape: sphere, position: [0.0, 0.0, 11.5], size: [3.0, 3.0, 3.0]}\n"
+    )
+    path.write_text(text.replace("BEHAVIOUR", ", behaviour: {type: sink, depth: 10.0, duration: 5.0}"))
+    assert check(parse_arena(path, 0)[0]) == []
+    path.write_text(text.replace("BEHAVIOUR", ""))
+    assert any("cannot be reached" in p for p in check(parse_arena(path, 0)[0]))

@@ -37,6 +37,9 @@ FOOTPRINT_RADIUS = 5.0
 # lying against it (with the X's front feet 3.7 ahead, it could bring the head that close) touches
 # the wall with a sweeping foot on the way, so food must be reachable from the walking region.
 REACH_CLEARANCE = FOOTPRINT_RADIUS
+# The highest a piece of food's bottom may lie for the head to touch it: the head's centre rides 1.8
+# to 2.3 high while the body trots (measured), and the head is HEAD_RADIUS round; nothing lets it rear.
+FOOD_REACH_HEIGHT = 2.3 + HEAD_RADIUS
 # A ramp at most this high is walked over (the reference crosses configs/arenas/animalai/
 # ramp_and_blocks.yaml's, 0.8 high); a higher one is an obstacle on the grid, as a wall is: the
 # reference's flat plan does not climb it. Counted walkable at any height, 30 imported Animal-AI arenas
@@ -393,8 +396,12 @@ def cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
 
 
 def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> bool:
-    """Can the head, its centre in the agent's region, touch the piece where it comes to rest?"""
-    x, y, _ = food_places(food)[-1]
+    """Can the head, its centre in the agent's region, touch the piece where it comes to rest? Not
+    when the piece's bottom lies above FOOD_REACH_HEIGHT (on a pole, a block, a platform), unless
+    what it rests on sinks (a pillar that brings it down)."""
+    x, y, z = food_places(food)[-1]
+    if z - food.size[2] / 2 > FOOD_REACH_HEIGHT and not _on_sinking(spec, x, y):
+        return False
     reach = HEAD_RADIUS + food.size[0] / 2 + GRID
     row0, col0 = cell(spec, x - reach, y - reach, region.shape)
     row1, col1 = cell(spec, x + reach, y + reach, region.shape)
@@ -403,6 +410,18 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     rows = (np.arange(row0, row1 + 1) + 0.5) * GRID - spec.arena_size[1] / 2
     near = np.hypot(cols[None, :] - x, rows[:, None] - y) <= reach
     return bool(np.any(window & near))
+
+
+def _on_sinking(spec: LevelSpec, x: float, y: float) -> bool:
+    """Does (x, y) lie over an object that sinks out of the way (a passable moving part)?"""
+    for obj in spec.objects:
+        moving = behaviour_class(obj)
+        if moving and moving.passable:
+            c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+            dx, dy = x - obj.position[0], y - obj.position[1]
+            if abs(c * dx + s * dy) <= obj.size[0] / 2 and abs(-s * dx + c * dy) <= obj.size[1] / 2:
+                return True
+    return False
 
 
 MAX_HEIGHTS = 400 * 400  # samples of a heightfield (L11 uses 65 x 65), as many as floor tiles may be

@@ -292,7 +292,12 @@ class _Arena:
         objects = self.floors(objects, out)
         supports = _supports(objects)
         ramps = [obj for obj in objects if obj["kind"] == "ramp" and _numbers(obj)]
-        out["objects"] = [_settled(obj, supports, ramps) for obj in objects]
+        settled: dict[int, dict] = {}
+        for k in sorted(range(len(objects)), key=lambda k: _bottom(objects[k])):  # lowest first: blocks stack
+            settled[k] = _settled(objects[k], supports, ramps)
+            if settled[k].get("mass") and settled[k]["kind"] in SUPPORTS and _numbers(settled[k]):
+                supports.append(settled[k])  # a movable block: what falls on it rests on it
+        out["objects"] = [settled[k] for k in range(len(objects))]
         return out, names
 
     def floors(self, objects: list[dict], out: dict) -> list[dict]:
@@ -653,6 +658,12 @@ def _inside(x: float, y: float, box: dict) -> bool:
     return abs(u) <= box["size"][0] / 2 and abs(v) <= box["size"][1] / 2
 
 
+def _bottom(obj: dict) -> float:
+    """An object's bottom as given (inf when drawn per seed: settled last, as it is not moved)."""
+    z = obj["position"][2]
+    return z - obj["size"][2] / 2 if isinstance(z, (int, float)) else math.inf
+
+
 def _numbers(obj: dict) -> bool:
     """Is every number of an object's place given (none drawn per seed)?"""
     return all(isinstance(v, (int, float)) for v in (*obj["position"], *obj["size"], obj.get("yaw", 0.0)))
@@ -684,8 +695,8 @@ def _on_slope(goal: dict, ramp: dict) -> float:
 
 def _settled(obj: dict, supports: list[dict], ramps: list[dict] | None = None) -> dict:
     """A goal or movable block given above the floor, where Animal-AI would let it fall: onto the
-    highest of ``supports`` beneath it that it is above, a goal onto the slope of one of ``ramps``
-    beneath it, or the floor (positions drawn at random stay as given)."""
+    highest of ``supports`` (static boxes, movable blocks settled before) beneath it, a goal onto the
+    slope of one of ``ramps`` beneath it, or the floor (positions drawn at random stay as given)."""
     position = obj["position"]
     if obj["kind"] in SUPPORTS and not obj.get("mass") or not all(isinstance(v, (int, float)) for v in position):
         return obj
