@@ -295,8 +295,8 @@ class _Arena:
         settled: dict[int, dict] = {}
         for k in sorted(range(len(objects)), key=lambda k: _bottom(objects[k])):  # lowest first: blocks stack
             settled[k] = _settled(objects[k], supports, ramps)
-            if settled[k].get("mass") and settled[k]["kind"] in SUPPORTS and _numbers(settled[k]):
-                supports.append(settled[k])  # a movable block: what falls on it rests on it
+            if settled[k].get("mass") and settled[k]["kind"] == "plank" and _numbers(settled[k]):
+                supports.append(settled[k])  # a movable box (not a U, L or hollow one): what falls on it rests on it
         out["objects"] = [settled[k] for k in range(len(objects))]
         return out, names
 
