@@ -146,3 +146,20 @@ def test_imported_blocks_given_one_above_another_stack_as_they_fall():
     }
     data, _ = convert_arena("05-14-01.yaml", 0, arena, 5.0, np.random.default_rng(0))
     assert [o["position"][2] for o in data["objects"]] == [12.5, 7.5, 2.5, 17.5]
+
+
+def test_a_start_on_top_of_a_wall_is_recorded_and_one_merely_given_a_height_is_not():
+    wall = {
+        "name": "Wall",
+        "positions": [{"x": 20, "y": 0, "z": 20}],
+        "sizes": [{"x": 4, "y": 2, "z": 40}],
+        "rotations": [0],
+    }
+
+    def start_height(x: float) -> float | None:
+        agent = {"name": "Agent", "positions": [{"x": x, "y": 2, "z": 5}], "rotations": [0]}
+        data, _ = convert_arena("t.yaml", 0, {"items": [wall, agent]}, 5.0, np.random.default_rng(0))
+        return (data.get("extras") or {}).get("animalai", {}).get("start_height")
+
+    assert start_height(21.9) == 10.0  # on the wall (x 18 to 22)
+    assert start_height(22.1) is None  # beside it, in the air: Animal-AI lets it fall to the floor

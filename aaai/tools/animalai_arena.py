@@ -265,6 +265,7 @@ class _Arena:
                 f"{self.source}, arena {self.key}: {total:,} objects; allowed: at most {MAX_OBJECTS} in an arena"
             )
         objects, names, agent = [], [], None
+        raised: list = []  # Animal-AI's start (x, y here), when it gives a height
         for index, item in enumerate(items):
             if not isinstance(item, dict) or not isinstance(item.get("name"), str):
                 raise Unmappable(
@@ -274,11 +275,8 @@ class _Arena:
             if name == "Agent":
                 agent = self.agent(item)
                 start = self._entry(item.get("positions"), 0)
-                height = start.get("y", 0) if isinstance(start, dict) else 0
-                if is_number(height) and height > 0:  # on top of something: the import report's cause
-                    out.setdefault("extras", {}).setdefault("animalai", {})["start_height"] = round(
-                        height * self.scale, 4
-                    )
+                start = start if isinstance(start, dict) else {}
+                raised = [self._xy(start.get(k, -1), 0, 0) for k in ("x", "z")] if is_number(start.get("y")) else []
                 continue
             objects += self.item(index, name, item)
             names.append(name)
@@ -291,6 +289,10 @@ class _Arena:
         out["agent"] = agent
         objects = self.floors(objects, out)
         supports = _supports(objects)
+        if raised and all(isinstance(v, float) for v in raised):  # the agent stands on a static box there
+            tops = [b["position"][2] + b["size"][2] / 2 for b in supports if _inside(*raised, {"yaw": 0.0, **b})]
+            if tops and max(tops) > 0.01:  # the import report's cause (aaai.tools.animalai_causes)
+                out.setdefault("extras", {}).setdefault("animalai", {})["start_height"] = round(max(tops), 4)
         ramps = [obj for obj in objects if obj["kind"] == "ramp" and _numbers(obj)]
         settled: dict[int, dict] = {}
         for k in sorted(range(len(objects)), key=lambda k: _bottom(objects[k])):  # lowest first: blocks stack
