@@ -290,7 +290,11 @@ class _Arena:
         objects = self.floors(objects, out)
         supports = _supports(objects)
         if raised and all(isinstance(v, float) for v in raised):  # the agent stands on a static box there
-            tops = [b["position"][2] + b["size"][2] / 2 for b in supports if _inside(*raised, {"yaw": 0.0, **b})]
+            tops = [
+                b["position"][2] + b["size"][2] / 2
+                for b in supports
+                if _inside(raised[0], raised[1], {"yaw": 0.0, **b})
+            ]
             if tops and max(tops) > 0.01:  # the import report's cause (aaai.tools.animalai_causes)
                 out.setdefault("extras", {}).setdefault("animalai", {})["start_height"] = round(max(tops), 4)
         ramps = [obj for obj in objects if obj["kind"] == "ramp" and _numbers(obj)]
