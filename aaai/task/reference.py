@@ -11,6 +11,8 @@ own). Its tactic is the same in every level, driven by what the level holds:
   then the green;
 - a sliding piece (L8): go to where it will stop;
 - sectors with doors (L9): only the sector with the most food, and every piece in it;
+- an arena that allows food out of reach (``reach: pass_mark``, Animal-AI's lures): the pieces the
+  body cannot reach (aaai.levels.validate.food_reachable) are left alone;
 - a plank to tip over as a bridge (L10): walk round behind it, push it over, cross on it;
 - everything else (walls, holes, pits, mazes, terrain) is the planner's: the cheapest path on
   the occupancy grid, kept away from walls and edges where there is room;
