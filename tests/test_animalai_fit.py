@@ -164,6 +164,7 @@ def test_the_report_counts_every_arena_by_cause(tmp_path):
     assert rows["01-1-1.yaml"]["valid_every_seed"] == "yes" and rows["01-1-1.yaml"]["valid_seeds"] == "2"
     assert rows["02-1-1.yaml"]["invalid_because"] == "food out of reach" and rows["02-1-1.yaml"]["unfair"]
     assert rows["02-1-1.yaml"]["file"] == "unfair/02-1-1.yaml" and rows["02-1-1.yaml"]["category"] == "02"
+    assert rows["02-1-1.yaml"]["cause"] == "walled off" and rows["01-1-1.yaml"]["cause"] == ""
     assert (
         rows["03-1-1.yaml"]["converted"] == "no"
         and rows["03-1-1.yaml"]["not_converted_because"] == "data zones are not built here"
@@ -174,6 +175,7 @@ def test_the_report_counts_every_arena_by_cause(tmp_path):
         "| not valid on some seed: food out of reach | 1 |" in table
         and "| marked unfair: food out of reach | 1 |" in table
     )
+    assert "| walled off | 1 | 02 1 |" in table and "| data zones are not built here | 1 | 03 1 |" in table
 
 
 def test_walls_that_cross_are_allowed_as_in_animal_ai(tmp_path):
@@ -205,15 +207,6 @@ def test_eval_scores_the_imported_battery_by_the_olympics_categories(tmp_path):
     assert {row["outcome"] for row in csv.DictReader(open(board))} == {"failed"}  # below the pass mark in 10 steps
 
 
-def test_a_start_on_a_wall_moves_to_the_side_from_which_the_food_can_be_reached(tmp_path):
-    # Animal-AI's agent on top of a low wall down the middle; the food on the right (+x) side
-    divider = WALL.format(x=20, z=20, sx=1, sz=40)
-    body = AGENT.format(x=20, z=1, r=0) + divider + GOAL.format(x=30, z=30)
-    results, out = convert(tmp_path, {"side.yaml": arena(body, "    t: 250\n    pass_mark: 0\n")})
-    assert not results["side.yaml"].unfair
-    assert load_arena(out / "side.yaml").agent.x > 0
-
-
 def test_a_low_wall_over_the_whole_arena_is_its_floor(tmp_path):
     floor = WALL.format(x=20, z=20, sx=40, sz=40).replace("y: 2", "y: 0.5")
     body = AGENT.format(x=20, z=5, r=0) + floor + GOAL.format(x=20, z=30)
@@ -222,3 +215,24 @@ def test_a_low_wall_over_the_whole_arena_is_its_floor(tmp_path):
     spec = load_arena(out / "floor.yaml")
     assert [obj.kind for obj in spec.objects[4:]] == ["food_green"]
     assert spec.objects[4].position[2] == pytest.approx(2.5)  # on the floor
+
+
+def test_a_start_on_a_dividing_wall_is_not_moved_to_a_side_but_marked_unfair(tmp_path):
+    agent = "    - !Item\n      name: Agent\n      positions: [!Vector3 {x: 20, y: 1, z: 1}]\n      rotations: [0]\n"
+    divide = (
+        "    - !Item\n      name: Wall\n      positions: [!Vector3 {x: 20, y: 0, z: 20}]\n"
+        "      sizes: [!Vector3 {x: 1, y: 1, z: 40}]\n      rotations: [0]\n"
+    )
+    pad = divide.replace("z: 20}]", "z: 1}]").replace("z: 40}", "z: 2}").replace("x: 1,", "x: 2,")
+    results, out = convert(
+        tmp_path,
+        {
+            "02-1-1.yaml": arena(agent + divide + GOAL.format(x=10, z=30)),
+            "02-1-2.yaml": arena(agent + pad + GOAL.format(x=10, z=30)),
+        },
+    )
+    assert results["02-1-1.yaml"].unfair == ["start on a dividing wall (moved off it, the start would choose the side)"]
+    assert (out / "unfair" / "02-1-1.yaml").exists() and "start_moved" not in (
+        out / "unfair" / "02-1-1.yaml"
+    ).read_text()
+    assert not results["02-1-2.yaml"].unfair and any("start moved" in c for c in results["02-1-2.yaml"].changes)

@@ -8,8 +8,9 @@ pillars and sector doors are passable (a pillar ends flush with the floor; a doo
 until the agent has gone through it), and a level's ``bridge`` rectangle (where
 the L10 plank lands when pushed over) is floor again. The newer kinds (aaai.spec.kinds): a kind built of
 parts (a tunnel's arch, an L block) is checked part by part (``pieces``), so the body walks through
-a tunnel and food may lie in a U; a ramp is walkable; a death zone and bad food are blocked (the
-body keeps clear of them); a hot zone is walkable (the reference controller avoids it by cost).
+a tunnel and food may lie in a U; a ramp is walkable up to RAMP_WALKABLE_HEIGHT and an obstacle
+above it, and food may rest on its slope (``ramp_clearance``); a death zone and bad food are blocked
+(the body keeps clear of them); a hot zone is walkable (the reference controller avoids it by cost).
 """
 
 from __future__ import annotations
@@ -36,6 +37,15 @@ FOOTPRINT_RADIUS = 5.0
 # lying against it (with the X's front feet 3.7 ahead, it could bring the head that close) touches
 # the wall with a sweeping foot on the way, so food must be reachable from the walking region.
 REACH_CLEARANCE = FOOTPRINT_RADIUS
+# The highest a piece of food's bottom may lie for the head to touch it: the head's centre rides 1.8
+# to 2.3 high while the body trots (measured), and the head is HEAD_RADIUS round; nothing lets it rear.
+FOOD_REACH_HEIGHT = 2.3 + HEAD_RADIUS
+# A ramp at most this high is walked over (the reference crosses configs/arenas/animalai/
+# ramp_and_blocks.yaml's, 0.8 high); a higher one is an obstacle on the grid, as a wall is: the
+# reference's flat plan does not climb it. Counted walkable at any height, 30 imported Animal-AI arenas
+# whose only way went over ramps 5 units high were valid, and the reference failed every one of them
+# it was run on (05-23-02, 05-29-03, 06-18-02, 07-29-01; and 0 of 4 more, behind a ridge of two ramps).
+RAMP_WALKABLE_HEIGHT = 1.0
 
 
 def z_range(obj: ObjectSpec, z: float | None = None) -> tuple[float, float]:
@@ -196,15 +206,54 @@ def food_problems(spec: LevelSpec, food: ObjectSpec, index: Solids | None = None
         if abs(x) + radius > spec.arena_size[0] / 2 or abs(y) + radius > spec.arena_size[1] / 2:
             problems.append(f"{where} is outside the arena")
             continue
-        if spec.heightfield is None and not _supported(spec, x, y, z - radius, index):
-            problems.append(f"{where} is not on solid ground")
         bottom, top = z - radius, z + radius
         quad = corners(ObjectSpec(food.kind, "box", (x, y, z), food.size))
-        for k in index.near(quad):
+        near = index.near(quad)
+        slopes = [ramp_clearance(index.pieces[k], x, y, z, radius) for k in near if index.pieces[k].kind == "ramp"]
+        on_slope = any(clear is not None and abs(clear) < RAMP_REST for clear in slopes)
+        if spec.heightfield is None and not on_slope and not _supported(spec, x, y, z - radius, index):
+            problems.append(f"{where} is not on solid ground")
+        for k in near:
             obj, (low, high) = index.pieces[k], index.heights[k]
+            if obj.kind == "ramp":  # a wedge: the piece may rest on its slope
+                clear = ramp_clearance(obj, x, y, z, radius)
+                if clear is not None:
+                    if clear < -RAMP_REST:
+                        problems.append(f"{where} cuts into {obj.kind} at {_xy(obj.position)}")
+                    continue
+                high = low + ramp_height(obj, x, y)  # beside it: as high as its nearest edge
             if low < top - TOLERANCE and bottom < high - TOLERANCE and footprints_overlap(quad, index.quads[k]):
                 problems.append(f"{where} cuts into {obj.kind} at {_xy(obj.position)}")
     return problems
+
+
+RAMP_REST = 0.05  # units: a sphere this close to a ramp's slope rests on it
+
+
+def _ramp_local(ramp: ObjectSpec, x: float, y: float) -> tuple[float, float]:
+    c, s = math.cos(ramp.yaw), math.sin(ramp.yaw)
+    dx, dy = x - ramp.position[0], y - ramp.position[1]
+    return c * dx + s * dy, -s * dx + c * dy
+
+
+def ramp_height(ramp: ObjectSpec, x: float, y: float) -> float:
+    """A ramp's height above its bottom over the point of its footprint nearest (x, y): it rises
+    along its own +x from 0 to its full height."""
+    u, _ = _ramp_local(ramp, x, y)
+    length = ramp.size[0]
+    return ramp.size[2] * min(max((u + length / 2) / length, 0.0), 1.0)
+
+
+def ramp_clearance(ramp: ObjectSpec, x: float, y: float, z: float, radius: float) -> float | None:
+    """How far a sphere (centre (x, y, z), ``radius``) whose centre lies over a ramp's footprint is
+    clear of its slope, measured upright (negative: it cuts in); None when the centre is not over
+    the footprint."""
+    u, v = _ramp_local(ramp, x, y)
+    if abs(u) > ramp.size[0] / 2 or abs(v) > ramp.size[1] / 2:
+        return None
+    rise = ramp.size[2] / ramp.size[0]
+    bottom = ramp.position[2] - ramp.size[2] / 2
+    return z - radius * math.sqrt(1 + rise * rise) - (bottom + ramp_height(ramp, x, y))
 
 
 def _supported(spec: LevelSpec, x: float, y: float, bottom: float, index: Solids | None = None) -> bool:
@@ -237,7 +286,7 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
         moving = behaviour_class(obj)
         if moving and moving.passable:
             continue
-        if getattr(kind_class(obj.kind), "walkable", False):  # a ramp: the body walks over it
+        if getattr(kind_class(obj.kind), "walkable", False) and obj.size[2] <= RAMP_WALKABLE_HEIGHT:  # a low ramp
             continue
         if bridge and obj.kind == "plank" and obj.mass > 0:  # it becomes the bridge
             continue
@@ -357,8 +406,12 @@ def cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
 
 
 def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> bool:
-    """Can the head, its centre in the agent's region, touch the piece where it comes to rest?"""
-    x, y, _ = food_places(food)[-1]
+    """Can the head, its centre in the agent's region, touch the piece where it comes to rest? Not
+    when the piece's bottom lies above FOOD_REACH_HEIGHT (on a pole, a block, a platform), unless
+    what it rests on sinks (a pillar that brings it down)."""
+    x, y, z = food_places(food)[-1]
+    if z - food.size[2] / 2 > FOOD_REACH_HEIGHT and not _on_sinking(spec, x, y):
+        return False
     reach = HEAD_RADIUS + food.size[0] / 2 + GRID
     row0, col0 = cell(spec, x - reach, y - reach, region.shape)
     row1, col1 = cell(spec, x + reach, y + reach, region.shape)
@@ -367,6 +420,18 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     rows = (np.arange(row0, row1 + 1) + 0.5) * GRID - spec.arena_size[1] / 2
     near = np.hypot(cols[None, :] - x, rows[:, None] - y) <= reach
     return bool(np.any(window & near))
+
+
+def _on_sinking(spec: LevelSpec, x: float, y: float) -> bool:
+    """Does (x, y) lie over an object that sinks out of the way (a passable moving part)?"""
+    for obj in spec.objects:
+        moving = behaviour_class(obj)
+        if moving and moving.passable:
+            c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+            dx, dy = x - obj.position[0], y - obj.position[1]
+            if abs(c * dx + s * dy) <= obj.size[0] / 2 and abs(-s * dx + c * dy) <= obj.size[1] / 2:
+                return True
+    return False
 
 
 MAX_HEIGHTS = 400 * 400  # samples of a heightfield (L11 uses 65 x 65), as many as floor tiles may be

@@ -11,6 +11,8 @@ own). Its tactic is the same in every level, driven by what the level holds:
   then the green;
 - a sliding piece (L8): go to where it will stop;
 - sectors with doors (L9): only the sector with the most food, and every piece in it;
+- an arena that allows food out of reach (``reach: pass_mark``, Animal-AI's lures): the pieces the
+  body cannot reach (aaai.levels.validate.food_reachable) are left alone;
 - a plank to tip over as a bridge (L10): walk round behind it, push it over, cross on it;
 - everything else (walls, holes, pits, mazes, terrain) is the planner's: the cheapest path on
   the occupancy grid, kept away from walls and edges where there is room;
@@ -123,6 +125,16 @@ class ReferenceController:
         self.detour, self.approached, self.tries = None, set(), 0
         self.best_progress, self.progress_time, self.back_off_until = math.inf, 0.0, -1.0
         self.progress_key = None
+        self.lures = self._lures(spec)
+
+    def _lures(self, spec: LevelSpec) -> list[ObjectSpec]:
+        """The pieces of an arena whose food out of reach is allowed (``reach: pass_mark``, Animal-AI's
+        lures) that the quadruped cannot reach (aaai.levels.validate.food_reachable): never gone for, as
+        going for one ends at a wall or in the time limit."""
+        if spec.extras.get("reach") != "pass_mark" or isinstance(self.env.body, Sphere):
+            return []
+        region, clear = validate.reachable_region(spec)
+        return [food for food in spec.foods if not (clear and validate.food_reachable(spec, region, food))]
 
     def _map(self, start: tuple[float, float] | None = None) -> None:
         """Clearance, the region walkable from ``start`` (default: the agent's start) and crowding
@@ -215,7 +227,7 @@ class ReferenceController:
         foods = []
         for body, food in env.world.food.items():
             position = p.getBasePositionAndOrientation(body, physicsClientId=env.client)[0]
-            if self.sector is not None and _sector_of(position) != self.sector:
+            if self.sector is not None and _sector_of(position) != self.sector or food in self.lures:
                 continue
             foods.append((body, food, position))
         return foods

@@ -7,8 +7,9 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
 
 - position (x, y, z) -> (scale (x - 20), scale (z - 20)), the object's bottom at scale y;
 - size (x, y, z) -> (scale x, scale z, scale y): width, depth, height; a goal's size x is its diameter;
-- rotation r (degrees, clockwise seen from above, 0 facing +z) -> yaw -r in radians (the agent, a
-  ramp and a tunnel, whose forward is their own +z: pi/2 - r);
+- rotation r (degrees, clockwise seen from above, 0 facing +z) -> yaw -r in radians (the agent and
+  a tunnel, whose forward is their own +z: pi/2 - r; a ramp, which rises towards its own -z, see
+  RAMP_RISES: -pi/2 - r, as ours rises along its +x);
 - ``t`` / ``timeLimit`` (steps) -> time_limit t x SECONDS_PER_STEP x scale seconds, one rule for
   every file (250 steps: 160 s at scale 5, 500: 320 s, 1000: 640 s), at most MAX_TIME (t = 0, no limit: MAX_TIME);
 - ``pass_mark`` / ``passMark`` p -> pass_mark: food rewards grow with the scale and the time costs
@@ -143,6 +144,10 @@ CATEGORIES = {
     "09": "advanced preferences",
     "10": "causal reasoning",
 }
+# Which way a ramp rises is not in Animal-AI's documents; the competition files say it. Of their
+# arenas with food on a platform, 22 have a ramp whose high end meets the platform's top if ramps
+# rise towards their own -z, and only 6 (which meet it either way) if they rise towards +z.
+RAMP_RISES = "-z"
 FLOOR_HEIGHT = 1.0  # Animal-AI units: a wall at most this high over the whole arena is its floor
 ZONES = ("death_zone", "hot_zone")
 MAX_OBJECTS = 500  # objects in one arena (Animal-AI's own arenas hold a few dozen)
@@ -260,6 +265,7 @@ class _Arena:
                 f"{self.source}, arena {self.key}: {total:,} objects; allowed: at most {MAX_OBJECTS} in an arena"
             )
         objects, names, agent = [], [], None
+        raised: list = []  # Animal-AI's start (x, y here), when it gives a height
         for index, item in enumerate(items):
             if not isinstance(item, dict) or not isinstance(item.get("name"), str):
                 raise Unmappable(
@@ -268,6 +274,9 @@ class _Arena:
             name = item["name"]
             if name == "Agent":
                 agent = self.agent(item)
+                start = self._entry(item.get("positions"), 0)
+                start = start if isinstance(start, dict) else {}
+                raised = [self._xy(start.get(k, -1), 0, 0) for k in ("x", "z")] if is_number(start.get("y")) else []
                 continue
             objects += self.item(index, name, item)
             names.append(name)
@@ -280,7 +289,21 @@ class _Arena:
         out["agent"] = agent
         objects = self.floors(objects, out)
         supports = _supports(objects)
-        out["objects"] = [_settled(obj, supports) for obj in objects]
+        if raised and all(isinstance(v, float) for v in raised):  # the agent stands on a static box there
+            tops = [
+                b["position"][2] + b["size"][2] / 2
+                for b in supports
+                if _inside(raised[0], raised[1], {"yaw": 0.0, **b})
+            ]
+            if tops and max(tops) > 0.01:  # the import report's cause (aaai.tools.animalai_causes)
+                out.setdefault("extras", {}).setdefault("animalai", {})["start_height"] = round(max(tops), 4)
+        ramps = [obj for obj in objects if obj["kind"] == "ramp" and _numbers(obj)]
+        settled: dict[int, dict] = {}
+        for k in sorted(range(len(objects)), key=lambda k: _bottom(objects[k])):  # lowest first: blocks stack
+            settled[k] = _settled(objects[k], supports, ramps)
+            if settled[k].get("mass") and settled[k]["kind"] == "plank" and _numbers(settled[k]):
+                supports.append(settled[k])  # a movable box (not a U, L or hollow one): what falls on it rests on it
+        out["objects"] = [settled[k] for k in range(len(objects))]
         return out, names
 
     def floors(self, objects: list[dict], out: dict) -> list[dict]:
@@ -581,7 +604,9 @@ class _Arena:
                 obj.update(size=[sx, sz, ZONE_THICKNESS], yaw=self._yaw(rotation))
                 centre_z, footprint = ZONE_THICKNESS / 2, math.hypot(sx, sz) / 2
             elif form == "forward":  # its own +z is our +x: length first
-                obj.update(size=[sz, sx, sy], yaw=self._yaw(rotation, math.pi / 2))
+                # a ramp rises towards its own -z (RAMP_RISES), so our +x (the way ours rises) is its -z
+                offset = -math.pi / 2 if kind == "ramp" else math.pi / 2
+                obj.update(size=[sz, sx, sy], yaw=self._yaw(rotation, offset))
                 centre_z, footprint = bottom + sy / 2, math.hypot(sx, sz) / 2
             else:
                 obj.update(size=[sx, sz, sy], yaw=self._yaw(rotation))
@@ -639,6 +664,17 @@ def _inside(x: float, y: float, box: dict) -> bool:
     return abs(u) <= box["size"][0] / 2 and abs(v) <= box["size"][1] / 2
 
 
+def _bottom(obj: dict) -> float:
+    """An object's bottom as given (inf when drawn per seed: settled last, as it is not moved)."""
+    z = obj["position"][2]
+    return z - obj["size"][2] / 2 if isinstance(z, (int, float)) else math.inf
+
+
+def _numbers(obj: dict) -> bool:
+    """Is every number of an object's place given (none drawn per seed)?"""
+    return all(isinstance(v, (int, float)) for v in (*obj["position"], *obj["size"], obj.get("yaw", 0.0)))
+
+
 def _supports(objects: list[dict]) -> list[dict]:
     """The static boxes of an arena, with every number given, on which a goal or block may land."""
     return [
@@ -650,9 +686,23 @@ def _supports(objects: list[dict]) -> list[dict]:
     ]
 
 
-def _settled(obj: dict, supports: list[dict]) -> dict:
+def _on_slope(goal: dict, ramp: dict) -> float:
+    """Where a goal's bottom comes to rest on a ramp's slope at its (x, y): touching the slope, its
+    centre above the point of the slope beneath it; 0 when its centre is not over the ramp."""
+    from aaai.levels.validate import ramp_clearance
+    from aaai.spec import ObjectSpec
+
+    x, y, _ = goal["position"]
+    radius = goal["size"][0] / 2
+    wedge = ObjectSpec("ramp", "box", tuple(ramp["position"]), tuple(ramp["size"]), ramp.get("yaw", 0.0))
+    clear = ramp_clearance(wedge, x, y, radius, radius)  # a piece on the floor there: how far clear of the slope
+    return 0.0 if clear is None else max(0.0, -clear)
+
+
+def _settled(obj: dict, supports: list[dict], ramps: list[dict] | None = None) -> dict:
     """A goal or movable block given above the floor, where Animal-AI would let it fall: onto the
-    highest of ``supports`` beneath it that it is above, or the floor (positions drawn at random stay as given)."""
+    highest of ``supports`` (static boxes, movable blocks settled before) beneath it, a goal onto the
+    slope of one of ``ramps`` beneath it, or the floor (positions drawn at random stay as given)."""
     position = obj["position"]
     if obj["kind"] in SUPPORTS and not obj.get("mass") or not all(isinstance(v, (int, float)) for v in position):
         return obj
@@ -661,6 +711,8 @@ def _settled(obj: dict, supports: list[dict]) -> dict:
     if bottom <= 0:
         return obj
     landing = 0.0
+    if obj.get("shape") == "sphere":  # a goal: onto a ramp's slope beneath it (aaai.levels.validate.ramp_clearance)
+        landing = max([0.0, *(_on_slope(obj, ramp) for ramp in ramps or () if _on_slope(obj, ramp) <= bottom + 1e-6)])
     for box in supports:
         if box is obj:
             continue

@@ -7,7 +7,9 @@ Animal-AI's agent do not fit ours. An arena is converted at the asked scale and 
 
 - a fixed agent start that is not clear moves to the nearest clear place (the centre of a grid
   cell with room for the body), facing the same way; of the clear regions, the nearest one from
-  which the food can be reached, else the nearest;
+  which the food can be reached, else the nearest; but a start on top of a wall with a side of it
+  about as near as the other (SIDE_MARGIN) is not moved: which side to take is the task, and the
+  arena is marked unfair (DIVIDE);
 - when food still cannot be reached (a passage narrower than the body) or the start has no clear
   place near, the arena is converted again at the next of SCALE_STEPS times the asked scale, and the
   smallest scale at which it is valid on every seed is kept;
@@ -37,6 +39,12 @@ SCALE_STEPS = (1.0, 1.2, 1.4, 1.6)  # times the asked scale, tried in order
 # the causes a start in another region may cure
 REGION_CAUSES = {"start not clear", "food out of reach", "reachable food below the pass mark"}
 START_MARGIN = 0.5  # units of room beyond the body's footprint radius a moved start keeps
+# A start on top of a static box (Animal-AI's agent stands on it) whose two nearest clear regions lie
+# within this many units of the same distance is on a divide (a wall between two sides, 02-03 and
+# 09-01 alike): moving it to either side would make the choice the task asks of the agent, so it is
+# not moved, and the arena is marked unfair.
+SIDE_MARGIN = 5.0
+DIVIDE = "start on a dividing wall (moved off it, the start would choose the side)"
 
 
 def _problems(text: str, name: str, seeds: int) -> list[list[str]]:
@@ -101,6 +109,12 @@ def move_start(data: dict, dump: Callable[[dict], str], name: str) -> str | None
     places = clear_places(spec)
     if not places:
         return None
+    raised = (data.get("extras") or {}).get("animalai", {}).get("start_height")
+    if raised and len(places) > 1:
+        near = [math.hypot(x - agent["x"], y - agent["y"]) for x, y in places[:2]]
+        if near[1] - near[0] < SIDE_MARGIN:  # off a dividing wall: either side, and the move would choose
+            data.setdefault("extras", {}).setdefault("animalai", {})["start_on_divide"] = True
+            return None
     chosen = places[0]
     for x, y in places[:8]:  # the nearest region from which the food can be reached, if one is near
         trial = {**data, "agent": {**agent, "x": round(x, 2), "y": round(y, 2)}}
@@ -134,6 +148,9 @@ def fit(
         moved = move_start(data, dump, name)
         if moved:
             changes.append(moved)
+        if (data.get("extras") or {}).get("animalai", {}).get("start_on_divide"):
+            data["extras"]["animalai"]["unfair"] = DIVIDE
+            return data, names, changes, [DIVIDE]
         problems = _problems(dump(dict(data)), name, seeds)
         if first is None:
             first = (data, names, changes)

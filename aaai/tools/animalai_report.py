@@ -3,7 +3,8 @@
 Every arena of SOURCE is converted (aaai.tools.animalai) and every converted file is checked on
 every seed (aaai.levels.validate through aaai.task.arena), and the counts by cause go to
 REPORT/coverage.csv (one row per arena) and REPORT/coverage.md (the counts): converted or not and
-why, valid on every seed or not and why, and what the importer changed to make it fit (a start
+why, valid on every seed or not and why (and the concrete cause behind the first problem:
+aaai.tools.animalai_causes), and what the importer changed to make it fit (a start
 moved, a larger scale).
 """
 
@@ -19,10 +20,11 @@ from typing import Callable
 
 from aaai.config import ConfigError
 from aaai.files import write_atomic
+from aaai.tools.animalai_causes import OUT_OF_REACH, problem_cause
 from aaai.tools.animalai_fit import cause
 
 COLUMNS = ("source", "arena", "file", "category", "converted", "not_converted_because", "valid_seeds", "seeds",
-           "valid_every_seed", "invalid_because", "changes", "unfair", "first_problem")  # fmt: skip
+           "valid_every_seed", "invalid_because", "cause", "changes", "unfair", "first_problem")  # fmt: skip
 
 
 def category(source: str) -> str:
@@ -48,15 +50,17 @@ def measure(
         row.update(source=result.source, arena=result.arena, file=result.name, category=category(result.source))
         row.update(changes="; ".join(result.changes), unfair="; ".join(result.unfair), seeds=seeds)
         if result.problem:
-            row.update(converted="no", not_converted_because=cause(result.problem), first_problem=result.problem)
+            why = cause(result.problem)
+            row.update(converted="no", not_converted_because=why, cause=why, first_problem=result.problem)
             row.update(valid_seeds=0, valid_every_seed="no")
             rows.append(row)
             continue
         row["converted"] = "yes"
         if result.unfair:
             row["file"] = f"{UNFAIR}/{result.name}"
-        valid, causes, first = 0, Counter[str](), ""
+        valid, causes, first, why = 0, Counter[str](), "", ""
         for seed in range(seeds):
+            spec = None
             try:
                 spec, _, where = parse_arena(out / row["file"], seed)
                 problems = check_arena(spec, where)
@@ -64,9 +68,10 @@ def measure(
                 problems = list(getattr(error, "problems", None) or [str(error)])
             valid += not problems
             causes.update({cause(p) for p in problems})
-            first = first or (problems[0] if problems else "")
+            if problems and not first:  # the cause behind the first problem (aaai.tools.animalai_causes)
+                first, why = problems[0], problem_cause(spec, problems[0])
         row.update(valid_seeds=valid, valid_every_seed="yes" if valid == seeds else "no")
-        row.update(invalid_because="; ".join(sorted(causes)), first_problem=first)
+        row.update(invalid_because="; ".join(sorted(causes)), cause=why, first_problem=first)
         rows.append(row)
     if report is not None:
         write(rows, Path(report), source, seeds, time.process_time() - began)
@@ -95,6 +100,19 @@ def counts(rows: list[dict], seeds: int) -> list[tuple[str, int, str]]:
     return table
 
 
+def cause_counts(rows: list[dict]) -> list[tuple[str, int, str]]:
+    """(cause, arenas, by category) of the arenas not valid on every seed, by the concrete cause of
+    each one's first problem (aaai.tools.animalai_causes), most first."""
+    invalid = [r for r in rows if r["valid_every_seed"] != "yes"]
+    found = Counter(r["cause"] for r in invalid)
+    order = {name: k for k, name in enumerate(OUT_OF_REACH)}
+    table = []
+    for why, n in sorted(found.items(), key=lambda kv: (-kv[1], order.get(kv[0], len(order)), kv[0])):
+        where = Counter(r["category"] for r in invalid if r["cause"] == why)
+        table.append((why, n, ", ".join(f"{c or '-'} {k}" for c, k in sorted(where.items()))))
+    return table
+
+
 def _share(part: int, whole: int) -> str:
     return f"{100 * part / whole:.1f} %" if whole else ""
 
@@ -102,6 +120,8 @@ def _share(part: int, whole: int) -> str:
 def summary(rows: list[dict], seeds: int, echo: Callable[[str], object]) -> None:
     for what, n, note in counts(rows, seeds):
         echo(f"{what:<60} {n:>5}  {note}")
+    for why, n, _ in cause_counts(rows):
+        echo(f"{'  first problem: ' + why:<60} {n:>5}")
 
 
 def write(rows: list[dict], report: Path, source: Path, seeds: int, cpu: float = 0.0) -> None:
@@ -125,6 +145,15 @@ def write(rows: list[dict], report: Path, source: Path, seeds: int, cpu: float =
     by_category: dict[str, list[dict]] = {}
     for row in rows:
         by_category.setdefault(row["category"], []).append(row)
+    lines += [
+        "",
+        "Not valid on every seed, by the cause of the first problem (aaai/tools/animalai_causes.py; the",
+        "`cause` column of `coverage.csv`):",
+        "",
+        "| cause | arenas | by category |",
+        "|---|---:|---|",
+    ]
+    lines += [f"| {why} | {n} | {where} |" for why, n, where in cause_counts(rows)]
     lines += ["", "| category | arenas | converted | valid on every seed |", "|---|---:|---:|---:|"]
     for name, group in sorted(by_category.items()):
         converted = sum(r["converted"] == "yes" for r in group)
