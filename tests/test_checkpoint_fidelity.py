@@ -111,3 +111,75 @@ def test_a_checkpoint_read_back_acts_as_the_learner_did_at_its_step(trained, tru
             np.testing.assert_allclose([scored(o) for o in observations], seen[step]["actions"], atol=1e-6)
     finally:
         env.close()
+
+
+def test_a_checkpoint_and_the_final_model_are_scored_alike_on_the_curve(trained, tmp_path):
+    """The curve scores a checkpoint through its model file and the final point through the run's
+    scoreboard: the same model both ways plays the same episodes, in the same config and numerics."""
+    import csv
+    import shutil
+
+    from aaai.files import file_sha256
+    from aaai.scoring.runs import RunFolder
+    from aaai.train.experiments import Experiment, score_checkpoints, score_run
+
+    source, *_ = trained
+    run = RunFolder(shutil.copytree(source, tmp_path / "run"))
+    twin = run.checkpoints / "step_000000000095"  # the final model, saved as a checkpoint one step before
+    twin.mkdir()
+    shutil.copy(run.final / "model.zip", twin / "model.zip")
+    (twin / "state.json").write_text(json.dumps({**json.loads((run.final / "state.json").read_text()), "step": 95}))
+    experiment = Experiment(tmp_path, ["uniform"], [0], load_config(run.path / "config.yaml"), 1, 1)
+    played: dict[tuple[str, int], list] = {}  # (model file, seed) -> the actions it took
+    init, reset, act = ModelPolicy.__init__, ModelPolicy.reset, ModelPolicy.__call__
+
+    def logged_init(policy, path, *args, **kwargs):
+        policy.path = path
+        init(policy, path, *args, **kwargs)
+
+    def logged_reset(policy, seed):
+        policy.episode = played.setdefault((str(policy.path), seed), [])
+        return reset(policy, seed)
+
+    def logged_act(policy, observation):
+        action = act(policy, observation)
+        policy.episode.append(np.asarray(action).copy())
+        return action
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(ModelPolicy, "__init__", logged_init)
+        patch.setattr(ModelPolicy, "reset", logged_reset)
+        patch.setattr(ModelPolicy, "__call__", logged_act)
+        score_run(experiment, run, echo=lambda _: None)
+        score_checkpoints(experiment, run, echo=lambda _: None)
+
+    def board(path: Path) -> list[dict]:
+        with open(path) as handle:
+            return [{k: v for k, v in row.items() if k != "wall_seconds"} for row in csv.DictReader(handle)]
+
+    def record(path: Path) -> dict:
+        return json.loads(path.with_name(path.stem + "_scored_with.json").read_text())
+
+    final = run.path / "scoreboard_reserved.csv"
+    curve = {int(p.stem.split("_")[1]): p for p in (run.path / "curve").glob("reserved_*.csv")}
+    assert sorted(curve) == [40, 80, 95]
+    assert board(curve[95]) == board(final)  # one model, scored as a checkpoint and as the final model
+    seeds = [int(row["seed"]) for row in board(curve[95])]
+    for seed in seeds:  # ... acts alike, action for action
+        as_final, as_checkpoint = played[(str(run.final / "model.zip"), seed)], played[(str(twin / "model.zip"), seed)]
+        assert len(as_final) == len(as_checkpoint) > 0
+        np.testing.assert_array_equal(as_final, as_checkpoint)
+    assert not np.array_equal(
+        played[(str(run.checkpoints / "step_000000000040" / "model.zip"), seeds[0])],
+        played[(str(run.final / "model.zip"), seeds[0])],
+    )  # another model acts otherwise
+    for step, path in curve.items():
+        ours, theirs = record(path), record(final)
+        file = run.checkpoints / f"step_{step:012d}" / "model.zip"
+        assert ours.pop("model_sha256") == file_sha256(file)
+        for key in ("model", "model_sha256", "policy"):
+            theirs.pop(key)
+            ours.pop(key, None)
+        assert ours == theirs  # the same env config, action mode, numerics and seeds
+    with open(run.path / "curve.csv") as handle:
+        assert [int(row["step"]) for row in csv.DictReader(handle)] == [40, 80, 95, 96]
