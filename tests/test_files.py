@@ -99,13 +99,17 @@ def test_a_held_lock_refuses_at_once_naming_the_holder_and_is_free_after_release
     assert not path.exists()
 
 
+# The child says its pid itself, once it runs: after the fork's handlers (aaai.files closes its copy
+# of the lock there), so a holder killed after that line is read kills no lock the child still holds.
 HOLD_FORK_THEN_SLEEP = """
-import multiprocessing, sys, time
+import multiprocessing, os, sys, time
 from aaai.files import hold
+def rest():
+    print(os.getpid(), flush=True)
+    time.sleep(60)
 hold(sys.argv[1], str)
-child = multiprocessing.get_context("fork").Process(target=time.sleep, args=(60,))
+child = multiprocessing.get_context("fork").Process(target=rest)
 child.start()
-print(child.pid, flush=True)
 time.sleep(60)
 """
 
