@@ -98,3 +98,18 @@ def aaai_here(*args, check=True):
     if check and result.exit_code != 0:
         raise AssertionError(f"aaai {' '.join(map(str, args))} failed:\n{result.output}")
     return SimpleNamespace(returncode=result.exit_code, stdout=result.stdout, stderr=result.stderr)
+
+
+# Animal-AI arena YAML, as its competition files write items (x, z on the floor; y up): an agent
+# (turned by ``r`` degrees), a wall of floor size (sx, sz), 2 high, and a good goal 1 across.
+AAI_AGENT = (
+    "    - !Item\n      name: Agent\n      positions: [!Vector3 {{x: {x}, y: 0, z: {z}}}]\n      rotations: [{r}]\n"
+)
+AAI_WALL = (
+    "    - !Item\n      name: Wall\n      positions: [!Vector3 {{x: {x}, y: 0, z: {z}}}]\n"
+    "      sizes: [!Vector3 {{x: {sx}, y: 2, z: {sz}}}]\n      rotations: [0]\n"
+)
+AAI_GOAL = (
+    "    - !Item\n      name: GoodGoal\n      positions: [!Vector3 {{x: {x}, y: 0, z: {z}}}]\n"
+    "      sizes: [!Vector3 {{x: 1, y: 1, z: 1}}]\n"
+)

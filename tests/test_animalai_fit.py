@@ -6,6 +6,7 @@ import csv
 
 import pytest
 from click.testing import CliRunner
+from conftest import AAI_AGENT, AAI_GOAL, AAI_WALL
 
 from aaai.config import ConfigError
 from aaai.sim.sensors import Blackout
@@ -21,15 +22,8 @@ def arena(body: str, head: str = "    t: 250\n") -> str:
     return HEAD + head + "    items:\n" + body
 
 
-AGENT = "    - !Item\n      name: Agent\n      positions: [!Vector3 {{x: {x}, y: 0, z: {z}}}]\n      rotations: [{r}]\n"
-WALL = (
-    "    - !Item\n      name: Wall\n      positions: [!Vector3 {{x: {x}, y: 0, z: {z}}}]\n"
-    "      sizes: [!Vector3 {{x: {sx}, y: 2, z: {sz}}}]\n      rotations: [0]\n"
-)
-GOAL = (
-    "    - !Item\n      name: GoodGoal\n      positions: [!Vector3 {{x: {x}, y: 0, z: {z}}}]\n"
-    "      sizes: [!Vector3 {{x: 1, y: 1, z: 1}}]\n"
-)
+AGENT = AAI_AGENT
+WALL, GOAL = AAI_WALL, AAI_GOAL
 SIDES = ((30, 25, 6, 0.5), (30, 35, 6, 0.5), (27, 30, 0.5, 9.5), (33, 30, 0.5, 9.5))
 BOX = "".join(WALL.format(x=x, z=z, sx=sx, sz=sz) for x, z, sx, sz in SIDES)  # walls round (30, 30)
 

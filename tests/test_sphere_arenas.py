@@ -5,6 +5,7 @@ environment runs every imported arena valid for it, sized to that arena."""
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import AAI_AGENT, AAI_GOAL, AAI_WALL
 
 from aaai.config import ConfigError
 from aaai.env import AnimalAIEnv
@@ -14,15 +15,8 @@ from aaai.tools.animalai import import_animalai
 from aaai_cli.main import cli
 
 HEAD = "!ArenaConfig\narenas:\n  0: !Arena\n    t: 250\n    items:\n"
-AGENT = "    - !Item\n      name: Agent\n      positions: [!Vector3 {{x: {x}, y: 0, z: {z}}}]\n      rotations: [0]\n"
-WALL = (
-    "    - !Item\n      name: Wall\n      positions: [!Vector3 {{x: {x}, y: 0, z: {z}}}]\n"
-    "      sizes: [!Vector3 {{x: {sx}, y: 2, z: {sz}}}]\n      rotations: [0]\n"
-)
-GOAL = (
-    "    - !Item\n      name: GoodGoal\n      positions: [!Vector3 {{x: {x}, y: 0, z: {z}}}]\n"
-    "      sizes: [!Vector3 {{x: 1, y: 1, z: 1}}]\n"
-)
+AGENT = AAI_AGENT.replace("{r}", "0")
+WALL, GOAL = AAI_WALL, AAI_GOAL
 # A handful of Animal-AI arenas (its units: 40 across, the agent 1 across), as the competition's are
 # written: one valid for both bodies, two for the sphere only, one for neither.
 ARENAS = {

@@ -209,14 +209,14 @@ def food_problems(spec: LevelSpec, food: ObjectSpec, index: Solids | None = None
         bottom, top = z - radius, z + radius
         quad = corners(ObjectSpec(food.kind, "box", (x, y, z), food.size))
         near = index.near(quad)
-        slopes = [ramp_clearance(index.pieces[k], x, y, z, radius) for k in near if index.pieces[k].kind == "ramp"]
-        on_slope = any(clear is not None and abs(clear) < RAMP_REST for clear in slopes)
+        slopes = {k: ramp_clearance(index.pieces[k], x, y, z, radius) for k in near if index.pieces[k].kind == "ramp"}
+        on_slope = any(clear is not None and abs(clear) < RAMP_REST for clear in slopes.values())
         if spec.heightfield is None and not on_slope and not _supported(spec, x, y, z - radius, index):
             problems.append(f"{where} is not on solid ground")
         for k in near:
             obj, (low, high) = index.pieces[k], index.heights[k]
-            if obj.kind == "ramp":  # a wedge: the piece may rest on its slope
-                clear = ramp_clearance(obj, x, y, z, radius)
+            if k in slopes:  # a ramp, a wedge: the piece may rest on its slope
+                clear = slopes[k]
                 if clear is not None:
                     if clear < -RAMP_REST:
                         problems.append(f"{where} cuts into {obj.kind} at {_xy(obj.position)}")
@@ -230,16 +230,17 @@ def food_problems(spec: LevelSpec, food: ObjectSpec, index: Solids | None = None
 RAMP_REST = 0.05  # units: a sphere this close to a ramp's slope rests on it
 
 
-def _ramp_local(ramp: ObjectSpec, x: float, y: float) -> tuple[float, float]:
-    c, s = math.cos(ramp.yaw), math.sin(ramp.yaw)
-    dx, dy = x - ramp.position[0], y - ramp.position[1]
+def _local(obj: ObjectSpec, x: float, y: float) -> tuple[float, float]:
+    """The point (x, y) in the object's own frame (its centre, turned by its yaw)."""
+    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+    dx, dy = x - obj.position[0], y - obj.position[1]
     return c * dx + s * dy, -s * dx + c * dy
 
 
 def ramp_height(ramp: ObjectSpec, x: float, y: float) -> float:
     """A ramp's height above its bottom over the point of its footprint nearest (x, y): it rises
     along its own +x from 0 to its full height."""
-    u, _ = _ramp_local(ramp, x, y)
+    u, _ = _local(ramp, x, y)
     length = ramp.size[0]
     return ramp.size[2] * min(max((u + length / 2) / length, 0.0), 1.0)
 
@@ -248,7 +249,7 @@ def ramp_clearance(ramp: ObjectSpec, x: float, y: float, z: float, radius: float
     """How far a sphere (centre (x, y, z), ``radius``) whose centre lies over a ramp's footprint is
     clear of its slope, measured upright (negative: it cuts in); None when the centre is not over
     the footprint."""
-    u, v = _ramp_local(ramp, x, y)
+    u, v = _local(ramp, x, y)
     if abs(u) > ramp.size[0] / 2 or abs(v) > ramp.size[1] / 2:
         return None
     rise = ramp.size[2] / ramp.size[0]
@@ -427,9 +428,8 @@ def _on_sinking(spec: LevelSpec, x: float, y: float) -> bool:
     for obj in spec.objects:
         moving = behaviour_class(obj)
         if moving and moving.passable:
-            c, s = math.cos(obj.yaw), math.sin(obj.yaw)
-            dx, dy = x - obj.position[0], y - obj.position[1]
-            if abs(c * dx + s * dy) <= obj.size[0] / 2 and abs(-s * dx + c * dy) <= obj.size[1] / 2:
+            u, v = _local(obj, x, y)
+            if abs(u) <= obj.size[0] / 2 and abs(v) <= obj.size[1] / 2:
                 return True
     return False
 
