@@ -9,6 +9,7 @@ from aaai.errors import needs_extra
 from aaai.files import InUse
 
 from .options import (
+    MANY,
     PROGRESS_HELP,
     TRUST_HELP,
     WORKERS,
@@ -100,6 +101,17 @@ from .progress import progress_output
     help="Save each scored episode's replay (JSON: level, seed, config, actions) in this folder, for "
     "aaai run --replay and aaai show --replay (--backend local only).",
 )
+@click.option(
+    "--checkpoints",
+    is_flag=True,
+    help="A learning curve: score each checkpoint of the --policy run and its final model on the same "
+    "reserved episodes (--levels, --difficulty, -k); writes RUN/curve.csv for aaai plot. Resumes.",
+)
+@click.option(
+    "--checkpoint-every",
+    type=click.IntRange(1, MANY),
+    help="With --checkpoints: only the first checkpoint at or past each multiple of this many steps.",
+)
 def eval_command(
     seeds_mode,
     policy,
@@ -118,6 +130,8 @@ def eval_command(
     trust_model,
     progress_every,
     save_replays,
+    checkpoints,
+    checkpoint_every,
 ):
     """Score a policy on fixed seeds: a CSV row per episode and a summary per level."""
     from aaai.jobs import one_thread
@@ -125,6 +139,9 @@ def eval_command(
     from aaai.scoring.evaluation import summary_markdown
 
     one_thread()  # one episode at a time: a small network gains nothing from more torch threads
+    if checkpoints or checkpoint_every:
+        _curve(policy, levels, difficulty, seeds_per_cell, config_path, checkpoint_every, trust_model, progress_every)
+        return
     try:  # refused before any work, and before the levels are read
         check_options(arenas, levels, difficulty, seed_key_file, backend, save_replays)
     except ConfigError as error:
@@ -170,6 +187,65 @@ def eval_command(
         ) from None
     click.echo(summary_markdown(result.summary), nl=False)
     click.echo(f"scoreboard {result.output} ({len(result.rows)} episodes); summary {summary_path}")
+
+
+def _curve(policy, levels, difficulty, seeds_per_cell, config_path, every, trust_model, progress_every) -> None:
+    """``--checkpoints``: the run's learning curve on reserved seeds; the options that choose other
+    episodes or outputs refused."""
+    from aaai.scoring.eval_job import score_checkpoints
+
+    context = click.get_current_context()
+    if not context.params["checkpoints"]:
+        raise click.UsageError(f"--checkpoint-every: got {every}; allowed: only with --checkpoints")
+    changed = {
+        "seeds_mode": "--seeds",
+        "output": "--out",
+        "seed_key_file": "--seed-key-file",
+        "backend": "--backend",
+        "address": "--address",
+        "arenas": "--arenas",
+        "action_mode": "--action-mode",
+        "study_file": "--study",
+        "save_replays": "--save-replays",
+    }
+    clashes = [
+        flag
+        for name, flag in changed.items()
+        if context.get_parameter_source(name) != click.core.ParameterSource.DEFAULT
+    ]
+    if clashes:
+        raise click.UsageError(
+            f"--checkpoints: got {', '.join(clashes)} with it; allowed: --policy RUN with --levels, --difficulty, "
+            "-k, --config, --checkpoint-every, --trust-model (reserved seeds; the curve goes to RUN/curve.csv)"
+        )
+    try:
+        result = score_checkpoints(
+            policy,
+            levels=parse_levels(levels) if levels else None,
+            difficulties=parse_range(difficulty, "--difficulty", 0, 10) if difficulty else None,
+            seeds_per_cell=seeds_per_cell,
+            config_path=config_path,
+            every=every or 0,
+            trust_model=trust_model,
+            progress_every=progress_every,
+            display=progress_output,
+            echo=click.echo,
+        )
+    except InUse as error:
+        raise click.ClickException(str(error)) from None
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    except OSError as error:
+        raise click.ClickException(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai eval")) from None
+    click.echo("| step | training minutes | episodes | passed | pass % |\n|---:|---:|---:|---:|---:|")
+    for row in result.rows:
+        minutes = float(row["seconds"] or "nan") / 60.0
+        click.echo(
+            f"| {row['step']} | {minutes:.1f} | {row['episodes']} | {row['passed']} | {float(row['pass_pct']):.1f} |"
+        )
+    click.echo(f"learning curve {result.output} ({len(result.rows)} points); draw it with: aaai plot {result.output}")
 
 
 def _study_battery(study_file: str, seed_key_file, seeds_per_cell, backend) -> list[tuple]:

@@ -183,3 +183,76 @@ def test_a_checkpoint_and_the_final_model_are_scored_alike_on_the_curve(trained,
         assert ours == theirs  # the same env config, action mode, numerics and seeds
     with open(run.path / "curve.csv") as handle:
         assert [int(row["step"]) for row in csv.DictReader(handle)] == [40, 80, 95, 96]
+
+
+def test_eval_checkpoints_scores_each_checkpoint_and_the_final_model_on_the_same_episodes(trained, tmp_path):
+    """`aaai eval --policy RUN --checkpoints`: a curve point per checkpoint and the final model, each the
+    pass rate on the same reserved episodes as that model's own eval; resumed without playing again;
+    scored again over other episodes; drawn by `aaai plot RUN/curve.csv`."""
+    import csv
+    import shutil
+
+    from conftest import aaai_here
+
+    source, *_ = trained
+    run = shutil.copytree(source, tmp_path / "run")
+    args = ["eval", "--policy", run, "--checkpoints", "--levels", "0", "--difficulty", "0-1", "-k", "2"]
+    first = aaai_here(*args)
+    with open(run / "curve.csv") as handle:
+        curve = list(csv.DictReader(handle))
+    assert [int(r["step"]) for r in curve] == [40, 80, _step(run / "final")]
+    assert {r["episodes"] for r in curve} == {"4"}  # 2 cells x 2 reserved seeds, every point
+    assert all(float(r["seconds"]) > 0 for r in curve)  # the training wall time to each point
+    for row in curve:  # each point is that model's own scoreboard on those episodes
+        point = run / "final" if row is curve[-1] else run / "checkpoints" / f"step_{int(row['step']):012d}"
+        own = aaai_here(
+            "eval",
+            "--policy",
+            point / "model.zip",
+            "--levels",
+            "0",
+            "--difficulty",
+            "0-1",
+            "-k",
+            "2",
+            "--config",
+            run / "config.yaml",
+            "--out",
+            tmp_path / f"own_{row['step']}.csv",
+        )
+        with open(tmp_path / f"own_{row['step']}.csv") as handle:
+            passed = sum(r["outcome"] != "failed" for r in csv.DictReader(handle))
+        assert int(row["passed"]) == passed, own.stdout
+    assert first.stdout.count("scoring the") == 3 and "| 40 |" in first.stdout
+    again = aaai_here(*args)
+    assert "scoring the" not in again.stdout and "3 point(s) scored" in again.stdout
+    wider = aaai_here(*args[:-1], "3")  # -k 3: every point scored again, its 2 seeds' rows kept
+    assert wider.stdout.count("scoring the") == 3
+    with open(run / "curve.csv") as handle:
+        assert {r["episodes"] for r in csv.DictReader(handle)} == {"6"}
+    drawn = aaai_here("plot", run / "curve.csv", "--out", tmp_path / "curve.png")
+    assert (tmp_path / "curve.png").stat().st_size > 1000, drawn.stdout
+
+
+def test_eval_checkpoints_refuses_what_it_cannot_use(trained, tmp_path):
+    from conftest import aaai_here
+
+    source, *_ = trained
+    cases = [
+        (["--policy", source, "--checkpoints", "--out", tmp_path / "x.csv"], "--checkpoints: got --out"),
+        (["--policy", source, "--checkpoints", "--seeds", "train"], "--checkpoints: got --seeds"),
+        (["--policy", source, "--checkpoint-every", "50"], "allowed: only with --checkpoints"),
+        (["--policy", "random", "--checkpoints"], "allowed: a run folder"),
+    ]
+    for extra, message in cases:
+        result = aaai_here("eval", *extra, check=False)
+        assert result.returncode == 2 and message in result.stderr + result.stdout, (extra, result.stdout)
+        assert not (source / "curve.csv").exists()
+
+
+def test_every_nth_keeps_the_first_checkpoint_at_or_past_each_mark():
+    from aaai.scoring.curves import every_nth
+
+    points = [(step, Path(str(step))) for step in (10, 20, 30, 55, 74, 75, 76)]
+    assert [s for s, _ in every_nth(points, 25)] == [10, 30, 55, 75]
+    assert every_nth(points, 0) == points

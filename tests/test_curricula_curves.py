@@ -71,7 +71,7 @@ def test_each_checkpoint_is_scored_on_reserved_seeds_once_and_kept_when_pruned(t
         ("uniform", "200"),
     ]
     again = aaai_here(*args)
-    assert "scoring" not in again.stdout and "1 checkpoint(s) scored, skipped" in again.stdout
+    assert "scoring" not in again.stdout and "2 point(s) scored on these 1 episodes, skipped" in again.stdout
     pruned = aaai_here(*args, "--prune-checkpoints")
     assert "scoring" not in pruned.stdout and not (run / "checkpoints").exists()  # scored, then deleted
     assert read(run / "curve.csv") == curve and read(folder / "uniform-seed0" / "curve.csv")[0]["step"] == "100"

@@ -180,6 +180,58 @@ def score_policy(
         raise ScoreboardError(f"{str(error.filename or output)!r}: {error.strerror or error}") from error
 
 
+@dataclass
+class CurveResult:
+    """What :func:`score_checkpoints` scored: the curve's rows (step, seconds, episodes, passed,
+    pass_pct) and its path."""
+
+    rows: list[dict]
+    output: Path
+
+
+def score_checkpoints(
+    policy: str,
+    *,
+    levels: list[int] | None = None,
+    difficulties: list[int] | None = None,
+    seeds_per_cell: int | None = None,
+    config_path: str | None = None,
+    every: int = 0,
+    trust_model: bool = False,
+    progress_every: float | None = None,
+    display: Display = quietly,
+    echo: Callable[[str], None] = print,
+) -> CurveResult:
+    """``aaai eval --policy RUN --checkpoints``: each checkpoint of the run (every one, or the first
+    at each multiple of ``every`` steps) and its final model scored on the same reserved episodes,
+    the ``levels`` x ``difficulties`` cells (default the run's curriculum) with K seeds each; writes
+    the run's curve.csv and curve/reserved_<step>.csv (:func:`aaai.scoring.curves.score_curve`).
+    ConfigError for a policy that is not a run folder."""
+    from aaai.scoring.curves import curve_points, read_curve, score_curve
+    from aaai.scoring.runs import RunFolder
+
+    chosen = resolve(policy, trust_model)
+    if chosen.run is None or not Path(policy).is_dir():
+        raise ConfigError(
+            f"--checkpoints: --policy got {policy!r}; allowed: a run folder (with checkpoints/ or final/)"
+        )
+    config = chosen.config(config_path)
+    count = seeds_per_cell or config.eval.seeds_per_cell
+    level_list = levels if levels is not None else list(config.curriculum.levels)
+    difficulty_list = difficulties if difficulties is not None else list(config.curriculum.difficulties)
+    cells = cells_for(level_list, difficulty_list, "reserved", count)
+    run = RunFolder(chosen.run)
+    episodes = sum(len(cell.seeds) for cell in cells)
+    scored = {step for step, row in read_curve(run.path / "curve.csv").items() if int(row["episodes"]) == episodes}
+    to_score = [step for step, _ in curve_points(run, every) if step not in scored]
+    report = Progress(episodes * len(to_score), label="scoring", unit="episodes", every=progress_every)
+    with display(report) as update:
+        path = score_curve(
+            run, cells, config, echo, every=every, trust=trust_model, on_episode=_counting(report, update)
+        )
+    return CurveResult(list(read_curve(path).values()), path)
+
+
 def _score_arenas(
     chosen: Policy,
     arenas: str | Path,

@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import concurrent.futures
 import csv
-import io
 import math
 import multiprocessing
 import shutil
@@ -53,6 +52,15 @@ import yaml
 from aaai import safe_yaml
 from aaai.config import Config, ConfigError, load_config
 from aaai.files import atomic_path, write_atomic
+from aaai.scoring.curves import (
+    CURVE_COLUMNS,
+    checkpoint_points,
+    csv_text,
+    pass_pct,
+    read_board,
+    read_curve,
+    score_curve,
+)
 from aaai.scoring.runs import RunFolder
 from aaai.train.curriculum import SAMPLERS, episode_passed
 
@@ -372,85 +380,36 @@ def run_order(experiment: Experiment) -> list[tuple[str, int]]:
 
 
 # --- learning curves on reserved seeds ----------------------------------------------------------
-CURVE_FOLDER = "curve"  # in each run: reserved_<step>.csv per checkpoint scored
-CURVE_COLUMNS = ["step", "seconds", "episodes", "passed", "pass_pct"]
 RESERVED_CURVE_COLUMNS = ["sampler", "seed", *CURVE_COLUMNS]
-
-
-def checkpoint_points(run: RunFolder, needs_model: bool = True) -> list[tuple[int, Path]]:
-    """(step, folder) of the run's checkpoints/step_* (with a model if ``needs_model``), oldest first
-    (final/ not included)."""
-    points = []
-    for folder in sorted(run.checkpoints.glob("step_*")) if run.checkpoints.is_dir() else []:
-        if (folder / "model.zip").is_file() or not needs_model and (folder / "state.json").is_file():
-            points.append((int(RunFolder.read_state(folder)["step"]), folder))
-    return sorted(points)
-
-
-def training_seconds(point: Path) -> float:
-    """The wall time of training to a saved point (its state's ``seconds``); NaN if it predates that record."""
-    try:
-        return float(RunFolder.read_state(point).get("seconds", math.nan))
-    except (OSError, ValueError, TypeError):
-        return math.nan
-
-
-def read_curve(run: RunFolder) -> dict[int, dict]:
-    """The run's curve.csv by step (empty if none yet)."""
-    return {int(r["step"]): r for r in read_board(run.path / "curve.csv")}
-
-
-def curve_row(step: int, seconds: float, rows: list[dict]) -> dict:
-    passed = sum(r["outcome"] != "failed" for r in rows)
-    return {"step": step, "seconds": seconds, "episodes": len(rows), "passed": passed, "pass_pct": pass_pct(rows)}
 
 
 def score_checkpoints(experiment: Experiment, run: RunFolder, echo: Callable[[str], None]) -> Path:
     """Scores each checkpoint of a trained run on the first ``curve_seeds_per_cell`` reserved seeds of
-    its cells (curve/reserved_<step>.csv, played only as far as missing; a checkpoint in curve.csv is
-    skipped) and writes curve.csv: per checkpoint its step, training wall time and reserved pass rate.
-    The final point is the run's reserved scoreboard on those seeds (no episode played again)."""
-    from aaai.scoring.evaluation import cells_for, evaluate, policy_record
-    from aaai.scoring.policies import resolve
+    its cells (:func:`aaai.scoring.curves.score_curve`) and writes its curve.csv. The final point is
+    the run's reserved scoreboard on those seeds (no episode played again)."""
+    from aaai.scoring.evaluation import cells_for
 
     config = load_config(run.read_config())
     cur = config.curriculum
     cells = cells_for(list(cur.levels), list(cur.difficulties), "reserved", experiment.curve_seeds_per_cell)
-    wanted = {(c.level, c.difficulty, seed) for c in cells for seed in c.seeds}
-    curve = read_curve(run)
-    final_step = int(RunFolder.read_state(run.final)["step"])
     random_agent = config.train.agent == "random"  # its checkpoints hold no model: scored with random actions
-    points = [
-        (step, point) for step, point in checkpoint_points(run, needs_model=not random_agent) if step < final_step
-    ]
-    done = [step for step, _ in points if step in curve]
-    if done:
-        echo(f"{run.path / 'curve.csv'}: {len(done)} checkpoint(s) scored, skipped")
-    for step, point in points:
-        if step in curve:
-            continue
-        board = run.path / CURVE_FOLDER / f"reserved_{step:012d}.csv"
-        echo(f"{board}: scoring the checkpoint at {step} steps on {len(wanted)} reserved episodes")
-        one_torch_thread()
-        policy = resolve(str(run.path if random_agent else point / "model.zip"))
-        rows = evaluate(policy, cells, board, config, record=policy_record(policy, "reserved"))
-        curve[step] = curve_row(step, training_seconds(point), rows)
-        write_atomic(run.path / "curve.csv", csv_text([curve[s] for s in sorted(curve)], CURVE_COLUMNS))
-    reserved = [
-        r
-        for r in read_board(run.path / "scoreboard_reserved.csv")
-        if (int(r["level"]), int(r["difficulty"]), int(r["seed"])) in wanted
-    ]
-    curve[final_step] = curve_row(final_step, training_seconds(run.final), reserved)
-    write_atomic(run.path / "curve.csv", csv_text([curve[s] for s in sorted(curve)], CURVE_COLUMNS))
-    return run.path / "curve.csv"
+    one_torch_thread()
+    return score_curve(
+        run,
+        cells,
+        config,
+        echo,
+        final_rows=read_board(run.path / "scoreboard_reserved.csv"),
+        policy_of=(lambda point: str(run.path)) if random_agent else None,
+        needs_model=not random_agent,
+    )
 
 
 def prune_checkpoints(experiment: Experiment, run: RunFolder, echo: Callable[[str], None]) -> None:
     """Deletes a finished run's checkpoints/step_* once curve.csv holds each of them (final/ stays)."""
     if not finished(run, experiment.config.train.total_steps):
         return
-    curve = read_curve(run)
+    curve = read_curve(run.path / "curve.csv")
     points = checkpoint_points(run, needs_model=False)
     if points and all(step in curve for step, _ in points):
         shutil.rmtree(run.checkpoints)
@@ -461,7 +420,7 @@ def reserved_curves(experiment: Experiment) -> list[dict]:
     """Every run's curve.csv rows, with its sampler and seed."""
     rows = []
     for sampler, seed in run_order(experiment):
-        for row in read_curve(RunFolder(experiment.run_dir(sampler, seed))).values():
+        for row in read_curve(experiment.run_dir(sampler, seed) / "curve.csv").values():
             rows.append({"sampler": sampler, "seed": seed, **row})
     return rows
 
@@ -473,17 +432,6 @@ def read_episodes(folder: Path) -> list[dict]:
         return []
     with open(path, newline="") as handle:
         return list(csv.DictReader(handle))
-
-
-def read_board(path: Path) -> list[dict]:
-    if not path.is_file():
-        return []
-    with open(path, newline="") as handle:
-        return list(csv.DictReader(handle))
-
-
-def pass_pct(rows: list[dict]) -> float:
-    return 100.0 * sum(r["outcome"] != "failed" for r in rows) / len(rows) if rows else math.nan
 
 
 RUN_COLUMNS = [
@@ -693,15 +641,6 @@ def tests_markdown(summary: list[dict], rows: list[dict]) -> str:
         f"({RESAMPLES:,} relabellings of the runs, seed 0): p = {number(permuted, 3)}.",
     ]
     return "\n".join(lines) + "\n"
-
-
-def csv_text(rows: list[dict], columns: list[str]) -> str:
-    text = io.StringIO()
-    writer = csv.DictWriter(text, fieldnames=columns, lineterminator="\n")
-    writer.writeheader()
-    for row in rows:
-        writer.writerow({k: (f"{v:.4f}" if isinstance(v, float) else v) for k, v in row.items()})
-    return text.getvalue()
 
 
 def cell_pass_curve(episodes: list[dict], cells: list[tuple[int, int]], steps: np.ndarray, window: int) -> np.ndarray:
