@@ -54,6 +54,8 @@ SKIPPED = {
     "nice -n 10 .venv/bin/python bench/search_teacher.py": "about 1 CPU-hour: 3 x 1,430 episodes (small run: bench/)",
     "aaai train --config configs/student_search.yaml": "about half an hour of DAgger",
     "aaai eval --policy runs/student_search": "needs runs/student_search (above, not run) and its scoring",
+    "aaai eval --policy runs/reward_senses --checkpoints": "needs runs/reward_senses (an hour of training)",
+    "aaai plot runs/reward_senses/curve.csv": "needs the curves of the runs above (not run)",
     "aaai import-animalai animal-ai/": "needs a clone of Animal-AI's repository in animal-ai/",
     "aaai eval --arenas /tmp/aai": "needs the arenas imported from Animal-AI's repository (above, not run)",
     "python -m aaai.tools.animalai /tmp/aai": "needs the arenas imported from Animal-AI's repository (above, not run)",
