@@ -49,6 +49,23 @@ def test_the_band_is_the_95_interval_over_seeds_on_their_common_steps():
     assert band["high"][0] == pytest.approx(15 + half, rel=1e-3)
 
 
+def test_runs_ending_a_rollout_apart_all_count_at_the_end_and_time_is_the_median():
+    ends = {"a": 301_056, "b": 301_552, "c": 301_056}
+    rows = {
+        seed: [{"step": 150_000, "seconds": 150, "pass_pct": 20}, {"step": end, "seconds": t, "pass_pct": p}]
+        for (seed, end), t, p in zip(ends.items(), (300, 310, 3000), (30, 40, 50))
+    }
+    band = band_over_seeds(rows)
+    assert list(band["steps"]) == [150_000, 301_056, 301_552]
+    assert list(band["seeds"]) == [3, 3, 3]  # a and c held at their last value to b's end
+    assert band["mean"][-1] == pytest.approx(40)
+    assert band["seconds"][-1] == pytest.approx(310)  # the median: c's 3,000 s (a loaded machine) moves it not
+    short = band_over_seeds(
+        {**rows, "d": [{"step": 100_000, "seconds": 1, "pass_pct": 0}, {"step": 200_000, "seconds": 2, "pass_pct": 0}]}
+    )
+    assert list(short["seeds"])[-1] == 3  # a seed ending well before the others is not carried on
+
+
 def test_plot_reads_a_checkpoint_csv_with_pass_rate_as_a_fraction(tmp_path):
     board = tmp_path / "recipes.csv"
     board.write_text("mode,decisions,seconds,pass_rate\ngait,5000,7.4,0.1\ngait,10000,12.2,0.8\n")

@@ -844,9 +844,14 @@ def checkpoint_rows(source: Path) -> list[dict]:
         raise ConfigError(f"SOURCE: {str(source)!r} has a value that is not a number ({error})") from None
 
 
+FINAL_TOLERANCE = 0.99  # a seed whose last point is this close to the group's last step counts to the end
+
+
 def band_over_seeds(by_seed: dict[str, list[dict]]) -> dict[str, np.ndarray]:
-    """One group's seeds on the union of their steps (each seed interpolated within its own range):
-    steps, mean seconds, mean pass rate and its 95 % t interval over the seeds present at each step."""
+    """One group's seeds on the union of their steps (each seed interpolated within its own range,
+    and held at its last value to the group's last step when it ends within 1 % of it, as runs of one
+    budget end a rollout apart): steps, median seconds (one run timed on a loaded machine moves a
+    mean), mean pass rate and its 95 % t interval over the seeds present at each step."""
     from scipy import stats
 
     steps = np.array(sorted({float(r["step"]) for rows in by_seed.values() for r in rows}))
@@ -855,7 +860,8 @@ def band_over_seeds(by_seed: dict[str, list[dict]]) -> dict[str, np.ndarray]:
     for rows in by_seed.values():
         rows = sorted(rows, key=lambda r: float(r["step"]))
         at = np.array([float(r["step"]) for r in rows])
-        inside = (steps >= at[0]) & (steps <= at[-1])
+        end = steps[-1] if at[-1] >= FINAL_TOLERANCE * steps[-1] else at[-1]  # runs end a rollout apart
+        inside = (steps >= at[0]) & (steps <= end)
         for values, column in ((passes, "pass_pct"), (seconds, "seconds")):
             y = np.interp(steps, at, np.array([float(r[column]) for r in rows]))
             values.append(np.where(inside, y, np.nan))
@@ -865,7 +871,7 @@ def band_over_seeds(by_seed: dict[str, list[dict]]) -> dict[str, np.ndarray]:
         mean = np.nanmean(pass_array, axis=0)
         spread = np.nanstd(pass_array, axis=0, ddof=1) if len(pass_array) > 1 else np.full(len(steps), np.nan)
         half = np.where(count > 1, stats.t.ppf(0.975, np.maximum(count - 1, 1)) * spread / np.sqrt(count), np.nan)
-        time = np.nanmean(second_array, axis=0) if not np.isnan(second_array).all() else np.full(len(steps), np.nan)
+        time = np.nanmedian(second_array, axis=0) if not np.isnan(second_array).all() else np.full(len(steps), np.nan)
     return {"steps": steps, "seconds": time, "mean": mean, "low": mean - half, "high": mean + half, "seeds": count}
 
 
@@ -896,7 +902,7 @@ def plot_checkpoints(sources: list[str | Path], path: str | Path) -> Path:
     axes[0][0].xaxis.set_major_formatter(lambda x, _: f"{x / 1000:g}k" if x else "0")
     axes[0][0].set_xlabel("training decisions (agent steps)")
     if timed:
-        axes[0][1].set_xlabel("training wall time (minutes, mean over seeds)")
+        axes[0][1].set_xlabel("training wall time (minutes, median over seeds)")
     for panel in axes[0]:
         panel.set_ylabel("pass rate on reserved seeds (%)")
         panel.set_ylim(-2, 102)
