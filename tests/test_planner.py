@@ -152,16 +152,20 @@ def here_and_there(walk):
     return goals
 
 
-def test_an_imported_arena_is_planned_bit_for_bit_as_before(tmp_path):
-    # an Animal-AI arena (40 x 40, imported at scale 5: 200 x 200 units, 400 x 400 cells) with a
-    # wall across most of it, the food behind
+def wall_arena(folder):
+    """An Animal-AI arena (40 x 40, imported at scale 5: 200 x 200 units, 400 x 400 cells) with a wall
+    across most of it and the food behind, imported into ``folder``."""
     items = AAI_AGENT.format(x=20, z=5, r=0) + AAI_WALL.format(x=16, z=20, sx=30, sz=1) + AAI_GOAL.format(x=20, z=35)
-    source = tmp_path / "src"
+    source = folder / "src"
     source.mkdir()
     (source / "wall.yaml").write_text("!ArenaConfig\narenas:\n  0: !Arena\n    t: 250\n    items:\n" + items)
-    (result,) = import_animalai(source, tmp_path / "out", echo=lambda _: None)
+    (result,) = import_animalai(source, folder / "out", echo=lambda _: None)
     assert not result.problem
-    spec = load_arena(tmp_path / "out" / "wall.yaml")
+    return load_arena(folder / "out" / "wall.yaml")
+
+
+def test_an_imported_arena_is_planned_bit_for_bit_as_before(tmp_path):
+    spec = wall_arena(tmp_path)
     walk, crowding = reference_map(spec)
     assert walk.shape == (400, 400)
     goals, cost = next(plans(spec, walk, crowding))
