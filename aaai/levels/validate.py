@@ -15,7 +15,6 @@ above it, and food may rest on its slope (``ramp_clearance``); a death zone and 
 
 from __future__ import annotations
 
-import heapq
 import math
 
 import cv2
@@ -367,36 +366,51 @@ def reachable_region(
     return (leaned > 0) & (clearance > reach), True
 
 
+# The eight moves on the grid, (rows, columns), and half the length in units of each: a move costs its
+# length times the mean of its two cells' costs, (length * 0.5) * (cost + cost of the other cell).
+MOVES = [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
+HALF_LENGTHS = [GRID * math.hypot(dr, dc) * 0.5 for dr, dc in MOVES]
+
+
 def path_costs(region: np.ndarray, goals: np.ndarray, cell_cost: np.ndarray | None = None) -> np.ndarray:
     """Cost of the cheapest 8-connected path inside ``region`` from every cell to the nearest goal
-    cell (inf where none leads there), in units: each move costs its length times the mean
-    ``cell_cost`` (default 1) of its two cells. Dijkstra's algorithm on the occupancy grid."""
+    cell (inf where none leads there, and everywhere when no goal lies in the region), in units: each
+    move costs its length times the mean ``cell_cost`` (default 1; not negative, inf where never to
+    be entered) of its two cells. Dijkstra's algorithm (scipy's csgraph) from all the goals at once,
+    on the graph of the region's cells and their eight neighbours: a move's cost is the float64
+    ``(GRID * hypot(dr, dc) * 0.5) * (cost[cell] + cost[neighbour])`` and a cell's the least sum of
+    them on a path from a goal: a plan is the same float for float whatever order cells are visited in.
+    """
+    # imported here: scipy.sparse takes a fifth of a second to import, which every command would pay
+    from scipy.sparse import csr_array
+    from scipy.sparse.csgraph import dijkstra
+
     rows, cols = region.shape
-    cost = np.ones(region.shape) if cell_cost is None else cell_cost
-    inside = region.ravel().tolist()
-    weight = cost.ravel().tolist()
-    best = [math.inf] * (rows * cols)
-    queue = []
-    for index in np.flatnonzero(goals & region).tolist():
-        best[index] = 0.0
-        queue.append((0.0, index))
-    heapq.heapify(queue)
-    moves = [(dr, dc, GRID * math.hypot(dr, dc)) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
-    while queue:
-        here, index = heapq.heappop(queue)
-        if here > best[index]:
-            continue
-        row, col = divmod(index, cols)
-        for dr, dc, length in moves:
-            r, c = row + dr, col + dc
-            if 0 <= r < rows and 0 <= c < cols:
-                other = r * cols + c
-                if inside[other]:
-                    total = here + length * 0.5 * (weight[index] + weight[other])
-                    if total < best[other]:
-                        best[other] = total
-                        heapq.heappush(queue, (total, other))
-    return np.array(best).reshape(rows, cols)
+    n = rows * cols
+    sources = np.flatnonzero(goals & region)
+    if sources.size == 0:
+        return np.full(region.shape, math.inf)
+    cost = np.ones(region.shape) if cell_cost is None else np.asarray(cell_cost, dtype=np.float64)
+    inside = np.zeros((rows + 2, cols + 2), bool)  # a border of cells outside, so each move is a slice
+    inside[1:-1, 1:-1] = region
+    around = np.zeros((rows + 2, cols + 2))
+    around[1:-1, 1:-1] = cost
+    moves = len(MOVES)
+    edge = np.empty((moves, rows, cols), bool)  # a move from this cell stays in the region
+    weight = np.empty((moves, rows, cols))
+    for m, (dr, dc) in enumerate(MOVES):
+        there = slice(1 + dr, 1 + dr + rows), slice(1 + dc, 1 + dc + cols)
+        np.logical_and(inside[there], region, out=edge[m])
+        np.add(cost, around[there], out=weight[m])
+        weight[m] *= HALF_LENGTHS[m]
+    offsets = np.array([dr * cols + dc for dr, dc in MOVES], np.int32)
+    edges = edge.reshape(moves, n).T  # cell by cell, as CSR holds them
+    neighbours = (np.arange(n, dtype=np.int32)[:, None] + offsets)[edges]
+    starts = np.zeros(n + 1, np.int32)
+    np.cumsum(edge.sum(0, dtype=np.int32).ravel(), out=starts[1:])
+    # explicit zeros (cells of cost 0) stay edges in a CSR graph; only a dense one drops them
+    graph = csr_array((weight.reshape(moves, n).T[edges], neighbours, starts), shape=(n, n))
+    return dijkstra(graph, directed=True, indices=sources, min_only=True).reshape(rows, cols)
 
 
 def cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
