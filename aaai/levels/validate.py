@@ -319,12 +319,32 @@ def fill(grid: np.ndarray, spec: LevelSpec, quad, value: int = 1) -> None:
     cv2.fillConvexPoly(grid, points, value, lineType=cv2.LINE_8, shift=shift)
 
 
+def distances(free: np.ndarray) -> np.ndarray:
+    """float32: the Euclidean distance, in cells, from each free (true, non-zero) cell's centre to the
+    nearest cell's centre that is not free (0 there; inf everywhere when every cell is free).
+
+    Exact, and a function of the values alone: scipy's feature transform finds the nearest cell in
+    integers, its squared distance is an integer, and the float64 square root, correctly rounded,
+    rounded again to float32 is the correctly rounded float32 square root (so the same on every CPU,
+    whatever the array's memory layout). OpenCV's ``distanceTransform`` (DIST_L2, DIST_MASK_PRECISE)
+    was not: below 2**14 cells it runs Intel IPP's, whose last bits depend on the CPU and on where the
+    output lies in memory.
+    """
+    # imported here: scipy.ndimage takes a sixth of a second to import, which every command would pay
+    from scipy.ndimage import distance_transform_edt
+
+    free = np.asarray(free) != 0
+    if free.all():
+        return np.full(free.shape, np.inf, np.float32)
+    return distance_transform_edt(free).astype(np.float32)
+
+
 def clearance_map(spec: LevelSpec, grid: np.ndarray | None = None) -> np.ndarray:
-    """Distance (units) from each cell's centre to the nearest blocked cell or the arena's edge."""
+    """float32: the distance (units) from each cell's centre to the nearest blocked cell or the arena's
+    edge (:func:`distances`, exact)."""
     grid = blocked_grid(spec) if grid is None else grid
     padded = np.pad(grid, 1, constant_values=1)  # the arena's walls
-    clearance = cv2.distanceTransform((padded == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    return clearance[1:-1, 1:-1] * GRID
+    return distances(padded == 0)[1:-1, 1:-1] * GRID
 
 
 def walk_region(

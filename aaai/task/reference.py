@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 import pybullet as p
 
@@ -152,9 +151,7 @@ class ReferenceController:
             zones = np.zeros(self.clearance.shape, np.uint8)
             for obj in hot:
                 validate.fill(zones, self.level, corners(obj))
-            away = (
-                cv2.distanceTransform((zones == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * validate.GRID
-            )
+            away = validate.distances(zones == 0) * validate.GRID
             self.crowding = self.crowding + HOT_COST * (away < FOOTPRINT_RADIUS)
         self.plan_key = None
 
