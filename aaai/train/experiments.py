@@ -42,6 +42,7 @@ import math
 import multiprocessing
 import shutil
 import sys
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -867,7 +868,8 @@ def band_over_seeds(by_seed: dict[str, list[dict]]) -> dict[str, np.ndarray]:
             values.append(np.where(inside, y, np.nan))
     pass_array, second_array = np.array(passes), np.array(seconds)
     count = np.sum(~np.isnan(pass_array), axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a step with one seed has no spread: NaN, no band
         mean = np.nanmean(pass_array, axis=0)
         spread = np.nanstd(pass_array, axis=0, ddof=1) if len(pass_array) > 1 else np.full(len(steps), np.nan)
         half = np.where(count > 1, stats.t.ppf(0.975, np.maximum(count - 1, 1)) * spread / np.sqrt(count), np.nan)
