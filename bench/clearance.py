@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import os
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -37,6 +36,7 @@ from test_planner import wall_arena  # noqa: E402
 
 from aaai.levels import generate, validate  # noqa: E402
 from aaai.levels.validate import GRID  # noqa: E402
+from aaai.tools.rounds import alternate, load, per_round, spread_text  # noqa: E402
 
 EXACT = validate.clearance_map
 EPISODES = [(3, 0, 1372987030), (10, 10, 1525883966), (3, 9, 1715746910)]
@@ -152,21 +152,23 @@ def section_cpus() -> list[str]:
 
 
 def section_time(cases: dict[str, tuple], rounds: int, calls: int) -> list[str]:
+    """Each grid: OpenCV's map and the exact one alternated over ``rounds``, ms per call, and the ratio
+    within each round."""
     makers = {"opencv": opencv_clearance(), "exact": EXACT}
-    times: dict[tuple[str, str], list[float]] = {(g, m): [] for g in cases for m in makers}
-    for round_ in range(rounds):
-        for name, (spec, grid) in cases.items():
-            order = list(makers) if round_ % 2 == 0 else list(makers)[::-1]
-            for maker in order:
-                started = time.perf_counter()
-                for _ in range(calls):
-                    makers[maker](spec, grid)
-                times[name, maker].append((time.perf_counter() - started) / calls * 1000)
+
+    def timed(maker, spec, grid) -> float:
+        started = time.perf_counter()
+        for _ in range(calls):
+            maker(spec, grid)
+        return (time.perf_counter() - started) / calls * 1000
+
     lines = ["| grid | OpenCV ms/call | exact ms/call | exact / OpenCV |", "|---|---:|---:|---:|"]
-    for name in cases:
-        old, new = times[name, "opencv"], times[name, "exact"]
-        ratio = [b / a for a, b in zip(old, new)]
-        lines.append(f"| {name} | {spread(old, 2)} | {spread(new, 2)} | {spread(ratio, 1)} |")
+    for name, (spec, grid) in cases.items():
+        times = alternate({m: lambda maker=maker: timed(maker, spec, grid) for m, maker in makers.items()}, rounds)
+        old, new = times["opencv"], times["exact"]
+        lines.append(
+            f"| {name} | {spread_text(old, 2)} | {spread_text(new, 2)} | {spread_text(per_round(new, old), 1)} |"
+        )
     return lines
 
 
@@ -203,10 +205,6 @@ def section_episodes() -> list[str]:
             print(level, difficulty, seed, offset, row["steps"], calls[0], flush=True)
         lines.append(f"| L{level} d{difficulty} seed {seed} | " + " | ".join(map(str, steps)) + f" | {calls[0]} |")
     return lines
-
-
-def spread(values: list[float], digits: int = 1) -> str:
-    return f"{statistics.median(values):.{digits}f} ({min(values):.{digits}f}..{max(values):.{digits}f})"
 
 
 def main() -> None:
@@ -250,7 +248,7 @@ def main() -> None:
             "",
             *section_episodes(),
         ]
-    lines += ["", f"Load average when written: {' '.join(f'{v:.2f}' for v in os.getloadavg())}.", ""]
+    lines += ["", f"Load average when written: {' '.join(f'{v:.2f}' for v in load())}.", ""]
     args.out.write_text("\n".join(lines))
     print("\n".join(lines))
 

@@ -16,7 +16,6 @@ episodes' seconds (the scoreboard's wall_seconds) are compared. Writes bench/pla
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 import sys
 import tempfile
@@ -31,6 +30,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from test_planner import oracle, plans, reference_map, wall_arena  # noqa: E402
 
 from aaai.levels import generate, validate  # noqa: E402
+from aaai.tools.rounds import alternate, load, per_round, spread_text  # noqa: E402
 
 NEW = validate.path_costs
 PLANNERS = {"python": oracle, "scipy": NEW}
@@ -54,30 +54,23 @@ def time_calls(planner, grid, calls: int) -> float:
     return (time.perf_counter() - started) / calls * 1000
 
 
-def spread(values: list[float], digits: int = 1) -> str:
-    return f"{statistics.median(values):.{digits}f} ({min(values):.{digits}f}..{max(values):.{digits}f})"
-
-
 def bench_calls(rounds: int, calls: int, folder: Path) -> list[str]:
-    cases = grids(folder)
-    times: dict[tuple[str, str], list[float]] = {(g, p): [] for g in cases for p in PLANNERS}
-    ratios: dict[str, list[float]] = {g: [] for g in cases}
-    for round_ in range(rounds):
-        for name, grid in cases.items():
-            assert np.array_equal(oracle(*grid), NEW(*grid)), f"{name}: the planners differ"
-            order = list(PLANNERS) if round_ % 2 == 0 else list(PLANNERS)[::-1]
-            for planner in order:
-                times[name, planner].append(time_calls(PLANNERS[planner], grid, calls))
-            ratios[name].append(times[name, "python"][-1] / times[name, "scipy"][-1])
-            print(round_, name, {p: round(times[name, p][-1], 2) for p in PLANNERS}, flush=True)
+    """Each grid: both planners alternated over ``rounds`` (the same array from both, checked each
+    round), ms per call and the ratio within each round."""
     lines = [
         "| grid | cells (in the region) | python ms/call | scipy ms/call | python / scipy |",
         "|---|---|---:|---:|---:|",
     ]
-    for name, (walk, _, _) in cases.items():
+    for name, grid in grids(folder).items():
+        assert np.array_equal(oracle(*grid), NEW(*grid)), f"{name}: the planners differ"
+        times = alternate(
+            {p: lambda planner=planner: time_calls(planner, grid, calls) for p, planner in PLANNERS.items()}, rounds
+        )
+        print(name, {p: [round(t, 2) for t in times[p]] for p in PLANNERS}, flush=True)
+        walk = grid[0]
         lines.append(
-            f"| {name} | {walk.shape[0]} x {walk.shape[1]} ({int(walk.sum()):,}) | {spread(times[name, 'python'])} "
-            f"| {spread(times[name, 'scipy'])} | {spread(ratios[name])} |"
+            f"| {name} | {walk.shape[0]} x {walk.shape[1]} ({int(walk.sum()):,}) | {spread_text(times['python'])} "
+            f"| {spread_text(times['scipy'])} | {spread_text(per_round(times['python'], times['scipy']))} |"
         )
     return lines
 
@@ -117,7 +110,7 @@ def bench_episodes(arenas: list[Path], seeds: list[int], rounds: int) -> list[st
             rows[arena.name, seed, "python"] == rows[arena.name, seed, "scipy"] for seed in seeds
         )
         lines.append(
-            f"| {arena.name} | {len(old)} | {spread(old, 2)} | {spread(new, 2)} | "
+            f"| {arena.name} | {len(old)} | {spread_text(old, 2)} | {spread_text(new, 2)} | "
             f"{statistics.median(old) / statistics.median(new):.2f} | {'identical' if same else 'differ'} |"
         )
     return lines
@@ -153,7 +146,7 @@ def main() -> None:
             "",
             *bench_episodes(args.episodes, seeds, args.episode_rounds),
         ]
-    lines += ["", f"Load average when written: {' '.join(f'{v:.2f}' for v in os.getloadavg())}.", ""]
+    lines += ["", f"Load average when written: {' '.join(f'{v:.2f}' for v in load())}.", ""]
     args.out.write_text("\n".join(lines))
     print("\n".join(lines))
 

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+from typing import Iterator
+
 import click
 
 from aaai.config import ConfigError
@@ -147,7 +150,7 @@ def eval_command(
     except ConfigError as error:
         raise click.UsageError(str(error)) from None
     battery = _study_battery(study_file, seed_key_file, seeds_per_cell, backend) if study_file else None
-    try:
+    with _refusals():
         result = score_policy(
             policy,
             seeds=seeds_mode,
@@ -168,14 +171,6 @@ def eval_command(
             display=progress_output,
             battery=battery,
         )
-    except InUse as error:  # another eval writes this scoreboard: its pid named
-        raise click.ClickException(str(error)) from None
-    except (ConfigError, FileNotFoundError) as error:
-        raise click.UsageError(str(error)) from None
-    except OSError as error:  # an output that became unwritable midway (its rows so far stay): named
-        raise click.ClickException(str(error)) from None
-    except ImportError as error:
-        raise click.ClickException(needs_extra(error, "aaai eval")) from None
     try:
         summary_path = result.write_summary()
     except OSError as error:  # the summary is printed anyway
@@ -187,6 +182,22 @@ def eval_command(
         ) from None
     click.echo(summary_markdown(result.summary), nl=False)
     click.echo(f"scoreboard {result.output} ({len(result.rows)} episodes); summary {summary_path}")
+
+
+@contextmanager
+def _refusals() -> Iterator[None]:
+    """What scoring refuses, as one line: another process at the output (its pid named), an input not
+    allowed, an output that became unwritable midway (its rows so far stay), a missing extra."""
+    try:
+        yield
+    except InUse as error:
+        raise click.ClickException(str(error)) from None
+    except (ConfigError, FileNotFoundError) as error:
+        raise click.UsageError(str(error)) from None
+    except OSError as error:
+        raise click.ClickException(str(error)) from None
+    except ImportError as error:
+        raise click.ClickException(needs_extra(error, "aaai eval")) from None
 
 
 def _curve(policy, levels, difficulty, seeds_per_cell, config_path, every, trust_model, progress_every) -> None:
@@ -218,7 +229,7 @@ def _curve(policy, levels, difficulty, seeds_per_cell, config_path, every, trust
             f"--checkpoints: got {', '.join(clashes)} with it; allowed: --policy RUN with --levels, --difficulty, "
             "-k, --config, --checkpoint-every, --trust-model (reserved seeds; the curve goes to RUN/curve.csv)"
         )
-    try:
+    with _refusals():
         result = score_checkpoints(
             policy,
             levels=parse_levels(levels) if levels else None,
@@ -231,14 +242,6 @@ def _curve(policy, levels, difficulty, seeds_per_cell, config_path, every, trust
             display=progress_output,
             echo=click.echo,
         )
-    except InUse as error:
-        raise click.ClickException(str(error)) from None
-    except (ConfigError, FileNotFoundError) as error:
-        raise click.UsageError(str(error)) from None
-    except OSError as error:
-        raise click.ClickException(str(error)) from None
-    except ImportError as error:
-        raise click.ClickException(needs_extra(error, "aaai eval")) from None
     click.echo("| step | training minutes | episodes | passed | pass % |\n|---:|---:|---:|---:|---:|")
     for row in result.rows:
         minutes = float(row["seconds"] or "nan") / 60.0

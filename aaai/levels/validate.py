@@ -366,15 +366,19 @@ def walk_region(
 
 
 def reachable_region(
-    spec: LevelSpec, grid: np.ndarray | None = None, footprint: float = FOOTPRINT_RADIUS
+    spec: LevelSpec,
+    grid: np.ndarray | None = None,
+    footprint: float = FOOTPRINT_RADIUS,
+    clearance: np.ndarray | None = None,
 ) -> tuple[np.ndarray, bool]:
     """Where the head's centre can get to from the start (a bool grid), and whether the start is clear.
 
     The body walks where a disc of ``footprint`` (default FOOTPRINT_RADIUS) is clear, in the start's
     connected region; from there it can push its head on to any place with REACH_CLEARANCE (for another
-    footprint, that footprint less the same FOOTPRINT_RADIUS - REACH_CLEARANCE).
+    footprint, that footprint less the same FOOTPRINT_RADIUS - REACH_CLEARANCE). ``clearance``: the
+    grid's clearance map if already made (else made here).
     """
-    clearance = clearance_map(spec, grid)
+    clearance = clearance_map(spec, grid) if clearance is None else clearance
     walk = walk_region(spec, clearance, footprint=footprint)
     if walk is None:
         return np.zeros_like(clearance, bool), False

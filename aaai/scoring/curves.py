@@ -74,6 +74,12 @@ def read_curve(path: Path) -> dict[int, dict]:
     return {int(r["step"]): r for r in read_board(path)}
 
 
+def scored_points(curve_path: Path, episodes: int) -> dict[int, dict]:
+    """The points of a curve.csv (by step) scored over ``episodes`` episodes: the others were scored on
+    another set (another -k or set of levels) and are scored again."""
+    return {step: row for step, row in read_curve(curve_path).items() if int(row["episodes"]) == episodes}
+
+
 def pass_pct(rows: list[dict]) -> float:
     return 100.0 * sum(r["outcome"] != "failed" for r in rows) / len(rows) if rows else math.nan
 
@@ -137,7 +143,7 @@ def score_curve(
         curve_path.with_name("curve.csv.lock"),
         lambda pid: f"{str(curve_path)!r}: another process ({pid}) scores this run's curve",
     ):
-        curve = {s: r for s, r in read_curve(curve_path).items() if int(r["episodes"]) == len(wanted)}
+        curve = scored_points(curve_path, len(wanted))
         done = [step for step, _ in points if step in curve]
         if done:
             echo(f"{curve_path}: {len(done)} point(s) scored on these {len(wanted)} episodes, skipped")

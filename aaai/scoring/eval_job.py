@@ -24,6 +24,7 @@ from aaai.scoring.evaluation import (
     summarise_arenas,
     write_summary,
 )
+from aaai.scoring.plan import Cell
 from aaai.scoring.policies import Policy, resolve
 
 
@@ -143,9 +144,7 @@ def score_policy(
             return _score_arenas(
                 chosen, arenas, seeds, count, run_folder, output, config, save_replays, progress_every, display
             )
-        level_list = levels if levels is not None else list(config.curriculum.levels)
-        difficulty_list = difficulties if difficulties is not None else list(config.curriculum.difficulties)
-        cells = cells_for(level_list, difficulty_list, seeds, count, key)
+        cells = _level_cells(config, levels, difficulties, seeds, count, key)
         label = seeds if seeds in ("reserved", "train") else "list"
         output = Path(output) if output else (run_folder or Path(".")) / f"scoreboard_{label}.csv"
         record = policy_record(chosen, seeds, key)
@@ -180,6 +179,20 @@ def score_policy(
         raise ScoreboardError(f"{str(error.filename or output)!r}: {error.strerror or error}") from error
 
 
+def _level_cells(
+    config: Config,
+    levels: list[int] | None,
+    difficulties: list[int] | None,
+    seeds: str,
+    count: int,
+    key: str | None = None,
+) -> list[Cell]:
+    """The ``levels`` x ``difficulties`` cells (default: the config's curriculum), K = ``count`` seeds each."""
+    level_list = levels if levels is not None else list(config.curriculum.levels)
+    difficulty_list = difficulties if difficulties is not None else list(config.curriculum.difficulties)
+    return cells_for(level_list, difficulty_list, seeds, count, key)
+
+
 @dataclass
 class CurveResult:
     """What :func:`score_checkpoints` scored: the curve's rows (step, seconds, episodes, passed,
@@ -207,7 +220,7 @@ def score_checkpoints(
     the ``levels`` x ``difficulties`` cells (default the run's curriculum) with K seeds each; writes
     the run's curve.csv and curve/reserved_<step>.csv (:func:`aaai.scoring.curves.score_curve`).
     ConfigError for a policy that is not a run folder."""
-    from aaai.scoring.curves import curve_points, read_curve, score_curve
+    from aaai.scoring.curves import curve_points, read_curve, score_curve, scored_points
     from aaai.scoring.runs import RunFolder
 
     chosen = resolve(policy, trust_model)
@@ -216,13 +229,10 @@ def score_checkpoints(
             f"--checkpoints: --policy got {policy!r}; allowed: a run folder (with checkpoints/ or final/)"
         )
     config = chosen.config(config_path)
-    count = seeds_per_cell or config.eval.seeds_per_cell
-    level_list = levels if levels is not None else list(config.curriculum.levels)
-    difficulty_list = difficulties if difficulties is not None else list(config.curriculum.difficulties)
-    cells = cells_for(level_list, difficulty_list, "reserved", count)
+    cells = _level_cells(config, levels, difficulties, "reserved", seeds_per_cell or config.eval.seeds_per_cell)
     run = RunFolder(chosen.run)
     episodes = sum(len(cell.seeds) for cell in cells)
-    scored = {step for step, row in read_curve(run.path / "curve.csv").items() if int(row["episodes"]) == episodes}
+    scored = scored_points(run.path / "curve.csv", episodes)
     to_score = [step for step, _ in curve_points(run, every) if step not in scored]
     report = Progress(episodes * len(to_score), label="scoring", unit="episodes", every=progress_every)
     with display(report) as update:

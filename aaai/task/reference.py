@@ -132,7 +132,7 @@ class ReferenceController:
         going for one ends at a wall or in the time limit."""
         if spec.extras.get("reach") != "pass_mark" or isinstance(self.env.body, Sphere):
             return []
-        region, clear = validate.reachable_region(spec, self.grid)  # the grid _map has made
+        region, clear = validate.reachable_region(spec, clearance=self.clearance)  # the map _map has made
         return [food for food in spec.foods if not (clear and validate.food_reachable(spec, region, food))]
 
     def _map(self, start: tuple[float, float] | None = None) -> None:

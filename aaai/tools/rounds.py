@@ -37,6 +37,12 @@ def summary(values: list[float]) -> dict:
     }
 
 
+def spread_text(values: list[float], digits: int = 1) -> str:
+    """Per-round values as 'median (min..max)'."""
+    figure = summary(values)
+    return f"{figure['median']:.{digits}f} ({figure['min']:.{digits}f}..{figure['max']:.{digits}f})"
+
+
 def per_round(numerator: list[float], denominator: list[float], minus_one: bool = False) -> list[float]:
     """Round by round ratios (numerator / denominator, less one for an overhead)."""
     return [a / b - (1.0 if minus_one else 0.0) for a, b in zip(numerator, denominator)]
