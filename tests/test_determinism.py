@@ -39,6 +39,17 @@ def short_rows(name: str, count: int = 10, folder: Path = BASELINES) -> list[dic
     return sorted(shortest.values(), key=lambda row: int(row["steps"]))[:count]
 
 
+def median_rows(name: str, folder: Path = BASELINES) -> list[dict]:
+    """The episode of median length of each level: long enough that the reference's route depends on
+    the last bits of its clearance map (the shortest rows passed while that map varied)."""
+    with open(folder / f"{name}.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    by_level: dict[str, list[dict]] = {}
+    for row in rows:
+        by_level.setdefault(row["level"], []).append(row)
+    return [sorted(level, key=lambda row: int(row["steps"]))[len(level) // 2] for level in by_level.values()]
+
+
 def scored_now(name: str) -> bool:
     return json.loads((BASELINES / PROVENANCE).read_text())[name]["numerics"] in (NUMERICS, "none")
 
@@ -90,6 +101,15 @@ def test_a_learned_policy_acts_in_float64_on_the_grid():
     assert {p.dtype for p in acting.model.policy.parameters()} == {__import__("torch").float64}
     assert action.dtype == np.float32 and np.array_equal(action, on_grid(action))
     assert policy.numerics == NUMERICS
+
+
+@pytest.mark.long
+def test_the_references_median_episodes_rescore_exactly():
+    """The reference's episode of median length on each level, played again, gives the same row: its
+    plan reads a clearance map, which once varied with the memory it was written to."""
+    rows = median_rows("reference")
+    assert len(rows) == 13 and min(int(row["steps"]) for row in rows) > 100
+    assert differing(rows, rescore(BASELINES, "reference", rows)) == []
 
 
 @pytest.mark.long
