@@ -63,6 +63,16 @@ def test_committed_baseline_rows_rescore_exactly(name):
     assert differing(rows, rescore(BASELINES, name, rows)) == []
 
 
+def test_the_camera_students_rows_rescore_exactly():
+    """The camera student (a CNN on the head camera's 64 px image, TinyRenderer): 8 rows, the shortest
+    of 8 levels, played again give the same rows, image and all."""
+    if not scored_now("student_camera"):
+        pytest.skip(f"baselines/student_camera.csv was scored before {NUMERICS}; re-score it")
+    rows = short_rows("student_camera", 8)
+    assert len({row["level"] for row in rows}) == 8
+    assert differing(rows, rescore(BASELINES, "student_camera", rows)) == []
+
+
 @pytest.mark.parametrize("name", ["student_search", "student_search_lstm"])
 def test_the_students_of_the_level_table_rescore_exactly(name):
     """The students of docs/learned-agents.md ("What each level measures"), scored on part of the
