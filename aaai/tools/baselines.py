@@ -35,8 +35,9 @@ from aaai.jobs import one_thread
 from aaai.levels import all_levels, get_level
 from aaai.scoring.evaluation import COLUMNS, cells_for, evaluate, evaluate_arenas, policy_record, scored_episodes
 from aaai.scoring.policies import Policy, resolve
+from aaai.tools.animalai_arena import CATEGORIES
 from aaai.train.curriculum import heatmap_panel
-from aaai.train.limbs import OLYMPICS, LimbsSettings, check_tasks, read_rows
+from aaai.train.limbs import LimbsSettings, check_tasks, read_rows
 
 SHOWN_DIFFICULTIES = (0, 5, 10)
 PROVENANCE = "provenance.json"  # per scoreboard: how its actions were computed (write_provenance)
@@ -329,7 +330,7 @@ def olympics_category(arena: str) -> str:
     """An imported competition file's Olympics category by its name (``01-05-02.yaml``: "01 food
     retrieval"), else "uncategorised"."""
     number = arena[:2]
-    return f"{number} {OLYMPICS[number]}" if number in OLYMPICS and arena[2:3] == "-" else "uncategorised"
+    return f"{number} {CATEGORIES[number]}" if number in CATEGORIES and arena[2:3] == "-" else "uncategorised"
 
 
 def _battery_rank(stem: str) -> tuple[int, str, int]:
@@ -355,7 +356,7 @@ def battery_markdown(folder: Path) -> str:
     if not boards:
         return ""
     files = {row["arena"] for rows in boards.values() for row in rows}
-    categories = [f"{number} {name}" for number, name in OLYMPICS.items()]
+    categories = [f"{number} {name}" for number, name in CATEGORIES.items()]
     if any(olympics_category(arena) == "uncategorised" for arena in files):
         categories.append("uncategorised")
     lines = [
