@@ -24,7 +24,13 @@ from .options import MANY, POLICY_HELP, parse_levels
 @click.option(
     "--limit", type=click.IntRange(1, MANY), help="At most this many failed episodes per level (or arena category)."
 )
-@click.option("--config", "config_path", type=click.Path(), help="A YAML for the env (default: the run's config).")
+@click.option(
+    "--config",
+    "config_path",
+    type=click.Path(),
+    help="A YAML for the env (default: the environment the scoreboard's *_scored_with.json records, else the "
+    "run's config); one that differs from the recorded environment is refused.",
+)
 @click.option(
     "--arenas",
     type=click.Path(),
@@ -35,14 +41,14 @@ def diagnose_command(policy, scoreboard, levels, limit, config_path, arenas):
     """Why a policy fails: its failed episodes replayed, each sorted into a first cause (fell, never
     saw food, lost sight of it, saw it but did not reach it, ate the wrong food); per level, and per
     category for arena files."""
-    from aaai.scoring.diagnose import diagnose, table_markdown
+    from aaai.scoring.diagnose import diagnose, scored_config, table_markdown
 
     try:
         chosen = resolve(policy)
         failures = diagnose(
             chosen,
             Path(scoreboard),
-            chosen.config(config_path),
+            scored_config(Path(scoreboard), chosen.config(config_path), config_path is not None),
             parse_levels(levels) if levels else None,
             limit,
             Path(arenas) if arenas else None,

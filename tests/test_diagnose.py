@@ -68,3 +68,17 @@ def test_diagnose_refuses_an_arena_file_missing_or_changed(scored, tmp_path):
     shutil.copy(board, unnamed)
     refused = CliRunner().invoke(cli, ["diagnose", "--policy", "random", "--scoreboard", str(unnamed)])
     assert refused.exit_code == 2 and "its record names no arena folder" in refused.output, refused.output
+
+
+def test_diagnose_replays_in_the_environment_the_scoreboard_records(scored, tmp_path):
+    from aaai.config import load_config
+    from aaai.scoring.diagnose import scored_config
+
+    folder, board = scored  # scored on the quadruped in rotation mode (the default config)
+    assert scored_config(board, load_config(body="sphere"), given=False).agent.body == "quadruped"
+    other = tmp_path / "sphere.yaml"
+    other.write_text("agent: {body: sphere}\n")
+    args = ["diagnose", "--policy", "random", "--scoreboard", str(board), "--config", str(other)]
+    refused = CliRunner().invoke(cli, args)
+    assert refused.exit_code == 2 and "scored in another environment" in refused.output, refused.output
+    assert "agent.body: 'quadruped' there, 'sphere' now" in refused.output

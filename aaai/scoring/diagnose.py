@@ -16,7 +16,8 @@ what the rays showed and where the body was, to sort the failure into one first 
 Learned agents page quotes it. A scoreboard of arena files (``aaai eval --arenas``, ``aaai baselines
 --battery``) is replayed the same way, each failed row on its arena file (found in ``--arenas DIR``,
 else in the folder its ``*_scored_with.json`` names) and tabulated per category; a file missing, or
-changed since it was scored (where the record holds its SHA-256), is refused before any replay.
+changed since it was scored (where the record holds its SHA-256), is refused before any replay. The
+command line replays in the environment the scoreboard's record holds (:func:`scored_config`).
 """
 
 from __future__ import annotations
@@ -29,12 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
-from aaai.config import Config, ConfigError, env_part
+from aaai.config import Config, ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
 from aaai.files import file_sha256
 from aaai.scoring.episodes import play
 from aaai.scoring.policies import Policy, as_policy
-from aaai.scoring.provenance import record_path
+from aaai.scoring.provenance import env_record, record_differences, record_path
 from aaai.spec.kinds import KIND_INDEX
 from aaai.task.arena import arena_meta, load_arena
 
@@ -114,6 +115,44 @@ def _level_group(level: int) -> str:
     return f"{get_level(level).label} {get_level(level).name}"
 
 
+def _record(scoreboard: Path) -> dict:
+    """What the scoreboard was scored with (its ``*_scored_with.json``), or {} if none can be read."""
+    path = record_path(scoreboard)
+    try:
+        record = json.loads(path.read_text()) if path.is_file() else {}
+    except (ValueError, UnicodeDecodeError):
+        return {}
+    return record if isinstance(record, dict) else {}
+
+
+def scored_config(scoreboard: Path, config: Config, given: bool) -> Config:
+    """The environment to replay ``scoreboard``'s episodes in: the one its record holds (``env_config``),
+    else ``config``. A ``config`` the user gave (``given``, --config) in which the environment differs
+    from the record is refused (ConfigError naming the keys): its replays would not be the episodes
+    scored."""
+    env = _record(scoreboard).get("env_config")
+    if not isinstance(env, dict):
+        return config
+    if given:
+        differences = record_differences(env, env_record(config)["env_config"])
+        if differences:
+            raise ConfigError(
+                f"--config: {str(scoreboard)!r} was scored in another environment, so a replay would not be its "
+                f"episodes; it differs in {len(differences)} key(s): "
+                + "; ".join(differences[:4])
+                + f"{'; …' if len(differences) > 4 else ''}; allowed: no --config (the scoreboard's own "
+                "environment is used), or one with its values"
+            )
+        return config
+    try:
+        return load_config(env)
+    except ConfigError as error:
+        raise ConfigError(
+            f"--config: the environment {str(record_path(scoreboard))!r} records cannot be read here ({error}); "
+            "allowed: --config with the environment it was scored in"
+        ) from None
+
+
 def arena_sources(scoreboard: Path, rows: list[dict], arenas: Path | None) -> dict[str, Path]:
     """The arena file of each arena row: in ``arenas`` (a folder, or one file), else where the
     scoreboard's record (``*_scored_with.json``, key ``arenas``) says it was scored. ConfigError,
@@ -123,13 +162,7 @@ def arena_sources(scoreboard: Path, rows: list[dict], arenas: Path | None) -> di
     names = sorted({row["arena"] for row in rows if row.get("arena")})
     if not names:
         return {}
-    record: dict = {}
-    path = record_path(scoreboard)
-    if path.is_file():
-        try:
-            record = json.loads(path.read_text())
-        except (ValueError, UnicodeDecodeError):
-            record = {}
+    record = _record(scoreboard)
     if arenas is None:
         if not isinstance(record.get("arenas"), str):
             raise ConfigError(
