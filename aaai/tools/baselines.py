@@ -303,7 +303,7 @@ def run_battery(
     seed_list = list(range(seeds))
     record = {
         "seeds": f"0-{seeds - 1}",
-        "arenas": str(battery),
+        "arenas": str(battery.resolve()),  # however it was spelled, and found again by aaai diagnose
         "arena_sha256": {file.name: file_sha256(file) for file in valid},
     }
     boards = {name: folder / f"{battery_label(name, body)}.csv" for name in named}
