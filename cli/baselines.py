@@ -6,6 +6,7 @@ import re
 from pathlib import Path
 
 import click
+from click.core import ParameterSource
 
 from aaai.config import ConfigError
 
@@ -45,11 +46,47 @@ from .options import WORKERS, Output, parse_levels, parse_range, rule
     help="Score only these policies (e.g. 'student,ppo_gait'); the table and heatmap still "
     "show every scoreboard already in --out.",
 )
-def baselines_command(demo_run, folder, levels, difficulty, count, workers, student_run, ppo_gait_run, more, only):
+@click.option(
+    "--battery",
+    type=click.Path(file_okay=False),
+    help="Score the policies on an imported Animal-AI battery (the output folder of aaai import-animalai) "
+    "instead of the levels: its files valid for the body on every seed, into OUT/battery/NAME.csv.",
+)
+@click.option(
+    "--battery-seeds",
+    type=click.IntRange(1, 100),
+    default=1,
+    show_default=True,
+    help="With --battery: seeds 0..N-1 of each arena file.",
+)
+@click.option(
+    "--body",
+    type=click.Choice(["quadruped", "sphere"]),
+    default="quadruped",
+    show_default=True,
+    help="With --battery: the body (agent.body); on the sphere the scoreboards are OUT/battery/NAME_sphere.csv.",
+)
+def baselines_command(
+    demo_run,
+    folder,
+    levels,
+    difficulty,
+    count,
+    workers,
+    student_run,
+    ppo_gait_run,
+    more,
+    only,
+    battery,
+    battery_seeds,
+    body,
+):
     """Score random actions, the reference controller and trained runs on the reserved seeds of
-    every cell: a scoreboard each, a pass-rate table and a heatmap (make baselines)."""
+    every cell: a scoreboard each, a pass-rate table and a heatmap (make baselines). With --battery,
+    on an imported Animal-AI battery instead: the table gains its section per category."""
+    from aaai.files import InUse
     from aaai.scoring.runs import check_writable
-    from aaai.tools.baselines import policies, run
+    from aaai.tools.baselines import battery_files, policies, run, run_battery
 
     try:
         check_writable(Path(folder), "--out", folder=True)
@@ -80,9 +117,31 @@ def baselines_command(demo_run, folder, levels, difficulty, count, workers, stud
     known = ["random", "reference", "ppo_demo", *learned]
     if chosen is not None and (not chosen or any(name not in known for name in chosen)):
         raise click.UsageError(f"--only: got {only!r}; allowed: a list of {', '.join(known)}")
+    source = click.get_current_context().get_parameter_source
+    if battery is None:
+        given = [f"--{n.replace('_', '-')}" for n in ("battery_seeds", "body") if source(n) != ParameterSource.DEFAULT]
+        if given:
+            raise click.UsageError(f"{', '.join(given)}: allowed only with --battery DIR")
+    else:
+        flags = {"levels": "--levels", "difficulty": "--difficulty", "count": "--seeds-per-cell"}
+        given = [flag for name, flag in flags.items() if source(name) != ParameterSource.DEFAULT]
+        if given:
+            raise click.UsageError(f"--battery: got {', '.join(given)} with it; allowed: --battery-seeds (arena files)")
+        try:
+            battery_files(Path(battery))
+        except ConfigError as error:
+            raise click.UsageError(str(error)) from None
     level_list, difficulties = parse_levels(levels), parse_range(difficulty, "--difficulty", 0, 10)
     try:  # each policy read once, here: a damaged model is refused before any work
         named = policies(Path(demo_run) if needs_demo else None, learned, chosen)
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None
-    run(Path(folder), named, level_list, difficulties, count, workers, echo=click.echo)
+    if battery is None:
+        run(Path(folder), named, level_list, difficulties, count, workers, echo=click.echo)
+        return
+    try:
+        run_battery(Path(folder), named, Path(battery), battery_seeds, body, workers, echo=click.echo)
+    except InUse as error:
+        raise click.ClickException(str(error)) from None
+    except ConfigError as error:
+        raise click.UsageError(str(error)) from None

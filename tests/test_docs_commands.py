@@ -59,6 +59,7 @@ SKIPPED = {
     "aaai import-animalai animal-ai/": "needs a clone of Animal-AI's repository in animal-ai/",
     "aaai eval --arenas /tmp/aai": "needs the arenas imported from Animal-AI's repository (above, not run)",
     "python -m aaai.tools.animalai /tmp/aai": "needs the arenas imported from Animal-AI's repository (above, not run)",
+    "aaai baselines --battery /tmp/aai": "needs the arenas imported from Animal-AI's repository (above, not run)",
 }
 
 # Commands run with a smaller budget than written: (start of the command, written, run), with the reason.

@@ -13,23 +13,31 @@ what the rays showed and where the body was, to sort the failure into one first 
   green).
 
 ``aaai diagnose --policy RUN --scoreboard CSV [--levels …]`` prints the table per level; the docs'
-Learned agents page quotes it.
+Learned agents page quotes it. A scoreboard of arena files (``aaai eval --arenas``, ``aaai baselines
+--battery``) is replayed the same way, each failed row on its arena file (found in ``--arenas DIR``,
+else in the folder its ``*_scored_with.json`` names) and tabulated per category; a file missing, or
+changed since it was scored (where the record holds its SHA-256), is refused before any replay. The
+command line replays in the environment the scoreboard's record holds (:func:`scored_config`).
 """
 
 from __future__ import annotations
 
 import csv
+import json
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from aaai.config import Config, env_part
+from aaai.config import Config, ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
+from aaai.files import file_sha256
 from aaai.scoring.episodes import play
 from aaai.scoring.policies import Policy, as_policy
+from aaai.scoring.provenance import env_record, record_differences, record_path
 from aaai.spec.kinds import KIND_INDEX
+from aaai.task.arena import arena_meta, load_arena
 
 FOOD_CHANNELS = (KIND_INDEX["food_green"], KIND_INDEX["food_yellow"])
 RAY_WIDTH = 11  # the classic rays: nine kinds, nothing, distance
@@ -45,6 +53,8 @@ class Failure:
     seen_share: float  # decisions with food in view / decisions
     food_eaten: int
     wall_hits: int
+    arena: str = ""  # the arena file's name, for a row of an arena scoreboard
+    group: str = ""  # what the table groups it by: the level's label and name, or the arena's category
 
 
 def food_in_view(observation: dict) -> bool:
@@ -55,14 +65,21 @@ def food_in_view(observation: dict) -> bool:
     return bool(grid[:, list(FOOD_CHANNELS)].any())
 
 
-def replay_failure(env: AnimalAIEnv, policy, row: dict) -> Failure:
+def replay_failure(env: AnimalAIEnv, policy, row: dict, arena: Path | None = None) -> Failure:
+    """Replays one failed row (on ``arena``, the file of an arena row) and names its first cause."""
     level, difficulty, seed = int(row["level"]), int(row["difficulty"]), int(row["seed"])
     seen: list[bool] = []
+    if arena is None:
+        options: dict = {"level": level, "difficulty": difficulty}
+        group = _level_group(level)
+    else:  # as aaai.scoring.episodes.run_episode plays an arena file
+        options = {"spec": load_arena(arena, seed, body=env.config.agent.body), "check": False, "arena_file": True}
+        group = f"category {arena_meta(arena)['category'] or 'uncategorised'}"
     result = play(
         env,
         policy,
         seed,
-        options={"level": level, "difficulty": difficulty},
+        options=options,
         on_reset=lambda observation, info: seen.append(food_in_view(observation)),
         on_step=lambda step, observation, reward, info: seen.append(food_in_view(observation)),
     )
@@ -80,51 +97,152 @@ def replay_failure(env: AnimalAIEnv, policy, row: dict) -> Failure:
     else:
         cause = "saw, did not reach"
     return Failure(
-        level, difficulty, seed, cause, float(seen_array.mean()), int(info["food_eaten"]), int(info["wall_hits"])
+        level,
+        difficulty,
+        seed,
+        cause,
+        float(seen_array.mean()),
+        int(info["food_eaten"]),
+        int(info["wall_hits"]),
+        arena.name if arena is not None else "",
+        group,
     )
 
 
+def _level_group(level: int) -> str:
+    from aaai.levels import get_level
+
+    return f"{get_level(level).label} {get_level(level).name}"
+
+
+def _record(scoreboard: Path) -> dict:
+    """What the scoreboard was scored with (its ``*_scored_with.json``), or {} if none can be read."""
+    path = record_path(scoreboard)
+    try:
+        record = json.loads(path.read_text()) if path.is_file() else {}
+    except (ValueError, UnicodeDecodeError):
+        return {}
+    return record if isinstance(record, dict) else {}
+
+
+def scored_config(scoreboard: Path, config: Config, given: bool) -> Config:
+    """The environment to replay ``scoreboard``'s episodes in: the one its record holds (``env_config``),
+    else ``config``. A ``config`` the user gave (``given``, --config) in which the environment differs
+    from the record is refused (ConfigError naming the keys): its replays would not be the episodes
+    scored."""
+    env = _record(scoreboard).get("env_config")
+    if not isinstance(env, dict):
+        return config
+    if given:
+        differences = record_differences(env, env_record(config)["env_config"])
+        if differences:
+            raise ConfigError(
+                f"--config: {str(scoreboard)!r} was scored in another environment, so a replay would not be its "
+                f"episodes; it differs in {len(differences)} key(s): "
+                + "; ".join(differences[:4])
+                + f"{'; …' if len(differences) > 4 else ''}; allowed: no --config (the scoreboard's own "
+                "environment is used), or one with its values"
+            )
+        return config
+    try:
+        return load_config(env)
+    except ConfigError as error:
+        raise ConfigError(
+            f"--config: the environment {str(record_path(scoreboard))!r} records cannot be read here ({error}); "
+            "allowed: --config with the environment it was scored in"
+        ) from None
+
+
+def arena_sources(scoreboard: Path, rows: list[dict], arenas: Path | None) -> dict[str, Path]:
+    """The arena file of each arena row: in ``arenas`` (a folder, or one file), else where the
+    scoreboard's record (``*_scored_with.json``, key ``arenas``) says it was scored. ConfigError,
+    naming the file and the row, for a folder that is not named, a file missing, or a file whose
+    SHA-256 differs from the one the record holds (``arena_sha256``, as aaai baselines --battery
+    records it)."""
+    names = sorted({row["arena"] for row in rows if row.get("arena")})
+    if not names:
+        return {}
+    record = _record(scoreboard)
+    if arenas is None:
+        if not isinstance(record.get("arenas"), str):
+            raise ConfigError(
+                f"--arenas: {str(scoreboard)!r} holds arena rows ({names[0]}, ...) and its record names no arena "
+                "folder; allowed: --arenas DIR, the folder of arena files it was scored on"
+            )
+        arenas = Path(record["arenas"])
+    folder = arenas if arenas.is_dir() or not arenas.suffix else arenas.parent
+    recorded = record.get("arena_sha256")
+    hashes: dict = recorded if isinstance(recorded, dict) else {}
+    sources = {}
+    for name in names:
+        file = folder / name
+        seeds = ", ".join(sorted({row["seed"] for row in rows if row.get("arena") == name}))
+        if not file.is_file():
+            raise ConfigError(
+                f"--arenas: {str(file)!r} is missing; the scoreboard's failed rows of {name} (seed {seeds}) were "
+                f"scored on it; allowed: --arenas DIR, the folder of arena files {str(scoreboard)!r} was scored on"
+            )
+        if name in hashes and file_sha256(file) != hashes[name]:
+            raise ConfigError(
+                f"--arenas: {str(file)!r} has changed since {str(scoreboard)!r} was scored on it (SHA-256 "
+                f"{file_sha256(file)[:12]}… now, {str(hashes[name])[:12]}… then); a replay would not be the "
+                "episode scored; allowed: the arena files as they were scored"
+            )
+        sources[name] = file
+    return sources
+
+
 def diagnose(
-    policy: Policy | str, scoreboard: Path, config: Config, levels: list[int] | None = None, limit: int | None = None
+    policy: Policy | str,
+    scoreboard: Path,
+    config: Config,
+    levels: list[int] | None = None,
+    limit: int | None = None,
+    arenas: Path | None = None,
 ) -> list[Failure]:
-    """Replays the failed rows of ``scoreboard`` (of ``levels``; at most ``limit`` per level) with
-    ``policy`` (a Policy, or a --policy string)."""
+    """Replays the failed rows of ``scoreboard`` (of ``levels``, which leave arena rows out; at most
+    ``limit`` per level or arena category) with ``policy`` (a Policy, or a --policy string); an arena
+    row on its file (:func:`arena_sources`, every file checked before any replay)."""
     policy = as_policy(policy)
 
     with open(scoreboard, newline="") as handle:
         rows = [
             r
             for r in csv.DictReader(handle)
-            if r["outcome"] == "failed" and not r.get("arena") and (levels is None or int(r["level"]) in levels)
+            if r["outcome"] == "failed" and (levels is None or (not r.get("arena") and int(r["level"]) in levels))
         ]
+    sources = arena_sources(scoreboard, rows, arenas)
     if limit is not None:
         kept: list[dict] = []
         count: Counter[str] = Counter()
         for row in rows:
-            if count[row["level"]] < limit:
+            group = f"category {arena_meta(sources[row['arena']])['category']}" if row.get("arena") else row["level"]
+            if count[group] < limit:
                 kept.append(row)
-                count[row["level"]] += 1
+                count[group] += 1
         rows = kept
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))
     try:
         acting = policy.build(env)
-        return [replay_failure(env, acting, row) for row in rows]
+        return [replay_failure(env, acting, row, sources.get(row.get("arena") or "")) for row in rows]
     finally:
         env.close()
 
 
 def table_markdown(failures: list[Failure]) -> str:
-    from aaai.levels import get_level
-
+    """A row per level (in level order), then per arena category: the failed episodes replayed, each
+    cause's count and the share of decisions with food in view."""
+    first = "level or category" if any(f.arena for f in failures) else "level"
     lines = [
-        "| level | failed episodes replayed | " + " | ".join(CAUSES) + " | food in view (share of decisions) |",
+        f"| {first} | failed episodes replayed | " + " | ".join(CAUSES) + " | food in view (share of decisions) |",
         "|---|---:|" + "---:|" * len(CAUSES) + "---:|",
     ]
-    for level in sorted({f.level for f in failures}):
-        mine = [f for f in failures if f.level == level]
+    groups = sorted({(bool(f.arena), f.level if not f.arena else 0, f.group) for f in failures})
+    for _, _, group in groups:
+        mine = [f for f in failures if f.group == group]
         counts = Counter(f.cause for f in mine)
         lines.append(
-            f"| {get_level(level).label} {get_level(level).name} | {len(mine)} | "
+            f"| {group} | {len(mine)} | "
             + " | ".join(str(counts[c]) for c in CAUSES)
             + f" | {100 * np.mean([f.seen_share for f in mine]):.0f}% |"
         )

@@ -8,6 +8,12 @@ part (``baselines/parts/``), so an interrupted run resumes where it stopped. Fro
 in the folder (those scored now and those kept from earlier) come ``baselines/table.md`` (pass rates
 per level, overall and at difficulties 0, 5 and 10) and ``baselines/heatmap.png`` (the pass rate of
 every cell, one panel per policy).
+
+With an imported Animal-AI battery (``aaai import-animalai``'s output), :func:`run_battery` scores the
+same policies on its arena files instead (the files valid for the body on every seed, seeds 0..K-1),
+one ``aaai eval --arenas`` scoreboard each in ``baselines/battery/`` (``<name>.csv``, or
+``<name>_sphere.csv`` on Animal-AI's body), and the table gains a section per Olympics category
+(:func:`battery_markdown`) from every scoreboard found there.
 """
 
 from __future__ import annotations
@@ -23,15 +29,22 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from aaai.files import atomic_path, write_atomic
+from aaai.config import ConfigError
+from aaai.files import atomic_path, file_sha256, hold, write_atomic
 from aaai.jobs import one_thread
 from aaai.levels import all_levels, get_level
-from aaai.scoring.evaluation import COLUMNS, cells_for, evaluate, policy_record, scored_episodes
+from aaai.scoring.evaluation import COLUMNS, cells_for, evaluate, evaluate_arenas, policy_record, scored_episodes
 from aaai.scoring.policies import Policy, resolve
+from aaai.tools.animalai_arena import CATEGORIES
 from aaai.train.curriculum import heatmap_panel
+from aaai.train.limbs import LimbsSettings, check_tasks, read_rows
 
 SHOWN_DIFFICULTIES = (0, 5, 10)
 PROVENANCE = "provenance.json"  # per scoreboard: how its actions were computed (write_provenance)
+BATTERY = "battery"  # the subfolder of the battery's scoreboards (run_battery)
+BATTERY_BODIES = ("quadruped", "sphere")
+# the first line of every arena file `aaai import-animalai` writes (aaai.tools.animalai)
+IMPORTED = "# Imported from an Animal-AI arena file by `aaai import-animalai`"
 
 
 # the table's columns, left to right (then any other scoreboard named when tabulating)
@@ -131,7 +144,11 @@ def tabulate(
     difficulties = list(range(11)) if difficulties is None else difficulties
     shown = [name for name in ORDER if (out / f"{name}.csv").is_file()] + [n for n in names if n not in ORDER]
     boards = {name: _read(out / f"{name}.csv") for name in sorted(shown, key=_rank)}
-    write_atomic(out / "table.md", table_markdown(boards))
+    battery = battery_markdown(out / BATTERY)
+    if not boards:  # a battery only: no level table, no heatmap
+        write_atomic(out / "table.md", battery)
+        return
+    write_atomic(out / "table.md", table_markdown(boards) + ("\n" + battery if battery else ""))
     write_heatmap(boards, levels, difficulties, out / "heatmap.png")
 
 
@@ -219,6 +236,143 @@ def write_heatmap(boards: dict[str, list[dict]], levels: list[int], difficulties
     with atomic_path(path) as temporary:
         if not cv2.imwrite(str(temporary), picture):
             raise OSError(f"OpenCV could not write {path}")
+
+
+# --- the Animal-AI battery ------------------------------------------------------------------------
+def battery_files(folder: Path) -> list[Path]:
+    """The arena files at the top of an imported battery (``aaai import-animalai``'s output; its
+    unfair/ subfolder left out); ConfigError naming the folder if it is missing, holds none, or holds
+    a file the importer did not write."""
+    allowed = "allowed: the output folder of `aaai import-animalai` (its fair arena files at the top level)"
+    if not folder.is_dir():
+        raise ConfigError(f"--battery: got {str(folder)!r}, which is not a folder; {allowed}")
+    files = sorted(folder.glob("*.yaml"))
+    if not files:
+        raise ConfigError(f"--battery: {str(folder)!r} holds no arena files (*.yaml) at its top level; {allowed}")
+    for file in files:
+        with open(file, encoding="utf-8", errors="replace") as handle:
+            first = handle.readline()
+        if not first.startswith(IMPORTED):
+            raise ConfigError(
+                f"--battery: {str(folder)!r} is not an import: {file.name} was not written by "
+                f"`aaai import-animalai` (its first line is not the importer's); {allowed}"
+            )
+    return files
+
+
+def battery_label(name: str, body: str) -> str:
+    """The battery scoreboard's name of a policy on a body: ``reference``, ``reference_sphere``."""
+    return name if body == "quadruped" else f"{name}_{body}"
+
+
+def _score_battery(
+    policy: Policy, files: list[Path], seeds: list[int], body: str, record: dict, output: Path
+) -> tuple[Path, float]:
+    one_thread()
+    started = time.perf_counter()
+    config = policy.config().replace(body=body)
+    evaluate_arenas(policy, files, seeds, output, config, record={**policy_record(policy, "list"), **record})
+    return output, time.perf_counter() - started
+
+
+def run_battery(
+    out: Path,
+    named: dict[str, Policy],
+    battery: Path,
+    seeds: int = 1,
+    body: str = "quadruped",
+    workers: int = 2,
+    echo=print,
+) -> dict[str, Path]:
+    """Scores every policy of ``named`` on the arena files of ``battery`` (:func:`battery_files`)
+    that are valid for ``body`` on seeds 0..``seeds``-1 (each file's verdict kept in
+    ``out/battery/tasks_<body>.csv``, aaai.train.limbs.check_tasks), one scoreboard a policy
+    (``out/battery/<name>.csv``, :func:`battery_label`) as ``aaai eval --arenas`` writes it, resumed
+    where it stopped; its record names the battery and each file's SHA-256. The table then shows every
+    scoreboard in ``out``. Returns the scoreboards."""
+    files = battery_files(battery)
+    folder = out / BATTERY
+    folder.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    with hold(folder / f".tasks_{body}.lock", lambda pid: f"tasks_{body}.csv is being written by process {pid}"):
+        valid = check_tasks(folder, body, LimbsSettings(arenas=tuple(files), arena_seeds=seeds), echo)
+    if not valid:
+        raise ConfigError(
+            f"--battery: no arena file of {str(battery)!r} is valid for the {body} on seeds 0-{seeds - 1}"
+        )
+    seed_list = list(range(seeds))
+    record = {
+        "seeds": f"0-{seeds - 1}",
+        "arenas": str(battery.resolve()),  # however it was spelled, and found again by aaai diagnose
+        "arena_sha256": {file.name: file_sha256(file) for file in valid},
+    }
+    boards = {name: folder / f"{battery_label(name, body)}.csv" for name in named}
+    seconds: dict[str, float] = {}
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        jobs = {
+            pool.submit(_score_battery, policy, valid, seed_list, body, record, boards[name]): name
+            for name, policy in named.items()
+        }
+        for job in jobs:
+            board, seconds[jobs[job]] = job.result()
+            echo(f"  {BATTERY}/{board.name}: {seconds[jobs[job]]:.0f} s")
+    tabulate(out)
+    wall = time.perf_counter() - started
+    echo(
+        f"battery scored into {folder} in {wall / 60:.1f} min on {workers} workers ("
+        + ", ".join(f"{name} {spent / 60:.1f} min" for name, spent in seconds.items())
+        + " of worker time)"
+    )
+    return boards
+
+
+def olympics_category(arena: str) -> str:
+    """An imported competition file's Olympics category by its name (``01-05-02.yaml``: "01 food
+    retrieval"), else "uncategorised"."""
+    number = arena[:2]
+    return f"{number} {CATEGORIES[number]}" if number in CATEGORIES and arena[2:3] == "-" else "uncategorised"
+
+
+def _battery_rank(stem: str) -> tuple[int, str, int]:
+    for body in BATTERY_BODIES[1:]:
+        if stem.endswith(f"_{body}"):
+            name = stem.removesuffix(f"_{body}")
+            return _rank(name), name, BATTERY_BODIES.index(body)
+    return _rank(stem), stem, 0
+
+
+def battery_markdown(folder: Path) -> str:
+    """The table's battery section from every scoreboard in ``folder`` (``out/battery``): a row per
+    Olympics category (by the arena file's name) and all categories, a column per policy and body
+    (``reference_sphere.csv``: "reference, sphere"): passed/episodes and the pass rate with its 95 %
+    Wilson interval. Empty if the folder holds no scoreboard."""
+    boards = {}
+    for path in sorted(folder.glob("*.csv"), key=lambda p: _battery_rank(p.stem)):
+        rows = [row for row in read_rows(path) if row.get("arena")]
+        if path.name.startswith("tasks_") or not rows:
+            continue
+        _, name, body = _battery_rank(path.stem)
+        boards[name if body == 0 else f"{name}, {BATTERY_BODIES[body]}"] = rows
+    if not boards:
+        return ""
+    files = {row["arena"] for rows in boards.values() for row in rows}
+    categories = [f"{number} {name}" for number, name in CATEGORIES.items()]
+    if any(olympics_category(arena) == "uncategorised" for arena in files):
+        categories.append("uncategorised")
+    lines = [
+        f"## Animal-AI battery ({len(files)} files valid on every seed)",
+        "",
+        "| category | " + " | ".join(boards) + " |",
+        "|---|" + "---:|" * len(boards),
+    ]
+    for category in categories + [None]:
+        cells = []
+        for rows in boards.values():
+            mine = [row for row in rows if category is None or olympics_category(row["arena"]) == category]
+            cells.append(f"{sum(map(passed, mine))}/{len(mine)}: {_rate(mine)}" if mine else "-")
+        label = "**all categories**" if category is None else category
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 # --- re-scoring committed rows ------------------------------------------------------------------

@@ -1,0 +1,84 @@
+"""aaai diagnose on a scoreboard of arena files: each failed row replayed on its arena file, and a
+file missing or changed since it was scored refused before any replay."""
+
+import json
+import shutil
+
+import pytest
+from click.testing import CliRunner
+
+from aaai.files import file_sha256
+from aaai_cli.main import cli
+
+# the food 12 units ahead and one second (50 steps) to reach it: random actions fail
+ARENA = (
+    "description: a tiny test arena\ncategory: food_contact\narena_walls: true\narena_size: [60.0, 60.0]\n"
+    "wall_height: 4.0\ntime_limit: 1.0\nagent: {x: 0.0, y: 0.0, yaw: 1.570796}\n"
+    "objects:\n  - {kind: food_green, shape: sphere, position: [0.0, 12.0, 2.5], size: [5.0, 5.0, 5.0]}\n"
+)
+
+
+@pytest.fixture(scope="module")
+def scored(tmp_path_factory):
+    """Two tiny arena files scored with random actions by aaai eval --arenas (both episodes fail)."""
+    root = tmp_path_factory.mktemp("arenas")
+    folder = root / "battery"
+    folder.mkdir()
+    for name in ("a.yaml", "b.yaml"):
+        (folder / name).write_text(ARENA)
+    board = root / "random.csv"
+    result = CliRunner().invoke(
+        cli, ["eval", "--arenas", str(folder), "--policy", "random", "-k", "1", "--out", str(board)]
+    )
+    assert result.exit_code == 0, result.output
+    assert board.read_text().count(",failed,") == 2
+    return folder, board
+
+
+def test_diagnose_replays_the_failed_episodes_of_an_arena_scoreboard(scored):
+    folder, board = scored
+    result = CliRunner().invoke(cli, ["diagnose", "--policy", "random", "--scoreboard", str(board)])
+    assert result.exit_code == 0, result.output
+    assert "| level or category | failed episodes replayed |" in result.output
+    assert "| category food_contact | 2 | 0 |" in result.output  # both replayed, none fell
+    limited = CliRunner().invoke(cli, ["diagnose", "--policy", "random", "--scoreboard", str(board), "--limit", "1"])
+    assert limited.exit_code == 0 and "| category food_contact | 1 |" in limited.output, limited.output
+
+
+def test_diagnose_refuses_an_arena_file_missing_or_changed(scored, tmp_path):
+    folder, board = scored
+    moved = tmp_path / "moved"
+    shutil.copytree(folder, moved)
+    (moved / "b.yaml").unlink()
+    args = ["diagnose", "--policy", "random", "--scoreboard", str(board)]
+    missing = CliRunner().invoke(cli, [*args, "--arenas", str(moved)])
+    assert missing.exit_code == 2 and f"{str(moved / 'b.yaml')!r} is missing" in missing.output, missing.output
+    assert "b.yaml (seed 0)" in missing.output and "Traceback" not in missing.output
+    (moved / "b.yaml").write_text(ARENA.replace("12.0, 2.5", "14.0, 2.5"))
+    copy = tmp_path / "board.csv"  # the scoreboard with a record that holds each file's SHA-256
+    shutil.copy(board, copy)
+    record = json.loads(board.with_name("random_scored_with.json").read_text())
+    record["arena_sha256"] = {name: file_sha256(folder / name) for name in ("a.yaml", "b.yaml")}
+    copy.with_name("board_scored_with.json").write_text(json.dumps(record))
+    changed = CliRunner().invoke(
+        cli, ["diagnose", "--policy", "random", "--scoreboard", str(copy), "--arenas", str(moved)]
+    )
+    assert changed.exit_code == 2 and f"{str(moved / 'b.yaml')!r} has changed since" in changed.output, changed.output
+    unnamed = tmp_path / "unnamed.csv"  # no record: the folder must be given
+    shutil.copy(board, unnamed)
+    refused = CliRunner().invoke(cli, ["diagnose", "--policy", "random", "--scoreboard", str(unnamed)])
+    assert refused.exit_code == 2 and "its record names no arena folder" in refused.output, refused.output
+
+
+def test_diagnose_replays_in_the_environment_the_scoreboard_records(scored, tmp_path):
+    from aaai.config import load_config
+    from aaai.scoring.diagnose import scored_config
+
+    folder, board = scored  # scored on the quadruped in rotation mode (the default config)
+    assert scored_config(board, load_config(body="sphere"), given=False).agent.body == "quadruped"
+    other = tmp_path / "sphere.yaml"
+    other.write_text("agent: {body: sphere}\n")
+    args = ["diagnose", "--policy", "random", "--scoreboard", str(board), "--config", str(other)]
+    refused = CliRunner().invoke(cli, args)
+    assert refused.exit_code == 2 and "scored in another environment" in refused.output, refused.output
+    assert "agent.body: 'quadruped' there, 'sphere' now" in refused.output
