@@ -75,6 +75,7 @@ APPROACH_GAP = 4.0  # the approach point lies this far beyond head-to-food conta
 DETOUR_REACHED = 2.5
 RETRY_TURN = math.radians(50)  # a stuck approach is tried again from a side turned this far
 HOT_COST = 20.0  # extra path cost per unit where a foot may touch a hot zone
+PLAN_NEAR = 1.5  # progress is the least plan cost this near a head just off the plan
 
 
 class ReferenceController:
@@ -320,10 +321,20 @@ class ReferenceController:
             else:
                 goal, reach, key, close = self.detour, 0.5, ("detour", self.detour), False
         point = self._waypoint(head, goal, reach, key, avoid)
-        remaining = math.dist(head[:2], goal)
+        remaining = to_go = math.dist(head[:2], goal)
         if self.plan is not None and self.plan_key == key:
-            remaining = min(remaining, self.plan[validate.cell(self.level, head[0], head[1], self.plan.shape)])
-        if not self._progress(remaining, now, key):  # stuck: back off, and come at food from another side
+            row, col = validate.cell(self.level, head[0], head[1], self.plan.shape)
+            planned = self.plan[row, col]
+            remaining = min(remaining, planned)
+            # progress is counted along the plan, not as the crow flies (a way round walks away from the
+            # goal for a while); from the planned cells near the head where it is just off the plan (in a
+            # passage as wide as the body); as the crow flies again where the plan ends, near the goal
+            if not math.isfinite(planned):
+                span = int(PLAN_NEAR / validate.GRID)
+                near = self.plan[max(row - span, 0) : row + span + 1, max(col - span, 0) : col + span + 1]
+                planned = near.min()
+            to_go = float(planned) if 0.0 < planned < math.inf else to_go
+        if not self._progress(to_go, now, key):  # stuck: back off, and come at food from another side
             if self._room_behind(head, yaw):
                 self.back_off_until = now + BACK_OFF_SECONDS
             self.detour = None
