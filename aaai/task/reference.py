@@ -238,6 +238,12 @@ class ReferenceController:
         down = [f for f in yellows if not _still_sinking(f)]
         sinking = [f for f in yellows if _still_sinking(f)]
         avoid = [(pos[0], pos[1], food.size[0] / 2 + self.radius + GREEN_BERTH) for _, food, pos in greens]
+        # the last piece of a kind whose every piece eaten ends the episode (multi_food) ends it as a green
+        # does: it waits until nothing else is left but greens, and then for a green worth as much or more
+        last = [f for f in down if self._ends_episode(f[1])]
+        best_green = max((f[1].food_value for f in greens), default=-math.inf)
+        if last and (len(last) < len(down) or sinking or best_green >= max(f[1].food_value for f in last)):
+            down = [f for f in down if f not in last]
         if down:
             body, food, position = min(down, key=lambda f: math.dist(head[:2], f[2][:2]))
             return self._food_goal(food, position), self.radius + food.size[0] / 2, body, avoid, False
@@ -249,6 +255,11 @@ class ReferenceController:
             others = [berth for berth, green in zip(avoid, greens) if green[0] != body]
             return self._food_goal(food, position), self.radius + food.size[0] / 2, body, others, False
         return None
+
+    def _ends_episode(self, food: ObjectSpec) -> bool:
+        """Is ``food`` the last piece left of a kind whose every piece eaten ends the episode (multi_food)?"""
+        kind = food.kind
+        return kind in self.env.world.all_end and sum(obj.kind == kind for obj in self.env.world.food.values()) == 1
 
     @staticmethod
     def _food_goal(food: ObjectSpec, position) -> tuple[float, float]:
