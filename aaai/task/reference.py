@@ -15,10 +15,12 @@ own). Its tactic is the same in every level, driven by what the level holds:
   body cannot reach (aaai.levels.validate.food_reachable) are left alone;
 - a plank to tip over as a bridge (L10): walk round behind it, push it over, cross on it;
 - everything else (walls, holes, pits, mazes, terrain) is the planner's: the cheapest path on
-  the occupancy grid, kept away from walls and edges where there is room;
+  the occupancy grid, kept away from walls and edges where there is room; its progress is counted
+  along that path (no progress for STUCK_SECONDS: it backs off, and comes at food from another side);
 - the newer kinds (aaai.spec.kinds): multi food, and food that ripens or decays, is eaten as yellows
-  are (nearest first, whatever its value now); food that grows or shrinks is a green, chosen by
-  its best value; bad food and death zones are
+  are (nearest first, whatever its value now), but the last multi food piece, which ends the episode
+  as a green does, is eaten last, and not at all when a green is worth as much or more; food that
+  grows or shrinks is a green, chosen by its best value; bad food and death zones are
   blocked on the grid (aaai.levels.validate), so the body keeps clear of them; a path near a hot zone
   costs HOT_COST more per unit, so it goes round one where it can; tunnels are walked through.
 
