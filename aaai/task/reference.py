@@ -341,12 +341,12 @@ class ReferenceController:
             remaining = min(remaining, planned)
             # progress is counted along the plan, not as the crow flies (a way round walks away from the
             # goal for a while); from the planned cells near the head where it is just off the plan (in a
-            # passage as wide as the body); as the crow flies again where the plan ends, near the goal
+            # passage as wide as the body), else as the crow flies; none is made where the plan ends
             if not math.isfinite(planned):
                 span = int(PLAN_NEAR / validate.GRID)
-                near = self.plan[max(row - span, 0) : row + span + 1, max(col - span, 0) : col + span + 1]
-                planned = near.min()
-            to_go = float(planned) if 0.0 < planned < math.inf else to_go
+                near = self.plan[max(row - span, 0) : row + span + 1, max(col - span, 0) : col + span + 1].min()
+                planned = near if 0.0 < near < math.inf else planned
+            to_go = float(planned) if math.isfinite(planned) else to_go
         if not self._progress(to_go, now, key):  # stuck: back off, and come at food from another side
             if self._room_behind(head, yaw):
                 self.back_off_until = now + BACK_OFF_SECONDS
