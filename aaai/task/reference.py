@@ -131,11 +131,11 @@ class ReferenceController:
 
     def _lures(self, spec: LevelSpec) -> list[ObjectSpec]:
         """The pieces of an arena whose food out of reach is allowed (``reach: pass_mark``, Animal-AI's
-        lures) that the quadruped cannot reach (aaai.levels.validate.food_reachable): never gone for, as
-        going for one ends at a wall or in the time limit."""
-        if spec.extras.get("reach") != "pass_mark" or isinstance(self.env.body, Sphere):
+        lures) that this body cannot reach (aaai.levels.validate.food_reachable, with the footprint the
+        arena was checked with): never gone for, as going for one ends at a wall or in the time limit."""
+        if spec.extras.get("reach") != "pass_mark":
             return []
-        region, clear = validate.reachable_region(spec, clearance=self.clearance)  # the map _map has made
+        region, clear = validate.reachable_region(spec, footprint=self.footprint, clearance=self.clearance)
         return [food for food in spec.foods if not (clear and validate.food_reachable(spec, region, food))]
 
     def _map(self, start: tuple[float, float] | None = None) -> None:
