@@ -10,6 +10,8 @@ own). Its tactic is the same in every level, driven by what the level holds:
 - a yellow on a sinking pillar (L2b): wait beside the pillar until the piece is down, eat it,
   then the green;
 - a sliding piece (L8): go to where it will stop;
+- a big piece (Animal-AI's size 10, its centre HIGH_FOOD or more above the floor), which the front legs
+  meet before the head: crouched up to it, then the head up, onto it;
 - sectors with doors (L9): only the sector with the most food, and every piece in it;
 - an arena that allows food out of reach (``reach: pass_mark``, Animal-AI's lures): the pieces the
   body cannot reach (aaai.levels.validate.food_reachable) are left alone;
@@ -77,6 +79,8 @@ APPROACH_GAP = 4.0  # the approach point lies this far beyond head-to-food conta
 DETOUR_REACHED = 2.5
 RETRY_TURN = math.radians(50)  # a stuck approach is tried again from a side turned this far
 HOT_COST = 20.0  # extra path cost per unit where a foot may touch a hot zone
+HIGH_FOOD = 4.0  # a piece whose centre is this high (size 8 and more) is touched by the head rising from
+HEAD_UP = 2.2  # its crouch (to about this height) once near enough for the head up to touch it
 PLAN_NEAR = 1.5  # progress is the least plan cost this near a head just off the plan
 
 
@@ -360,7 +364,12 @@ class ReferenceController:
             ahead = math.dist(head[:2], goal) if close and point == goal else remaining
             self.gait.drive(error, ahead, float(self.clearance[row, col]) - self.radius)
         elif close and point == goal:  # the final approach to a piece: crouch to reach it
-            self.gait.command(*approach(self.gait.parameters, error, math.dist(head[:2], goal), reach - self.radius))
+            distance = math.dist(head[:2], goal)
+            forward, turn, crouch = approach(self.gait.parameters, error, distance, reach - self.radius)
+            height = self._height(key)
+            if crouch and height >= HIGH_FOOD and distance**2 < reach**2 - (height - HEAD_UP) ** 2:
+                crouch = 0.0  # a big piece: the crouched head gets nearest, and rising there lifts it onto the piece
+            self.gait.command(forward, turn, crouch)
         else:
             forward, turn = steer(
                 error, math.dist(head[:2], point), arrive=2.0 if self.detour else 0.0, reverse=remaining < BACK_UP
@@ -369,6 +378,12 @@ class ReferenceController:
             room = (self.clearance[row, col] - FOOTPRINT_RADIUS) / (CLOSE - FOOTPRINT_RADIUS)
             self.gait.command(forward * min(1.0, max(SLOW, room)) if forward > 0 else forward, turn)
         return self.gait()
+
+    def _height(self, key) -> float:
+        """How high the centre of the piece of food ``key`` is (0 for a goal that is no piece)."""
+        if key not in self.env.world.food:
+            return 0.0
+        return p.getBasePositionAndOrientation(key, physicsClientId=self.env.client)[0][2]
 
     def _approach_point(
         self, head: np.ndarray, food: tuple[float, float], reach: float, turn: float
