@@ -29,11 +29,10 @@ CAUSES = {
         "05-04": f"the only way in is about 380 units long for 160 s: {TIME}",
         "05-06": f"the only way in is long, through passages about as wide as the body: {TIME}",
         "07-13": "the pass mark (18) is above all the arena pays (one green worth 10): no body passes it",
-        "08-01": "two big pieces (size 10) behind gaps 11 wide: the front legs, about 3 units ahead of the head, "
-        "meet a big sphere before the head does, so each takes several tries, and the gaps are walked slowly; "
-        "the 160 s run out after the first",
+        "08-01": "two big pieces (size 10) in rooms behind gaps 11 wide, walked slowly: the 160 s are just "
+        f"enough (7,000 to 7,900 of 8,000 steps when it passes); {TIME}",
         "08-02": "as 08-01",
-        "08-03": "as 08-01, the pieces in the two side rooms",
+        "08-03": "as 08-01, the pieces in the two side rooms, farther apart",
     },
     "sphere": {
         "01-26": "bouncing bad food runs into it in the first seconds",
