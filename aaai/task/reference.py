@@ -10,15 +10,19 @@ own). Its tactic is the same in every level, driven by what the level holds:
 - a yellow on a sinking pillar (L2b): wait beside the pillar until the piece is down, eat it,
   then the green;
 - a sliding piece (L8): go to where it will stop;
+- a big piece (Animal-AI's size 10, its centre HIGH_FOOD or more above the floor), which the front legs
+  meet before the head: crouched up to it, then the head up, onto it;
 - sectors with doors (L9): only the sector with the most food, and every piece in it;
 - an arena that allows food out of reach (``reach: pass_mark``, Animal-AI's lures): the pieces the
   body cannot reach (aaai.levels.validate.food_reachable) are left alone;
 - a plank to tip over as a bridge (L10): walk round behind it, push it over, cross on it;
 - everything else (walls, holes, pits, mazes, terrain) is the planner's: the cheapest path on
-  the occupancy grid, kept away from walls and edges where there is room;
+  the occupancy grid, kept away from walls and edges where there is room; its progress is counted
+  along that path (no progress for STUCK_SECONDS: it backs off, and comes at food from another side);
 - the newer kinds (aaai.spec.kinds): multi food, and food that ripens or decays, is eaten as yellows
-  are (nearest first, whatever its value now); food that grows or shrinks is a green, chosen by
-  its best value; bad food and death zones are
+  are (nearest first, whatever its value now), but the last multi food piece, which ends the episode
+  as a green does, is eaten last, and not at all when a green is worth as much or more; food that
+  grows or shrinks is a green, chosen by its best value; bad food and death zones are
   blocked on the grid (aaai.levels.validate), so the body keeps clear of them; a path near a hot zone
   costs HOT_COST more per unit, so it goes round one where it can; tunnels are walked through.
 
@@ -75,6 +79,9 @@ APPROACH_GAP = 4.0  # the approach point lies this far beyond head-to-food conta
 DETOUR_REACHED = 2.5
 RETRY_TURN = math.radians(50)  # a stuck approach is tried again from a side turned this far
 HOT_COST = 20.0  # extra path cost per unit where a foot may touch a hot zone
+HIGH_FOOD = 4.0  # a piece whose centre is this high (size 8 and more) is touched by the head rising from
+HEAD_UP = 2.2  # its crouch (to about this height) once near enough for the head up to touch it
+PLAN_NEAR = 1.5  # progress is the least plan cost this near a head just off the plan
 
 
 class ReferenceController:
@@ -128,11 +135,11 @@ class ReferenceController:
 
     def _lures(self, spec: LevelSpec) -> list[ObjectSpec]:
         """The pieces of an arena whose food out of reach is allowed (``reach: pass_mark``, Animal-AI's
-        lures) that the quadruped cannot reach (aaai.levels.validate.food_reachable): never gone for, as
-        going for one ends at a wall or in the time limit."""
-        if spec.extras.get("reach") != "pass_mark" or isinstance(self.env.body, Sphere):
+        lures) that this body cannot reach (aaai.levels.validate.food_reachable, with the footprint the
+        arena was checked with): never gone for, as going for one ends at a wall or in the time limit."""
+        if spec.extras.get("reach") != "pass_mark":
             return []
-        region, clear = validate.reachable_region(spec, clearance=self.clearance)  # the map _map has made
+        region, clear = validate.reachable_region(spec, footprint=self.footprint, clearance=self.clearance)
         return [food for food in spec.foods if not (clear and validate.food_reachable(spec, region, food))]
 
     def _map(self, start: tuple[float, float] | None = None) -> None:
@@ -237,6 +244,12 @@ class ReferenceController:
         down = [f for f in yellows if not _still_sinking(f)]
         sinking = [f for f in yellows if _still_sinking(f)]
         avoid = [(pos[0], pos[1], food.size[0] / 2 + self.radius + GREEN_BERTH) for _, food, pos in greens]
+        # the last piece of a kind whose every piece eaten ends the episode (multi_food) ends it as a green
+        # does: it waits until nothing else is left but greens, and then for a green worth as much or more
+        last = [f for f in down if self._ends_episode(f[1])]
+        best_green = max((f[1].food_value for f in greens), default=-math.inf)
+        if last and (len(last) < len(down) or sinking or best_green >= max(f[1].food_value for f in last)):
+            down = [f for f in down if f not in last]
         if down:
             body, food, position = min(down, key=lambda f: math.dist(head[:2], f[2][:2]))
             return self._food_goal(food, position), self.radius + food.size[0] / 2, body, avoid, False
@@ -248,6 +261,11 @@ class ReferenceController:
             others = [berth for berth, green in zip(avoid, greens) if green[0] != body]
             return self._food_goal(food, position), self.radius + food.size[0] / 2, body, others, False
         return None
+
+    def _ends_episode(self, food: ObjectSpec) -> bool:
+        """Is ``food`` the last piece left of a kind whose every piece eaten ends the episode (multi_food)?"""
+        kind = food.kind
+        return kind in self.env.world.all_end and sum(obj.kind == kind for obj in self.env.world.food.values()) == 1
 
     @staticmethod
     def _food_goal(food: ObjectSpec, position) -> tuple[float, float]:
@@ -320,10 +338,20 @@ class ReferenceController:
             else:
                 goal, reach, key, close = self.detour, 0.5, ("detour", self.detour), False
         point = self._waypoint(head, goal, reach, key, avoid)
-        remaining = math.dist(head[:2], goal)
+        remaining = to_go = math.dist(head[:2], goal)
         if self.plan is not None and self.plan_key == key:
-            remaining = min(remaining, self.plan[validate.cell(self.level, head[0], head[1], self.plan.shape)])
-        if not self._progress(remaining, now, key):  # stuck: back off, and come at food from another side
+            row, col = validate.cell(self.level, head[0], head[1], self.plan.shape)
+            planned = self.plan[row, col]
+            remaining = min(remaining, planned)
+            # progress is counted along the plan, not as the crow flies (a way round walks away from the
+            # goal for a while); from the planned cells near the head where it is just off the plan (in a
+            # passage as wide as the body), else as the crow flies; none is made where the plan ends
+            if not math.isfinite(planned):
+                span = int(PLAN_NEAR / validate.GRID)
+                near = self.plan[max(row - span, 0) : row + span + 1, max(col - span, 0) : col + span + 1].min()
+                planned = near if 0.0 < near < math.inf else planned
+            to_go = float(planned) if math.isfinite(planned) else to_go
+        if not self._progress(to_go, now, key):  # stuck: back off, and come at food from another side
             if self._room_behind(head, yaw):
                 self.back_off_until = now + BACK_OFF_SECONDS
             self.detour = None
@@ -336,7 +364,12 @@ class ReferenceController:
             ahead = math.dist(head[:2], goal) if close and point == goal else remaining
             self.gait.drive(error, ahead, float(self.clearance[row, col]) - self.radius)
         elif close and point == goal:  # the final approach to a piece: crouch to reach it
-            self.gait.command(*approach(self.gait.parameters, error, math.dist(head[:2], goal), reach - self.radius))
+            distance = math.dist(head[:2], goal)
+            forward, turn, crouch = approach(self.gait.parameters, error, distance, reach - self.radius)
+            height = self._height(key)
+            if crouch and height >= HIGH_FOOD and distance**2 < reach**2 - (height - HEAD_UP) ** 2:
+                crouch = 0.0  # a big piece: the crouched head gets nearest, and rising there lifts it onto the piece
+            self.gait.command(forward, turn, crouch)
         else:
             forward, turn = steer(
                 error, math.dist(head[:2], point), arrive=2.0 if self.detour else 0.0, reverse=remaining < BACK_UP
@@ -345,6 +378,12 @@ class ReferenceController:
             room = (self.clearance[row, col] - FOOTPRINT_RADIUS) / (CLOSE - FOOTPRINT_RADIUS)
             self.gait.command(forward * min(1.0, max(SLOW, room)) if forward > 0 else forward, turn)
         return self.gait()
+
+    def _height(self, key) -> float:
+        """How high the centre of the piece of food ``key`` is (0 for a goal that is no piece)."""
+        if key not in self.env.world.food:
+            return 0.0
+        return p.getBasePositionAndOrientation(key, physicsClientId=self.env.client)[0][2]
 
     def _approach_point(
         self, head: np.ndarray, food: tuple[float, float], reach: float, turn: float

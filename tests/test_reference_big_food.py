@@ -1,0 +1,28 @@
+"""A big piece of food (Animal-AI's size 10, its centre 5 above the floor) is touched by the head from
+above its legs: the front legs, which reach ahead of the head, meet the sphere first, so the reference
+gets the head nearest crouched and then rises, lifting the head onto the piece."""
+
+from aaai.task.arena import load_arena
+from aaai.task.reference import ReferenceController
+
+ARENA = """arena_size: [60.0, 60.0]
+time_limit: 40
+agent: {x: -8.0, y: -15.0, yaw: 1.5708}
+objects:
+  - {kind: food_green, shape: sphere, position: [0.0, 10.0, 5.0], size: [10.0, 10.0, 10.0]}
+"""
+
+
+def test_a_big_piece_is_eaten_at_the_first_approach(make_env, tmp_path):
+    path = tmp_path / "big.yaml"
+    path.write_text(ARENA)
+    env = make_env(action_mode="gait")
+    env.reset(seed=0, options={"spec": load_arena(path, 0), "check": False})
+    controller = ReferenceController(env)
+    controller.reset(0)
+    terminated = truncated = False
+    while not (terminated or truncated):
+        _, _, terminated, truncated, info = env.step(controller())
+    assert terminated and info["food_eaten"] == 1
+    # within 9 s: crouched all the way in, it pushed at the piece with its legs for 10.6 s
+    assert info["steps"] <= 450, info["steps"]
