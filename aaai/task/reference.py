@@ -111,6 +111,10 @@ class ReferenceController:
         # the region it plans in is the validator's for this body (aaai.task.arena.footprint_for)
         self.footprint = env.body.footprint if isinstance(env.body, Sphere) else FOOTPRINT_RADIUS
         self.grid = validate.blocked_grid(spec)
+        # start on a ledge: its top is ground to plan from until the body is off it (never climbed back)
+        self.ledge = validate.start_ledge(spec)
+        if self.ledge is not None:
+            validate.fill(self.grid, spec, corners(self.ledge), value=0)
         self.doors_closed = 0
         self._map()
         rows, cols = self.walk.shape
@@ -288,6 +292,10 @@ class ReferenceController:
         yaw = math.atan2(rotation[1, 0], rotation[0, 0])
         now = env.steps * env.control_dt
         self._doors(head)
+        if self.ledge is not None and _off_ledge(self.ledge, head):  # start on a ledge: down, it is a solid again
+            validate.fill(self.grid, self.level, corners(self.ledge))
+            self.ledge = None
+            self._map((float(head[0]), float(head[1])))
         if self.plank is not None and self._bridging(head, yaw, now):
             return self.gait()
         target = self._target(head)
@@ -464,6 +472,14 @@ class ReferenceController:
         error = _angle(math.atan2(PUSH_LEAD, base_x - head[0]) - yaw)
         self.gait.command(*steer(error, PUSH_LEAD))
         return True
+
+
+def _off_ledge(ledge, head) -> bool:
+    """Start on a ledge: is the head a footprint (FOOTPRINT_RADIUS) beyond the ledge's edge, the body down?"""
+    c, s = math.cos(ledge.yaw), math.sin(ledge.yaw)
+    dx, dy = head[0] - ledge.position[0], head[1] - ledge.position[1]
+    u, v = abs(c * dx + s * dy) - ledge.size[0] / 2, abs(-s * dx + c * dy) - ledge.size[1] / 2
+    return math.hypot(max(u, 0.0), max(v, 0.0)) >= FOOTPRINT_RADIUS
 
 
 def _angle(a: float) -> float:

@@ -171,7 +171,8 @@ def unreachable_cause(spec: LevelSpec, food: ObjectSpec) -> str:
     below = support(spec, food)
     if below is not None:
         return "food on a platform up a ramp" if ramp_leads_up(spec, below) else "food on top of a solid"
-    if (spec.extras.get("animalai") or {}).get("start_height"):
+    record = spec.extras.get("animalai") or {}
+    if record.get("start_height") and not record.get("start_ledge"):  # (from a ledge, the floor is walked)
         return "start on a raised floor"
     if _reachable(_without(spec, deadly), food):
         return "behind a death zone"

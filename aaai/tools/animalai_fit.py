@@ -45,6 +45,12 @@ START_MARGIN = 0.5  # units of room beyond the body's footprint radius a moved s
 # not moved, and the arena is marked unfair.
 SIDE_MARGIN = 5.0
 DIVIDE = "start on a dividing wall (moved off it, the start would choose the side)"
+# Such a start is put on a ledge instead (place_ledge): the body steps down from it to either side, as
+# Animal-AI's agent does from the wall, and cannot climb back; the side is still the agent's choice.
+LEDGE = "start on a ledge"
+LEDGE_HALF = 6.0  # units each way from the start: the body's footprint (5) and a margin
+LEDGE_HEIGHT = 1.5  # under aaai.levels.validate.LEDGE_DROP (1.6), above its LEDGE_CLIMB (1.3)
+LEDGE_CUTS = ("wall", "transparent_wall")  # the static kinds a dividing wall is made of, cut round a ledge
 
 
 def _problems(text: str, name: str, seeds: int) -> list[list[str]]:
@@ -95,6 +101,80 @@ def clear_places(spec) -> list[tuple[float, float]]:
     return [(x, y) for _, x, y in sorted(places)]
 
 
+def _box(obj: dict) -> tuple[float, float, float, float] | None:
+    """A static box's footprint (x0, y0, x1, y1) when it is upright and turned by a multiple of a right
+    angle, with every number given; else None."""
+    numbers = (*obj.get("position", ()), *obj.get("size", ()), obj.get("yaw", 0.0))
+    if len(numbers) != 7 or not all(isinstance(v, (int, float)) for v in numbers):
+        return None
+    quarter = obj.get("yaw", 0.0) / (math.pi / 2)
+    if abs(quarter - round(quarter)) > 1e-6:
+        return None
+    (x, y, _), (length, width, _) = obj["position"], obj["size"]
+    if round(quarter) % 2:
+        length, width = width, length
+    return x - length / 2, y - width / 2, x + length / 2, y + width / 2
+
+
+def place_ledge(data: dict, top: float) -> str | None:
+    """Puts the agent's start on a dividing wall (``top`` high) on a ledge: a static box (a pillar)
+    LEDGE_HALF each way from the start (within the arena), as high as the wall or the highest step the
+    body walks down upright (aaai.levels.validate.LEDGE_DROP), whichever is lower, the walls under it
+    cut round it (their pieces either side kept); the start stays where it is, facing the same way, and
+    the ledge is recorded (``extras.animalai.start_ledge``). Returns the change in words, or None when
+    it cannot be placed (a wall under it turned other than by right angles, or not standing on the
+    floor; a wall too low to be a ledge)."""
+    from aaai.levels.validate import LEDGE_CLIMB, LEDGE_DROP
+
+    assert LEDGE_CLIMB < LEDGE_HEIGHT <= LEDGE_DROP
+
+    agent, (width, depth) = data["agent"], data["arena_size"]
+    height = round(min(top, LEDGE_HEIGHT), 4)
+    if height <= LEDGE_CLIMB:
+        return None
+    x0, x1 = max(agent["x"] - LEDGE_HALF, -width / 2), min(agent["x"] + LEDGE_HALF, width / 2)
+    y0, y1 = max(agent["y"] - LEDGE_HALF, -depth / 2), min(agent["y"] + LEDGE_HALF, depth / 2)
+    kept, colour = [], None
+    for obj in data["objects"]:
+        if obj.get("kind") not in LEDGE_CUTS or obj.get("mass") or obj.get("behaviour"):
+            kept.append(obj)
+            continue
+        box = _box(obj)
+        if box is None:
+            return None  # nothing is changed until every wall under the ledge can be cut
+        a0, b0, a1, b1 = box
+        if a1 <= x0 or a0 >= x1 or b1 <= y0 or b0 >= y1:
+            kept.append(obj)
+            continue
+        z, tall = obj["position"][2], obj["size"][2]
+        if abs(z - tall / 2) > 1e-6:
+            return None
+        colour = colour or obj.get("colour")
+        pieces = [
+            (a0, b0, a1, y0),  # below the ledge, the wall's whole width
+            (a0, y1, a1, b1),  # above it
+            (a0, max(b0, y0), x0, min(b1, y1)),  # beside it, left and right
+            (x1, max(b0, y0), a1, min(b1, y1)),
+        ]
+        for p0, q0, p1, q1 in pieces:
+            if p1 - p0 > 1e-3 and q1 - q0 > 1e-3:
+                piece = {**obj, "position": [round((p0 + p1) / 2, 4), round((q0 + q1) / 2, 4), z]}
+                piece.update(size=[round(p1 - p0, 4), round(q1 - q0, 4), tall], yaw=0.0)
+                kept.append(piece)
+    ledge = {  # a static pillar: a solid box whose touch, unlike a wall's, costs nothing (stood on all the time)
+        "kind": "pillar",
+        "position": [round((x0 + x1) / 2, 4), round((y0 + y1) / 2, 4), round(height / 2, 4)],
+        "size": [round(x1 - x0, 4), round(y1 - y0, 4), height],
+        "yaw": 0.0,
+    }
+    if colour is not None:
+        ledge["colour"] = colour
+    data["objects"] = [*kept, ledge]
+    record = {"at": [agent["x"], agent["y"]], "height": height, "wall_top": round(top, 4)}
+    data.setdefault("extras", {}).setdefault("animalai", {})["start_ledge"] = record
+    return LEDGE
+
+
 def move_start(data: dict, dump: Callable[[dict], str], name: str) -> str | None:
     """Moves a fixed agent start that is not clear (seed 0) to the nearest clear place, facing the
     same way, recording the move in ``data["extras"]``; returns the change in words, or None."""
@@ -113,6 +193,9 @@ def move_start(data: dict, dump: Callable[[dict], str], name: str) -> str | None
     if raised and len(places) > 1:
         near = [math.hypot(x - agent["x"], y - agent["y"]) for x, y in places[:2]]
         if near[1] - near[0] < SIDE_MARGIN:  # off a dividing wall: either side, and the move would choose
+            ledge = place_ledge(data, float(raised))
+            if ledge:
+                return ledge
             data.setdefault("extras", {}).setdefault("animalai", {})["start_on_divide"] = True
             return None
     chosen = places[0]

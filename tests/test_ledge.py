@@ -1,0 +1,128 @@
+"""A start on a dividing wall becomes a one-way ledge (aaai.tools.animalai_fit.place_ledge): the start
+on it is clear, the body steps down from it to either side, and the floor does not lead back up."""
+
+import math
+
+import numpy as np
+import pytest
+
+from aaai.levels import validate
+from aaai.levels.common import arena_walls, sphere
+from aaai.spec import AgentPose, LevelSpec, ObjectSpec
+from aaai.tools.animalai_fit import LEDGE_HEIGHT, place_ledge
+
+SIZE = 60.0
+
+
+def ledge_arena(start=(0.0, 0.0), height=LEDGE_HEIGHT, food=((-20.0, 0.0), (20.0, 0.0)), ledge=True) -> LevelSpec:
+    """A wall across the arena along y with a ledge 12 across cut into it at the middle; food on each side."""
+    half = 6.0
+    wall_top = 5.0
+    pieces = (
+        ObjectSpec("wall", "box", (0.0, (SIZE / 2 + half) / 2, wall_top / 2), (4.0, SIZE / 2 - half, wall_top), 0.0),
+        ObjectSpec("wall", "box", (0.0, -(SIZE / 2 + half) / 2, wall_top / 2), (4.0, SIZE / 2 - half, wall_top), 0.0),
+        ObjectSpec("pillar", "box", (0.0, 0.0, height / 2), (2 * half, 2 * half, height), 0.0),
+    )
+    foods = tuple(sphere("food_yellow", x, y, 2.0) for x, y in food)
+    extras = {"animalai": {"start_ledge": {"at": list(start), "height": height, "wall_top": wall_top}}} if ledge else {}
+    return LevelSpec(
+        level=0,
+        name="ledge",
+        difficulty=0,
+        seed=0,
+        agent=AgentPose(*start, math.pi / 2),  # facing along the wall, as the imports do
+        objects=tuple(arena_walls((SIZE, SIZE), 4.0)) + pieces + foods,
+        arena_size=(SIZE, SIZE),
+        max_food_reward=sum(f.food_value for f in foods),
+        extras=extras,
+    )
+
+
+def test_a_start_on_the_ledge_is_clear_and_reaches_the_floor_on_both_sides():
+    spec = ledge_arena()
+    assert validate.start_ledge(spec) is not None
+    assert validate.check(spec) == []
+
+
+def test_the_floor_does_not_lead_back_up_on_to_the_ledge():
+    # from the floor on the left, the food on the right lies only across the ledge: out of reach
+    spec = ledge_arena(start=(-20.0, 10.0), food=((20.0, 0.0),), ledge=False)
+    assert validate.check(spec) == ["food_yellow at (20.0, 0.0) cannot be reached from the start"]
+    # and food on the ledge is never reached from the floor next to it
+    region, clear = validate.reachable_region(ledge_arena())
+    assert clear and not region[validate.cell(spec, 0.0, 0.0, region.shape)]
+
+
+@pytest.mark.parametrize(
+    "start, clear",
+    [((6.0 - validate.LEDGE_FOOTING, 0.0), True), ((6.0 - validate.LEDGE_FOOTING + 0.01, 0.0), False)],
+)
+def test_the_body_stands_on_the_ledge_up_to_a_hair_from_its_footing(start, clear):
+    problems = validate.check(ledge_arena(start=start))
+    assert (problems == []) is clear
+    if not clear:
+        assert "on a ledge is not clear" in problems[0]
+
+
+@pytest.mark.parametrize("height", [validate.LEDGE_CLIMB, validate.LEDGE_DROP + 0.01])
+def test_a_ledge_the_body_climbs_or_falls_from_is_not_clear(height):
+    assert "on a ledge is not clear" in validate.check(ledge_arena(height=height))[0]
+
+
+def test_the_importer_puts_a_start_on_a_dividing_wall_on_a_ledge_and_cuts_the_wall():
+    wall = {"kind": "wall", "position": [0.0, 0.0, 2.5], "size": [5.0, 200.0, 5.0], "yaw": 0.0, "colour": [0, 0, 1, 1]}
+    data = {"arena_size": [200.0, 200.0], "agent": {"x": 0.0, "y": -94.0, "yaw": math.pi / 2}, "objects": [wall]}
+    assert place_ledge(data, 5.0) == "start on a ledge"
+    kinds = [(o["kind"], o["position"], o["size"]) for o in data["objects"]]
+    assert kinds == [
+        ("wall", [0.0, 6.0, 2.5], [5.0, 188.0, 5.0]),  # the wall from the ledge's edge on
+        ("pillar", [0.0, -94.0, LEDGE_HEIGHT / 2], [12.0, 12.0, LEDGE_HEIGHT]),
+    ]
+    assert data["extras"]["animalai"]["start_ledge"] == {"at": [0.0, -94.0], "height": LEDGE_HEIGHT, "wall_top": 5.0}
+    assert data["agent"] == {"x": 0.0, "y": -94.0, "yaw": math.pi / 2}  # it stays, facing the same way
+
+
+@pytest.fixture(scope="module")
+def env():
+    from aaai.env import AnimalAIEnv
+
+    made = AnimalAIEnv()
+    yield made
+    made.close()
+
+
+def _drive(env, spec, target, seconds):
+    """The gait steered at ``target``; returns the head's highest z after the start, its last position and
+    the lowest uprightness (z of the head's up axis)."""
+    from aaai.tools.gait_tuning import follow
+
+    env.reset(options={"spec": spec, "check": False})
+    start_z = env.body.head_pose()[0][2]
+    from aaai.sim.gait import SineGait
+
+    result = follow(env, SineGait.for_env(env), spec, [target], seconds)
+    head = env.body.head_pose()[0]
+    return start_z, head, result["upright"]
+
+
+@pytest.mark.parametrize("side", [-1.0, 1.0])
+def test_the_body_spawns_on_the_ledge_and_steps_down_upright_to_either_side(env, side):
+    spec = ledge_arena(food=())
+    start_z, head, upright = _drive(env, spec, (20.0 * side, 0.0), 8.0)
+    assert start_z > LEDGE_HEIGHT + 1.0  # it stood on the ledge
+    assert head[0] * side > 10.0 and head[2] < LEDGE_HEIGHT + 1.2 and upright > 0.6  # down, on its feet
+
+
+def test_from_the_floor_the_body_does_not_climb_back_on_to_the_ledge(env):
+    spec = ledge_arena(start=(-20.0, 10.0), food=(), ledge=False)
+    _, head, _ = _drive(env, spec, (0.0, 0.0), 10.0)
+    assert head[0] < -6.0 and head[2] < LEDGE_HEIGHT + 1.2
+
+
+def test_the_spawn_height_is_the_ledges_top():
+    from aaai.sim.world import World
+
+    spec = ledge_arena()
+    assert World.ground_height(type("W", (), {"spec": spec})(), 0.0, 0.0) == pytest.approx(LEDGE_HEIGHT)
+    assert World.ground_height(type("W", (), {"spec": spec})(), 20.0, 0.0) == 0.0
+    assert np.isfinite(LEDGE_HEIGHT)
