@@ -14,7 +14,9 @@ from aaai.tools.animalai_fit import LEDGE_HEIGHT, place_ledge
 SIZE = 60.0
 
 
-def ledge_arena(start=(0.0, 0.0), height=LEDGE_HEIGHT, food=((-20.0, 0.0), (20.0, 0.0)), ledge=True) -> LevelSpec:
+def ledge_arena(
+    start=(0.0, 0.0), height=LEDGE_HEIGHT, food=((-20.0, 0.0), (20.0, 0.0)), ledge=True, yaw=math.pi / 2
+) -> LevelSpec:
     """A wall across the arena along y with a ledge 12 across cut into it at the middle; food on each side."""
     half = 6.0
     wall_top = 5.0
@@ -30,7 +32,7 @@ def ledge_arena(start=(0.0, 0.0), height=LEDGE_HEIGHT, food=((-20.0, 0.0), (20.0
         name="ledge",
         difficulty=0,
         seed=0,
-        agent=AgentPose(*start, math.pi / 2),  # facing along the wall, as the imports do
+        agent=AgentPose(*start, yaw),  # by default facing along the wall, as the imports do
         objects=tuple(arena_walls((SIZE, SIZE), 4.0)) + pieces + foods,
         arena_size=(SIZE, SIZE),
         max_food_reward=sum(f.food_value for f in foods),
@@ -114,8 +116,8 @@ def test_the_body_spawns_on_the_ledge_and_steps_down_upright_to_either_side(env,
 
 
 def test_from_the_floor_the_body_does_not_climb_back_on_to_the_ledge(env):
-    spec = ledge_arena(start=(-20.0, 10.0), food=(), ledge=False)
-    _, head, _ = _drive(env, spec, (0.0, 0.0), 10.0)
+    spec = ledge_arena(start=(-20.0, 0.0), food=(), ledge=False, yaw=0.0)  # straight at it (a step of 1 is mounted)
+    _, head, _ = _drive(env, spec, (0.0, 0.0), 12.0)
     assert head[0] < -6.0 and head[2] < LEDGE_HEIGHT + 1.2
 
 
@@ -126,3 +128,25 @@ def test_the_spawn_height_is_the_ledges_top():
     assert World.ground_height(type("W", (), {"spec": spec})(), 0.0, 0.0) == pytest.approx(LEDGE_HEIGHT)
     assert World.ground_height(type("W", (), {"spec": spec})(), 20.0, 0.0) == 0.0
     assert np.isfinite(LEDGE_HEIGHT)
+
+
+LEDGE_FILE = """arena_size: [200, 200]
+extras: {animalai: {start_ledge: {at: [0.0, -94.0], height: 1.5, wall_top: 5.0}}}
+agent: {x: 0.0, y: -94.0, yaw: 1.570796}
+objects:
+  - {kind: wall, position: [0.0, 6.0, 2.5], size: [5.0, 188.0, 5.0]}
+  - {kind: food_green, shape: sphere, position: [-50.0, 50.0, 2.5], size: [5.0, 5.0, 5.0]}
+  - {kind: pillar, position: [0.0, -94.0, 0.75], size: [12.0, 12.0, 1.5]}
+"""
+
+
+def test_an_arena_file_with_a_start_on_a_ledge_loads_for_the_quadruped_and_not_for_the_sphere(tmp_path):
+    from aaai.config import ConfigError
+    from aaai.task.arena import load_arena
+
+    path = tmp_path / "ledge.yaml"
+    path.write_text(LEDGE_FILE)
+    assert validate.start_ledge(load_arena(path)) is not None
+    # the sphere (radius 2.5 here) rolls up a step lower than its radius: the ledge would not be one way
+    with pytest.raises(ConfigError, match=r"line 3, agent: the agent's start \(0.0, -94.0\) on a ledge is not clear"):
+        load_arena(path, body="sphere")

@@ -51,7 +51,7 @@ import numpy as np
 import yaml
 
 from aaai import safe_yaml
-from aaai.agent.sphere import footprint_radius
+from aaai.agent.sphere import AAI_DIAMETER, footprint_radius, scale_for
 from aaai.config import ConfigError
 from aaai.levels import all_levels, get_level, validate
 from aaai.levels.common import arena_walls
@@ -430,6 +430,16 @@ def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body
     while the food that can be reached gives the pass mark (:func:`reachable_return`); when it does not, that
     is one more problem."""
     problems = validate.check(spec, require_food=require_food, footprint=footprint_for(body, spec.arena_size))
+    ledge = validate.start_ledge(spec) if body == "sphere" else None
+    radius = AAI_DIAMETER / 2 * scale_for(spec.arena_size)  # the sphere's (aaai.agent.sphere.Sphere.fit)
+    if ledge is not None and ledge.position[2] + ledge.size[2] / 2 < radius:
+        # measured: the sphere rolls up a step lower than its radius (1.5 and 2 with a radius of 2.5), not
+        # one as high (2.5, 3): from the floor it would get back on to the ledge
+        problems.append(
+            f"the agent's start ({spec.agent.x:.1f}, {spec.agent.y:.1f}) on a ledge is not clear for the sphere: "
+            f"the ledge, {ledge.position[2] + ledge.size[2] / 2:g} high, is lower than its radius {radius:g}, "
+            "so it rolls back up on to it"
+        )
     if spec.extras.get("walls_cross"):  # static walls that cross each other, as Animal-AI lets them
         problems = [p for p in problems if not _WALLS_CROSS.match(p)]
     if spec.extras.get("reach") == "pass_mark":
