@@ -11,6 +11,9 @@ parts (a tunnel's arch, an L block) is checked part by part (``pieces``), so the
 a tunnel and food may lie in a U; a ramp is walkable up to RAMP_WALKABLE_HEIGHT and an obstacle
 above it, and food may rest on its slope (``ramp_clearance``); a death zone and bad food are blocked
 (the body keeps clear of them); a hot zone is walkable (the reference controller avoids it by cost).
+An agent's start on a ledge (an imported Animal-AI start on a dividing wall, :func:`start_ledge`) is
+clear when the body stands on it and floor lies next to it; the body steps down from it to any side
+and never climbs back, so what it reaches is what lies in the regions it steps down into.
 """
 
 from __future__ import annotations

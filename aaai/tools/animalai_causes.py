@@ -195,10 +195,11 @@ def problem_cause(spec: LevelSpec | None, problem: str) -> str:
     from aaai.tools.animalai_fit import cause
 
     found = cause(problem)
-    if found == "start not clear" and spec is not None and (spec.extras.get("animalai") or {}).get("start_on_divide"):
+    divide = (spec.extras.get("animalai") or {}).get("start_on_divide") if spec is not None else None
+    if found == "start not clear" and divide:
         from aaai.tools.animalai_fit import DIVIDE
 
-        return DIVIDE
+        return divide if isinstance(divide, str) else DIVIDE
     if found == "food cuts into a solid":
         match = _CUT.search(problem)
         return f"food cuts into a {match.group(2)}" if match else found
