@@ -150,3 +150,33 @@ def test_an_arena_file_with_a_start_on_a_ledge_loads_for_the_quadruped_and_not_f
     # the sphere (radius 2.5 here) rolls up a step lower than its radius: the ledge would not be one way
     with pytest.raises(ConfigError, match=r"line 3, agent: the agent's start \(0.0, -94.0\) on a ledge is not clear"):
         load_arena(path, body="sphere")
+
+
+def test_a_ledge_widens_over_a_strip_of_wall_narrower_than_the_body():
+    wall = {"kind": "wall", "position": [0.0, 0.0, 2.5], "size": [15.0, 200.0, 5.0], "yaw": 0.0}
+    data = {"arena_size": [200.0, 200.0], "agent": {"x": 0.0, "y": -94.0, "yaw": 0.0}, "objects": [wall]}
+    assert place_ledge(data, 5.0) == "start on a ledge"
+    # the wall is 15 wide: cut to 12, strips 1.5 wide would stand either side of the ledge; it takes them
+    assert [(o["kind"], o["size"]) for o in data["objects"]] == [
+        ("wall", [15.0, 188.0, 5.0]),
+        ("pillar", [15.0, 12.0, LEDGE_HEIGHT]),
+    ]
+
+
+def test_a_start_on_a_wide_raised_floor_is_named_and_not_put_on_a_ledge(tmp_path):
+    from conftest import AAI_AGENT, AAI_GOAL
+
+    from aaai.tools.animalai import import_animalai
+
+    platform = (
+        "    - !Item\n      name: Wall\n      positions: [!Vector3 {x: 20, y: 0, z: 20}]\n"
+        "      sizes: [!Vector3 {x: 30, y: 2, z: 40}]\n      rotations: [0]\n"
+    )
+    agent = AAI_AGENT.format(x=20, z=20, r=0).replace("y: 0,", "y: 2,")
+    text = "!ArenaConfig\narenas:\n  0: !Arena\n    t: 250\n    items:\n" + agent + platform
+    text += AAI_GOAL.format(x=2, z=20) + AAI_GOAL.format(x=38, z=20)
+    (tmp_path / "src").mkdir()
+    (tmp_path / "src" / "raised.yaml").write_text(text)
+    (result,) = import_animalai(tmp_path / "src", tmp_path / "out", echo=lambda line: None)
+    assert result.unfair and result.unfair[0].startswith("start on a raised floor")
+    assert "start_ledge" not in (tmp_path / "out" / "unfair" / "raised.yaml").read_text()
