@@ -180,3 +180,12 @@ def test_a_start_on_a_wide_raised_floor_is_named_and_not_put_on_a_ledge(tmp_path
     (result,) = import_animalai(tmp_path / "src", tmp_path / "out", echo=lambda line: None)
     assert result.unfair and result.unfair[0].startswith("start on a raised floor")
     assert "start_ledge" not in (tmp_path / "out" / "unfair" / "raised.yaml").read_text()
+
+
+def test_a_bar_overhead_does_not_lift_the_spawn():
+    from aaai.sim.world import World
+
+    bar = ObjectSpec("wall", "box", (0.0, 0.0, 20.0), (40.0, 2.0, 1.0), 0.0)  # high above the start
+    spec = ledge_arena(ledge=False)
+    spec = LevelSpec(**{**spec.__dict__, "objects": (bar,)})
+    assert World.ground_height(type("W", (), {"spec": spec})(), 0.0, 0.0) == 0.0

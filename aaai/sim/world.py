@@ -362,12 +362,14 @@ class World:
         return self._eaten
 
     def ground_height(self, x: float, y: float) -> float:
-        """The top of the highest static solid whose footprint holds (x, y), or 0 (the floor): where a
-        body spawned there stands (a start on a ledge, aaai.levels.validate.start_ledge)."""
+        """The top of the highest static box standing on the floor whose footprint holds (x, y), or 0 (the
+        floor): where a body spawned there stands (a start on a ledge, aaai.levels.validate.start_ledge)."""
         top = 0.0
         for obj in self.spec.objects:
             cls = kind_class(obj.kind)
             if obj.kind not in SOLID_KINDS or obj.mass or obj.behaviour or obj.shape != "box":
+                continue
+            if abs(obj.position[2] - obj.size[2] / 2) > 1e-6:  # not standing on the floor (a bar overhead)
                 continue
             if cls is not None and (cls.walkable or cls.parts(obj)):  # a ramp, a kind built of parts
                 continue
