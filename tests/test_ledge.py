@@ -189,3 +189,16 @@ def test_a_bar_overhead_does_not_lift_the_spawn():
     spec = ledge_arena(ledge=False)
     spec = LevelSpec(**{**spec.__dict__, "objects": (bar,)})
     assert World.ground_height(type("W", (), {"spec": spec})(), 0.0, 0.0) == 0.0
+
+
+def test_a_ledge_cuts_walls_stacked_on_the_dividing_wall_and_leaves_a_bar_above_it():
+    low = {"kind": "wall", "position": [0.0, -50.0, 1.25], "size": [10.0, 100.0, 2.5], "yaw": 0.0}
+    stacked = {"kind": "wall", "position": [0.0, -87.5, 3.75], "size": [10.0, 25.0, 2.5], "yaw": 0.0}
+    bar = {"kind": "wall", "position": [0.0, -90.0, 20.0], "size": [40.0, 1.0, 1.0], "yaw": 0.3}
+    data = {"arena_size": [200.0, 200.0], "agent": {"x": 0.0, "y": -90.0, "yaw": 0.0}, "objects": [low, stacked, bar]}
+    assert place_ledge(data, 5.0) == "start on a ledge"
+    under = [o for o in data["objects"] if o["kind"] == "wall" and o["position"][2] < 5.0]
+    # the strips left below (4 deep) and above the ledge (the stacked wall's, 9) are narrower than the body:
+    # the ledge takes them, from the arena's edge to the stacked wall's end, and the low wall goes on from there
+    assert [(o["position"][1], o["size"][1]) for o in under] == [(-37.5, 75.0)]
+    assert data["objects"][-1]["size"] == [12.0, 25.0, LEDGE_HEIGHT] and bar in data["objects"]

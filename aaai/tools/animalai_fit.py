@@ -130,8 +130,9 @@ def place_ledge(data: dict, top: float) -> str | None:
     on), as high as the wall or the highest step the body walks down upright
     (aaai.levels.validate.LEDGE_DROP), whichever is lower; the walls under it are cut round it (their
     pieces either side kept). The start stays where it is, facing the same way, and the ledge is recorded
-    (``extras.animalai.start_ledge``). Returns the change in words, or None when it cannot be placed (a
-    wall under it turned other than by right angles, or not standing on the floor; a wall too low)."""
+    (``extras.animalai.start_ledge``); walls stacked on the wall are cut too, a bar above its top is left.
+    Returns the change in words, or None when it cannot be placed (a wall under it turned other than by
+    right angles; a wall too low)."""
     from aaai.levels.validate import FOOTPRINT_RADIUS, LEDGE_CLIMB, LEDGE_DROP
 
     assert LEDGE_CLIMB < LEDGE_HEIGHT <= LEDGE_DROP
@@ -152,7 +153,9 @@ def place_ledge(data: dict, top: float) -> str | None:
             if found is None or not _meets(found[0], x0, y0, x1, y1):
                 continue
             (a0, b0, a1, b1), square = found
-            if not square or abs(obj["position"][2] - obj["size"][2] / 2) > 1e-6:
+            if obj["position"][2] - obj["size"][2] / 2 > top + 1e-6:  # above the wall's top: a bar overhead
+                continue
+            if not square:
                 return None  # nothing is changed until every wall under the ledge can be cut
             cut.append(index)
             strip = 2 * FOOTPRINT_RADIUS
