@@ -390,11 +390,11 @@ def ledge_footing(spec: LevelSpec, ledge: ObjectSpec) -> bool:
     return room >= LEDGE_FOOTING and abs(low) < TOLERANCE and LEDGE_CLIMB < high <= LEDGE_DROP + TOLERANCE
 
 
-def ledge_landing(spec: LevelSpec, clearance: np.ndarray, ledge: ObjectSpec, footprint: float) -> np.ndarray | None:
+def ledge_landing(spec: LevelSpec, clearance: np.ndarray, ledge: ObjectSpec, footprint: float, separate: bool = False):
     """Where the body walks after stepping down from the ledge: every region of cells clear for its
-    footprint that comes within ``footprint`` + LEDGE_STEP of the ledge's edge, on any side (bool grid);
-    None if it does not stand on the ledge or no floor lies next to it. The ledge is never in it: the
-    floor does not lead back up."""
+    footprint that comes within ``footprint`` + LEDGE_STEP of the ledge's edge, on any side (bool grid;
+    ``separate``: a list, one grid a region); None if it does not stand on the ledge or no floor lies next
+    to it. The ledge is never in it: the floor does not lead back up, so the body walks in one of them."""
     if not ledge_footing(spec, ledge):
         return None
     free = (clearance > footprint).astype(np.uint8)
@@ -404,6 +404,8 @@ def ledge_landing(spec: LevelSpec, clearance: np.ndarray, ledge: ObjectSpec, foo
     near = distances(top == 0) * GRID <= footprint + LEDGE_STEP
     landing = np.unique(labels[near & (free > 0)])
     landing = landing[landing > 0]
+    if separate:
+        return [labels == label for label in landing] or None
     return np.isin(labels, landing) if landing.size else None
 
 
@@ -447,12 +449,30 @@ def reachable_region(
     walk = walk_region(spec, clearance, footprint=footprint)
     if walk is None:
         return np.zeros_like(clearance, bool), False
+    return _reach(walk, clearance, footprint), True
+
+
+def reach_regions(spec: LevelSpec, footprint: float = FOOTPRINT_RADIUS) -> list[np.ndarray]:
+    """The places the head can get to, one grid for each region the body may end up in: from a start on a
+    ledge (:func:`start_ledge`), one for each region it may step down into (it takes one, and never
+    climbs back); else the one :func:`reachable_region` (none when the start is not clear)."""
+    ledge = start_ledge(spec)
+    clearance = clearance_map(spec)
+    if ledge is None:
+        region, clear = reachable_region(spec, footprint=footprint, clearance=clearance)
+        return [region] if clear else []
+    walks = ledge_landing(spec, clearance, ledge, footprint, separate=True) or []
+    return [_reach(walk, clearance, footprint) for walk in walks]
+
+
+def _reach(walk: np.ndarray, clearance: np.ndarray, footprint: float) -> np.ndarray:
+    """Where the head's centre gets to from the cells the body's centre walks (``walk``)."""
     reach = footprint - (FOOTPRINT_RADIUS - REACH_CLEARANCE)
     lean = round((FOOTPRINT_RADIUS - REACH_CLEARANCE) / GRID) + 1
     leaned = cv2.dilate(
         walk.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * lean + 1, 2 * lean + 1))
     )
-    return (leaned > 0) & (clearance > reach), True
+    return (leaned > 0) & (clearance > reach)
 
 
 # The eight moves on the grid, (rows, columns), and half the length in units of each: a move costs its

@@ -42,6 +42,7 @@ agent inside a wall). Nothing is run from an invalid file.
 
 from __future__ import annotations
 
+import math
 import re
 import zlib
 from pathlib import Path
@@ -418,10 +419,13 @@ def footprint_for(body: str, arena_size=None) -> float:
 def reachable_return(spec: LevelSpec, body: str = "quadruped") -> float:
     """The most an episode can return eating only the food the body can reach: the best reachable
     episode-ending piece plus every other reachable piece, less the most the step term takes."""
-    region, clear = validate.reachable_region(spec, footprint=footprint_for(body, spec.arena_size))
-    reached = [food for food in spec.foods if clear and validate.food_reachable(spec, region, food)]
-    ending = [food.food_value for food in reached if food.kind in ENDING_KINDS]
-    return max(ending, default=0.0) + sum(f.food_value for f in reached if f.kind not in ENDING_KINDS) - STEP_COSTS
+    best = -math.inf
+    # from a start on a ledge, the best of the regions it may step down into: it takes one
+    for region in validate.reach_regions(spec, footprint_for(body, spec.arena_size)):
+        reached = [food for food in spec.foods if validate.food_reachable(spec, region, food)]
+        ending = [food.food_value for food in reached if food.kind in ENDING_KINDS]
+        best = max(best, max(ending, default=0.0) + sum(f.food_value for f in reached if f.kind not in ENDING_KINDS))
+    return (best if best > -math.inf else 0.0) - STEP_COSTS  # (no region: the start is not clear)
 
 
 def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body: str = "quadruped") -> list[str]:
@@ -444,13 +448,18 @@ def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body
         problems = [p for p in problems if not _WALLS_CROSS.match(p)]
     if spec.extras.get("reach") == "pass_mark":
         unreached = [p for p in problems if p.endswith("cannot be reached from the start")]
-        if unreached:
+        on_ledge = validate.start_ledge(spec) is not None  # the food of the one side it steps down to counts
+        if unreached or on_ledge:
             problems = [p for p in problems if p not in unreached]
             best, mark = reachable_return(spec, body), spec.extras["pass_mark"]
             if best < mark:
+                why = (
+                    f"{len(unreached)} piece{'s' if len(unreached) > 1 else ''} of food out of reach"
+                    if unreached
+                    else "from a ledge, the food of one side"
+                )
                 problems.append(
-                    f"the food that can be reached gives at most {best:.2f}, below the pass mark {mark:g} "
-                    f"({len(unreached)} piece{'s' if len(unreached) > 1 else ''} of food out of reach)"
+                    f"the food that can be reached gives at most {best:.2f}, below the pass mark {mark:g} ({why})"
                 )
     return [_located(spec, source, problem) for problem in problems]
 

@@ -219,4 +219,10 @@ def problem_cause(spec: LevelSpec | None, problem: str) -> str:
         for food in spec.foods:
             if not (clear and validate.food_reachable(spec, region, food)):
                 return unreachable_cause(spec, food)
+        if found == "reachable food below the pass mark" and validate.start_ledge(spec) is not None:
+            return ONE_SIDE
     return found
+
+
+# every piece is reached from a start on a ledge, but on no one side enough for the pass mark
+ONE_SIDE = "one side's food below the pass mark (from a ledge the body steps down to one side)"
