@@ -22,6 +22,9 @@ order, and the first change that brings it within reach names the cause:
   Animal-AI units in radius at the arena's scale), not by ours;
 - ``walled off``: none of these.
 
+From a start on a ledge (aaai.levels.validate.start_ledge) every piece may be reached and yet no one side
+hold enough for the pass mark: ``one side's food below the pass mark`` (ONE_SIDE).
+
 A problem that is not food out of reach is named by the kinds it involves (``food cuts into a
 ramp``, ``movable blocks overlap``, ...).
 """

@@ -8,8 +8,10 @@ Animal-AI's agent do not fit ours. An arena is converted at the asked scale and 
 - a fixed agent start that is not clear moves to the nearest clear place (the centre of a grid
   cell with room for the body), facing the same way; of the clear regions, the nearest one from
   which the food can be reached, else the nearest; but a start on top of a wall with a side of it
-  about as near as the other (SIDE_MARGIN) is not moved: which side to take is the task, and the
-  arena is marked unfair (DIVIDE);
+  about as near as the other (SIDE_MARGIN) is not moved: which side to take is the task. It is put on a
+  ledge cut into the wall (place_ledge: LEDGE), from which the body steps down to either side and which
+  it cannot climb back; where the ledge has no floor beside it (a wide wall's top, walked on by
+  Animal-AI's agent) or cannot be cut, the arena is marked unfair (RAISED, DIVIDE);
 - when food still cannot be reached (a passage narrower than the body) or the start has no clear
   place near, the arena is converted again at the next of SCALE_STEPS times the asked scale, and the
   smallest scale at which it is valid on every seed is kept;
