@@ -234,3 +234,17 @@ def test_from_a_ledge_a_pass_mark_only_both_sides_give_is_a_problem_named_by_its
     (problem,) = check_arena(spec, source)
     assert problem.endswith("gives at most 1.50, below the pass mark 3 (from a ledge, the food of one side)")
     assert problem_cause(spec, problem) == ONE_SIDE
+
+
+@pytest.mark.parametrize("side", [-1.0, 1.0])
+def test_the_reference_plans_from_the_ledge_down_to_the_food(env, side):
+    from aaai.task.reference import ReferenceController
+
+    spec = ledge_arena(food=((20.0 * side, -10.0),))
+    observation, _ = env.reset(options={"spec": spec})
+    reference = ReferenceController(env)
+    for _ in range(800):
+        observation, _, terminated, truncated, info = env.step(reference(observation))
+        if terminated or truncated:
+            break
+    assert info["food_eaten"] == 1 and reference.ledge is None  # down, and the ledge a solid in its map again
