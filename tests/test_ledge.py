@@ -248,3 +248,13 @@ def test_the_reference_plans_from_the_ledge_down_to_the_food(env, side):
         if terminated or truncated:
             break
     assert info["food_eaten"] == 1 and reference.ledge is None  # down, and the ledge a solid in its map again
+
+
+def test_from_a_ledge_the_reference_takes_the_side_whose_food_is_worth_most(env):
+    from aaai.task.reference import ReferenceController
+
+    spec = ledge_arena(food=((-20.0, -10.0), (20.0, -10.0), (20.0, 10.0)))  # one piece left, two right
+    observation, _ = env.reset(options={"spec": spec})
+    reference = ReferenceController(env)
+    reference(observation)
+    assert [food.position[:2] for food in reference.lures] == [(-20.0, -10.0)]  # the left one is never gone for

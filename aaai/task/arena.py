@@ -42,7 +42,6 @@ agent inside a wall). Nothing is run from an invalid file.
 
 from __future__ import annotations
 
-import math
 import re
 import zlib
 from pathlib import Path
@@ -418,14 +417,26 @@ def footprint_for(body: str, arena_size=None) -> float:
 
 def reachable_return(spec: LevelSpec, body: str = "quadruped") -> float:
     """The most an episode can return eating only the food the body can reach: the best reachable
-    episode-ending piece plus every other reachable piece, less the most the step term takes."""
-    best = -math.inf
-    # from a start on a ledge, the best of the regions it may step down into: it takes one
-    for region in validate.reach_regions(spec, footprint_for(body, spec.arena_size)):
-        reached = [food for food in spec.foods if validate.food_reachable(spec, region, food)]
-        ending = [food.food_value for food in reached if food.kind in ENDING_KINDS]
-        best = max(best, max(ending, default=0.0) + sum(f.food_value for f in reached if f.kind not in ENDING_KINDS))
-    return (best if best > -math.inf else 0.0) - STEP_COSTS  # (no region: the start is not clear)
+    episode-ending piece plus every other reachable piece, less the most the step term takes. From a
+    start on a ledge, the best of the regions it may step down into (it takes one: :func:`best_side`)."""
+    regions = validate.reach_regions(spec, footprint_for(body, spec.arena_size))
+    best = max((_region_return(spec, region) for region in regions), default=0.0)  # (none: the start is not clear)
+    return best - STEP_COSTS
+
+
+def best_side(spec: LevelSpec, body: str = "quadruped") -> np.ndarray | None:
+    """Where the head can get to in the region worth most of those the body may step down into from a
+    start on a ledge (aaai.levels.validate.reach_regions; the first of equals), or None without one."""
+    if validate.start_ledge(spec) is None:
+        return None
+    regions = validate.reach_regions(spec, footprint_for(body, spec.arena_size))
+    return max(regions, key=lambda region: _region_return(spec, region), default=None)
+
+
+def _region_return(spec: LevelSpec, region: np.ndarray) -> float:
+    reached = [food for food in spec.foods if validate.food_reachable(spec, region, food)]
+    ending = [food.food_value for food in reached if food.kind in ENDING_KINDS]
+    return max(ending, default=0.0) + sum(f.food_value for f in reached if f.kind not in ENDING_KINDS)
 
 
 def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body: str = "quadruped") -> list[str]:

@@ -42,6 +42,7 @@ from aaai.sim.geometry import corners
 from aaai.spec import LevelSpec, ObjectSpec
 from aaai.spec.behaviours import Sink, behaviour_class
 from aaai.spec.kinds import ENDING_KINDS, FOOD_KINDS, kind_class
+from aaai.task.arena import best_side
 from aaai.task.sphere_steer import SphereSteer
 
 # pieces that do not end the episode (yellow, multi, ripening, decaying food): eaten before the green
@@ -129,6 +130,9 @@ class ReferenceController:
         self.best_progress, self.progress_time, self.back_off_until = math.inf, 0.0, -1.0
         self.progress_key = None
         self.lures = self._lures(spec)
+        side = best_side(spec) if self.ledge is not None else None  # start on a ledge: it takes one side
+        if side is not None:  # the one whose food is worth most; the other sides' pieces are never gone for
+            self.lures += [food for food in spec.foods if not validate.food_reachable(spec, side, food)]
 
     def _lures(self, spec: LevelSpec) -> list[ObjectSpec]:
         """The pieces of an arena whose food out of reach is allowed (``reach: pass_mark``, Animal-AI's
