@@ -342,6 +342,7 @@ class AnimalAIEnv(gym.Env):
         # an arena file's arena sets the sphere's scale; the generated levels share one (aaai.agent.sphere)
         arena_file = self.arena is not None and "spec" not in options or bool(options.get("arena_file"))
         self.body.load(spec.agent.x, spec.agent.y, spec.agent.yaw, spec.arena_size if arena_file else None)
+        self.world.stand(self.body.id)  # on the ledge a start may stand on (aaai.levels.validate.start_ledge)
         self.senses.start(spec, self.control_dt)
         self.steps = 0
         if self.gait is not None:

@@ -211,7 +211,7 @@ def test_a_low_wall_over_the_whole_arena_is_its_floor(tmp_path):
     assert spec.objects[4].position[2] == pytest.approx(2.5)  # on the floor
 
 
-def test_a_start_on_a_dividing_wall_is_not_moved_to_a_side_but_marked_unfair(tmp_path):
+def test_a_start_on_a_dividing_wall_is_not_moved_to_a_side_but_put_on_a_ledge(tmp_path):
     agent = "    - !Item\n      name: Agent\n      positions: [!Vector3 {x: 20, y: 1, z: 1}]\n      rotations: [0]\n"
     divide = (
         "    - !Item\n      name: Wall\n      positions: [!Vector3 {x: 20, y: 0, z: 20}]\n"
@@ -225,8 +225,9 @@ def test_a_start_on_a_dividing_wall_is_not_moved_to_a_side_but_marked_unfair(tmp
             "02-1-2.yaml": arena(agent + pad + GOAL.format(x=10, z=30)),
         },
     )
-    assert results["02-1-1.yaml"].unfair == ["start on a dividing wall (moved off it, the start would choose the side)"]
-    assert (out / "unfair" / "02-1-1.yaml").exists() and "start_moved" not in (
-        out / "unfair" / "02-1-1.yaml"
-    ).read_text()
+    assert not results["02-1-1.yaml"].unfair and "start on a ledge" in results["02-1-1.yaml"].changes
+    text = (out / "02-1-1.yaml").read_text()
+    assert "start_moved" not in text and "start_ledge: {at: [0.0, -94.0], height: 1.5, wall_top: 5.0}" in text
+    spec = load_arena(out / "02-1-1.yaml")
+    assert (spec.agent.x, spec.agent.y) == (0.0, -94.0) and spec.objects[-1].kind == "pillar"  # where it was
     assert not results["02-1-2.yaml"].unfair and any("start moved" in c for c in results["02-1-2.yaml"].changes)

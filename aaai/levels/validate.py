@@ -11,6 +11,9 @@ parts (a tunnel's arch, an L block) is checked part by part (``pieces``), so the
 a tunnel and food may lie in a U; a ramp is walkable up to RAMP_WALKABLE_HEIGHT and an obstacle
 above it, and food may rest on its slope (``ramp_clearance``); a death zone and bad food are blocked
 (the body keeps clear of them); a hot zone is walkable (the reference controller avoids it by cost).
+An agent's start on a ledge (an imported Animal-AI start on a dividing wall, :func:`start_ledge`) is
+clear when the body stands on it and floor lies next to it; the body steps down from it to any side
+and never climbs back, so what it reaches is what lies in the regions it steps down into.
 """
 
 from __future__ import annotations
@@ -347,6 +350,65 @@ def clearance_map(spec: LevelSpec, grid: np.ndarray | None = None) -> np.ndarray
     return distances(padded == 0)[1:-1, 1:-1] * GRID
 
 
+# A start on a ledge (an imported Animal-AI start on a dividing wall, aaai.tools.animalai_fit): the body
+# starts on a static box's top and steps down from it to the floor on any side, never back up. Measured
+# (the gait driven straight at a step, aaai.tools.gait_tuning.follow, 8 to 20 s): it walks off a step up to
+# 1.6 high upright in every direction tried (1.7 to 1.9: it stalls on the edge; 2.0 and higher: it falls
+# over); it mounts a step of 1.2 or 1.3 with its front feet and never one of 1.5.
+LEDGE_DROP = 1.6  # the highest step the body walks down upright
+LEDGE_CLIMB = 1.3  # a step up to this high may be mounted: a ledge must be higher
+# the body stands on a ledge whose edges are at least this far from the start: its feet at rest reach 4.5
+# from the head's centre (the trot's sweep, to FOOTPRINT_RADIUS, may overhang)
+LEDGE_FOOTING = 4.5
+# the body's centre lands on the floor within this much more than its footprint of the ledge's edge
+LEDGE_STEP = 1.0
+
+
+def start_ledge(spec: LevelSpec) -> ObjectSpec | None:
+    """The ledge the agent starts on, if the arena records one (``extras.animalai.start_ledge``: at,
+    height) and a static box of that height lies under the start: else None."""
+    record = (spec.extras.get("animalai") or {}).get("start_ledge") if isinstance(spec.extras, dict) else None
+    if not isinstance(record, dict) or not isinstance(record.get("height"), (int, float)):
+        return None
+    x, y = spec.agent.x, spec.agent.y
+    for obj in solids(spec):
+        if obj.mass or obj.behaviour or obj.shape != "box" or getattr(kind_class(obj.kind), "walkable", False):
+            continue
+        u, v = _local(obj, x, y)
+        top = obj.position[2] + obj.size[2] / 2
+        if abs(u) <= obj.size[0] / 2 and abs(v) <= obj.size[1] / 2 and abs(top - record["height"]) < TOLERANCE:
+            return obj
+    return None
+
+
+def ledge_footing(spec: LevelSpec, ledge: ObjectSpec) -> bool:
+    """Does the body stand on the ledge: its edges LEDGE_FOOTING or more from the start, its height one
+    the body walks down (LEDGE_DROP) and cannot climb back (above LEDGE_CLIMB), its bottom on the floor?"""
+    u, v = _local(ledge, spec.agent.x, spec.agent.y)
+    room = min(ledge.size[0] / 2 - abs(u), ledge.size[1] / 2 - abs(v))
+    low, high = z_range(ledge)
+    return room >= LEDGE_FOOTING and abs(low) < TOLERANCE and LEDGE_CLIMB < high <= LEDGE_DROP + TOLERANCE
+
+
+def ledge_landing(spec: LevelSpec, clearance: np.ndarray, ledge: ObjectSpec, footprint: float, separate: bool = False):
+    """Where the body walks after stepping down from the ledge: every region of cells clear for its
+    footprint that comes within ``footprint`` + LEDGE_STEP of the ledge's edge, on any side (bool grid;
+    ``separate``: a list, one grid a region); None if it does not stand on the ledge or no floor lies next
+    to it. The ledge is never in it: the floor does not lead back up, so the body walks in one of them."""
+    if not ledge_footing(spec, ledge):
+        return None
+    free = (clearance > footprint).astype(np.uint8)
+    _, labels = cv2.connectedComponents(free, connectivity=8)
+    top = np.zeros(clearance.shape, np.uint8)
+    fill(top, spec, corners(ledge))
+    near = distances(top == 0) * GRID <= footprint + LEDGE_STEP
+    landing = np.unique(labels[near & (free > 0)])
+    landing = landing[landing > 0]
+    if separate:
+        return [labels == label for label in landing] or None
+    return np.isin(labels, landing) if landing.size else None
+
+
 def walk_region(
     spec: LevelSpec,
     clearance: np.ndarray,
@@ -356,7 +418,12 @@ def walk_region(
     """Where the body's centre can walk from ``start`` (default: the agent's start) as a bool grid:
     cells whose disc of ``footprint`` (the body's footprint radius: the quadruped's FOOTPRINT_RADIUS,
     or another body's, aaai.task.arena.footprint_for) is clear, in the start's connected region;
-    None if the start is not clear."""
+    None if the start is not clear. The agent's start on a ledge (:func:`start_ledge`): the regions it
+    steps down into (:func:`ledge_landing`)."""
+    if start is None:
+        ledge = start_ledge(spec)
+        if ledge is not None:  # the floor next to the ledge the start is on, on any side
+            return ledge_landing(spec, clearance, ledge, footprint)
     free = (clearance > footprint).astype(np.uint8)
     _, labels = cv2.connectedComponents(free, connectivity=8)
     x, y = (spec.agent.x, spec.agent.y) if start is None else start
@@ -382,12 +449,30 @@ def reachable_region(
     walk = walk_region(spec, clearance, footprint=footprint)
     if walk is None:
         return np.zeros_like(clearance, bool), False
+    return _reach(walk, clearance, footprint), True
+
+
+def reach_regions(spec: LevelSpec, footprint: float = FOOTPRINT_RADIUS) -> list[np.ndarray]:
+    """The places the head can get to, one grid for each region the body may end up in: from a start on a
+    ledge (:func:`start_ledge`), one for each region it may step down into (it takes one, and never
+    climbs back); else the one :func:`reachable_region` (none when the start is not clear)."""
+    ledge = start_ledge(spec)
+    clearance = clearance_map(spec)
+    if ledge is None:
+        region, clear = reachable_region(spec, footprint=footprint, clearance=clearance)
+        return [region] if clear else []
+    walks = ledge_landing(spec, clearance, ledge, footprint, separate=True) or []
+    return [_reach(walk, clearance, footprint) for walk in walks]
+
+
+def _reach(walk: np.ndarray, clearance: np.ndarray, footprint: float) -> np.ndarray:
+    """Where the head's centre gets to from the cells the body's centre walks (``walk``)."""
     reach = footprint - (FOOTPRINT_RADIUS - REACH_CLEARANCE)
     lean = round((FOOTPRINT_RADIUS - REACH_CLEARANCE) / GRID) + 1
     leaned = cv2.dilate(
         walk.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * lean + 1, 2 * lean + 1))
     )
-    return (leaned > 0) & (clearance > reach), True
+    return (leaned > 0) & (clearance > reach)
 
 
 # The eight moves on the grid, (rows, columns), and half the length in units of each: a move costs its
@@ -568,6 +653,13 @@ def check(spec: LevelSpec, require_food: bool = True, footprint: float = FOOTPRI
     for food in spec.foods:
         problems += food_problems(spec, food, index)
     region, clear = reachable_region(spec, footprint=footprint)
+    if not clear and start_ledge(spec) is not None:
+        problems.append(
+            f"the agent's start {_xy((spec.agent.x, spec.agent.y))} on a ledge is not clear: the body stands on "
+            f"a ledge whose edges are {LEDGE_FOOTING:g} or more from the start, above {LEDGE_CLIMB:g} and at most "
+            f"{LEDGE_DROP:g} high, with floor next to it where a body of radius {footprint} fits"
+        )
+        return problems
     if not clear:
         problems.append(
             f"the agent's start {_xy((spec.agent.x, spec.agent.y))} is not clear: a body of "

@@ -18,7 +18,7 @@ from aaai.sim.geometry import footprint, merge_tiles
 from aaai.sim.snapshot import Pose
 from aaai.spec import LevelSpec, ObjectSpec
 from aaai.spec.behaviours import Behaviour, Door, behaviour_class
-from aaai.spec.kinds import CAMERA_HIDDEN, COLOURS, ENDING_KINDS, KIND_INDEX, kind_class
+from aaai.spec.kinds import CAMERA_HIDDEN, COLOURS, ENDING_KINDS, KIND_INDEX, SOLID_KINDS, kind_class
 
 FLOOR_THICKNESS = 1.0
 DEADLY_FLOOR_TOP = -6.0
@@ -360,6 +360,32 @@ class World:
                 left = {obj.kind for obj in self.food.values()}
                 self._eaten = any(kind not in left for kind in self.all_end)
         return self._eaten
+
+    def ground_height(self, x: float, y: float) -> float:
+        """The top of the highest static box standing on the floor whose footprint holds (x, y), or 0 (the
+        floor): where a body spawned there stands (a start on a ledge, aaai.levels.validate.start_ledge)."""
+        top = 0.0
+        for obj in self.spec.objects:
+            cls = kind_class(obj.kind)
+            if obj.kind not in SOLID_KINDS or obj.mass or obj.behaviour or obj.shape != "box":
+                continue
+            if abs(obj.position[2] - obj.size[2] / 2) > 1e-6:  # not standing on the floor (a bar overhead)
+                continue
+            if cls is not None and (cls.walkable or cls.parts(obj)):  # a ramp, a kind built of parts
+                continue
+            c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+            dx, dy = x - obj.position[0], y - obj.position[1]
+            if abs(c * dx + s * dy) <= obj.size[0] / 2 and abs(-s * dx + c * dy) <= obj.size[1] / 2:
+                top = max(top, obj.position[2] + obj.size[2] / 2)
+        return top
+
+    def stand(self, body: int) -> None:
+        """Raises a body just loaded at the start by the ground's height there (a start on a ledge)."""
+        position, orientation = p.getBasePositionAndOrientation(body, physicsClientId=self.client)
+        height = self.ground_height(position[0], position[1])
+        if height > 0:
+            lifted = (position[0], position[1], position[2] + height)
+            p.resetBasePositionAndOrientation(body, lifted, orientation, physicsClientId=self.client)
 
     def blocked(self, x: float, y: float, radius: float) -> bool:
         """Would a disc at (x, y) leave the arena or overlap a static solid's footprint?"""

@@ -51,7 +51,7 @@ import numpy as np
 import yaml
 
 from aaai import safe_yaml
-from aaai.agent.sphere import footprint_radius
+from aaai.agent.sphere import AAI_DIAMETER, footprint_radius, scale_for
 from aaai.config import ConfigError
 from aaai.levels import all_levels, get_level, validate
 from aaai.levels.common import arena_walls
@@ -417,11 +417,26 @@ def footprint_for(body: str, arena_size=None) -> float:
 
 def reachable_return(spec: LevelSpec, body: str = "quadruped") -> float:
     """The most an episode can return eating only the food the body can reach: the best reachable
-    episode-ending piece plus every other reachable piece, less the most the step term takes."""
-    region, clear = validate.reachable_region(spec, footprint=footprint_for(body, spec.arena_size))
-    reached = [food for food in spec.foods if clear and validate.food_reachable(spec, region, food)]
+    episode-ending piece plus every other reachable piece, less the most the step term takes. From a
+    start on a ledge, the best of the regions it may step down into (it takes one: :func:`best_side`)."""
+    regions = validate.reach_regions(spec, footprint_for(body, spec.arena_size))
+    best = max((_region_return(spec, region) for region in regions), default=0.0)  # (none: the start is not clear)
+    return best - STEP_COSTS
+
+
+def best_side(spec: LevelSpec, body: str = "quadruped") -> np.ndarray | None:
+    """Where the head can get to in the region worth most of those the body may step down into from a
+    start on a ledge (aaai.levels.validate.reach_regions; the first of equals), or None without one."""
+    if validate.start_ledge(spec) is None:
+        return None
+    regions = validate.reach_regions(spec, footprint_for(body, spec.arena_size))
+    return max(regions, key=lambda region: _region_return(spec, region), default=None)
+
+
+def _region_return(spec: LevelSpec, region: np.ndarray) -> float:
+    reached = [food for food in spec.foods if validate.food_reachable(spec, region, food)]
     ending = [food.food_value for food in reached if food.kind in ENDING_KINDS]
-    return max(ending, default=0.0) + sum(f.food_value for f in reached if f.kind not in ENDING_KINDS) - STEP_COSTS
+    return max(ending, default=0.0) + sum(f.food_value for f in reached if f.kind not in ENDING_KINDS)
 
 
 def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body: str = "quadruped") -> list[str]:
@@ -430,17 +445,32 @@ def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body
     while the food that can be reached gives the pass mark (:func:`reachable_return`); when it does not, that
     is one more problem."""
     problems = validate.check(spec, require_food=require_food, footprint=footprint_for(body, spec.arena_size))
+    ledge = validate.start_ledge(spec) if body == "sphere" else None
+    radius = AAI_DIAMETER / 2 * scale_for(spec.arena_size)  # the sphere's (aaai.agent.sphere.Sphere.fit)
+    if ledge is not None and ledge.position[2] + ledge.size[2] / 2 < radius:
+        # measured: the sphere rolls up a step lower than its radius (1.5 and 2 with a radius of 2.5), not
+        # one as high (2.5, 3): from the floor it would get back on to the ledge
+        problems.append(
+            f"the agent's start ({spec.agent.x:.1f}, {spec.agent.y:.1f}) on a ledge is not clear for the sphere: "
+            f"the ledge, {ledge.position[2] + ledge.size[2] / 2:g} high, is lower than its radius {radius:g}, "
+            "so it rolls back up on to it"
+        )
     if spec.extras.get("walls_cross"):  # static walls that cross each other, as Animal-AI lets them
         problems = [p for p in problems if not _WALLS_CROSS.match(p)]
     if spec.extras.get("reach") == "pass_mark":
         unreached = [p for p in problems if p.endswith("cannot be reached from the start")]
-        if unreached:
+        on_ledge = validate.start_ledge(spec) is not None  # the food of the one side it steps down to counts
+        if unreached or on_ledge:
             problems = [p for p in problems if p not in unreached]
             best, mark = reachable_return(spec, body), spec.extras["pass_mark"]
             if best < mark:
+                why = (
+                    f"{len(unreached)} piece{'s' if len(unreached) > 1 else ''} of food out of reach"
+                    if unreached
+                    else "from a ledge, the food of one side"
+                )
                 problems.append(
-                    f"the food that can be reached gives at most {best:.2f}, below the pass mark {mark:g} "
-                    f"({len(unreached)} piece{'s' if len(unreached) > 1 else ''} of food out of reach)"
+                    f"the food that can be reached gives at most {best:.2f}, below the pass mark {mark:g} ({why})"
                 )
     return [_located(spec, source, problem) for problem in problems]
 

@@ -46,6 +46,7 @@ from aaai.sim.geometry import corners
 from aaai.spec import LevelSpec, ObjectSpec
 from aaai.spec.behaviours import Sink, behaviour_class
 from aaai.spec.kinds import ENDING_KINDS, FOOD_KINDS, kind_class
+from aaai.task.arena import best_side
 from aaai.task.sphere_steer import SphereSteer
 
 # pieces that do not end the episode (yellow, multi, ripening, decaying food): eaten before the green
@@ -118,6 +119,10 @@ class ReferenceController:
         # the region it plans in is the validator's for this body (aaai.task.arena.footprint_for)
         self.footprint = env.body.footprint if isinstance(env.body, Sphere) else FOOTPRINT_RADIUS
         self.grid = validate.blocked_grid(spec)
+        # start on a ledge: its top is ground to plan from until the body is off it (never climbed back)
+        self.ledge = validate.start_ledge(spec)
+        if self.ledge is not None:
+            validate.fill(self.grid, spec, corners(self.ledge), value=0)
         self.doors_closed = 0
         self._map()
         rows, cols = self.walk.shape
@@ -132,6 +137,9 @@ class ReferenceController:
         self.best_progress, self.progress_time, self.back_off_until = math.inf, 0.0, -1.0
         self.progress_key = None
         self.lures = self._lures(spec)
+        side = best_side(spec) if self.ledge is not None else None  # start on a ledge: it takes one side
+        if side is not None:  # the one whose food is worth most; the other sides' pieces are never gone for
+            self.lures += [food for food in spec.foods if not validate.food_reachable(spec, side, food)]
 
     def _lures(self, spec: LevelSpec) -> list[ObjectSpec]:
         """The pieces of an arena whose food out of reach is allowed (``reach: pass_mark``, Animal-AI's
@@ -306,6 +314,10 @@ class ReferenceController:
         yaw = math.atan2(rotation[1, 0], rotation[0, 0])
         now = env.steps * env.control_dt
         self._doors(head)
+        if self.ledge is not None and _off_ledge(self.ledge, head):  # start on a ledge: down, it is a solid again
+            validate.fill(self.grid, self.level, corners(self.ledge))
+            self.ledge = None
+            self._map((float(head[0]), float(head[1])))
         if self.plank is not None and self._bridging(head, yaw, now):
             return self.gait()
         target = self._target(head)
@@ -503,6 +515,14 @@ class ReferenceController:
         error = _angle(math.atan2(PUSH_LEAD, base_x - head[0]) - yaw)
         self.gait.command(*steer(error, PUSH_LEAD))
         return True
+
+
+def _off_ledge(ledge, head) -> bool:
+    """Start on a ledge: is the head a footprint (FOOTPRINT_RADIUS) beyond the ledge's edge, the body down?"""
+    c, s = math.cos(ledge.yaw), math.sin(ledge.yaw)
+    dx, dy = head[0] - ledge.position[0], head[1] - ledge.position[1]
+    u, v = abs(c * dx + s * dy) - ledge.size[0] / 2, abs(-s * dx + c * dy) - ledge.size[1] / 2
+    return math.hypot(max(u, 0.0), max(v, 0.0)) >= FOOTPRINT_RADIUS
 
 
 def _angle(a: float) -> float:

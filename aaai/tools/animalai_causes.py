@@ -22,6 +22,9 @@ order, and the first change that brings it within reach names the cause:
   Animal-AI units in radius at the arena's scale), not by ours;
 - ``walled off``: none of these.
 
+From a start on a ledge (aaai.levels.validate.start_ledge) every piece may be reached and yet no one side
+hold enough for the pass mark: ``one side's food below the pass mark`` (ONE_SIDE).
+
 A problem that is not food out of reach is named by the kinds it involves (``food cuts into a
 ramp``, ``movable blocks overlap``, ...).
 """
@@ -171,7 +174,8 @@ def unreachable_cause(spec: LevelSpec, food: ObjectSpec) -> str:
     below = support(spec, food)
     if below is not None:
         return "food on a platform up a ramp" if ramp_leads_up(spec, below) else "food on top of a solid"
-    if (spec.extras.get("animalai") or {}).get("start_height"):
+    record = spec.extras.get("animalai") or {}
+    if record.get("start_height") and not record.get("start_ledge"):  # (from a ledge, the floor is walked)
         return "start on a raised floor"
     if _reachable(_without(spec, deadly), food):
         return "behind a death zone"
@@ -194,10 +198,11 @@ def problem_cause(spec: LevelSpec | None, problem: str) -> str:
     from aaai.tools.animalai_fit import cause
 
     found = cause(problem)
-    if found == "start not clear" and spec is not None and (spec.extras.get("animalai") or {}).get("start_on_divide"):
+    divide = (spec.extras.get("animalai") or {}).get("start_on_divide") if spec is not None else None
+    if found == "start not clear" and divide:
         from aaai.tools.animalai_fit import DIVIDE
 
-        return DIVIDE
+        return divide if isinstance(divide, str) else DIVIDE
     if found == "food cuts into a solid":
         match = _CUT.search(problem)
         return f"food cuts into a {match.group(2)}" if match else found
@@ -217,4 +222,10 @@ def problem_cause(spec: LevelSpec | None, problem: str) -> str:
         for food in spec.foods:
             if not (clear and validate.food_reachable(spec, region, food)):
                 return unreachable_cause(spec, food)
+        if found == "reachable food below the pass mark" and validate.start_ledge(spec) is not None:
+            return ONE_SIDE
     return found
+
+
+# every piece is reached from a start on a ledge, but on no one side enough for the pass mark
+ONE_SIDE = "one side's food below the pass mark (from a ledge the body steps down to one side)"
