@@ -36,7 +36,7 @@ from test_planner import wall_arena  # noqa: E402
 
 from aaai.levels import generate, validate  # noqa: E402
 from aaai.levels.validate import GRID  # noqa: E402
-from aaai.tools.rounds import alternate, load, per_round, spread_text  # noqa: E402
+from aaai.tools.rounds import alternate, per_round, spread_text, write_report  # noqa: E402
 
 EXACT = validate.clearance_map
 EPISODES = [(3, 0, 1372987030), (10, 10, 1525883966), (3, 9, 1715746910)]
@@ -248,9 +248,7 @@ def main() -> None:
             "",
             *section_episodes(),
         ]
-    lines += ["", f"Load average when written: {' '.join(f'{v:.2f}' for v in load())}.", ""]
-    args.out.write_text("\n".join(lines))
-    print("\n".join(lines))
+    write_report(args.out, lines)
 
 
 if __name__ == "__main__":

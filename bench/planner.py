@@ -30,7 +30,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from test_planner import oracle, plans, reference_map, wall_arena  # noqa: E402
 
 from aaai.levels import generate, validate  # noqa: E402
-from aaai.tools.rounds import alternate, load, per_round, spread_text  # noqa: E402
+from aaai.tools.rounds import alternate, per_round, spread_text, write_report  # noqa: E402
 
 NEW = validate.path_costs
 PLANNERS = {"python": oracle, "scipy": NEW}
@@ -146,9 +146,7 @@ def main() -> None:
             "",
             *bench_episodes(args.episodes, seeds, args.episode_rounds),
         ]
-    lines += ["", f"Load average when written: {' '.join(f'{v:.2f}' for v in load())}.", ""]
-    args.out.write_text("\n".join(lines))
-    print("\n".join(lines))
+    write_report(args.out, lines)
 
 
 if __name__ == "__main__":

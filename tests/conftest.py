@@ -33,6 +33,21 @@ def open_arena(*objects: ObjectSpec, agent=(0.0, 0.0, 0.0), **extra) -> LevelSpe
     )
 
 
+def reference_on_arena(make_env, folder, text: str):
+    """An env in gait mode reset on the arena file ``text`` (seed 0, written into ``folder``) and the
+    reference controller reset on it: (env, controller)."""
+    from aaai.task.arena import load_arena
+    from aaai.task.reference import ReferenceController
+
+    path = folder / "arena.yaml"
+    path.write_text(text)
+    env = make_env(action_mode="gait")
+    env.reset(seed=0, options={"spec": load_arena(path, 0), "check": False})
+    controller = ReferenceController(env)
+    controller.reset(0)
+    return env, controller
+
+
 @pytest.fixture
 def make_env():
     envs = []

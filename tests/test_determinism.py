@@ -66,8 +66,7 @@ def test_committed_baseline_rows_rescore_exactly(name):
 def test_the_camera_students_rows_rescore_exactly():
     """The camera student (a CNN on the head camera's 64 px image, TinyRenderer): 8 rows, the shortest
     of 8 levels, played again give the same rows, image and all."""
-    if not scored_now("student_camera"):
-        pytest.skip(f"baselines/student_camera.csv was scored before {NUMERICS}; re-score it")
+    assert scored_now("student_camera"), f"baselines/student_camera.csv was scored before {NUMERICS}"
     rows = short_rows("student_camera", 8)
     assert len({row["level"] for row in rows}) == 8
     assert differing(rows, rescore(BASELINES, "student_camera", rows)) == []

@@ -204,16 +204,22 @@ def test_a_ledge_cuts_walls_stacked_on_the_dividing_wall_and_leaves_a_bar_above_
     assert data["objects"][-1]["size"] == [12.0, 25.0, LEDGE_HEIGHT] and bar in data["objects"]
 
 
-def test_from_a_ledge_the_pass_mark_counts_the_food_of_one_side(tmp_path):
-    from aaai.task.arena import load_arena, reachable_return
-
+def two_sided(folder, pass_mark: float):
+    """LEDGE_FILE with a yellow on each side of the ledge (2.5 each) and the given pass mark."""
     sides = LEDGE_FILE.replace(
         "  - {kind: food_green, shape: sphere, position: [-50.0, 50.0, 2.5], size: [5.0, 5.0, 5.0]}\n",
         "  - {kind: food_yellow, shape: sphere, position: [-50.0, 50.0, 2.5], size: [5.0, 5.0, 5.0]}\n"
         "  - {kind: food_yellow, shape: sphere, position: [50.0, 50.0, 2.5], size: [5.0, 5.0, 5.0]}\n",
     )
-    path = tmp_path / "sides.yaml"
-    path.write_text(sides + "reach: pass_mark\npass_mark: 1\n")
+    path = folder / "sides.yaml"
+    path.write_text(sides + f"reach: pass_mark\npass_mark: {pass_mark:g}\n")
+    return path
+
+
+def test_from_a_ledge_the_pass_mark_counts_the_food_of_one_side(tmp_path):
+    from aaai.task.arena import load_arena, reachable_return
+
+    path = two_sided(tmp_path, pass_mark=1)
     spec = load_arena(path)  # each piece is worth 2.5, the step term takes at most 1
     assert validate.check(spec) == []
     assert reachable_return(spec) == pytest.approx(1.5)  # one side's piece, never both sides' (4)
@@ -223,13 +229,7 @@ def test_from_a_ledge_a_pass_mark_only_both_sides_give_is_a_problem_named_by_its
     from aaai.task.arena import check_arena, parse_arena
     from aaai.tools.animalai_causes import ONE_SIDE, problem_cause
 
-    sides = LEDGE_FILE.replace(
-        "  - {kind: food_green, shape: sphere, position: [-50.0, 50.0, 2.5], size: [5.0, 5.0, 5.0]}\n",
-        "  - {kind: food_yellow, shape: sphere, position: [-50.0, 50.0, 2.5], size: [5.0, 5.0, 5.0]}\n"
-        "  - {kind: food_yellow, shape: sphere, position: [50.0, 50.0, 2.5], size: [5.0, 5.0, 5.0]}\n",
-    )
-    path = tmp_path / "sides.yaml"
-    path.write_text(sides + "reach: pass_mark\npass_mark: 3\n")
+    path = two_sided(tmp_path, pass_mark=3)
     spec, _, source = parse_arena(path)
     (problem,) = check_arena(spec, source)
     assert problem.endswith("gives at most 1.50, below the pass mark 3 (from a ledge, the food of one side)")

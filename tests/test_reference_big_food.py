@@ -2,8 +2,7 @@
 above its legs: the front legs, which reach ahead of the head, meet the sphere first, so the reference
 gets the head nearest crouched and then rises, lifting the head onto the piece."""
 
-from aaai.task.arena import load_arena
-from aaai.task.reference import ReferenceController
+from conftest import reference_on_arena
 
 ARENA = """arena_size: [60.0, 60.0]
 time_limit: 40
@@ -14,12 +13,7 @@ objects:
 
 
 def test_a_big_piece_is_eaten_at_the_first_approach(make_env, tmp_path):
-    path = tmp_path / "big.yaml"
-    path.write_text(ARENA)
-    env = make_env(action_mode="gait")
-    env.reset(seed=0, options={"spec": load_arena(path, 0), "check": False})
-    controller = ReferenceController(env)
-    controller.reset(0)
+    env, controller = reference_on_arena(make_env, tmp_path, ARENA)
     terminated = truncated = False
     while not (terminated or truncated):
         _, _, terminated, truncated, info = env.step(controller())

@@ -1,8 +1,7 @@
 """The last multi_food piece ends the episode (Animal-AI's GoodGoalMulti rule) as a green does: the
 reference leaves it for last, and leaves it uneaten for a green worth as much or more."""
 
-from aaai.task.arena import load_arena
-from aaai.task.reference import ReferenceController
+from conftest import reference_on_arena
 
 # two gold pieces (2 each) on the way, a green (3) beyond: eating both golds would end it without the green
 ARENA = """arena_size: [40.0, 40.0]
@@ -16,12 +15,7 @@ objects:
 
 
 def test_the_last_gold_piece_is_left_for_a_green_worth_more(make_env, tmp_path):
-    path = tmp_path / "multi.yaml"
-    path.write_text(ARENA)
-    env = make_env(action_mode="gait")
-    env.reset(seed=0, options={"spec": load_arena(path, 0), "check": False})
-    controller = ReferenceController(env)
-    controller.reset(0)
+    env, controller = reference_on_arena(make_env, tmp_path, ARENA)
     total = 0.0
     for _ in range(env.unwrapped.max_steps):
         _, reward, terminated, truncated, info = env.step(controller())

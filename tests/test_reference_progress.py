@@ -2,8 +2,7 @@
 from the food is walked without stopping to back off (it used to count the straight-line distance,
 which grows on such a way, and so backed off every few seconds as if stuck)."""
 
-from aaai.task.arena import load_arena
-from aaai.task.reference import ReferenceController
+from conftest import reference_on_arena
 
 # a wall between the start and the food, open only at its far (west) end: the way round walks away first
 ARENA = """arena_size: [60.0, 60.0]
@@ -16,13 +15,7 @@ objects:
 
 
 def test_a_way_round_that_leads_away_from_the_food_is_walked_without_backing_off(make_env, tmp_path):
-    path = tmp_path / "round.yaml"
-    path.write_text(ARENA)
-    spec = load_arena(path, 0)
-    env = make_env(action_mode="gait")
-    env.reset(seed=0, options={"spec": spec, "check": False})
-    controller = ReferenceController(env)
-    controller.reset(0)
+    env, controller = reference_on_arena(make_env, tmp_path, ARENA)
     backed, eaten = 0, False
     for _ in range(env.unwrapped.max_steps):
         _, _, terminated, truncated, info = env.step(controller())

@@ -53,6 +53,13 @@ def load() -> list[float]:
     return [round(value, 2) for value in os.getloadavg()]
 
 
+def write_report(path, lines: list[str]) -> None:
+    """A bench's markdown: ``lines`` and the load average when written, to ``path`` and to stdout."""
+    lines = [*lines, "", f"Load average when written: {' '.join(f'{v:.2f}' for v in load())}.", ""]
+    path.write_text("\n".join(lines))
+    print("\n".join(lines))
+
+
 def run_group(runners: dict[str, Any], rounds: int) -> tuple[dict[str, list[float]], dict]:
     """Warms every runner up (``runner(WARM_UP)``), alternates them over ``rounds``, closes them
     (``runner.close()``); returns each one's rates (one a round) and the load before and after."""
