@@ -130,6 +130,16 @@ def test_food_out_of_reach_is_a_lure_while_the_reachable_food_gives_the_pass_mar
         load_arena(out / "unfair" / "lure.yaml")
 
 
+def test_a_pass_mark_above_all_the_arena_pays_is_marked_unfair_with_every_piece_in_reach(tmp_path):
+    body = AGENT.format(x=5, z=5, r=0) + GOAL.format(x=20, z=20)  # one piece, in the open: worth 5 at scale 5
+    results, out = convert(tmp_path, {"dear.yaml": arena(body, "    t: 250\n    pass_mark: 2\n")})
+    assert results["dear.yaml"].unfair == ["reachable food below the pass mark"]
+    with pytest.raises(ConfigError, match=r"at most 4.00, below the pass mark 8 \(all the arena's food, every piece"):
+        load_arena(out / "unfair" / "dear.yaml")
+    results, out = convert(tmp_path / "fair", {"fair.yaml": arena(body, "    t: 250\n    pass_mark: 1\n")})
+    assert not results["fair.yaml"].unfair  # pass mark 3: the piece's 4 passes it
+
+
 def test_the_report_counts_every_arena_by_cause(tmp_path):
     box = "".join(
         WALL.format(x=x, z=z, sx=sx, sz=sz)

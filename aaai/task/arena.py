@@ -460,14 +460,18 @@ def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body
     if spec.extras.get("reach") == "pass_mark":
         unreached = [p for p in problems if p.endswith("cannot be reached from the start")]
         on_ledge = validate.start_ledge(spec) is not None  # the food of the one side it steps down to counts
-        if unreached or on_ledge:
-            problems = [p for p in problems if p not in unreached]
+        problems = [p for p in problems if p not in unreached]
+        start_blocked = any(p.startswith("the agent's start") and "is not clear" in p for p in problems)
+        if unreached or on_ledge or ("pass_mark" in spec.extras and not start_blocked):
+            # also with every piece in reach: a pass mark above all the arena pays is passed by no body
             best, mark = reachable_return(spec, body), spec.extras["pass_mark"]
             if best < mark:
                 why = (
                     f"{len(unreached)} piece{'s' if len(unreached) > 1 else ''} of food out of reach"
                     if unreached
                     else "from a ledge, the food of one side"
+                    if on_ledge
+                    else "all the arena's food, every piece in reach"
                 )
                 problems.append(
                     f"the food that can be reached gives at most {best:.2f}, below the pass mark {mark:g} ({why})"
