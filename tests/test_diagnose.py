@@ -75,8 +75,13 @@ def test_diagnose_replays_an_older_scoreboard_without_hashes_with_a_warning(scor
     old.with_name("old_scored_with.json").write_text(json.dumps(record))
     result = CliRunner().invoke(cli, ["diagnose", "--policy", "random", "--scoreboard", str(old), "--limit", "1"])
     assert result.exit_code == 0, result.output
-    assert "holds no SHA-256 of the arena files" in result.output and "cannot be detected" in result.output
+    assert "records no SHA-256 of its arena files" in result.output and "cannot be detected" in result.output
     assert "| category food_contact | 1 |" in result.output
+    bare = tmp_path / "bare.csv"  # no record at all: the folder given
+    shutil.copy(board, bare)
+    args = ["diagnose", "--policy", "random", "--scoreboard", str(bare), "--limit", "1", "--arenas", str(folder)]
+    unrecorded = CliRunner().invoke(cli, args)
+    assert unrecorded.exit_code == 0 and "records no SHA-256 of its arena files" in unrecorded.output
     quiet = CliRunner().invoke(cli, ["diagnose", "--policy", "random", "--scoreboard", str(board), "--limit", "1"])
     assert quiet.exit_code == 0 and "SHA-256" not in quiet.output, quiet.output
 

@@ -72,7 +72,7 @@ def test_an_older_record_without_hashes_resumes_with_a_warning(battery):
     path.write_text(json.dumps(record))
     resumed = CliRunner().invoke(cli, args)
     assert resumed.exit_code == 0, resumed.output
-    assert "holds no SHA-256 of the arena files" in resumed.output
+    assert "records no SHA-256 of its arena files" in resumed.output
     assert "a file changed since its rows were scored cannot be detected" in resumed.output
     assert board.read_text().count("\n") == 3  # the header and both episodes
     assert "arena_sha256" not in json.loads(path.read_text())  # its rows were not checked: it claims no hashes

@@ -7,7 +7,8 @@ and their public names are importable from here too: the episode and its row
 (:mod:`aaai.scoring.plan`: ``Cell``, ``cells_for``, ``seeds_for``, ``episode_plan``), the CSV file
 (:mod:`aaai.scoring.scoreboard`: ``Scoreboard``, ``scored_episodes``, ``COLUMNS``), what a
 scoreboard was scored with (:mod:`aaai.scoring.provenance`: ``policy_record``, ``check_record``,
-``record_path``, ``arena_hashes``) and the summaries (:mod:`aaai.scoring.summaries`: ``summarise``, ``write_summary``).
+``record_path``, ``arena_hashes``) and the summaries (:mod:`aaai.scoring.summaries`: ``summarise``,
+``write_summary``).
 """
 
 from __future__ import annotations

@@ -58,16 +58,19 @@ def arena_changed(file: Path, scoreboard: Path, recorded: str, now: str) -> str:
 
 
 def unhashed_arenas(output: Path, record: dict | None = None) -> str | None:
-    """The warning for a scoreboard of arena files whose record (``record``, default the one beside
-    ``output`` if it holds rows) holds no SHA-256 of them, one written before they were recorded: a
-    file changed since it was scored cannot be detected. None for a record that holds them, or none."""
+    """The warning for a scoreboard of arena files whose record holds no SHA-256 of them (one written
+    before they were kept, or none): a file changed since it was scored cannot be detected. ``record``
+    is the one to judge (default: the one beside ``output``, if it holds rows and a record). None for
+    a record that holds them."""
     if record is None:
         record = read_record(output) if _has_rows(output) else {}
-    if not record or ARENA_HASHES in record:
+        if not record:
+            return None
+    if ARENA_HASHES in record:
         return None
     return (
-        f"warning: {str(record_path(output))!r} holds no SHA-256 of the arena files (it was written before "
-        "they were recorded), so a file changed since its rows were scored cannot be detected"
+        f"warning: {str(output)!r} records no SHA-256 of its arena files (its {record_path(output).name} is "
+        "missing or older than they are), so a file changed since its rows were scored cannot be detected"
     )
 
 
