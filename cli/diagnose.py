@@ -52,6 +52,7 @@ def diagnose_command(policy, scoreboard, levels, limit, config_path, arenas):
             parse_levels(levels) if levels else None,
             limit,
             Path(arenas) if arenas else None,
+            warn=lambda message: click.echo(message, err=True),
         )
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None

@@ -82,7 +82,8 @@ from .progress import progress_output
     "--arenas",
     type=click.Path(exists=True),
     help="Score a battery of arena files (a folder of *.yaml, or one file) instead of levels: seeds "
-    "0..K-1 (-k, default eval.seeds_per_cell) or --seeds 1,2,3; a summary per arena and per category.",
+    "0..K-1 (-k, default eval.seeds_per_cell) or --seeds 1,2,3; a summary per arena and per category. "
+    "The scoreboard records each file's SHA-256: resuming it after a file has changed is refused.",
 )
 @click.option(
     "--action-mode",
@@ -170,6 +171,7 @@ def eval_command(
             progress_every=progress_every,
             display=progress_output,
             battery=battery,
+            warn=lambda message: click.echo(message, err=True),
         )
     try:
         summary_path = result.write_summary()

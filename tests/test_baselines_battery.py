@@ -143,4 +143,6 @@ def test_aaai_baselines_scores_a_battery_and_resumes(tmp_path):
     assert again.exit_code == 0 and (out / "battery" / "random.csv").read_text().count("\n") == 3
     (battery / "04-02-01.yaml").write_text(ARENA.replace("12.0, 2.5", "14.0, 2.5"))  # a file changed
     changed = CliRunner().invoke(cli, args)
-    assert changed.exit_code == 2 and "arena_sha256.04-02-01.yaml" in changed.output, changed.output
+    assert changed.exit_code == 2 and f"{str(battery / '04-02-01.yaml')!r} is not the file" in changed.output, (
+        changed.output
+    )

@@ -55,19 +55,35 @@ def test_diagnose_refuses_an_arena_file_missing_or_changed(scored, tmp_path):
     assert missing.exit_code == 2 and f"{str(moved / 'b.yaml')!r} is missing" in missing.output, missing.output
     assert "b.yaml (seed 0)" in missing.output and "Traceback" not in missing.output
     (moved / "b.yaml").write_text(ARENA.replace("12.0, 2.5", "14.0, 2.5"))
-    copy = tmp_path / "board.csv"  # the scoreboard with a record that holds each file's SHA-256
-    shutil.copy(board, copy)
-    record = json.loads(board.with_name("random_scored_with.json").read_text())
-    record["arena_sha256"] = {name: file_sha256(folder / name) for name in ("a.yaml", "b.yaml")}
-    copy.with_name("board_scored_with.json").write_text(json.dumps(record))
-    changed = CliRunner().invoke(
-        cli, ["diagnose", "--policy", "random", "--scoreboard", str(copy), "--arenas", str(moved)]
-    )
-    assert changed.exit_code == 2 and f"{str(moved / 'b.yaml')!r} has changed since" in changed.output, changed.output
+    changed = CliRunner().invoke(cli, [*args, "--arenas", str(moved)])  # its record holds each file's SHA-256
+    assert changed.exit_code == 2 and "Traceback" not in changed.output, changed.output
+    assert f"{str(moved / 'b.yaml')!r} is not the file {str(board)!r} was scored on" in changed.output
+    then, now = file_sha256(folder / "b.yaml"), file_sha256(moved / "b.yaml")
+    assert f"SHA-256 {then} recorded, {now} now" in changed.output, changed.output
     unnamed = tmp_path / "unnamed.csv"  # no record: the folder must be given
     shutil.copy(board, unnamed)
     refused = CliRunner().invoke(cli, ["diagnose", "--policy", "random", "--scoreboard", str(unnamed)])
     assert refused.exit_code == 2 and "its record names no arena folder" in refused.output, refused.output
+
+
+def test_diagnose_replays_an_older_scoreboard_without_hashes_with_a_warning(scored, tmp_path):
+    folder, board = scored
+    old = tmp_path / "old.csv"  # a scoreboard scored before the record kept each file's SHA-256
+    shutil.copy(board, old)
+    record = json.loads(board.with_name("random_scored_with.json").read_text())
+    del record["arena_sha256"]
+    old.with_name("old_scored_with.json").write_text(json.dumps(record))
+    result = CliRunner().invoke(cli, ["diagnose", "--policy", "random", "--scoreboard", str(old), "--limit", "1"])
+    assert result.exit_code == 0, result.output
+    assert "records no SHA-256 of its arena files" in result.output and "cannot be detected" in result.output
+    assert "| category food_contact | 1 |" in result.output
+    bare = tmp_path / "bare.csv"  # no record at all: the folder given
+    shutil.copy(board, bare)
+    args = ["diagnose", "--policy", "random", "--scoreboard", str(bare), "--limit", "1", "--arenas", str(folder)]
+    unrecorded = CliRunner().invoke(cli, args)
+    assert unrecorded.exit_code == 0 and "records no SHA-256 of its arena files" in unrecorded.output
+    quiet = CliRunner().invoke(cli, ["diagnose", "--policy", "random", "--scoreboard", str(board), "--limit", "1"])
+    assert quiet.exit_code == 0 and "SHA-256" not in quiet.output, quiet.output
 
 
 def test_diagnose_replays_in_the_environment_the_scoreboard_records(scored, tmp_path):

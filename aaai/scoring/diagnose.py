@@ -16,17 +16,18 @@ what the rays showed and where the body was, to sort the failure into one first 
 Learned agents page quotes it. A scoreboard of arena files (``aaai eval --arenas``, ``aaai baselines
 --battery``) is replayed the same way, each failed row on its arena file (found in ``--arenas DIR``,
 else in the folder its ``*_scored_with.json`` names) and tabulated per category; a file missing, or
-changed since it was scored (where the record holds its SHA-256), is refused before any replay. The
+changed since it was scored (where the record holds its SHA-256), is refused before any replay; a
+record that holds no SHA-256 (an older scoreboard) is replayed with a warning. The
 command line replays in the environment the scoreboard's record holds (:func:`scored_config`).
 """
 
 from __future__ import annotations
 
 import csv
-import json
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -35,7 +36,15 @@ from aaai.env import AnimalAIEnv
 from aaai.files import file_sha256
 from aaai.scoring.episodes import play
 from aaai.scoring.policies import Policy, as_policy
-from aaai.scoring.provenance import env_record, record_differences, record_path
+from aaai.scoring.provenance import (
+    ARENA_HASHES,
+    arena_changed,
+    env_record,
+    read_record,
+    record_differences,
+    record_path,
+    unhashed_arenas,
+)
 from aaai.spec.kinds import KIND_INDEX
 from aaai.task.arena import arena_meta, load_arena
 
@@ -115,22 +124,12 @@ def _level_group(level: int) -> str:
     return f"{get_level(level).label} {get_level(level).name}"
 
 
-def _record(scoreboard: Path) -> dict:
-    """What the scoreboard was scored with (its ``*_scored_with.json``), or {} if none can be read."""
-    path = record_path(scoreboard)
-    try:
-        record = json.loads(path.read_text()) if path.is_file() else {}
-    except (ValueError, UnicodeDecodeError):
-        return {}
-    return record if isinstance(record, dict) else {}
-
-
 def scored_config(scoreboard: Path, config: Config, given: bool) -> Config:
     """The environment to replay ``scoreboard``'s episodes in: the one its record holds (``env_config``),
     else ``config``. A ``config`` the user gave (``given``, --config) in which the environment differs
     from the record is refused (ConfigError naming the keys): its replays would not be the episodes
     scored."""
-    env = _record(scoreboard).get("env_config")
+    env = read_record(scoreboard).get("env_config")
     if not isinstance(env, dict):
         return config
     if given:
@@ -153,16 +152,19 @@ def scored_config(scoreboard: Path, config: Config, given: bool) -> Config:
         ) from None
 
 
-def arena_sources(scoreboard: Path, rows: list[dict], arenas: Path | None) -> dict[str, Path]:
+def arena_sources(
+    scoreboard: Path, rows: list[dict], arenas: Path | None, warn: Callable[[str], None] = print
+) -> dict[str, Path]:
     """The arena file of each arena row: in ``arenas`` (a folder, or one file), else where the
     scoreboard's record (``*_scored_with.json``, key ``arenas``) says it was scored. ConfigError,
     naming the file and the row, for a folder that is not named, a file missing, or a file whose
-    SHA-256 differs from the one the record holds (``arena_sha256``, as aaai baselines --battery
-    records it)."""
+    SHA-256 differs from the one the record holds (``arena_sha256``, as aaai eval --arenas and aaai
+    baselines --battery record it); a record without them (an older scoreboard) is ``warn``-ed about:
+    a changed file cannot be detected."""
     names = sorted({row["arena"] for row in rows if row.get("arena")})
     if not names:
         return {}
-    record = _record(scoreboard)
+    record = read_record(scoreboard)
     if arenas is None:
         if not isinstance(record.get("arenas"), str):
             raise ConfigError(
@@ -171,8 +173,11 @@ def arena_sources(scoreboard: Path, rows: list[dict], arenas: Path | None) -> di
             )
         arenas = Path(record["arenas"])
     folder = arenas if arenas.is_dir() or not arenas.suffix else arenas.parent
-    recorded = record.get("arena_sha256")
+    recorded = record.get(ARENA_HASHES)
     hashes: dict = recorded if isinstance(recorded, dict) else {}
+    note = unhashed_arenas(scoreboard, record)
+    if note:
+        warn(note)
     sources = {}
     for name in names:
         file = folder / name
@@ -182,11 +187,11 @@ def arena_sources(scoreboard: Path, rows: list[dict], arenas: Path | None) -> di
                 f"--arenas: {str(file)!r} is missing; the scoreboard's failed rows of {name} (seed {seeds}) were "
                 f"scored on it; allowed: --arenas DIR, the folder of arena files {str(scoreboard)!r} was scored on"
             )
-        if name in hashes and file_sha256(file) != hashes[name]:
+        now = file_sha256(file) if name in hashes else None
+        if now is not None and now != hashes[name]:
             raise ConfigError(
-                f"--arenas: {str(file)!r} has changed since {str(scoreboard)!r} was scored on it (SHA-256 "
-                f"{file_sha256(file)[:12]}… now, {str(hashes[name])[:12]}… then); a replay would not be the "
-                "episode scored; allowed: the arena files as they were scored"
+                arena_changed(file, scoreboard, str(hashes[name]), now)
+                + "; a replay would not be the episode scored; allowed: the arena files as they were scored"
             )
         sources[name] = file
     return sources
@@ -199,10 +204,12 @@ def diagnose(
     levels: list[int] | None = None,
     limit: int | None = None,
     arenas: Path | None = None,
+    warn: Callable[[str], None] = print,
 ) -> list[Failure]:
     """Replays the failed rows of ``scoreboard`` (of ``levels``, which leave arena rows out; at most
     ``limit`` per level or arena category) with ``policy`` (a Policy, or a --policy string); an arena
-    row on its file (:func:`arena_sources`, every file checked before any replay)."""
+    row on its file (:func:`arena_sources`, every file checked before any replay; ``warn`` told of
+    a record without their SHA-256)."""
     policy = as_policy(policy)
 
     with open(scoreboard, newline="") as handle:
@@ -211,7 +218,7 @@ def diagnose(
             for r in csv.DictReader(handle)
             if r["outcome"] == "failed" and (levels is None or (not r.get("arena") and int(r["level"]) in levels))
         ]
-    sources = arena_sources(scoreboard, rows, arenas)
+    sources = arena_sources(scoreboard, rows, arenas, warn)
     if limit is not None:
         kept: list[dict] = []
         count: Counter[str] = Counter()

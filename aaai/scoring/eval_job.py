@@ -14,6 +14,7 @@ from aaai.config import Config, ConfigError
 from aaai.jobs import Display, Progress, quietly
 from aaai.scoring.evaluation import (
     Episode,
+    arena_hashes,
     cells_for,
     evaluate,
     evaluate_arenas,
@@ -26,6 +27,7 @@ from aaai.scoring.evaluation import (
 )
 from aaai.scoring.plan import Cell
 from aaai.scoring.policies import Policy, resolve
+from aaai.scoring.provenance import ARENA_HASHES, unhashed_arenas
 
 
 class ScoreboardError(OSError):
@@ -98,6 +100,7 @@ def score_policy(
     progress_every: float | None = None,
     display: Display = quietly,
     battery: list[Episode] | None = None,
+    warn: Callable[[str], None] = print,
 ) -> EvalResult:
     """Scores ``policy`` (a ``--policy`` string) as ``aaai eval`` does, and gives back the rows and
     their summary (:meth:`EvalResult.write_summary` writes it).
@@ -110,7 +113,9 @@ def score_policy(
     ``aaai eval --study``), exactly those episodes, each once, summarised per level. The scoreboard goes to ``output``
     (default scoreboard_<seeds>.csv in the run folder, or here). ``display`` shows the progress (an
     :class:`aaai.jobs.Progress` counting episodes, a line every ``progress_every`` seconds when it
-    writes lines).
+    writes lines). The scoreboard of ``arenas`` records each file's SHA-256; resuming it after a
+    file has changed is refused, and resuming one whose record holds none (an older one) is ``warn``-ed
+    about (a line: a changed file cannot be detected).
 
     Raises ConfigError (InUse: another process writes the scoreboard) or FileNotFoundError for an
     input that is not allowed, :class:`ScoreboardError` for a file that could not be written,
@@ -142,7 +147,7 @@ def score_policy(
             return EvalResult(rows, summarise(rows), output)
         if arenas is not None:
             return _score_arenas(
-                chosen, arenas, seeds, count, run_folder, output, config, save_replays, progress_every, display
+                chosen, arenas, seeds, count, run_folder, output, config, save_replays, progress_every, display, warn
             )
         cells = _level_cells(config, levels, difficulties, seeds, count, key)
         label = seeds if seeds in ("reserved", "train") else "list"
@@ -253,8 +258,10 @@ def _score_arenas(
     save_replays: str | Path | None,
     progress_every: float | None,
     display: Display,
+    warn: Callable[[str], None],
 ) -> EvalResult:
-    """``aaai eval --arenas``: every arena file of the battery on seeds 0..K-1 (or a --seeds list)."""
+    """``aaai eval --arenas``: every arena file of the battery on seeds 0..K-1 (or a --seeds list); the
+    record names the folder (or file) as given and each file's SHA-256 (``arena_sha256``)."""
     from aaai.task.arena import arena_files, arena_meta
 
     if seeds == "reserved":  # the default: an arena's seeds are 0..K-1
@@ -269,7 +276,10 @@ def _score_arenas(
     files = arena_files(arenas)
     categories = {path.name: arena_meta(path)["category"] for path in files}
     output = Path(output) if output else (run_folder or Path(".")) / "scoreboard_arenas.csv"
-    record = {**policy_record(chosen, "list"), "seeds": label, "arenas": str(arenas)}
+    record = {**policy_record(chosen, "list"), "seeds": label, "arenas": str(arenas), ARENA_HASHES: arena_hashes(files)}
+    note = unhashed_arenas(output)
+    if note:
+        warn(note)
     report = Progress(len(files) * len(seed_list), label="scoring", unit="episodes", every=progress_every)
     try:
         with display(report) as update:

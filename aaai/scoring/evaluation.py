@@ -7,7 +7,8 @@ and their public names are importable from here too: the episode and its row
 (:mod:`aaai.scoring.plan`: ``Cell``, ``cells_for``, ``seeds_for``, ``episode_plan``), the CSV file
 (:mod:`aaai.scoring.scoreboard`: ``Scoreboard``, ``scored_episodes``, ``COLUMNS``), what a
 scoreboard was scored with (:mod:`aaai.scoring.provenance`: ``policy_record``, ``check_record``,
-``record_path``) and the summaries (:mod:`aaai.scoring.summaries`: ``summarise``, ``write_summary``).
+``record_path``, ``arena_hashes``) and the summaries (:mod:`aaai.scoring.summaries`: ``summarise``,
+``write_summary``).
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ from aaai.scoring.episodes import PASS_RATIO, SUCCESS_RATIO, outcome, run_episod
 from aaai.scoring.plan import TRAIN_EVAL_KEY, Cell, Episode, cells_for, episode_plan, seeds_for
 from aaai.scoring.policies import Policy, as_policy
 from aaai.scoring.provenance import (
+    arena_hashes,
+    check_arena_hashes,
     check_record,
     env_record,
     policy_record,
@@ -51,6 +54,7 @@ __all__ = [
     "Cell",
     "Episode",
     "Scoreboard",
+    "arena_hashes",
     "cells_for",
     "check_record",
     "columns_of",
@@ -178,7 +182,10 @@ def evaluate_arenas(
 ) -> list[dict]:
     """:func:`evaluate` for a battery of arena files: every (arena, seed) not yet in ``output``,
     one row each, its ``arena`` column the file's name. Every file is loaded (and so checked) for
-    every seed before any episode runs: nothing is run from an invalid file."""
+    every seed before any episode runs: nothing is run from an invalid file. A ``record`` that holds
+    each file's SHA-256 (``arena_sha256``, :func:`arena_hashes`) is kept with the scoreboard, and
+    resuming it after a file has changed is refused, naming the file (:func:`check_arena_hashes`)."""
+    check_arena_hashes(output, arenas, record)
     for arena in arenas:
         for seed in seeds:
             load_arena(arena, seed, body=config.agent.body)

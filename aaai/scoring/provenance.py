@@ -1,16 +1,20 @@
 """What a scoreboard was scored with (its provenance): the policy's record, the seeds, the
 environment's config and digest, the action mode, the package version and the numerics, kept as
 ``*_scored_with.json`` beside the CSV; an eval that resumes a scoreboard scored otherwise is refused,
-naming each key that differs."""
+naming each key that differs. A scoreboard of arena files also records each file's SHA-256
+(``arena_sha256``, :func:`arena_hashes`): a file changed since is refused by name
+(:func:`check_arena_hashes`)."""
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable
 
 from aaai.config import Config, ConfigError, env_part
+from aaai.files import file_sha256
 from aaai.levels.seeds import key_record
 from aaai.scoring.policies import Policy, as_policy
 
@@ -23,6 +27,72 @@ def policy_record(policy: Policy | str, seeds: str, key: str | None = None) -> d
 
 def record_path(output: Path) -> Path:
     return output.with_name(output.stem + "_scored_with.json")
+
+
+def read_record(output: Path) -> dict:
+    """What the scoreboard ``output`` was scored with (its ``*_scored_with.json``), or {} if none can be read."""
+    path = record_path(output)
+    try:
+        record = json.loads(path.read_text()) if path.is_file() else {}
+    except (OSError, ValueError):
+        return {}
+    return record if isinstance(record, dict) else {}
+
+
+ARENA_HASHES = "arena_sha256"  # the record's key: each arena file's SHA-256 by the file's name
+
+
+def arena_hashes(files: Iterable[str | os.PathLike]) -> dict[str, str]:
+    """Each arena file's SHA-256 (:func:`aaai.files.file_sha256`) by its name, as the record of a
+    scoreboard of arena files keeps them (``arena_sha256``; ``aaai eval --arenas``, ``aaai baselines
+    --battery``): the scoreboard's rows name the file the same way."""
+    return {Path(file).name: file_sha256(file) for file in files}
+
+
+def arena_changed(file: Path, scoreboard: Path, recorded: str, now: str) -> str:
+    """The head of the refusal of an arena file changed since ``scoreboard`` was scored on it."""
+    return (
+        f"--arenas: {str(file)!r} is not the file {str(scoreboard)!r} was scored on: "
+        f"SHA-256 {recorded} recorded, {now} now"
+    )
+
+
+def unhashed_arenas(output: Path, record: dict | None = None) -> str | None:
+    """The warning for a scoreboard of arena files whose record holds no SHA-256 of them (one written
+    before they were kept, or none): a file changed since it was scored cannot be detected. ``record``
+    is the one to judge (default: the one beside ``output``, if it holds rows and a record). None for
+    a record that holds them."""
+    if record is None:
+        record = read_record(output) if _has_rows(output) else {}
+        if not record:
+            return None
+    if ARENA_HASHES in record:
+        return None
+    return (
+        f"warning: {str(output)!r} records no SHA-256 of its arena files (its {record_path(output).name} is "
+        "missing or older than they are), so a file changed since its rows were scored cannot be detected"
+    )
+
+
+def check_arena_hashes(output: Path, files: Iterable[Path], record: dict | None) -> None:
+    """Refuses to add to a scoreboard of arena files after one of ``files`` has changed: ConfigError
+    naming the first whose SHA-256 in ``record`` (``arena_sha256``, this eval's) differs from the one
+    the scoreboard's own record holds, and both hashes. Nothing to refuse for a scoreboard without
+    rows, or either record without hashes."""
+    hashes = (record or {}).get(ARENA_HASHES)
+    if not isinstance(hashes, dict) or not _has_rows(output):
+        return
+    earlier = read_record(output).get(ARENA_HASHES)
+    if not isinstance(earlier, dict):
+        return
+    for file in files:
+        then, now = earlier.get(Path(file).name), hashes.get(Path(file).name)
+        if then is not None and now is not None and then != now:
+            raise ConfigError(
+                arena_changed(Path(file), output, str(then), str(now))
+                + "; rows of two versions of a file cannot share a scoreboard: score into a new --out "
+                "(or put the file back as it was)"
+            )
 
 
 def env_record(config: Config) -> dict:
@@ -82,7 +152,8 @@ def check_record(output: Path, record: dict) -> None:
 
     The record itself is written with the scoreboard's first row (:class:`Scoreboard`); one beside
     a scoreboard that holds no row yet (an eval that failed before its first episode ended) does
-    not count."""
+    not count. A record written before arena files' SHA-256 were kept is compared without them
+    (:func:`unhashed_arenas`), and stays without them."""
     path = record_path(output)
     if not _has_rows(output):
         return
@@ -95,6 +166,8 @@ def check_record(output: Path, record: dict) -> None:
         earlier = json.loads(path.read_text())
     except (OSError, ValueError):
         earlier = None
+    if isinstance(earlier, dict) and ARENA_HASHES not in earlier:  # an older scoreboard (unhashed_arenas)
+        record = {key: value for key, value in record.items() if key != ARENA_HASHES}
     if earlier != record:
         differences = record_differences(earlier, record) or ["its record cannot be read"]
         raise ConfigError(

@@ -30,10 +30,18 @@ import cv2
 import numpy as np
 
 from aaai.config import ConfigError
-from aaai.files import atomic_path, file_sha256, hold, write_atomic
+from aaai.files import atomic_path, hold, write_atomic
 from aaai.jobs import one_thread
 from aaai.levels import all_levels, get_level
-from aaai.scoring.evaluation import COLUMNS, cells_for, evaluate, evaluate_arenas, policy_record, scored_episodes
+from aaai.scoring.evaluation import (
+    COLUMNS,
+    arena_hashes,
+    cells_for,
+    evaluate,
+    evaluate_arenas,
+    policy_record,
+    scored_episodes,
+)
 from aaai.scoring.policies import Policy, resolve
 from aaai.tools.animalai_arena import CATEGORIES
 from aaai.train.curriculum import heatmap_panel
@@ -304,7 +312,7 @@ def run_battery(
     record = {
         "seeds": f"0-{seeds - 1}",
         "arenas": str(battery.resolve()),  # however it was spelled, and found again by aaai diagnose
-        "arena_sha256": {file.name: file_sha256(file) for file in valid},
+        "arena_sha256": arena_hashes(valid),
     }
     boards = {name: folder / f"{battery_label(name, body)}.csv" for name in named}
     seconds: dict[str, float] = {}

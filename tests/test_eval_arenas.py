@@ -1,0 +1,78 @@
+"""aaai eval --arenas: the scoreboard's record keeps each arena file's SHA-256, and resuming it after a
+file has changed is refused, naming the file and both hashes; an older record without them resumes,
+with a warning."""
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from aaai.files import file_sha256
+from aaai_cli.main import cli
+
+ARENAS = Path(__file__).resolve().parents[1] / "configs" / "arenas"
+FILES = ("l0_food_ahead.yaml", "l0_food_behind.yaml")
+
+
+@pytest.fixture
+def battery(tmp_path):
+    """Two shipped arena files in a folder of their own, a 10-step config, and the eval's arguments."""
+    folder = tmp_path / "battery"
+    folder.mkdir()
+    for name in FILES:
+        shutil.copy(ARENAS / name, folder / name)
+    config = tmp_path / "short.yaml"
+    config.write_text("episode:\n  max_steps: 10\n")
+    board = tmp_path / "board.csv"
+    args = ["eval", "--arenas", str(folder), "--policy", "random", "-k", "1", "--config", str(config)]
+    return folder, board, [*args, "--out", str(board)]
+
+
+def interrupted(board: Path) -> None:
+    """The scoreboard as an eval stopped after its first episode leaves it."""
+    board.write_text("".join(board.read_text().splitlines(keepends=True)[:2]))
+
+
+def test_the_record_keeps_each_arena_files_sha256(battery):
+    folder, board, args = battery
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    record = json.loads(board.with_name("board_scored_with.json").read_text())
+    assert record["arena_sha256"] == {name: file_sha256(folder / name) for name in FILES}
+    assert record["arenas"] == str(folder)
+
+
+def test_resuming_after_an_arena_file_has_changed_is_refused(battery):
+    folder, board, args = battery
+    assert CliRunner().invoke(cli, args).exit_code == 0
+    interrupted(board)
+    kept = board.read_text()
+    changed = folder / FILES[1]
+    recorded = file_sha256(changed)
+    changed.write_text(changed.read_text() + "# edited\n")
+    refused = CliRunner().invoke(cli, args)
+    assert refused.exit_code == 2 and "Traceback" not in refused.output, refused.output
+    assert f"{str(changed)!r} is not the file {str(board)!r} was scored on" in refused.output
+    assert f"SHA-256 {recorded} recorded, {file_sha256(changed)} now" in refused.output
+    assert "score into a new --out" in refused.output
+    assert board.read_text() == kept  # nothing played
+    elsewhere = CliRunner().invoke(cli, [*args[:-1], str(board.with_name("new.csv"))])
+    assert elsewhere.exit_code == 0, elsewhere.output
+
+
+def test_an_older_record_without_hashes_resumes_with_a_warning(battery):
+    folder, board, args = battery
+    assert CliRunner().invoke(cli, args).exit_code == 0
+    interrupted(board)
+    path = board.with_name("board_scored_with.json")
+    record = json.loads(path.read_text())
+    del record["arena_sha256"]
+    path.write_text(json.dumps(record))
+    resumed = CliRunner().invoke(cli, args)
+    assert resumed.exit_code == 0, resumed.output
+    assert "records no SHA-256 of its arena files" in resumed.output
+    assert "a file changed since its rows were scored cannot be detected" in resumed.output
+    assert board.read_text().count("\n") == 3  # the header and both episodes
+    assert "arena_sha256" not in json.loads(path.read_text())  # its rows were not checked: it claims no hashes
