@@ -63,7 +63,7 @@ def test_a_step_lower_than_its_radius_is_rolled_up_without_a_jump(env, arena, he
     assert radius == pytest.approx(arena / 80)  # 2.5 in the imported arena, 0.625 in the levels'
     on_block = (track[:, 1] > 0.2 * arena) & (track[:, 1] < 0.3 * arena)
     assert np.any(track[on_block, 2] >= height + radius - 0.1 * radius)  # up on the block
-    # never more than its radius above what it rests on (without the cap: 31 above the block at 1.5)
+    # never more than its radius above what it rests on (without the cap its centre rose to 31 at 1.5)
     assert track[:, 2].max() <= height + 2 * radius
     assert _inside(track, arena) and not info["blew_up"]
     assert track[-1, 1] > arena / 2 - 1.2 * radius and track[-1, 2] < 1.05 * radius  # at the north wall, on the floor

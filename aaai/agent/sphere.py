@@ -22,17 +22,18 @@ arena file (hand-written or imported from Animal-AI, whose 40 becomes 200 at the
 5) sets it by its own larger side: diameter 5 and 105 units/s in a 200 arena. It is driven by velocity,
 not by forces or torques: every control step its horizontal velocity is moved towards ``forward``
 x top speed along its heading at the drag's rate (the quick-stop rate with ``forward`` 0), its
-vertical velocity is left to physics (it falls into holes, rides up slopes and steps), and its heading
-turns by ``turn`` x 100 degrees per second; it never rolls (its orientation is its heading alone, set
+vertical velocity is left to physics up to a cap (it falls into holes, rides up slopes and steps), and
+its heading turns by ``turn`` x 100 degrees per second; it never rolls (its orientation is its heading alone, set
 each step; a sphere's shape does not change with it). It has no floor friction of its own; drag
 stands for it, as in Animal-AI. It pushes what it runs into with its mass.
 
 It keeps to the ground as Animal-AI's does. Its upward speed is capped at ``sqrt(g r)`` (``r`` its
-radius, ``g`` the world's gravity; :func:`rise_speed`), from which it rises at most half its radius
-when it leaves the surface: without the cap, the contact with the edge of a step lower than its
-radius turns its speed into an upward one (at 105 units/s, 40 upward: a step 1 high threw it 55 above
-it, over the arena's walls). With it, it rolls up a step lower than its radius, rides up a ramp onto
-what it leads to, and is stopped by a step as high as its radius or higher; it falls freely.
+radius, ``g`` the world's gravity; :func:`rise_speed`), from which a free rise is half its radius
+(measured: 1.1 to 1.4 above a step's or a ramp's top for radius 2.5, never its radius). Without the
+cap, the contact with the edge of a step lower than its radius turns its speed into an upward one: at
+full speed a step 1 high threw it 55 above it, over the arena's walls. With it, it rolls up a step
+lower than its radius, rides up a ramp onto what it leads to, and is stopped by a step as high as its
+radius or higher; it falls freely.
 
 Its proprioception (the observation's ``joints``, with the joint modes' names kept so that every
 policy finds the same keys): its forward speed over its top speed and its turning rate over the
