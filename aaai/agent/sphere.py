@@ -22,10 +22,18 @@ arena file (hand-written or imported from Animal-AI, whose 40 becomes 200 at the
 5) sets it by its own larger side: diameter 5 and 105 units/s in a 200 arena. It is driven by velocity,
 not by forces or torques: every control step its horizontal velocity is moved towards ``forward``
 x top speed along its heading at the drag's rate (the quick-stop rate with ``forward`` 0), its
-vertical velocity is left to physics (it falls into holes, rides up slopes), and its heading turns
-by ``turn`` x 100 degrees per second; it never rolls (its orientation is its heading alone, set
+vertical velocity is left to physics up to a cap (it falls into holes, rides up slopes and steps), and
+its heading turns by ``turn`` x 100 degrees per second; it never rolls (its orientation is its heading alone, set
 each step; a sphere's shape does not change with it). It has no floor friction of its own; drag
 stands for it, as in Animal-AI. It pushes what it runs into with its mass.
+
+It keeps to the ground as Animal-AI's does. Its upward speed is capped at ``sqrt(g r)`` (``r`` its
+radius, ``g`` the world's gravity; :func:`rise_speed`), from which a free rise is half its radius
+(measured: 1.1 to 1.4 above a step's or a ramp's top for radius 2.5, never its radius). Without the
+cap, the contact with the edge of a step lower than its radius turns its speed into an upward one: at
+full speed a step 1 high threw it 55 above it, over the arena's walls. With it, it rolls up a step
+lower than its radius, rides up a ramp onto what it leads to, and is stopped by a step as high as its
+radius or higher; it falls freely.
 
 Its proprioception (the observation's ``joints``, with the joint modes' names kept so that every
 policy finds the same keys): its forward speed over its top speed and its turning rate over the
@@ -70,6 +78,13 @@ def scale_for(arena_size=None) -> float:
     return max(float(arena_size[0]), float(arena_size[1])) / AAI_ARENA
 
 
+def rise_speed(radius: float, gravity: float) -> float:
+    """The upward speed the sphere of ``radius`` keeps at most under ``gravity``: sqrt(g r), from which
+    a free rise is r / 2. Enough to roll up a step lower than its radius (the contact lifts it), never
+    enough to fly; 0 without gravity."""
+    return math.sqrt(max(gravity, 0.0) * radius)
+
+
 def footprint_radius(arena_size=None) -> float:
     """The radius of the disc the sphere needs clear round its centre (a start, a passage) in an arena of
     ``arena_size`` (None: the generated levels'): its own radius there plus FOOTPRINT_MARGIN."""
@@ -98,6 +113,7 @@ class Sphere:
         self.top_speed = AAI_TOP_SPEED
         self.yaw = 0.0
         self._turn_rate = 0.0
+        self.rise_speed = rise_speed(self.radius, 9.81)
 
     def fit(self, arena_size=None) -> None:
         """Sizes the sphere and its top speed for an arena file's arena, or for the generated levels
@@ -141,6 +157,8 @@ class Sphere:
             physicsClientId=c,
         )
         self._turn_rate = 0.0
+        gravity = -p.getPhysicsEngineParameters(physicsClientId=c)["gravityAccelerationZ"]
+        self.rise_speed = rise_speed(self.radius, gravity)
         return self.id
 
     def rest_action(self) -> np.ndarray:
@@ -148,7 +166,7 @@ class Sphere:
 
     def apply(self, action: np.ndarray) -> None:
         """One control step with commands (forward, turn), each in [-1, 1]: the velocity
-        follows the push along the heading, the heading turns."""
+        follows the push along the heading, the heading turns, the upward speed is capped."""
         forward, turn = float(action[0]), float(action[1])
         c, dt = self.client, self.control_dt
         (vx, vy, vz), _ = p.getBaseVelocity(self.id, physicsClientId=c)
@@ -159,6 +177,7 @@ class Sphere:
         self.yaw = (self.yaw + self._turn_rate * dt + math.pi) % (2 * math.pi) - math.pi
         vx = vx * keep + push * math.cos(self.yaw)
         vy = vy * keep + push * math.sin(self.yaw)
+        vz = min(vz, self.rise_speed)  # the edge of a step turns the push upwards: it may not throw it
         position, _ = p.getBasePositionAndOrientation(self.id, physicsClientId=c)
         p.resetBasePositionAndOrientation(
             self.id, position, p.getQuaternionFromEuler((0, 0, self.yaw)), physicsClientId=c
