@@ -23,7 +23,9 @@ order, and the first change that brings it within reach names the cause:
 - ``walled off``: none of these.
 
 From a start on a ledge (aaai.levels.validate.start_ledge) every piece may be reached and yet no one side
-hold enough for the pass mark: ``one side's food below the pass mark`` (ONE_SIDE).
+hold enough for the pass mark: ``one side's food below the pass mark`` (ONE_SIDE). With every piece in reach,
+all of them together may give less than the pass mark: ``a pass mark above all the arena's food pays``
+(ABOVE_ALL; no body can pass such a task).
 
 A problem that is not food out of reach is named by the kinds it involves (``food cuts into a
 ramp``, ``movable blocks overlap``, ...).
@@ -224,8 +226,12 @@ def problem_cause(spec: LevelSpec | None, problem: str) -> str:
                 return unreachable_cause(spec, food)
         if found == "reachable food below the pass mark" and validate.start_ledge(spec) is not None:
             return ONE_SIDE
+        if found == "reachable food below the pass mark":
+            return ABOVE_ALL
     return found
 
 
+# every piece is reached, and all of them together give less than the pass mark (Animal-AI's 07-13)
+ABOVE_ALL = "a pass mark above all the arena's food pays"
 # every piece is reached from a start on a ledge, but on no one side enough for the pass mark
 ONE_SIDE = "one side's food below the pass mark (from a ledge the body steps down to one side)"
