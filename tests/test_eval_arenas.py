@@ -76,3 +76,21 @@ def test_an_older_record_without_hashes_resumes_with_a_warning(battery):
     assert "a file changed since its rows were scored cannot be detected" in resumed.output
     assert board.read_text().count("\n") == 3  # the header and both episodes
     assert "arena_sha256" not in json.loads(path.read_text())  # its rows were not checked: it claims no hashes
+
+
+def test_more_seeds_continue_the_scoreboard_also_one_whose_record_names_its_first_seeds(battery):
+    folder, board, args = battery
+    assert CliRunner().invoke(cli, args).exit_code == 0
+    path = board.with_name("board_scored_with.json")
+    record = json.loads(path.read_text())
+    record["seeds"] = "0-0"  # as a scoreboard of arena files recorded its first call's seeds before
+    path.write_text(json.dumps(record))
+    more = [*args]
+    more[more.index("-k") + 1] = "2"
+    resumed = CliRunner().invoke(cli, more)
+    assert resumed.exit_code == 0, resumed.output
+    rows = board.read_text().splitlines()[1:]
+    seeds = sorted((row.split(",")[3], row.split(",")[-2]) for row in rows)
+    assert seeds == [("0", FILES[0]), ("0", FILES[1]), ("1", FILES[0]), ("1", FILES[1])]
+    other = CliRunner().invoke(cli, [*more[:-1], str(board.with_name("fresh.csv"))])
+    assert other.exit_code == 0 and json.loads(board.with_name("fresh_scored_with.json").read_text())["seeds"] == "list"

@@ -261,22 +261,23 @@ def _score_arenas(
     warn: Callable[[str], None],
 ) -> EvalResult:
     """``aaai eval --arenas``: every arena file of the battery on seeds 0..K-1 (or a --seeds list); the
-    record names the folder (or file) as given and each file's SHA-256 (``arena_sha256``)."""
+    record names the folder (or file) as given and each file's SHA-256 (``arena_sha256``); each row names
+    its seed, so more seeds (a larger -k) continue the same scoreboard."""
     from aaai.task.arena import arena_files, arena_meta
 
     if seeds == "reserved":  # the default: an arena's seeds are 0..K-1
-        seed_list, label = list(range(count)), f"0-{count - 1}"
+        seed_list = list(range(count))
     elif seeds == "train":
         raise ConfigError("--seeds: got 'train' with --arenas; allowed: a list like 1,2,3 (default 0..K-1)")
     else:
         try:
-            seed_list, label = [int(part) for part in seeds.split(",")], seeds
+            seed_list = [int(part) for part in seeds.split(",")]
         except ValueError:
             raise ConfigError(f"--seeds: got {seeds!r}; allowed: a list like 1,2,3 (default 0..K-1)") from None
     files = arena_files(arenas)
     categories = {path.name: arena_meta(path)["category"] for path in files}
     output = Path(output) if output else (run_folder or Path(".")) / "scoreboard_arenas.csv"
-    record = {**policy_record(chosen, "list"), "seeds": label, "arenas": str(arenas), ARENA_HASHES: arena_hashes(files)}
+    record = {**policy_record(chosen, "list"), "arenas": str(arenas), ARENA_HASHES: arena_hashes(files)}
     note = unhashed_arenas(output)
     if note:
         warn(note)

@@ -168,6 +168,9 @@ def check_record(output: Path, record: dict) -> None:
         earlier = None
     if isinstance(earlier, dict) and ARENA_HASHES not in earlier:  # an older scoreboard (unhashed_arenas)
         record = {key: value for key, value in record.items() if key != ARENA_HASHES}
+    if isinstance(earlier, dict) and record.get("seeds") == "list" and earlier.get("seeds") not in (None, "list"):
+        # an older scoreboard of arena files named its first call's seeds ("0-0"); its rows name theirs
+        earlier = {**earlier, "seeds": "list"}
     if earlier != record:
         differences = record_differences(earlier, record) or ["its record cannot be read"]
         raise ConfigError(

@@ -310,7 +310,7 @@ def run_battery(
         )
     seed_list = list(range(seeds))
     record = {
-        "seeds": f"0-{seeds - 1}",
+        "seeds": "list",  # each row names its seed: more --battery-seeds continue the same scoreboard
         "arenas": str(battery.resolve()),  # however it was spelled, and found again by aaai diagnose
         "arena_sha256": arena_hashes(valid),
     }
