@@ -64,6 +64,19 @@ def test_the_experiment_runs_in_parts_scores_each_task_for_the_bodies_it_fits_an
     assert tables.exit_code == 0 and (out / "table.md").read_text() == table
 
 
+def test_a_verdict_is_checked_again_when_the_checking_code_has_changed(tmp_path, battery, monkeypatch):
+    import aaai.train.limbs as limbs
+
+    out = tmp_path / "limbs"
+    arguments = ["experiment", "limbs", *SMALL, "--arenas", str(battery), "--out", str(out), "--bodies", "quadruped"]
+    first = CliRunner().invoke(cli, arguments)
+    assert first.exit_code == 0 and "(2 checked now" in first.output, first.output
+    assert f",{limbs.checker_fingerprint()}," in (out / "tasks_quadruped.csv").read_text()
+    monkeypatch.setattr(limbs, "checker_fingerprint", lambda: "another check")  # a new rule, say
+    again = CliRunner().invoke(cli, arguments)
+    assert again.exit_code == 0 and "(2 checked now" in again.output, again.output
+
+
 def test_the_gap_is_taken_on_the_tasks_valid_for_both_and_the_rest_counted_apart():
     category = "Animal-AI 08 object permanence"
     tasks = {

@@ -68,7 +68,35 @@ OLYMPICS = {
 }
 ALL_LEVELS = "all levels"  # the level rows together
 BATTERY = "all categories"  # the category rows together
-TASK_COLUMNS = ["arena", "sha256", "category", "seeds", "valid", "problem"]
+TASK_COLUMNS = ["arena", "sha256", "category", "seeds", "checker", "valid", "problem"]
+# The code that judges an arena file (aaai.task.arena.load_arena): a verdict is reused only while it
+# is the same, so that a change to the check (a new rule) re-checks every file instead of trusting an
+# old verdict. Any change to these files re-checks (about 0.05 s a file and seed).
+CHECKER_FILES = (
+    "task/arena.py",
+    "task/arena_reader.py",
+    "levels/validate.py",
+    "spec/__init__.py",
+    "spec/kinds.py",
+    "spec/behaviours.py",
+    "spec/dispensers.py",
+    "agent/sphere.py",
+)
+
+
+def checker_fingerprint() -> str:
+    """The SHA-256 of the code that checks arena files (:data:`CHECKER_FILES`), 16 hex digits."""
+    import hashlib
+
+    import aaai
+
+    digest = hashlib.sha256()
+    root = Path(aaai.__file__).parent
+    for name in CHECKER_FILES:
+        digest.update(name.encode() + b"\0" + (root / name).read_bytes())
+    return digest.hexdigest()[:16]
+
+
 SUMMARY_COLUMNS = [
     "body",
     "policy",
@@ -145,8 +173,8 @@ def category_of(path: Path) -> str:
 
 def check_tasks(folder: Path, body: str, settings: LimbsSettings, echo: Callable[[str], None]) -> list[Path]:
     """The arena files valid for ``body`` on every seed scored (aaai.task.arena.load_arena for its
-    footprint), each file's verdict kept in tasks_<body>.csv and reused while the file and the seeds
-    are the same."""
+    footprint), each file's verdict kept in tasks_<body>.csv and reused while the file, the seeds and
+    the checking code (:func:`checker_fingerprint`) are the same."""
     from aaai.task.arena import arena_files, load_arena
 
     files = [file for path in settings.arenas for file in arena_files(path)]
@@ -159,12 +187,13 @@ def check_tasks(folder: Path, body: str, settings: LimbsSettings, echo: Callable
     seeds = list(range(settings.arena_seeds))
     path = folder / f"tasks_{body}.csv"
     known = {row["arena"]: row for row in read_rows(path)}
+    checker = checker_fingerprint()
     rows: list[dict] = []
     fresh = 0
     for file in files:
         sha = file_sha256(file)
         row = known.get(file.name)
-        if row is None or row["sha256"] != sha or row["seeds"] != str(len(seeds)):
+        if row is None or row["sha256"] != sha or row["seeds"] != str(len(seeds)) or row.get("checker") != checker:
             problem = ""
             try:
                 for seed in seeds:
@@ -176,6 +205,7 @@ def check_tasks(folder: Path, body: str, settings: LimbsSettings, echo: Callable
                 "sha256": sha,
                 "category": category_of(file),
                 "seeds": str(len(seeds)),
+                "checker": checker,
                 "valid": "no" if problem else "yes",
                 "problem": problem,
             }
