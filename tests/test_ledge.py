@@ -258,3 +258,13 @@ def test_from_a_ledge_the_reference_takes_the_side_whose_food_is_worth_most(env)
     reference = ReferenceController(env)
     reference(observation)
     assert [food.position[:2] for food in reference.lures] == [(-20.0, -10.0)]  # the left one is never gone for
+
+
+def test_a_start_over_stacked_boxes_spawns_on_the_top_one():
+    from aaai.sim.world import World
+
+    low = ObjectSpec("wall", "box", (0.0, 0.0, 1.0), (40.0, 40.0, 2.0), 0.0)
+    stacked = ObjectSpec("wall", "box", (0.0, 0.0, 3.0), (30.0, 30.0, 2.0), 0.0)  # on the low one: 4 high
+    bar = ObjectSpec("wall", "box", (0.0, 0.0, 20.0), (40.0, 2.0, 1.0), 0.0)  # overhead
+    spec = LevelSpec(**{**ledge_arena(ledge=False).__dict__, "objects": (low, stacked, bar)})
+    assert World.ground_height(type("W", (), {"spec": spec})(), 0.0, 0.0) == 4.0

@@ -226,3 +226,13 @@ def test_shaping_gamma_discounts_the_distance_now(make_env):
     for _ in range(10):
         _, _, _, _, info = standing.step(standing.body.rest_action())
     assert abs(info["reward_terms"]["shaping"]) < 0.05
+
+
+def test_walking_on_a_wall_top_is_footing_and_costs_nothing(make_env):
+    # a raised floor 3 high under the start (the body is spawned on its top), wide enough to walk on
+    env = make_env()
+    top = ObjectSpec("wall", "box", (0.0, 0.0, 1.5), (40.0, 40.0, 3.0))
+    history = walk_until(env, open_arena(top), lambda info: False, steps=80)
+    assert env.body.head_pose()[0][2] > 3.0  # on the top, walking
+    assert all(info["reward_terms"]["wall"] == 0 for *_, info in history)
+    assert history[-1][3]["wall_hits"] == 0

@@ -48,6 +48,17 @@ FOOD_REACH_HEIGHT = 2.3 + HEAD_RADIUS
 # whose only way went over ramps 5 units high were valid, and the reference failed every one of them
 # it was run on (05-23-02, 05-29-03, 06-18-02, 07-29-01; and 0 of 4 more, behind a ridge of two ramps).
 RAMP_WALKABLE_HEIGHT = 1.0
+# Terrain: above RAMP_WALKABLE_HEIGHT a ramp is a surface the body walks up when it rises at most
+# RAMP_MAX_RISE per unit of its length (experiments/animalai/ramps.md: the gait walks up ramps of 11.3°,
+# a rise of 0.2, at 5 and 10 high, and none of 15.9° or more); a steeper one is an obstacle, as a wall
+# is. The top of a static box is a surface too (a platform a ramp leads on to, a raised floor the agent
+# starts on). Each grid cell has the height of the highest surface over it (:func:`surface_heights`);
+# a cell more than TERRAIN_STEP above a neighbour is an edge (a wall's face seen from its top, the side
+# of a ramp, a platform's rim) and is blocked, so the body keeps its footprint away from every drop, and
+# from the floor it meets the edge as it meets a wall. A walkable ramp's cells rise by at most 0.2 x
+# 0.71 a cell (diagonally), under TERRAIN_STEP.
+RAMP_MAX_RISE = 0.2
+TERRAIN_STEP = 0.3
 
 
 def z_range(obj: ObjectSpec, z: float | None = None) -> tuple[float, float]:
@@ -283,19 +294,9 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
     """uint8 (rows along y, columns along x), 1 where the agent cannot stand: solids and holes."""
     width, height = spec.arena_size
     cols, rows = math.ceil(width / GRID), math.ceil(height / GRID)
-    grid = np.zeros((rows, cols), np.uint8)
     bridge = spec.bridge
-    for obj in solids(spec):
-        moving = behaviour_class(obj)
-        if moving and moving.passable:
-            continue
-        if getattr(kind_class(obj.kind), "walkable", False) and obj.size[2] <= RAMP_WALKABLE_HEIGHT:  # a low ramp
-            continue
-        if bridge and obj.kind == "plank" and obj.mass > 0:  # it becomes the bridge
-            continue
-        if obj.position[2] - obj.size[2] / 2 > 2 * HEAD_RADIUS:  # high above the body (none yet)
-            continue
-        fill(grid, spec, corners(obj))
+    heights, grid = surface_heights(spec)
+    grid[edges(heights)] = 1
     for obj in spec.objects:  # a death zone is missing floor; bad food is to be kept clear of, as a solid
         cls = kind_class(obj.kind)
         if cls is not None and (cls.deadly or (cls.edible and cls.value < 0)):
@@ -314,7 +315,68 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
     return grid
 
 
-def fill(grid: np.ndarray, spec: LevelSpec, quad, value: int = 1) -> None:
+def surface_heights(spec: LevelSpec) -> tuple[np.ndarray, np.ndarray]:
+    """The terrain: float32 heights (rows along y, columns along x) of the highest surface over each
+    cell's centre (0: the floor; a static box's top; a walkable ramp's slope), and a uint8 grid, 1 under
+    the solids the body never stands on (what moves or is pushed, what is not a box, a ramp steeper than
+    RAMP_MAX_RISE). Left out, as the body passes them: what sinks or opens (a passable moving part), a
+    ramp at most RAMP_WALKABLE_HEIGHT high (walked over as floor), the plank that becomes a level's
+    bridge, and what lies high above the body."""
+    width, height = spec.arena_size
+    cols, rows = math.ceil(width / GRID), math.ceil(height / GRID)
+    heights = np.zeros((rows, cols), np.float32)
+    hard = np.zeros((rows, cols), np.uint8)
+    xs = (np.arange(cols) + 0.5) * GRID - width / 2
+    ys = (np.arange(rows) + 0.5) * GRID - height / 2
+    tops, ramps = [], []
+    for obj in solids(spec):
+        moving = behaviour_class(obj)
+        if moving and moving.passable:
+            continue
+        walkable = getattr(kind_class(obj.kind), "walkable", False)
+        if walkable and obj.size[2] <= RAMP_WALKABLE_HEIGHT:  # a low ramp
+            continue
+        if spec.bridge and obj.kind == "plank" and obj.mass > 0:  # it becomes the bridge
+            continue
+        bottom, top = z_range(obj)
+        if bottom > 2 * HEAD_RADIUS:  # high above the body (none yet)
+            continue
+        steep = walkable and obj.size[2] > RAMP_MAX_RISE * obj.size[0] + TOLERANCE
+        if obj.mass or moving or obj.shape != "box" or steep:
+            fill(hard, spec, corners(obj))
+        elif walkable:
+            ramps.append(obj)
+        else:
+            tops.append((top, corners(obj)))
+    for top, quad in sorted(tops, key=lambda item: item[0]):  # the highest drawn last, over the others
+        fill(heights, spec, quad, value=top)
+    for ramp in ramps:  # the slope over each cell's centre, rising along the ramp's own +x
+        x0, y0, x1, y1 = Solids.box(corners(ramp))
+        row0, col0 = cell(spec, x0 - GRID, y0 - GRID, heights.shape)
+        row1, col1 = cell(spec, x1 + GRID, y1 + GRID, heights.shape)
+        mask = np.zeros((rows, cols), np.uint8)
+        fill(mask, spec, corners(ramp))
+        row, col = np.nonzero(mask[row0 : row1 + 1, col0 : col1 + 1])
+        row, col = row + row0, col + col0
+        c, s = math.cos(ramp.yaw), math.sin(ramp.yaw)
+        u = c * (xs[col] - ramp.position[0]) + s * (ys[row] - ramp.position[1])
+        bottom = ramp.position[2] - ramp.size[2] / 2
+        z = bottom + ramp.size[2] * np.clip((u + ramp.size[0] / 2) / ramp.size[0], 0.0, 1.0)
+        heights[row, col] = np.maximum(heights[row, col], z)
+    return heights, hard
+
+
+def edges(heights: np.ndarray) -> np.ndarray:
+    """bool: the cells more than TERRAIN_STEP above one of their eight neighbours (a drop beside them)."""
+    rows, cols = heights.shape
+    around = np.pad(heights, 1, mode="edge")
+    found = np.zeros(heights.shape, bool)
+    for dr, dc in MOVES:
+        found |= heights - around[1 + dr : 1 + dr + rows, 1 + dc : 1 + dc + cols] > TERRAIN_STEP
+    return found
+
+
+def fill(grid: np.ndarray, spec: LevelSpec, quad, value: float = 1) -> None:
     """Marks the cells whose centres a quadrilateral (world x, y) covers."""
     shift = 4
     pixels = (np.asarray(quad) + np.array(spec.arena_size) / 2) / GRID - 0.5  # cell centres at integers
@@ -402,7 +464,8 @@ def ledge_landing(spec: LevelSpec, clearance: np.ndarray, ledge: ObjectSpec, foo
     top = np.zeros(clearance.shape, np.uint8)
     fill(top, spec, corners(ledge))
     near = distances(top == 0) * GRID <= footprint + LEDGE_STEP
-    landing = np.unique(labels[near & (free > 0)])
+    floor = surface_heights(spec)[0] <= TERRAIN_STEP  # down on the floor: not the ledge's top, nor a higher one
+    landing = np.unique(labels[near & (free > 0) & (top == 0) & floor])
     landing = landing[landing > 0]
     if separate:
         return [labels == label for label in landing] or None
@@ -530,20 +593,37 @@ def cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
 
 
 def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> bool:
-    """Can the head, its centre in the agent's region, touch the piece where it comes to rest? Not
-    when the piece's bottom lies above FOOD_REACH_HEIGHT (on a pole, a block, a platform), unless
-    what it rests on sinks (a pillar that brings it down)."""
+    """Can the head, its centre in the agent's region, touch the piece where it comes to rest? Only
+    from where the body stands at most FOOD_REACH_HEIGHT below the piece's bottom (not on a pole or a
+    block it cannot climb; on a platform it walks on to, yes: :func:`surface_heights`) and not above it
+    by more than FOOD_REACH_BELOW (it does not reach down from a platform); a piece on what sinks (a
+    pillar that brings it down) counts as on the floor."""
     x, y, z = food_places(food)[-1]
-    if z - food.size[2] / 2 > FOOD_REACH_HEIGHT and not _on_sinking(spec, x, y):
-        return False
+    bottom = z - food.size[2] / 2
+    if bottom > FOOD_REACH_HEIGHT and _on_sinking(spec, x, y):
+        bottom = 0.0
     reach = HEAD_RADIUS + food.size[0] / 2 + GRID
     row0, col0 = cell(spec, x - reach, y - reach, region.shape)
     row1, col1 = cell(spec, x + reach, y + reach, region.shape)
     window = region[row0 : row1 + 1, col0 : col1 + 1]
     cols = (np.arange(col0, col1 + 1) + 0.5) * GRID - spec.arena_size[0] / 2
     rows = (np.arange(row0, row1 + 1) + 0.5) * GRID - spec.arena_size[1] / 2
-    near = np.hypot(cols[None, :] - x, rows[:, None] - y) <= reach
-    return bool(np.any(window & near))
+    near = window & (np.hypot(cols[None, :] - x, rows[:, None] - y) <= reach)
+    if not near.any():
+        return False
+    stand = _heights(spec)[row0 : row1 + 1, col0 : col1 + 1]
+    return bool(np.any(near & (bottom - stand <= FOOD_REACH_HEIGHT) & (bottom - stand >= -FOOD_REACH_BELOW)))
+
+
+# The most a piece of food's bottom may lie below what the body stands on for the head to touch it.
+FOOD_REACH_BELOW = 1.0
+_HEIGHTS: list = []  # the last spec's terrain: (spec, heights), so that a level's pieces share one
+
+
+def _heights(spec: LevelSpec) -> np.ndarray:
+    if not _HEIGHTS or _HEIGHTS[0][0] is not spec:
+        _HEIGHTS[:] = [(spec, surface_heights(spec)[0])]
+    return _HEIGHTS[0][1]
 
 
 def _on_sinking(spec: LevelSpec, x: float, y: float) -> bool:

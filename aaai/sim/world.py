@@ -362,21 +362,25 @@ class World:
         return self._eaten
 
     def ground_height(self, x: float, y: float) -> float:
-        """The top of the highest static box standing on the floor whose footprint holds (x, y), or 0 (the
-        floor): where a body spawned there stands (a start on a ledge, aaai.levels.validate.start_ledge)."""
-        top = 0.0
+        """The top of the highest static box the floor holds up at (x, y) (on the floor, or stacked on such
+        a box), or 0 (the floor): where a body spawned there stands (a start on a ledge or a raised floor,
+        aaai.levels.validate.surface_heights). A box whose bottom lies above what is under it (a bar
+        overhead) does not lift it."""
+        under = []
         for obj in self.spec.objects:
             cls = kind_class(obj.kind)
             if obj.kind not in SOLID_KINDS or obj.mass or obj.behaviour or obj.shape != "box":
-                continue
-            if abs(obj.position[2] - obj.size[2] / 2) > 1e-6:  # not standing on the floor (a bar overhead)
                 continue
             if cls is not None and (cls.walkable or cls.parts(obj)):  # a ramp, a kind built of parts
                 continue
             c, s = math.cos(obj.yaw), math.sin(obj.yaw)
             dx, dy = x - obj.position[0], y - obj.position[1]
             if abs(c * dx + s * dy) <= obj.size[0] / 2 and abs(-s * dx + c * dy) <= obj.size[1] / 2:
-                top = max(top, obj.position[2] + obj.size[2] / 2)
+                under.append((obj.position[2] - obj.size[2] / 2, obj.position[2] + obj.size[2] / 2))
+        top = 0.0
+        for bottom, height in sorted(under):  # lowest first: a box stacked on one that stands counts
+            if bottom <= top + 1e-6:
+                top = max(top, height)
         return top
 
     def stand(self, body: int) -> None:

@@ -3,7 +3,8 @@
 T is episode.max_steps. Every step costs 0.5/T, and another 0.5/T while the head touches
 the floor (with ground_penalty off: 1/T flat). Food eaten with the head pays its value
 (green: size, yellow: size/2); with a leg, as agent.limb_food_reward says. Each new
-contact of a body part with a wall costs 1; falling onto the deadly floor costs 1. The newer
+contact of a body part with a wall costs 1 (standing on a wall's top is footing, not a hit); falling
+onto the deadly floor costs 1. The newer
 kinds (aaai.spec.kinds): bad food touched by any part pays -size and ends the episode; a death zone
 touched is a fall; while a hot zone is touched the step term is ten times as large. Food that
 ripens, decays, grows or shrinks pays its value at the time it is eaten (aaai.spec.kinds.TimedFood).
@@ -26,6 +27,10 @@ ANY_PART = tuple(k for k, c in REGISTRY.items() if c.any_part)  # eaten by any p
 TERMS = ("step", "ground", "food", "wall", "fall", "shaping")
 FLOOR, WALL, DEADLY = KIND_INDEX["floor"], KIND_INDEX["wall"], KIND_INDEX["deadly_floor"]
 FOOD = tuple(KIND_INDEX[kind] for kind in EDIBLE_KINDS)
+# A contact with a wall whose normal (on the wall, towards the body) points up more steeply than this is
+# footing on its top (a platform, a raised floor the body walks on), not a hit: it costs nothing, and the
+# head resting there is the head on the floor. 0.7: within about 45 degrees of straight up.
+FOOTING = 0.7
 NEWER = len(KINDS)  # kind indices from here on are aaai.spec.kinds plug-ins
 NEWER_CLASSES = tuple(REGISTRY.values())
 HEAD = -1  # the head's link index in a contact
@@ -129,6 +134,8 @@ class FoodTask:
             other, link = contact[2], contact[3]
             kind = kind_index[other] if other < known else -1
             if kind == FLOOR:
+                events.head_on_floor |= link == HEAD and not self.head_rests
+            elif kind == WALL and contact[7][2] > FOOTING:  # on the wall's top: it stands there, as on the floor
                 events.head_on_floor |= link == HEAD and not self.head_rests
             elif kind == WALL:
                 walls_now.add((link, other))

@@ -11,13 +11,15 @@ order, and the first change that brings it within reach names the cause:
 - ``food on a platform up a ramp`` / ``food on top of a solid``: it rests on a solid's top (Animal-AI
   dropped it there), with or without a ramp whose high end meets that top;
 - ``start on a raised floor``: Animal-AI's agent starts on top of walls (``extras.animalai.start_height``)
-  and walks on them; here the walls are obstacles and the start was moved to the floor;
+  and walks on them, then steps down; here the body walks on a top wide enough for it
+  (aaai.levels.validate.surface_heights) but does not step down from it, and a start on a narrower top
+  was moved to the floor;
 - ``behind a death zone``: reachable with the death zones taken away (Animal-AI's tasks that need a
   block pushed across one, or a ramp over it);
 - ``behind a pushable block``: reachable with the movable blocks (planks, U, L, J blocks, hollow
   boxes) taken away;
-- ``over a ramp the body does not climb``: reachable with the ramps walkable (those higher than
-  aaai.levels.validate.RAMP_WALKABLE_HEIGHT are obstacles);
+- ``over a ramp the body does not climb``: reachable with the ramps taken away (a ramp steeper than
+  aaai.levels.validate.RAMP_MAX_RISE is an obstacle, as is one whose foot is a step up);
 - ``passage narrower than the body``: reachable by Animal-AI's agent (a sphere 1 across, ANIMALAI_RADIUS
   Animal-AI units in radius at the arena's scale), not by ours;
 - ``walled off``: none of these.

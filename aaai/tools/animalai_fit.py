@@ -90,10 +90,11 @@ def _spec(text: str, name: str, seed: int = 0):
 def clear_places(spec) -> list[tuple[float, float]]:
     """One clear place per region the body can stand in, nearest first: the clear cell nearest the
     agent's start in each connected region of cells with room for the body."""
-    from aaai.levels.validate import FOOTPRINT_RADIUS, GRID, clearance_map
+    from aaai.levels.validate import FOOTPRINT_RADIUS, GRID, TERRAIN_STEP, clearance_map, surface_heights
 
     clearance = clearance_map(spec)
-    free = (clearance > FOOTPRINT_RADIUS + START_MARGIN).astype(np.uint8)
+    floor = surface_heights(spec)[0] <= TERRAIN_STEP  # a start is moved down to the floor, never on to a top
+    free = ((clearance > FOOTPRINT_RADIUS + START_MARGIN) & floor).astype(np.uint8)
     count, labels = cv2.connectedComponents(free, connectivity=8)
     rows, cols = np.indices(labels.shape)
     xs = (cols + 0.5) * GRID - spec.arena_size[0] / 2
@@ -208,12 +209,15 @@ def move_start(data: dict, dump: Callable[[dict], str], name: str) -> str | None
     spec = _spec(dump(dict(data)), name)
     from aaai.levels.validate import reachable_region
 
+    raised = (data.get("extras") or {}).get("animalai", {}).get("start_height")
     if reachable_region(spec)[1]:
-        return None
+        # clear; on a raised floor (a top wide enough for the body), kept there while the food it needs
+        # can be reached from it, as Animal-AI's agent starts there
+        if not raised or not {cause(p) for p in _problems(dump(dict(data)), name, 1)[0]} & REGION_CAUSES:
+            return None
     places = clear_places(spec)
     if not places:
         return None
-    raised = (data.get("extras") or {}).get("animalai", {}).get("start_height")
     if raised and len(places) > 1:
         near = [math.hypot(x - agent["x"], y - agent["y"]) for x, y in places[:2]]
         if near[1] - near[0] < SIDE_MARGIN:  # off a dividing wall: either side, and the move would choose
