@@ -328,7 +328,7 @@ def surface_heights(spec: LevelSpec) -> tuple[np.ndarray, np.ndarray]:
     hard = np.zeros((rows, cols), np.uint8)
     xs = (np.arange(cols) + 0.5) * GRID - width / 2
     ys = (np.arange(rows) + 0.5) * GRID - height / 2
-    tops, ramps = [], []
+    found = []
     for obj in solids(spec):
         moving = behaviour_class(obj)
         if moving and moving.passable:
@@ -338,32 +338,40 @@ def surface_heights(spec: LevelSpec) -> tuple[np.ndarray, np.ndarray]:
             continue
         if spec.bridge and obj.kind == "plank" and obj.mass > 0:  # it becomes the bridge
             continue
+        found.append(obj)
+    for obj in sorted(found, key=lambda o: z_range(o)[0]):  # lowest first: what stands on a top sees it
         bottom, top = z_range(obj)
-        if bottom > 2 * HEAD_RADIUS:  # high above the body (none yet)
-            continue
+        row, col = covered(spec, corners(obj), heights.shape)
+        if bottom > 2 * HEAD_RADIUS and bottom > (heights[row, col].min() if row.size else 0.0) + 2 * HEAD_RADIUS:
+            continue  # high above the body wherever it stands under it (a bar, a tunnel's roof)
+        walkable = getattr(kind_class(obj.kind), "walkable", False)
         steep = walkable and obj.size[2] > RAMP_MAX_RISE * obj.size[0] + TOLERANCE
-        if obj.mass or moving or obj.shape != "box" or steep:
-            fill(hard, spec, corners(obj))
-        elif walkable:
-            ramps.append(obj)
+        if obj.mass or behaviour_class(obj) or obj.shape != "box" or steep:
+            hard[row, col] = 1
+            continue
+        if walkable:  # the slope over each cell's centre, rising along the ramp's own +x
+            c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+            u = c * (xs[col] - obj.position[0]) + s * (ys[row] - obj.position[1])
+            z = bottom + obj.size[2] * np.clip((u + obj.size[0] / 2) / obj.size[0], 0.0, 1.0)
         else:
-            tops.append((top, corners(obj)))
-    for top, quad in sorted(tops, key=lambda item: item[0]):  # the highest drawn last, over the others
-        fill(heights, spec, quad, value=top)
-    for ramp in ramps:  # the slope over each cell's centre, rising along the ramp's own +x
-        x0, y0, x1, y1 = Solids.box(corners(ramp))
-        row0, col0 = cell(spec, x0 - GRID, y0 - GRID, heights.shape)
-        row1, col1 = cell(spec, x1 + GRID, y1 + GRID, heights.shape)
-        mask = np.zeros((rows, cols), np.uint8)
-        fill(mask, spec, corners(ramp))
-        row, col = np.nonzero(mask[row0 : row1 + 1, col0 : col1 + 1])
-        row, col = row + row0, col + col0
-        c, s = math.cos(ramp.yaw), math.sin(ramp.yaw)
-        u = c * (xs[col] - ramp.position[0]) + s * (ys[row] - ramp.position[1])
-        bottom = ramp.position[2] - ramp.size[2] / 2
-        z = bottom + ramp.size[2] * np.clip((u + ramp.size[0] / 2) / ramp.size[0], 0.0, 1.0)
+            z = np.full(row.shape, top, np.float32)
         heights[row, col] = np.maximum(heights[row, col], z)
     return heights, hard
+
+
+def covered(spec: LevelSpec, quad, shape) -> tuple[np.ndarray, np.ndarray]:
+    """The (rows, columns) of the cells whose centres a quadrilateral covers (as :func:`fill` marks them),
+    found in a window round it."""
+    x0, y0, x1, y1 = Solids.box(quad)
+    row0, col0 = cell(spec, x0 - GRID, y0 - GRID, shape)
+    row1, col1 = cell(spec, x1 + GRID, y1 + GRID, shape)
+    window = np.zeros((row1 - row0 + 1, col1 - col0 + 1), np.uint8)
+    shift = 4
+    pixels = (np.asarray(quad) + np.array(spec.arena_size) / 2) / GRID - 0.5 - np.array([col0, row0])
+    points = np.round(pixels * (1 << shift)).astype(np.int32)
+    cv2.fillConvexPoly(window, points, 1, lineType=cv2.LINE_8, shift=shift)
+    row, col = np.nonzero(window)
+    return row + row0, col + col0
 
 
 def edges(heights: np.ndarray) -> np.ndarray:

@@ -10,7 +10,7 @@ order, and the first change that brings it within reach names the cause:
 - ``food in a death zone``: the piece lies over a death zone (it must be brought out, or it moves);
 - ``food on a platform up a ramp`` / ``food on top of a solid``: it rests on a solid's top (Animal-AI
   dropped it there), with or without a ramp whose high end meets that top;
-- ``start on a raised floor``: Animal-AI's agent starts on top of walls (``extras.animalai.start_height``)
+- ``start on a raised floor, the food below it``: Animal-AI's agent starts on top of walls (``extras.animalai.start_height``)
   and walks on them, then steps down; here the body walks on a top wide enough for it
   (aaai.levels.validate.surface_heights) but does not step down from it, and a start on a narrower top
   was moved to the floor;
@@ -50,7 +50,7 @@ OUT_OF_REACH = (
     "food in a death zone",
     "food on a platform up a ramp",
     "food on top of a solid",
-    "start on a raised floor",
+    "start on a raised floor, the food below it",
     "behind a death zone",
     "behind a pushable block",
     "over a ramp the body does not climb",
@@ -180,7 +180,7 @@ def unreachable_cause(spec: LevelSpec, food: ObjectSpec) -> str:
         return "food on a platform up a ramp" if ramp_leads_up(spec, below) else "food on top of a solid"
     record = spec.extras.get("animalai") or {}
     if record.get("start_height") and not record.get("start_ledge"):  # (from a ledge, the floor is walked)
-        return "start on a raised floor"
+        return "start on a raised floor, the food below it"
     if _reachable(_without(spec, deadly), food):
         return "behind a death zone"
     if _reachable(_without(spec, lambda obj: obj.mass > 0), food):
