@@ -297,6 +297,14 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
     bridge = spec.bridge
     heights, grid = surface_heights(spec)
     grid[edges(heights)] = 1
+    raised = heights > TERRAIN_STEP
+    if raised.any():  # a top is ground only where the body gets on to it: up a ramp, or starting there
+        _, labels = cv2.connectedComponents((grid == 0).astype(np.uint8), connectivity=8)
+        reached = set(np.unique(labels[(grid == 0) & ~raised]).tolist())
+        if start_ledge(spec) is None:  # (a ledge is stepped down from, never walked on: walk_region)
+            reached.add(int(labels[cell(spec, spec.agent.x, spec.agent.y, grid.shape)]))
+        reached.discard(0)
+        grid[(grid == 0) & raised & ~np.isin(labels, sorted(reached))] = 1
     for obj in spec.objects:  # a death zone is missing floor; bad food is to be kept clear of, as a solid
         cls = kind_class(obj.kind)
         if cls is not None and (cls.deadly or (cls.edible and cls.value < 0)):
