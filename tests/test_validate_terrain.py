@@ -83,3 +83,18 @@ def test_the_head_does_not_reach_down_from_a_raised_floor(tmp_path):
     top = surface_heights(spec)[0] > 0  # a region of every cell of the top, up to its edge
     beside, on_top = spec.foods
     assert food_reachable(spec, top, on_top) and not food_reachable(spec, top, beside)
+
+
+def test_the_reference_walks_up_a_ramp_and_eats_the_food_on_the_platform(make_env, tmp_path):
+    from conftest import reference_on_arena
+
+    text = "arena_size: [100.0, 100.0]\ntime_limit: 100\n" + ramp_to_platform(HEIGHT / RAMP_MAX_RISE)
+    env, controller = reference_on_arena(make_env, tmp_path, text)
+    highest = 0.0
+    for _ in range(1200):
+        _, _, terminated, truncated, info = env.step(controller())
+        highest = max(highest, env.body.head_pose()[0][2])
+        if terminated or truncated:
+            break
+    assert terminated and info["food_eaten"] == 1 and info["wall_hits"] == 0
+    assert highest > HEIGHT + 1.5, highest  # it stood on the platform
