@@ -78,7 +78,8 @@ def test_food_on_a_platform_is_named_with_or_without_a_ramp_up(tmp_path):
 def test_a_start_on_a_raised_floor_is_named(tmp_path):
     walled = pen(0) + FOOD.format(x=50, y=50, z=2.5)
     assert cause(tmp_path, walled) == "walled off"
-    assert cause(tmp_path, walled, "extras: {animalai: {start_height: 10.0}}\n") == "start on a raised floor, the food below it"
+    raised = cause(tmp_path, walled, "extras: {animalai: {start_height: 10.0}}\n")
+    assert raised == "start on a raised floor, the food below it"
 
 
 @pytest.mark.parametrize(

@@ -94,3 +94,21 @@ def test_more_seeds_continue_the_scoreboard_also_one_whose_record_names_its_firs
     assert seeds == [("0", FILES[0]), ("0", FILES[1]), ("1", FILES[0]), ("1", FILES[1])]
     other = CliRunner().invoke(cli, [*more[:-1], str(board.with_name("fresh.csv"))])
     assert other.exit_code == 0 and json.loads(board.with_name("fresh_scored_with.json").read_text())["seeds"] == "list"
+
+
+def test_a_battery_that_grows_continues_its_scoreboard(battery, tmp_path):
+    # a new import makes one more file valid, in another folder: only its episode is played, and the
+    # record names both files and the new folder
+    folder, board, args = battery
+    only_first = tmp_path / "first"
+    only_first.mkdir()
+    shutil.copy(folder / FILES[0], only_first / FILES[0])
+    first = [str(only_first) if a == str(folder) else a for a in args]
+    assert CliRunner().invoke(cli, first).exit_code == 0
+    before = board.read_text()
+    grown = CliRunner().invoke(cli, args)
+    assert grown.exit_code == 0, grown.output
+    assert board.read_text().startswith(before) and board.read_text().count("\n") == 3  # one episode added
+    record = json.loads(board.with_name("board_scored_with.json").read_text())
+    assert record["arena_sha256"] == {name: file_sha256(folder / name) for name in FILES}
+    assert record["arenas"] == str(folder)

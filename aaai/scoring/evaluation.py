@@ -115,8 +115,7 @@ def _score(
     on_episode: Callable[[dict], None] | None,
 ) -> list[dict]:
     """:func:`score` with the scoreboard locked."""
-    record = scoring_record(policy, record, config)
-    check_record(output, record)
+    record = check_record(output, scoring_record(policy, record, config))
     rows = scored_episodes(output)
     episodes = plan(rows)
     played = play(episodes)

@@ -147,16 +147,20 @@ def _has_rows(output: Path) -> bool:
         return False
 
 
-def check_record(output: Path, record: dict) -> None:
-    """Refuses to add to a scoreboard scored with anything else, naming each key that differs.
+def check_record(output: Path, record: dict) -> dict:
+    """Refuses to add to a scoreboard scored with anything else, naming each key that differs; returns
+    the record to keep with it.
 
     The record itself is written with the scoreboard's first row (:class:`Scoreboard`); one beside
     a scoreboard that holds no row yet (an eval that failed before its first episode ended) does
     not count. A record written before arena files' SHA-256 were kept is compared without them
-    (:func:`unhashed_arenas`), and stays without them."""
+    (:func:`unhashed_arenas`), and stays without them. A battery of arena files may grow (a new
+    import that makes more files valid, in the same folder or another): files the scoreboard's record
+    does not name yet are added to it, and the folder is the one scored now, while every file both
+    name has the same SHA-256 (:func:`check_arena_hashes` refuses one that changed)."""
     path = record_path(output)
     if not _has_rows(output):
-        return
+        return record
     if not path.exists():
         raise ConfigError(
             f"--out: {str(output)!r} holds episodes of an unknown policy (no {path.name}); "
@@ -171,6 +175,12 @@ def check_record(output: Path, record: dict) -> None:
     if isinstance(earlier, dict) and record.get("seeds") == "list" and earlier.get("seeds") not in (None, "list"):
         # an older scoreboard of arena files named its first call's seeds ("0-0"); its rows name theirs
         earlier = {**earlier, "seeds": "list"}
+    hashed = isinstance(earlier, dict) and isinstance(earlier.get(ARENA_HASHES), dict)
+    if hashed and isinstance(record.get(ARENA_HASHES), dict):
+        then, now = earlier[ARENA_HASHES], record[ARENA_HASHES]
+        rest = [{k: v for k, v in r.items() if k not in (ARENA_HASHES, "arenas")} for r in (earlier, record)]
+        if rest[0] == rest[1] and all(now.get(name, digest) == digest for name, digest in then.items()):
+            earlier = record = {**record, ARENA_HASHES: {**then, **now}}  # none changed: the battery grows
     if earlier != record:
         differences = record_differences(earlier, record) or ["its record cannot be read"]
         raise ConfigError(
@@ -179,3 +189,4 @@ def check_record(output: Path, record: dict) -> None:
             + "; ".join(differences)
             + f". Choose another --out, or delete {output.name} and {path.name} to start again"
         )
+    return record

@@ -14,7 +14,7 @@ from typing import Callable
 from aaai.config import ConfigError
 from aaai.files import Lock, hold, write_atomic
 from aaai.levels import all_levels
-from aaai.scoring.provenance import record_path
+from aaai.scoring.provenance import read_record, record_path
 
 # "arena": the arena file's name (aaai.task.arena), empty for a generated level. A scoreboard written
 # before that column existed (LEGACY_COLUMNS) is still read (its rows get arena "") and added to
@@ -69,7 +69,7 @@ class Scoreboard:
         """The file open for appending (opened, with the record beside it, at the first row)."""
         if self.handle is None:
             new = not self.output.exists() or self.output.stat().st_size == 0
-            if new or not record_path(self.output).exists():
+            if new or not record_path(self.output).exists() or read_record(self.output) != self.record:  # (grown)
                 write_atomic(record_path(self.output), json.dumps(self.record, indent=1, sort_keys=True) + "\n")
             self.handle = io.TextIOWrapper(open(self.output, "ab"), newline="")  # its buffer dropped on a failed write
             if new:

@@ -10,8 +10,8 @@ order, and the first change that brings it within reach names the cause:
 - ``food in a death zone``: the piece lies over a death zone (it must be brought out, or it moves);
 - ``food on a platform up a ramp`` / ``food on top of a solid``: it rests on a solid's top (Animal-AI
   dropped it there), with or without a ramp whose high end meets that top;
-- ``start on a raised floor, the food below it``: Animal-AI's agent starts on top of walls (``extras.animalai.start_height``)
-  and walks on them, then steps down; here the body walks on a top wide enough for it
+- ``start on a raised floor, the food below it``: Animal-AI's agent starts on top of walls
+  (``extras.animalai.start_height``) and walks on them, then steps down; here the body walks on a top wide enough for it
   (aaai.levels.validate.surface_heights) but does not step down from it, and a start on a narrower top
   was moved to the floor;
 - ``behind a death zone``: reachable with the death zones taken away (Animal-AI's tasks that need a
