@@ -19,6 +19,7 @@ and never climbs back, so what it reaches is what lies in the regions it steps d
 from __future__ import annotations
 
 import math
+from typing import Any, Callable
 
 import cv2
 import numpy as np
@@ -295,7 +296,8 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
     width, height = spec.arena_size
     cols, rows = math.ceil(width / GRID), math.ceil(height / GRID)
     bridge = spec.bridge
-    heights, grid = surface_heights(spec)
+    heights, hard = surface_heights(spec)
+    grid = hard.copy()
     grid[edges(heights)] = 1
     raised = heights > TERRAIN_STEP
     if raised.any():  # a top is ground only where the body gets on to it: up a ramp, or starting there
@@ -323,7 +325,27 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
     return grid
 
 
+_LAST: dict[str, tuple[LevelSpec, Any]] = {}  # what was last made of a spec, by what it is: a level's checks share it
+
+
+def _memo(name: str, spec: LevelSpec, make: Callable[[], Any]) -> Any:
+    """``make()`` for this spec (the very object: a LevelSpec is frozen), made once while it is the last one
+    asked about; the arrays it holds are read-only."""
+    held = _LAST.get(name)
+    if held is None or held[0] is not spec:
+        value = make()
+        for array in value if isinstance(value, tuple) else (value,):
+            array.flags.writeable = False
+        _LAST[name] = held = (spec, value)
+    return held[1]
+
+
 def surface_heights(spec: LevelSpec) -> tuple[np.ndarray, np.ndarray]:
+    """The terrain (:func:`_surface_heights`), made once per spec; read-only arrays."""
+    return _memo("heights", spec, lambda: _surface_heights(spec))
+
+
+def _surface_heights(spec: LevelSpec) -> tuple[np.ndarray, np.ndarray]:
     """The terrain: float32 heights (rows along y, columns along x) of the highest surface over each
     cell's centre (0: the floor; a static box's top; a walkable ramp's slope), and a uint8 grid, 1 under
     the solids the body never stands on (what moves or is pushed, what is not a box, a ramp steeper than
@@ -422,8 +444,10 @@ def distances(free: np.ndarray) -> np.ndarray:
 
 def clearance_map(spec: LevelSpec, grid: np.ndarray | None = None) -> np.ndarray:
     """float32: the distance (units) from each cell's centre to the nearest blocked cell or the arena's
-    edge (:func:`distances`, exact)."""
-    grid = blocked_grid(spec) if grid is None else grid
+    edge (:func:`distances`, exact); of the spec's own grid (``grid`` None), made once per spec and
+    read-only."""
+    if grid is None:
+        return _memo("clearance", spec, lambda: clearance_map(spec, blocked_grid(spec)))
     padded = np.pad(grid, 1, constant_values=1)  # the arena's walls
     return distances(padded == 0)[1:-1, 1:-1] * GRID
 
@@ -627,19 +651,12 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     near = window & (np.hypot(cols[None, :] - x, rows[:, None] - y) <= reach)
     if not near.any():
         return False
-    stand = _heights(spec)[row0 : row1 + 1, col0 : col1 + 1]
+    stand = surface_heights(spec)[0][row0 : row1 + 1, col0 : col1 + 1]
     return bool(np.any(near & (bottom - stand <= FOOD_REACH_HEIGHT) & (bottom - stand >= -FOOD_REACH_BELOW)))
 
 
 # The most a piece of food's bottom may lie below what the body stands on for the head to touch it.
 FOOD_REACH_BELOW = 1.0
-_HEIGHTS: list = []  # the last spec's terrain: (spec, heights), so that a level's pieces share one
-
-
-def _heights(spec: LevelSpec) -> np.ndarray:
-    if not _HEIGHTS or _HEIGHTS[0][0] is not spec:
-        _HEIGHTS[:] = [(spec, surface_heights(spec)[0])]
-    return _HEIGHTS[0][1]
 
 
 def _on_sinking(spec: LevelSpec, x: float, y: float) -> bool:
