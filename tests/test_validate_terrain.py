@@ -68,23 +68,6 @@ def test_a_raised_floor_must_hold_the_body_clear_of_its_rims(tmp_path, wide, cle
     assert (not any("is not clear" in p for p in problems)) == clear
 
 
-def test_the_head_does_not_reach_down_from_a_raised_floor(tmp_path):
-    from aaai.levels.validate import food_reachable, surface_heights
-    from aaai.task.arena import parse_arena
-
-    path = tmp_path / "b.yaml"
-    path.write_text(
-        "arena_size: [100.0, 100.0]\ntime_limit: 100\n"
-        + RAISED.replace("WIDE", "40.0")
-        + "  - {kind: food_green, shape: sphere, position: [21.5, 0.0, 1.5], size: [3.0, 3.0, 3.0]}\n"
-        + "  - {kind: food_green, shape: sphere, position: [18.0, 0.0, 4.5], size: [3.0, 3.0, 3.0]}\n"
-    )
-    spec = parse_arena(path, 0)[0]
-    top = surface_heights(spec)[0] > 0  # a region of every cell of the top, up to its edge
-    beside, on_top = spec.foods
-    assert food_reachable(spec, top, on_top) and not food_reachable(spec, top, beside)
-
-
 def test_the_reference_walks_up_a_ramp_and_eats_the_food_on_the_platform(make_env, tmp_path):
     from conftest import reference_on_arena
 

@@ -635,9 +635,9 @@ def cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
 def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> bool:
     """Can the head, its centre in the agent's region, touch the piece where it comes to rest? Only
     from where the body stands at most FOOD_REACH_HEIGHT below the piece's bottom (not on a pole or a
-    block it cannot climb; on a platform it walks on to, yes: :func:`surface_heights`) and not above it
-    by more than FOOD_REACH_BELOW (it does not reach down from a platform); a piece on what sinks (a
-    pillar that brings it down) counts as on the floor."""
+    block it cannot climb; on a platform it walks on to, yes: :func:`surface_heights`); a piece on what
+    sinks (a pillar that brings it down) counts as on the floor. (From a top it does not reach down to
+    the floor beside it: the region keeps the body's footprint from the top's rim.)"""
     x, y, z = food_places(food)[-1]
     bottom = z - food.size[2] / 2
     if bottom > FOOD_REACH_HEIGHT and _on_sinking(spec, x, y):
@@ -652,11 +652,7 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     if not near.any():
         return False
     stand = surface_heights(spec)[0][row0 : row1 + 1, col0 : col1 + 1]
-    return bool(np.any(near & (bottom - stand <= FOOD_REACH_HEIGHT) & (bottom - stand >= -FOOD_REACH_BELOW)))
-
-
-# The most a piece of food's bottom may lie below what the body stands on for the head to touch it.
-FOOD_REACH_BELOW = 1.0
+    return bool(np.any(near & (bottom - stand <= FOOD_REACH_HEIGHT)))
 
 
 def _on_sinking(spec: LevelSpec, x: float, y: float) -> bool:

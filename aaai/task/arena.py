@@ -461,7 +461,7 @@ def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body
         unreached = [p for p in problems if p.endswith("cannot be reached from the start")]
         on_ledge = validate.start_ledge(spec) is not None  # the food of the one side it steps down to counts
         problems = [p for p in problems if p not in unreached]
-        start_blocked = any(p.startswith("the agent's start") and "is not clear" in p for p in problems)
+        start_blocked = not validate.reach_regions(spec, footprint_for(body, spec.arena_size))  # no region: not clear
         if unreached or on_ledge or ("pass_mark" in spec.extras and not start_blocked):
             # also with every piece in reach: a pass mark above all the arena pays is passed by no body
             best, mark = reachable_return(spec, body), spec.extras["pass_mark"]
