@@ -2,11 +2,14 @@
 bodies it is valid for, the gap taken on the tasks valid for both; resumed, run in parts, tabled from
 the folder."""
 
+import json
+
 import pytest
 from click.testing import CliRunner
 from test_sphere_arenas import AGENT, GOAL, HEAD, WALL
 
 from aaai.config import ConfigError, load_config
+from aaai.files import file_sha256
 from aaai.scoring.runs import RunFolder
 from aaai.tools.animalai import import_animalai
 from aaai.train.limbs import LimbsSettings, _olympics, run_experiment, summarise, table_markdown
@@ -48,6 +51,9 @@ def test_the_experiment_runs_in_parts_scores_each_task_for_the_bodies_it_fits_an
     assert len(scored["reference_sphere_arenas.csv"].splitlines()) == 3  # header and both tasks
     assert len(scored["reference_quadruped_arenas.csv"].splitlines()) == 2  # the one it fits
     assert "not clear: a body of radius 5.0" in scored["tasks_quadruped.csv"]
+    record = json.loads((out / "reference_sphere_arenas_scored_with.json").read_text())
+    assert record["arena_sha256"] == {f.name: file_sha256(f) for f in battery.glob("*.yaml")}  # changes refused
+    assert record["arenas"] == str(battery.resolve())  # where aaai diagnose finds them
     table = (out / "table.md").read_text()
     assert _row(table, "L0")[1] == _row(table, "L0")[3] == "1/1 (100 %)"  # the levels' table: both bodies
     battery_row = _row(table, "all categories")

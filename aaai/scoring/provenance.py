@@ -171,7 +171,8 @@ def check_record(output: Path, record: dict) -> dict:
     except (OSError, ValueError):
         earlier = None
     if isinstance(earlier, dict) and ARENA_HASHES not in earlier:  # an older scoreboard (unhashed_arenas)
-        record = {key: value for key, value in record.items() if key != ARENA_HASHES}
+        older = (ARENA_HASHES, *(() if "arenas" in earlier else ("arenas",)))  # nor, maybe, the folder
+        record = {key: value for key, value in record.items() if key not in older}
     if isinstance(earlier, dict) and record.get("seeds") == "list" and earlier.get("seeds") not in (None, "list"):
         # an older scoreboard of arena files named its first call's seeds ("0-0"); its rows name theirs
         earlier = {**earlier, "seeds": "list"}

@@ -48,6 +48,7 @@ from aaai.config import Config, ConfigError, load_config
 from aaai.files import file_sha256, hold, write_atomic
 from aaai.levels import get_level, level_ids
 from aaai.scoring.evaluation import cells_for, evaluate, evaluate_arenas
+from aaai.scoring.provenance import arena_hashes, policy_record
 from aaai.scoring.runs import RunFolder
 
 BODIES = ("quadruped", "sphere")
@@ -223,6 +224,15 @@ def check_tasks(folder: Path, body: str, settings: LimbsSettings, echo: Callable
     return valid
 
 
+def arena_record(policy: str, files: list[Path]) -> dict:
+    """What an arena scoreboard of the experiment records (as aaai baselines --battery's): the policy on
+    listed seeds, the folder of the files (when they share one) and each file's SHA-256, so that adding to
+    it after a file has changed is refused and aaai diagnose finds the files."""
+    folders = {file.resolve().parent for file in files}
+    where = {"arenas": str(folders.pop())} if len(folders) == 1 else {}
+    return {**policy_record(policy, "list"), **where, "arena_sha256": arena_hashes(files)}
+
+
 def score_body(folder: Path, body: str, settings: LimbsSettings, echo: Callable[[str], None]) -> None:
     """Scores what ``settings`` asks for on ``body`` into the folder's scoreboards (resuming them)."""
     config = body_config(body, settings)
@@ -239,7 +249,8 @@ def score_body(folder: Path, body: str, settings: LimbsSettings, echo: Callable[
         evaluate("reference", cells, folder / f"reference_{body}.csv", config)
         if valid:
             echo(f"reference on the {body}: {len(valid)} arena files x {settings.arena_seeds} seeds")
-            evaluate_arenas("reference", valid, arena_seeds, folder / f"reference_{body}_arenas.csv", config)
+            board = folder / f"reference_{body}_arenas.csv"
+            evaluate_arenas("reference", valid, arena_seeds, board, config, record=arena_record("reference", valid))
     if "ppo" in settings.policies and settings.ppo_steps:
         run = train_body(folder, body, settings, echo)
         model, run_config = str(run.final / "model.zip"), load_config(run.read_config())
@@ -247,7 +258,8 @@ def score_body(folder: Path, body: str, settings: LimbsSettings, echo: Callable[
         evaluate(model, cells, folder / f"ppo_{body}.csv", run_config)
         if valid:
             echo(f"PPO on the {body}: {len(valid)} arena files x {settings.arena_seeds} seeds")
-            evaluate_arenas(model, valid, arena_seeds, folder / f"ppo_{body}_arenas.csv", run_config)
+            board = folder / f"ppo_{body}_arenas.csv"
+            evaluate_arenas(model, valid, arena_seeds, board, run_config, record=arena_record(model, valid))
 
 
 def read_rows(path: Path) -> list[dict]:
