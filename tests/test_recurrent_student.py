@@ -182,3 +182,33 @@ def test_backpropagation_through_time_carries_the_memory_across_chunks():
         actor.reset()
         actions = [actor({"x": np.array([cue, 1.0] if t == 0 else [0.0, 0.0], np.float32)}) for t in range(12)]
         assert all(np.sign(a[0]) == cue for a in actions[8:]), actions
+
+
+def test_a_run_starts_from_another_runs_rounds_and_refits_on_them_without_playing(lstm_run, tmp_path):
+    """train.dagger_data_from: the student is fitted on the other run's saved rounds (the first
+    dagger_iterations of them), nothing is played, the run ends with a final model that eval scores;
+    a run of other senses is refused in one line, before anything is written."""
+    import csv
+
+    config = dict(TINY_LSTM, train={**TINY_LSTM["train"], "dagger_epochs": 1})
+    refit = tmp_path / "refit"
+    args = ["train", "--config", _write(tmp_path, config), "--data-from", str(lstm_run), "--run", str(refit)]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    rows = list(csv.DictReader(open(refit / "dagger.csv")))
+    source_rows = list(csv.DictReader(open(lstm_run / "dagger.csv")))
+    assert [(r["iteration"], r["episodes"], r["dataset"]) for r in rows] == [("1", "0", source_rows[-1]["dataset"])]
+    assert sorted(p.name for p in (refit / "dagger").iterdir()) == ["iteration_000.npz", "iteration_001.npz"]
+    assert (refit / "final" / "model.zip").is_file() and len((refit / "episodes.csv").read_text().splitlines()) == 1
+    scored = CliRunner().invoke(cli, ["eval", "--policy", str(refit), "--levels", "0", "--difficulty", "0", "-k", "1"])
+    assert scored.exit_code == 0, scored.output
+    other = dict(config, sensors={"rays_per_side": 3})
+    other_run = tmp_path / "other"
+    refused = CliRunner().invoke(
+        cli, ["train", "--config", _write(tmp_path, other), "--data-from", str(lstm_run), "--run", str(other_run)]
+    )
+    assert refused.exit_code == 2 and "Traceback" not in refused.output
+    assert "'train.dagger_data_from': got" in refused.output and "whose sensors differs" in refused.output
+    ppo = CliRunner().invoke(cli, ["train", "--steps", "64", "--data-from", str(lstm_run), "--run", str(other_run)])
+    assert ppo.exit_code == 2 and "'train.dagger_data_from': got" in ppo.output and "for a PPO run" in ppo.output
+    assert not other_run.exists()
