@@ -17,7 +17,7 @@ from aaai.scoring.episodes import play  # noqa: E402
 from aaai.scoring.model_archive import read_archive  # noqa: E402
 from aaai.scoring.model_io import policy_class_name  # noqa: E402
 from aaai.scoring.policies import resolve  # noqa: E402
-from aaai.train.recurrent_student import RecurrentActor, fit_sequences  # noqa: E402
+from aaai.train.recurrent_student import RecurrentActor, fit_sequences, fit_shuffled_chunks  # noqa: E402
 from aaai.train.student import train_student  # noqa: E402
 from aaai_cli.main import cli  # noqa: E402
 
@@ -157,10 +157,12 @@ def test_a_student_policy_that_is_not_allowed_is_refused_in_one_line(tmp_path):
     assert not (tmp_path / "c").exists()
 
 
-def test_backpropagation_through_time_carries_the_memory_across_chunks():
+@pytest.mark.parametrize("chunks", ["shuffled", "episodes"])
+def test_backpropagation_through_time_carries_the_memory_across_chunks(chunks):
     """A cue seen only at an episode's first decision is the label of all of its 12: learnable only
-    if the hidden state is carried from one chunk of 4 decisions into the next, and reset between
-    episodes (the cue of one episode says nothing of the next's)."""
+    if the hidden state is carried from one chunk of 4 decisions into the next (train.dagger_chunks
+    shuffled: from the state its episode gives a chunk; episodes: chunk after chunk), and reset
+    between episodes (the cue of one episode says nothing of the next's)."""
     import torch
     from gymnasium import spaces
 
@@ -175,7 +177,8 @@ def test_backpropagation_through_time_carries_the_memory_across_chunks():
     x[:, 0, 0], x[:, 0, 1] = cues, 1.0  # the cue, and "an episode starts here"
     labels = np.repeat(cues, 12)[:, None]
     starts = np.tile(np.arange(12) == 0, 48)
-    loss = fit_sequences(policy, {"x": x.reshape(-1, 2)}, labels, starts, 60, 0, 4, 2e-2, 48 * 4)
+    fitter = fit_shuffled_chunks if chunks == "shuffled" else fit_sequences
+    loss = fitter(policy, {"x": x.reshape(-1, 2)}, labels, starts, 60, 0, 4, 2e-2, 48 * 4)
     assert loss < 0.1, loss  # without the memory across chunks, 8 of 12 labels are a coin toss: 0.67
     actor = RecurrentActor(policy)
     for cue in (1.0, -1.0):  # the memory as it acts: the cue's sign to the end of the episode
@@ -212,3 +215,32 @@ def test_a_run_starts_from_another_runs_rounds_and_refits_on_them_without_playin
     ppo = CliRunner().invoke(cli, ["train", "--steps", "64", "--data-from", str(lstm_run), "--run", str(other_run)])
     assert ppo.exit_code == 2 and "'train.dagger_data_from': got" in ppo.output and "for a PPO run" in ppo.output
     assert not other_run.exists()
+
+
+@pytest.mark.parametrize("chunks", ["shuffled", "episodes"])
+def test_a_refits_step_size_falls_to_the_configured_end_along_a_cosine(chunks, monkeypatch):
+    """train.dagger_learning_rate_end: the first step of a refit at 0.001, the last at the end, in
+    between falling; without it every step at 0.001."""
+    import torch
+    from gymnasium import spaces
+
+    from aaai.train.recurrent_student import build_policy
+
+    sizes: list[float] = []
+    step = torch.optim.Adam.step
+
+    def spy(self, *args, **kwargs):
+        sizes.append(self.param_groups[0]["lr"])
+        return step(self, *args, **kwargs)
+
+    monkeypatch.setattr(torch.optim.Adam, "step", spy)
+    observation_space = spaces.Dict({"x": spaces.Box(-1.0, 1.0, (2,), np.float32)})
+    policy = build_policy(observation_space, spaces.Box(-1.0, 1.0, (1,), np.float32), 8)
+    x, labels, starts = np.zeros((40, 2), np.float32), np.zeros((40, 1), np.float32), np.arange(40) % 10 == 0
+    fitter = fit_shuffled_chunks if chunks == "shuffled" else fit_sequences
+    fitter(policy, {"x": x}, labels, starts, 3, 0, 5, 1e-3, 10, final_learning_rate=1e-5)
+    assert len(sizes) == 3 * 4 and sizes[0] == pytest.approx(1e-3) and sizes[-1] == pytest.approx(1e-5)
+    assert all(a >= b for a, b in zip(sizes, sizes[1:])) and 1e-5 < sizes[6] < 1e-3
+    sizes.clear()
+    fitter(policy, {"x": x}, labels, starts, 2, 0, 5, 1e-3, 10)
+    assert sizes == [pytest.approx(1e-3)] * 8

@@ -83,6 +83,8 @@ class DaggerSettings:
     seed: int  # train.seed
     student_policy: str = "mlp"  # train.student_policy: mlp, or lstm (aaai.train.recurrent_student)
     sequence: int = 64  # train.dagger_sequence: an lstm student's chunks of backpropagation through time
+    chunks: str = "shuffled"  # train.dagger_chunks: an lstm student's steps: shuffled chunks, or episodes
+    learning_rate_end: float = LEARNING_RATE  # train.dagger_learning_rate_end: a refit's last step size
 
     @classmethod
     def from_config(cls, config: Config) -> "DaggerSettings":
@@ -99,6 +101,8 @@ class DaggerSettings:
             train.seed,
             train.student_policy,
             train.dagger_sequence,
+            train.dagger_chunks,
+            train.dagger_learning_rate_end,
         )
 
 
@@ -235,8 +239,11 @@ def plan_episodes(cells: list[tuple[int, int]], count: int, rng: np.random.Gener
 
 
 # --- fitting ----------------------------------------------------------------------------
-def fit(policy, observations: dict, labels: np.ndarray, epochs: int, seed: int) -> float:
-    """Regresses the policy's mean action on the labels; returns the last epoch's mean loss."""
+def fit(
+    policy, observations: dict, labels: np.ndarray, epochs: int, seed: int, final_learning_rate: float | None = None
+) -> float:
+    """Regresses the policy's mean action on the labels; returns the last epoch's mean loss. With
+    ``final_learning_rate`` the step size falls to it from LEARNING_RATE along a cosine over the fit."""
     import torch
 
     generator = torch.Generator().manual_seed(seed)
@@ -248,6 +255,8 @@ def fit(policy, observations: dict, labels: np.ndarray, epochs: int, seed: int) 
     optimizer = torch.optim.Adam(policy.parameters(), lr=LEARNING_RATE)
     policy.set_training_mode(True)
     size, loss_sum, batches = len(targets), 0.0, 0
+    step_size = recurrent_student.cosine_schedule(LEARNING_RATE, final_learning_rate, epochs * -(-size // BATCH_SIZE))
+    step = 0
     for _ in range(epochs):
         order = torch.randperm(size, generator=generator)
         loss_sum, batches = 0.0, 0
@@ -257,7 +266,10 @@ def fit(policy, observations: dict, labels: np.ndarray, epochs: int, seed: int) 
             loss = torch.nn.functional.mse_loss(mean_actions(policy, batch), targets[index])
             optimizer.zero_grad()
             loss.backward()
+            for group in optimizer.param_groups:
+                group["lr"] = step_size(step)
             optimizer.step()
+            step += 1
             loss_sum, batches = loss_sum + loss.item(), batches + 1
     policy.set_training_mode(False)
     return loss_sum / max(batches, 1)
@@ -419,8 +431,14 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
         model.policy.load_state_dict(torch.load(latest / "student.pth", weights_only=True))
 
     def refit(iteration: int) -> float:
+        end = None if settings.learning_rate_end == LEARNING_RATE else settings.learning_rate_end
         if settings.student_policy == "lstm":
-            return recurrent_student.fit_sequences(
+            fitter = (
+                recurrent_student.fit_shuffled_chunks
+                if settings.chunks == "shuffled"
+                else recurrent_student.fit_sequences
+            )
+            return fitter(
                 model.policy,
                 data.observations,
                 data.labels,
@@ -430,8 +448,9 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
                 settings.sequence,
                 LEARNING_RATE,
                 BATCH_SIZE,
+                final_learning_rate=end,
             )
-        return fit(model.policy, data.observations, data.labels, settings.epochs, settings.seed + iteration)
+        return fit(model.policy, data.observations, data.labels, settings.epochs, settings.seed + iteration, end)
 
     def checkpoint(step: int, iterations_done: int) -> None:
         with torch.no_grad():
