@@ -217,10 +217,11 @@ def test_a_run_starts_from_another_runs_rounds_and_refits_on_them_without_playin
     assert not other_run.exists()
 
 
-@pytest.mark.parametrize("chunks", ["shuffled", "episodes"])
+@pytest.mark.parametrize("chunks", ["shuffled", "episodes", "mlp"])
 def test_a_refits_step_size_falls_to_the_configured_end_along_a_cosine(chunks, monkeypatch):
     """train.dagger_learning_rate_end: the first step of a refit at 0.001, the last at the end, in
-    between falling; without it every step at 0.001."""
+    between falling; without it every step at 0.001 (the recurrent student's two ways of stepping,
+    and the stateless student's)."""
     import torch
     from gymnasium import spaces
 
@@ -238,6 +239,15 @@ def test_a_refits_step_size_falls_to_the_configured_end_along_a_cosine(chunks, m
     policy = build_policy(observation_space, spaces.Box(-1.0, 1.0, (1,), np.float32), 8)
     x, labels, starts = np.zeros((40, 2), np.float32), np.zeros((40, 1), np.float32), np.arange(40) % 10 == 0
     fitter = fit_shuffled_chunks if chunks == "shuffled" else fit_sequences
+    if chunks == "mlp":  # 40 decisions in batches of 10
+        from aaai.train import student
+
+        monkeypatch.setattr(student, "BATCH_SIZE", 10)
+        policy = student.build_policy(observation_space, spaces.Box(-1.0, 1.0, (1,), np.float32), 8)
+
+        def fitter(policy, observations, labels, starts, epochs, seed, *_, final_learning_rate=None):
+            return student.fit(policy, observations, labels, epochs, seed, final_learning_rate)
+
     fitter(policy, {"x": x}, labels, starts, 3, 0, 5, 1e-3, 10, final_learning_rate=1e-5)
     assert len(sizes) == 3 * 4 and sizes[0] == pytest.approx(1e-3) and sizes[-1] == pytest.approx(1e-5)
     assert all(a >= b for a, b in zip(sizes, sizes[1:])) and 1e-5 < sizes[6] < 1e-3
