@@ -10,15 +10,23 @@ Playing (:class:`RecurrentActor`): the student's hidden state is carried from on
 next through the episode and starts from zero at its start. The student sees every observation of
 its episodes, also those where the teacher drives, so its state is the one its own history gives.
 
-Fitting (:func:`fit_sequences`): the episodes are kept whole (the data records where each one
-starts). A refit regresses the student's mean action on the teacher's labels (mean squared error,
-Adam) by truncated backpropagation through time: a batch is several episodes side by side, each
-from its start, cut into chunks of ``train.dagger_sequence`` decisions. Each chunk is one step of
-Adam on its decisions' loss (the padding after a shorter episode's end is masked out); the hidden
-state the chunk ends with is carried, detached, into the next chunk, so the gradient stops at a
-chunk's start and the memory does not. At an episode's start the state is zero, as sb3-contrib's
-recurrent rollout buffer masks it at ``episode_starts``. Episodes of similar length are batched
-together (sorted within a shuffled pool), so that little is padding.
+Fitting: the episodes are kept whole (the data records where each one starts). A refit regresses
+the student's mean action on the teacher's labels (mean squared error, Adam) by truncated
+backpropagation through time, in chunks of ``train.dagger_sequence`` decisions: the gradient stops
+at a chunk's start, the memory does not. At an episode's start the state is zero, as sb3-contrib's
+recurrent rollout buffer masks it at ``episode_starts``; the padding after a shorter sequence's end
+is masked out. Two ways of stepping (``train.dagger_chunks``):
+
+- ``shuffled`` (:func:`fit_shuffled_chunks`, the default): each pass first plays the memory over
+  every episode and keeps the hidden state at each chunk's start (no gradient); each step of Adam
+  is then on chunks drawn from all the data, each started from its kept state.
+- ``episodes`` (:func:`fit_sequences`, as runs before the option): a batch is several episodes side
+  by side, each from its start (episodes of similar length together, sorted within a shuffled
+  pool), one step per chunk, the hidden state carried, detached, from chunk to chunk. Its steps
+  follow the same few episodes for many steps in a row, and the LSTM fitted the labels hardly better
+  than their mean (experiments/students/README.md).
+
+Either may let the step size fall along a cosine (``train.dagger_learning_rate_end``).
 """
 
 from __future__ import annotations

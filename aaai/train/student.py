@@ -23,8 +23,10 @@ off", and its students got worse with every round after the third (docs: Learned
 The student is an ordinary stable-baselines3 PPO model in an ordinary run folder, so ``aaai eval
 --policy RUN`` scores it and ``aaai train --init-from RUN`` fine-tunes it with PPO. Every
 iteration is a checkpoint (its model, and its data in ``dagger/``), so ``--resume`` continues a run
-after the last finished iteration. Episodes run in worker processes (``train.processes``, by default
-``train.num_envs`` up to the usable cores); with the same config a run repeats exactly.
+after the last finished iteration; ``train.dagger_data_from`` (``aaai train --data-from RUN``)
+starts a run from another run's saved rounds, refitted before any round is played. Episodes run
+in worker processes (``train.processes``, by default ``train.num_envs`` up to the usable cores);
+with the same config a run repeats exactly.
 
 The student's inputs are only the observation. By default (``train.student_policy: mlp``) its
 network has no state; what it remembers is what the senses keep (``sensors.ray_memory``: the rays'
