@@ -203,6 +203,9 @@ RULES: dict[str, Rule] = {
     "train.dagger_max_decisions": Rule("int", 0, 10**9),  # aaai.train.camera_student.Dataset; 0: no cap
     "train.student_policy": Rule("choice", choices=("mlp", "lstm")),
     "train.dagger_sequence": Rule("int", 2, 10**4),
+    "train.dagger_chunks": Rule("choice", choices=("shuffled", "episodes")),  # aaai.train.recurrent_student
+    "train.dagger_learning_rate_end": Rule("float", 1e-7, 1.0),  # a refit's step size, from 0.001 to this (cosine)
+    "train.dagger_data_from": Rule("path"),  # aaai.train.student.import_rounds: another run's rounds to start from
     "train.max_minutes": Rule("float", 0, 10**7),  # aaai.train.training.Tracker: wall-clock budget (0: none)
     "eval.seeds_per_cell": Rule("int", 1, 1000),
 }
@@ -332,6 +335,9 @@ class TrainConfig:
     dagger_max_decisions: int
     student_policy: str
     dagger_sequence: int
+    dagger_chunks: str
+    dagger_learning_rate_end: float
+    dagger_data_from: str | None
     max_minutes: float
 
 

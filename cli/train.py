@@ -82,6 +82,13 @@ def _overrides(**values) -> dict:
     help="A run folder or model .zip whose policy weights PPO starts from (e.g. a student, to fine-tune).",
 )
 @click.option(
+    "--data-from",
+    "dagger_data_from",
+    type=click.Path(exists=True, file_okay=False),
+    help="With a teacher: start from this DAgger run's saved rounds (train.dagger_data_from): the student "
+    "is fitted on them, then DAgger goes on with the rounds after them (docs, Learned agents).",
+)
+@click.option(
     "--trust-model",
     is_flag=True,
     help="With --resume: load the run's checkpoint with its library's own loader, which unpickles it "
@@ -108,6 +115,7 @@ def train_command(
     action_mode,
     teacher,
     init_from,
+    dagger_data_from,
     trust_model,
     sampler,
     progress_every,
@@ -135,6 +143,7 @@ def train_command(
             action_mode=action_mode,
             teacher=teacher,
             init_from=init_from,
+            data_from=dagger_data_from,
             sampler=sampler,
         ),
     }
@@ -163,6 +172,7 @@ def train_command(
                     action_mode=action_mode,
                     teacher=teacher,
                     init_from=init_from,
+                    dagger_data_from=dagger_data_from,
                     sampler=sampler,
                 ),
             )

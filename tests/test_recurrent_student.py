@@ -17,7 +17,7 @@ from aaai.scoring.episodes import play  # noqa: E402
 from aaai.scoring.model_archive import read_archive  # noqa: E402
 from aaai.scoring.model_io import policy_class_name  # noqa: E402
 from aaai.scoring.policies import resolve  # noqa: E402
-from aaai.train.recurrent_student import RecurrentActor, fit_sequences  # noqa: E402
+from aaai.train.recurrent_student import RecurrentActor, fit_sequences, fit_shuffled_chunks  # noqa: E402
 from aaai.train.student import train_student  # noqa: E402
 from aaai_cli.main import cli  # noqa: E402
 
@@ -157,10 +157,12 @@ def test_a_student_policy_that_is_not_allowed_is_refused_in_one_line(tmp_path):
     assert not (tmp_path / "c").exists()
 
 
-def test_backpropagation_through_time_carries_the_memory_across_chunks():
+@pytest.mark.parametrize("chunks", ["shuffled", "episodes"])
+def test_backpropagation_through_time_carries_the_memory_across_chunks(chunks):
     """A cue seen only at an episode's first decision is the label of all of its 12: learnable only
-    if the hidden state is carried from one chunk of 4 decisions into the next, and reset between
-    episodes (the cue of one episode says nothing of the next's)."""
+    if the hidden state is carried from one chunk of 4 decisions into the next (train.dagger_chunks
+    shuffled: from the state its episode gives a chunk; episodes: chunk after chunk), and reset
+    between episodes (the cue of one episode says nothing of the next's)."""
     import torch
     from gymnasium import spaces
 
@@ -175,10 +177,80 @@ def test_backpropagation_through_time_carries_the_memory_across_chunks():
     x[:, 0, 0], x[:, 0, 1] = cues, 1.0  # the cue, and "an episode starts here"
     labels = np.repeat(cues, 12)[:, None]
     starts = np.tile(np.arange(12) == 0, 48)
-    loss = fit_sequences(policy, {"x": x.reshape(-1, 2)}, labels, starts, 60, 0, 4, 2e-2, 48 * 4)
+    fitter = fit_shuffled_chunks if chunks == "shuffled" else fit_sequences
+    loss = fitter(policy, {"x": x.reshape(-1, 2)}, labels, starts, 60, 0, 4, 2e-2, 48 * 4)
     assert loss < 0.1, loss  # without the memory across chunks, 8 of 12 labels are a coin toss: 0.67
     actor = RecurrentActor(policy)
     for cue in (1.0, -1.0):  # the memory as it acts: the cue's sign to the end of the episode
         actor.reset()
         actions = [actor({"x": np.array([cue, 1.0] if t == 0 else [0.0, 0.0], np.float32)}) for t in range(12)]
         assert all(np.sign(a[0]) == cue for a in actions[8:]), actions
+
+
+def test_a_run_starts_from_another_runs_rounds_and_refits_on_them_without_playing(lstm_run, tmp_path):
+    """train.dagger_data_from: the student is fitted on the other run's saved rounds (the first
+    dagger_iterations of them), nothing is played, the run ends with a final model that eval scores;
+    a run of other senses is refused in one line, before anything is written."""
+    import csv
+
+    config = dict(TINY_LSTM, train={**TINY_LSTM["train"], "dagger_epochs": 1})
+    refit = tmp_path / "refit"
+    args = ["train", "--config", _write(tmp_path, config), "--data-from", str(lstm_run), "--run", str(refit)]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    rows = list(csv.DictReader(open(refit / "dagger.csv")))
+    source_rows = list(csv.DictReader(open(lstm_run / "dagger.csv")))
+    assert [(r["iteration"], r["episodes"], r["dataset"]) for r in rows] == [("1", "0", source_rows[-1]["dataset"])]
+    assert sorted(p.name for p in (refit / "dagger").iterdir()) == ["iteration_000.npz", "iteration_001.npz"]
+    assert (refit / "final" / "model.zip").is_file() and len((refit / "episodes.csv").read_text().splitlines()) == 1
+    scored = CliRunner().invoke(cli, ["eval", "--policy", str(refit), "--levels", "0", "--difficulty", "0", "-k", "1"])
+    assert scored.exit_code == 0, scored.output
+    other = dict(config, sensors={"rays_per_side": 3})
+    other_run = tmp_path / "other"
+    refused = CliRunner().invoke(
+        cli, ["train", "--config", _write(tmp_path, other), "--data-from", str(lstm_run), "--run", str(other_run)]
+    )
+    assert refused.exit_code == 2 and "Traceback" not in refused.output
+    assert "'train.dagger_data_from': got" in refused.output and "whose sensors differs" in refused.output
+    ppo = CliRunner().invoke(cli, ["train", "--steps", "64", "--data-from", str(lstm_run), "--run", str(other_run)])
+    assert ppo.exit_code == 2 and "'train.dagger_data_from': got" in ppo.output and "for a PPO run" in ppo.output
+    assert not other_run.exists()
+
+
+@pytest.mark.parametrize("chunks", ["shuffled", "episodes", "mlp"])
+def test_a_refits_step_size_falls_to_the_configured_end_along_a_cosine(chunks, monkeypatch):
+    """train.dagger_learning_rate_end: the first step of a refit at 0.001, the last at the end, in
+    between falling; without it every step at 0.001 (the recurrent student's two ways of stepping,
+    and the stateless student's)."""
+    import torch
+    from gymnasium import spaces
+
+    from aaai.train.recurrent_student import build_policy
+
+    sizes: list[float] = []
+    step = torch.optim.Adam.step
+
+    def spy(self, *args, **kwargs):
+        sizes.append(self.param_groups[0]["lr"])
+        return step(self, *args, **kwargs)
+
+    monkeypatch.setattr(torch.optim.Adam, "step", spy)
+    observation_space = spaces.Dict({"x": spaces.Box(-1.0, 1.0, (2,), np.float32)})
+    policy = build_policy(observation_space, spaces.Box(-1.0, 1.0, (1,), np.float32), 8)
+    x, labels, starts = np.zeros((40, 2), np.float32), np.zeros((40, 1), np.float32), np.arange(40) % 10 == 0
+    fitter = fit_shuffled_chunks if chunks == "shuffled" else fit_sequences
+    if chunks == "mlp":  # 40 decisions in batches of 10
+        from aaai.train import student
+
+        monkeypatch.setattr(student, "BATCH_SIZE", 10)
+        policy = student.build_policy(observation_space, spaces.Box(-1.0, 1.0, (1,), np.float32), 8)
+
+        def fitter(policy, observations, labels, starts, epochs, seed, *_, final_learning_rate=None):
+            return student.fit(policy, observations, labels, epochs, seed, final_learning_rate)
+
+    fitter(policy, {"x": x}, labels, starts, 3, 0, 5, 1e-3, 10, final_learning_rate=1e-5)
+    assert len(sizes) == 3 * 4 and sizes[0] == pytest.approx(1e-3) and sizes[-1] == pytest.approx(1e-5)
+    assert all(a >= b for a, b in zip(sizes, sizes[1:])) and 1e-5 < sizes[6] < 1e-3
+    sizes.clear()
+    fitter(policy, {"x": x}, labels, starts, 2, 0, 5, 1e-3, 10)
+    assert sizes == [pytest.approx(1e-3)] * 8

@@ -111,6 +111,11 @@ def train_run(
             "mlp, or a student of a teacher (train.teacher: reference). A PPO run started --init-from a "
             "recurrent student is recurrent by itself"
         )
+    if run_config.train.teacher == "none" and run_config.train.dagger_data_from:
+        raise ConfigError(
+            f"config key 'train.dagger_data_from': got {run_config.train.dagger_data_from!r} for a PPO run; allowed: "
+            "null, or a student of a teacher (train.teacher: reference or search), which starts from those rounds"
+        )
     if run_config.train.teacher != "none":
         if run_config.train.max_minutes:
             raise ConfigError(

@@ -10,15 +10,23 @@ Playing (:class:`RecurrentActor`): the student's hidden state is carried from on
 next through the episode and starts from zero at its start. The student sees every observation of
 its episodes, also those where the teacher drives, so its state is the one its own history gives.
 
-Fitting (:func:`fit_sequences`): the episodes are kept whole (the data records where each one
-starts). A refit regresses the student's mean action on the teacher's labels (mean squared error,
-Adam) by truncated backpropagation through time: a batch is several episodes side by side, each
-from its start, cut into chunks of ``train.dagger_sequence`` decisions. Each chunk is one step of
-Adam on its decisions' loss (the padding after a shorter episode's end is masked out); the hidden
-state the chunk ends with is carried, detached, into the next chunk, so the gradient stops at a
-chunk's start and the memory does not. At an episode's start the state is zero, as sb3-contrib's
-recurrent rollout buffer masks it at ``episode_starts``. Episodes of similar length are batched
-together (sorted within a shuffled pool), so that little is padding.
+Fitting: the episodes are kept whole (the data records where each one starts). A refit regresses
+the student's mean action on the teacher's labels (mean squared error, Adam) by truncated
+backpropagation through time, in chunks of ``train.dagger_sequence`` decisions: the gradient stops
+at a chunk's start, the memory does not. At an episode's start the state is zero, as sb3-contrib's
+recurrent rollout buffer masks it at ``episode_starts``; the padding after a shorter sequence's end
+is masked out. Two ways of stepping (``train.dagger_chunks``):
+
+- ``shuffled`` (:func:`fit_shuffled_chunks`, the default): each pass first plays the memory over
+  every episode and keeps the hidden state at each chunk's start (no gradient); each step of Adam
+  is then on chunks drawn from all the data, each started from its kept state.
+- ``episodes`` (:func:`fit_sequences`, as runs before the option): a batch is several episodes side
+  by side, each from its start (episodes of similar length together, sorted within a shuffled
+  pool), one step per chunk, the hidden state carried, detached, from chunk to chunk. Its steps
+  follow the same few episodes for many steps in a row, and the LSTM fitted the labels hardly better
+  than their mean (experiments/students/README.md).
+
+Either may let the step size fall along a cosine (``train.dagger_learning_rate_end``).
 """
 
 from __future__ import annotations
@@ -136,6 +144,16 @@ def plan_batches(spans: list[tuple[int, int]], lanes: int, generator) -> list[li
     return [batches[i] for i in torch.randperm(len(batches), generator=generator).tolist()]
 
 
+def cosine_schedule(start: float, end: float | None, steps: int):
+    """The step size of step ``i`` of ``steps``: ``start`` falling to ``end`` along half a cosine
+    (the last step at ``end``); ``start`` throughout when ``end`` is None."""
+    import math
+
+    if end is None or steps < 2:
+        return lambda i: start
+    return lambda i: end + (start - end) * 0.5 * (1.0 + math.cos(math.pi * min(i, steps - 1) / (steps - 1)))
+
+
 def chunk_means(policy, observations: dict, state: tuple, lanes: int) -> tuple[Any, tuple]:
     """The mean actions of ``lanes`` sequences side by side (observations lane by lane, each lane's
     decisions in order), from the hidden ``state``; the state they end with."""
@@ -157,10 +175,12 @@ def fit_sequences(
     sequence: int,
     learning_rate: float = 1e-3,
     batch_decisions: int = BATCH_DECISIONS,
+    final_learning_rate: float | None = None,
 ) -> float:
     """Regresses the recurrent policy's mean action on the labels by truncated backpropagation
     through time (chunks of ``sequence`` decisions, the hidden state carried between them);
-    returns the last pass's mean loss per decision."""
+    returns the last pass's mean loss per decision. With ``final_learning_rate`` the step size
+    falls from ``learning_rate`` to it along a cosine over the fit's steps; without, it stays."""
     import torch
 
     generator = torch.Generator().manual_seed(seed)
@@ -169,12 +189,15 @@ def fit_sequences(
     spans = episode_spans(starts)
     lanes = max(1, batch_decisions // sequence)
     layers, _, hidden = policy.lstm_hidden_state_shape
+    plans = [plan_batches(spans, lanes, generator) for _ in range(epochs)]
+    steps_total = sum(-(-max(spans[e][1] - spans[e][0] for e in batch) // sequence) for plan in plans for batch in plan)
     optimizer = torch.optim.Adam(policy.parameters(), lr=learning_rate)
+    step_size = cosine_schedule(learning_rate, final_learning_rate, steps_total)
     policy.set_training_mode(True)
-    loss_sum, decisions = 0.0, 0.0
-    for _ in range(epochs):
+    loss_sum, decisions, step = 0.0, 0.0, 0
+    for plan in plans:
         loss_sum, decisions = 0.0, 0.0
-        for batch in plan_batches(spans, lanes, generator):
+        for batch in plan:
             begins = torch.tensor([spans[e][0] for e in batch])
             lengths = torch.tensor([spans[e][1] - spans[e][0] for e in batch])
             zeros = torch.zeros(layers, len(batch), hidden)
@@ -189,8 +212,99 @@ def fit_sequences(
                 optimizer.zero_grad()
                 loss.backward()
                 torch.nn.utils.clip_grad_norm_(policy.parameters(), MAX_GRAD_NORM)
+                for group in optimizer.param_groups:
+                    group["lr"] = step_size(step)
                 optimizer.step()
+                step += 1
                 state = (state[0].detach(), state[1].detach())  # carried on; the gradient stops here
                 loss_sum, decisions = loss_sum + loss.item() * mask.sum().item(), decisions + mask.sum().item()
+    policy.set_training_mode(False)
+    return loss_sum / max(decisions, 1.0)
+
+
+def chunk_spans(spans: list[tuple[int, int]], sequence: int) -> list[tuple[int, int]]:
+    """(first, end) of each chunk of ``sequence`` decisions of each episode, episode by episode, in order."""
+    return [(first, min(first + sequence, end)) for begin, end in spans for first in range(begin, end, sequence)]
+
+
+def start_states(policy, inputs: dict, spans: list[tuple[int, int]], sequence: int, lanes: int = 256) -> tuple:
+    """The hidden state (h, c) at the start of each chunk of :func:`chunk_spans`, as the policy's
+    memory carries it from its episode's start (zero there); no gradient. Shapes (layers, chunks, hidden)."""
+    import torch
+
+    layers, _, hidden = policy.lstm_hidden_state_shape
+    per_episode = [-(-(end - begin) // sequence) for begin, end in spans]
+    offsets = np.concatenate([[0], np.cumsum(per_episode)]).astype(int)
+    h = torch.zeros(layers, int(offsets[-1]), hidden)
+    c = torch.zeros_like(h)
+    with torch.no_grad():
+        for first_episode in range(0, len(spans), lanes):
+            batch = list(range(first_episode, min(first_episode + lanes, len(spans))))
+            begins = torch.tensor([spans[e][0] for e in batch])
+            lengths = torch.tensor([spans[e][1] - spans[e][0] for e in batch])
+            zeros = torch.zeros(layers, len(batch), hidden)
+            state: tuple = (zeros, zeros.clone())
+            for chunk, first in enumerate(range(0, int(lengths.max()), sequence)):
+                live = [i for i, e in enumerate(batch) if chunk < per_episode[e]]  # the episodes with a k-th chunk
+                rows = torch.tensor([int(offsets[batch[i]]) + chunk for i in live])
+                h[:, rows], c[:, rows] = state[0][:, live], state[1][:, live]
+                steps = torch.arange(first, min(first + sequence, int(lengths.max())))
+                index = (begins[:, None] + torch.minimum(steps[None, :], lengths[:, None] - 1)).reshape(-1)
+                _, state = chunk_means(policy, {key: v[index] for key, v in inputs.items()}, state, len(batch))
+    return h, c
+
+
+def fit_shuffled_chunks(
+    policy,
+    observations: dict,
+    labels: np.ndarray,
+    starts: np.ndarray,
+    epochs: int,
+    seed: int,
+    sequence: int,
+    learning_rate: float = 1e-3,
+    batch_decisions: int = BATCH_DECISIONS,
+    final_learning_rate: float | None = None,
+) -> float:
+    """As :func:`fit_sequences`, but each step of Adam is on chunks drawn from the whole data (any
+    episode, any place in it), each started from the hidden state its episode's history gives it,
+    computed by the policy at the start of each pass (no gradient); returns the last pass's mean loss."""
+    import torch
+
+    generator = torch.Generator().manual_seed(seed)
+    inputs = {key: torch.as_tensor(value, dtype=torch.float32) for key, value in observations.items()}
+    targets = torch.as_tensor(labels, dtype=torch.float32)
+    spans = episode_spans(starts)
+    chunks = chunk_spans(spans, sequence)
+    lanes = max(1, batch_decisions // sequence)
+    per_pass = -(-len(chunks) // lanes)
+    optimizer = torch.optim.Adam(policy.parameters(), lr=learning_rate)
+    step_size = cosine_schedule(learning_rate, final_learning_rate, epochs * per_pass)
+    begins_all = torch.tensor([b for b, _ in chunks])
+    lengths_all = torch.tensor([e - b for b, e in chunks])
+    loss_sum, decisions, step = 0.0, 0.0, 0
+    for _ in range(epochs):
+        policy.set_training_mode(False)
+        h, c = start_states(policy, inputs, spans, sequence)
+        policy.set_training_mode(True)
+        order = torch.randperm(len(chunks), generator=generator)
+        loss_sum, decisions = 0.0, 0.0
+        for first in range(0, len(chunks), lanes):
+            ids = order[first : first + lanes]
+            begins, lengths = begins_all[ids], lengths_all[ids]
+            steps = torch.arange(int(lengths.max()))
+            mask = (steps[None, :] < lengths[:, None]).reshape(-1).float()
+            index = (begins[:, None] + torch.minimum(steps[None, :], lengths[:, None] - 1)).reshape(-1)
+            means, _ = chunk_means(policy, {k: v[index] for k, v in inputs.items()}, (h[:, ids], c[:, ids]), len(ids))
+            errors = ((means - targets[index]) ** 2).mean(dim=-1)
+            loss = (errors * mask).sum() / mask.sum()
+            optimizer.zero_grad()
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(policy.parameters(), MAX_GRAD_NORM)
+            for group in optimizer.param_groups:
+                group["lr"] = step_size(step)
+            optimizer.step()
+            step += 1
+            loss_sum, decisions = loss_sum + loss.item() * mask.sum().item(), decisions + mask.sum().item()
     policy.set_training_mode(False)
     return loss_sum / max(decisions, 1.0)

@@ -23,8 +23,10 @@ off", and its students got worse with every round after the third (docs: Learned
 The student is an ordinary stable-baselines3 PPO model in an ordinary run folder, so ``aaai eval
 --policy RUN`` scores it and ``aaai train --init-from RUN`` fine-tunes it with PPO. Every
 iteration is a checkpoint (its model, and its data in ``dagger/``), so ``--resume`` continues a run
-after the last finished iteration. Episodes run in worker processes (``train.processes``, by default
-``train.num_envs`` up to the usable cores); with the same config a run repeats exactly.
+after the last finished iteration; ``train.dagger_data_from`` (``aaai train --data-from RUN``)
+starts a run from another run's saved rounds, refitted before any round is played. Episodes run
+in worker processes (``train.processes``, by default ``train.num_envs`` up to the usable cores);
+with the same config a run repeats exactly.
 
 The student's inputs are only the observation. By default (``train.student_policy: mlp``) its
 network has no state; what it remembers is what the senses keep (``sensors.ray_memory``: the rays'
@@ -83,6 +85,8 @@ class DaggerSettings:
     seed: int  # train.seed
     student_policy: str = "mlp"  # train.student_policy: mlp, or lstm (aaai.train.recurrent_student)
     sequence: int = 64  # train.dagger_sequence: an lstm student's chunks of backpropagation through time
+    chunks: str = "shuffled"  # train.dagger_chunks: an lstm student's steps: shuffled chunks, or episodes
+    learning_rate_end: float = LEARNING_RATE  # train.dagger_learning_rate_end: a refit's last step size
 
     @classmethod
     def from_config(cls, config: Config) -> "DaggerSettings":
@@ -99,6 +103,8 @@ class DaggerSettings:
             train.seed,
             train.student_policy,
             train.dagger_sequence,
+            train.dagger_chunks,
+            train.dagger_learning_rate_end,
         )
 
 
@@ -235,8 +241,11 @@ def plan_episodes(cells: list[tuple[int, int]], count: int, rng: np.random.Gener
 
 
 # --- fitting ----------------------------------------------------------------------------
-def fit(policy, observations: dict, labels: np.ndarray, epochs: int, seed: int) -> float:
-    """Regresses the policy's mean action on the labels; returns the last epoch's mean loss."""
+def fit(
+    policy, observations: dict, labels: np.ndarray, epochs: int, seed: int, final_learning_rate: float | None = None
+) -> float:
+    """Regresses the policy's mean action on the labels; returns the last epoch's mean loss. With
+    ``final_learning_rate`` the step size falls to it from LEARNING_RATE along a cosine over the fit."""
     import torch
 
     generator = torch.Generator().manual_seed(seed)
@@ -248,6 +257,8 @@ def fit(policy, observations: dict, labels: np.ndarray, epochs: int, seed: int) 
     optimizer = torch.optim.Adam(policy.parameters(), lr=LEARNING_RATE)
     policy.set_training_mode(True)
     size, loss_sum, batches = len(targets), 0.0, 0
+    step_size = recurrent_student.cosine_schedule(LEARNING_RATE, final_learning_rate, epochs * -(-size // BATCH_SIZE))
+    step = 0
     for _ in range(epochs):
         order = torch.randperm(size, generator=generator)
         loss_sum, batches = 0.0, 0
@@ -257,7 +268,10 @@ def fit(policy, observations: dict, labels: np.ndarray, epochs: int, seed: int) 
             loss = torch.nn.functional.mse_loss(mean_actions(policy, batch), targets[index])
             optimizer.zero_grad()
             loss.backward()
+            for group in optimizer.param_groups:
+                group["lr"] = step_size(step)
             optimizer.step()
+            step += 1
             loss_sum, batches = loss_sum + loss.item(), batches + 1
     policy.set_training_mode(False)
     return loss_sum / max(batches, 1)
@@ -292,6 +306,68 @@ def check_teachable(config: Config) -> None:
                 "train.student_policy lstm: 0 (a sample of decisions breaks the episodes a recurrent student "
                 "learns from)"
             )
+
+
+def import_rounds(source: Path, folder: Path, config: Config) -> int:
+    """Puts the saved rounds of the DAgger run ``source`` (``train.dagger_data_from``; see
+    :func:`source_rounds`) into this run's data ``folder`` (hard links where the file system allows,
+    else copies; a round file is never changed once written); returns how many."""
+    import shutil
+
+    rounds = source_rounds(source, config)
+    folder.mkdir(parents=True, exist_ok=True)
+    for path in rounds:
+        target = folder / path.name
+        partial = target.with_name(target.name + ".partial.npz")
+        partial.unlink(missing_ok=True)
+        try:
+            partial.hardlink_to(path)
+        except OSError:
+            shutil.copyfile(path, partial)
+        partial.replace(target)
+    return len(rounds)
+
+
+def source_rounds(source: Path, config: Config) -> list[Path]:
+    """The saved rounds of the DAgger run ``source`` that a run of ``config`` starts from: the first
+    ``train.dagger_iterations`` of them at most. The source must be a run of the same teacher, body
+    and senses, whose rounds hold what this student learns from (an lstm student: the episodes'
+    starts); else one ConfigError says what differs."""
+    key = "config key 'train.dagger_data_from'"
+    config_file = source / "config.yaml"
+    if not config_file.is_file():
+        raise ConfigError(f"{key}: got {str(source)!r}, which has no config.yaml; allowed: a run folder of aaai train")
+    theirs = load_config(config_file)
+    for name, ours_part, their_part in (
+        ("train.teacher", config.train.teacher, theirs.train.teacher),
+        ("agent", config.agent, theirs.agent),
+        ("sensors", config.sensors, theirs.sensors),
+    ):
+        if ours_part != their_part:
+            raise ConfigError(
+                f"{key}: got {str(source)!r}, whose {name} differs from this run's; allowed: a DAgger run of "
+                "the same teacher, body and senses (its labels are that teacher's actions on those observations)"
+            )
+    rounds: list[Path] = []
+    while len(rounds) < config.train.dagger_iterations:
+        path = source / DATA_FOLDER / f"iteration_{len(rounds):03d}.npz"
+        if not path.is_file():
+            break
+        rounds.append(path)
+    if not rounds:
+        raise ConfigError(
+            f"{key}: got {str(source)!r}, which has no saved rounds ({DATA_FOLDER}/iteration_000.npz); "
+            "allowed: a run of aaai train with a teacher"
+        )
+    if config.train.student_policy == "lstm":
+        for path in rounds:
+            with np.load(path) as data:
+                if "episode_starts" not in data.files:
+                    raise ConfigError(
+                        f"{key}: {str(path)!r} does not record where its episodes start; allowed with "
+                        "train.student_policy lstm: rounds saved with their episodes' starts"
+                    )
+    return rounds
 
 
 def _save_data(folder: Path, iteration: int, observations: dict, labels: np.ndarray, starts: np.ndarray) -> None:
@@ -336,6 +412,8 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
             )
         config = with_proprioception(config)
         check_teachable(config)
+        if config.train.dagger_data_from:
+            source_rounds(Path(config.train.dagger_data_from), config)  # refused before the run folder is made
         run.create(config)
     check_teachable(config)
     settings = DaggerSettings.from_config(config)
@@ -353,6 +431,69 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
         latest = run.latest_checkpoint()
         assert latest is not None, "a resumed student's iterations were read from its checkpoint"
         model.policy.load_state_dict(torch.load(latest / "student.pth", weights_only=True))
+
+    def refit(iteration: int) -> float:
+        end = None if settings.learning_rate_end == LEARNING_RATE else settings.learning_rate_end
+        if settings.student_policy == "lstm":
+            fitter = (
+                recurrent_student.fit_shuffled_chunks
+                if settings.chunks == "shuffled"
+                else recurrent_student.fit_sequences
+            )
+            return fitter(
+                model.policy,
+                data.observations,
+                data.labels,
+                data.starts,
+                settings.epochs,
+                settings.seed + iteration,
+                settings.sequence,
+                LEARNING_RATE,
+                BATCH_SIZE,
+                final_learning_rate=end,
+            )
+        return fit(model.policy, data.observations, data.labels, settings.epochs, settings.seed + iteration, end)
+
+    def checkpoint(step: int, iterations_done: int) -> None:
+        with torch.no_grad():
+            model.policy.log_std.fill_(settings.log_std_init)
+
+        def save(path: Path) -> None:
+            save_model(model, path, config)  # the model file carries the run's config
+            torch.save(model.policy.state_dict(), path.with_name("student.pth"))
+
+        # No sampler state: the plan of each iteration is a pure function of (seed, iteration).
+        run.save_checkpoint(
+            step,
+            {"curriculum": None, "agent": {"iterations_done": iterations_done}},
+            save,
+            final=iterations_done == settings.iterations,
+        )
+
+    if not done and config.train.dagger_data_from:  # another run's rounds: refit on them, then go on
+        started = time.perf_counter()
+        done = import_rounds(Path(config.train.dagger_data_from), data_folder, config)
+        data.load(data_folder, done)
+        loss = refit(done - 1)
+        line = {
+            "iteration": done - 1,
+            "beta": round(settings.beta ** (done - 1), 6),
+            "episodes": 0,
+            "decisions": 0,
+            "teacher_share": 0.0,
+            "passed": 0,
+            "pass_rate": 0.0,
+            "dataset": data.size,
+            "loss": round(loss, 6),
+            "seconds": round(time.perf_counter() - started, 1),
+        }
+        _log_iteration(run.path / "dagger.csv", line)
+        run.log_episodes(data.size, [])  # none played: the log is its header
+        say(
+            f"DAgger: {done} rounds of {config.train.dagger_data_from} ({data.size} labelled decisions) refitted, "
+            f"loss {loss:.4f}, {line['seconds']:.0f} s"
+        )
+        checkpoint(data.size, done)
     cells = [(level, d) for level in config.curriculum.levels for d in config.curriculum.difficulties]
     episodes_logged = 0
     context = get_context("spawn")  # workers start clean: no copy of this process's torch or PyBullet state
@@ -386,22 +527,7 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
             del results  # the round's whole data: only its kept sample stays in memory
             _save_data(data_folder, iteration, new_obs, new_labels, new_starts)
             data.add(new_obs, new_labels, new_starts)
-            if settings.student_policy == "lstm":
-                loss = recurrent_student.fit_sequences(
-                    model.policy,
-                    data.observations,
-                    data.labels,
-                    data.starts,
-                    settings.epochs,
-                    settings.seed + iteration,
-                    settings.sequence,
-                    LEARNING_RATE,
-                    BATCH_SIZE,
-                )
-            else:
-                loss = fit(model.policy, data.observations, data.labels, settings.epochs, settings.seed + iteration)
-            with torch.no_grad():
-                model.policy.log_std.fill_(settings.log_std_init)
+            loss = refit(iteration)
             step = data.size
             run.log_episodes(step, finished)
             episodes_logged += len(finished)
@@ -424,16 +550,7 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
                 f"({100 * line['pass_rate']:.0f} %, teacher's share of actions {100 * line['teacher_share']:.0f} %), "
                 f"{step} labelled decisions, loss {loss:.4f}, {line['seconds']:.0f} s"
             )
-            last = iteration + 1 == settings.iterations
-
-            def save(path: Path) -> None:
-                save_model(model, path, config)  # the model file carries the run's config
-                torch.save(model.policy.state_dict(), path.with_name("student.pth"))
-
-            # No sampler state: the plan of each iteration is a pure function of (seed, iteration).
-            run.save_checkpoint(
-                step, {"curriculum": None, "agent": {"iterations_done": iteration + 1}}, save, final=last
-            )
+            checkpoint(step, iteration + 1)
     return StudentResult(run, data.size, episodes_logged, done)
 
 
