@@ -165,6 +165,33 @@ def chunk_means(policy, observations: dict, state: tuple, lanes: int) -> tuple[A
     return policy.action_net(policy.mlp_extractor.forward_actor(latent)), state
 
 
+def lane_rows(begins, lengths, steps) -> tuple[Any, Any]:
+    """Lanes side by side: lane i takes decisions ``begins[i] + steps`` of its sequence of ``lengths[i]``
+    (padded by repeating its last one). The row ``index`` of each into the data, lane by lane, and a
+    ``mask``, 1 where the decision is a real one."""
+    import torch
+
+    mask = (steps[None, :] < lengths[:, None]).reshape(-1).float()
+    index = (begins[:, None] + torch.minimum(steps[None, :], lengths[:, None] - 1)).reshape(-1)
+    return mask, index
+
+
+def masked_step(policy, optimizer, means, targets, mask, step_size: float):
+    """One step of Adam on the mean squared error of ``means`` over the real decisions (``mask``),
+    gradients clipped as RecurrentPPO clips its own; returns the loss."""
+    import torch
+
+    errors = ((means - targets) ** 2).mean(dim=-1)
+    loss = (errors * mask).sum() / mask.sum()
+    optimizer.zero_grad()
+    loss.backward()
+    torch.nn.utils.clip_grad_norm_(policy.parameters(), MAX_GRAD_NORM)
+    for group in optimizer.param_groups:
+        group["lr"] = step_size
+    optimizer.step()
+    return loss
+
+
 def fit_sequences(
     policy,
     observations: dict,
@@ -204,17 +231,9 @@ def fit_sequences(
             state: tuple = (zeros, zeros.clone())
             for first in range(0, int(lengths.max()), sequence):
                 steps = torch.arange(first, min(first + sequence, int(lengths.max())))
-                mask = (steps[None, :] < lengths[:, None]).reshape(-1).float()
-                index = (begins[:, None] + torch.minimum(steps[None, :], lengths[:, None] - 1)).reshape(-1)
+                mask, index = lane_rows(begins, lengths, steps)
                 means, state = chunk_means(policy, {k: v[index] for k, v in inputs.items()}, state, len(batch))
-                errors = ((means - targets[index]) ** 2).mean(dim=-1)
-                loss = (errors * mask).sum() / mask.sum()
-                optimizer.zero_grad()
-                loss.backward()
-                torch.nn.utils.clip_grad_norm_(policy.parameters(), MAX_GRAD_NORM)
-                for group in optimizer.param_groups:
-                    group["lr"] = step_size(step)
-                optimizer.step()
+                loss = masked_step(policy, optimizer, means, targets[index], mask, step_size(step))
                 step += 1
                 state = (state[0].detach(), state[1].detach())  # carried on; the gradient stops here
                 loss_sum, decisions = loss_sum + loss.item() * mask.sum().item(), decisions + mask.sum().item()
@@ -249,7 +268,7 @@ def start_states(policy, inputs: dict, spans: list[tuple[int, int]], sequence: i
                 rows = torch.tensor([int(offsets[batch[i]]) + chunk for i in live])
                 h[:, rows], c[:, rows] = state[0][:, live], state[1][:, live]
                 steps = torch.arange(first, min(first + sequence, int(lengths.max())))
-                index = (begins[:, None] + torch.minimum(steps[None, :], lengths[:, None] - 1)).reshape(-1)
+                _, index = lane_rows(begins, lengths, steps)
                 _, state = chunk_means(policy, {key: v[index] for key, v in inputs.items()}, state, len(batch))
     return h, c
 
@@ -292,18 +311,9 @@ def fit_shuffled_chunks(
         for first in range(0, len(chunks), lanes):
             ids = order[first : first + lanes]
             begins, lengths = begins_all[ids], lengths_all[ids]
-            steps = torch.arange(int(lengths.max()))
-            mask = (steps[None, :] < lengths[:, None]).reshape(-1).float()
-            index = (begins[:, None] + torch.minimum(steps[None, :], lengths[:, None] - 1)).reshape(-1)
+            mask, index = lane_rows(begins, lengths, torch.arange(int(lengths.max())))
             means, _ = chunk_means(policy, {k: v[index] for k, v in inputs.items()}, (h[:, ids], c[:, ids]), len(ids))
-            errors = ((means - targets[index]) ** 2).mean(dim=-1)
-            loss = (errors * mask).sum() / mask.sum()
-            optimizer.zero_grad()
-            loss.backward()
-            torch.nn.utils.clip_grad_norm_(policy.parameters(), MAX_GRAD_NORM)
-            for group in optimizer.param_groups:
-                group["lr"] = step_size(step)
-            optimizer.step()
+            loss = masked_step(policy, optimizer, means, targets[index], mask, step_size(step))
             step += 1
             loss_sum, decisions = loss_sum + loss.item() * mask.sum().item(), decisions + mask.sum().item()
     policy.set_training_mode(False)

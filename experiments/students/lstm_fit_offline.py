@@ -81,8 +81,7 @@ def sequence_loss(policy, observations, labels, starts, lanes: int = 64, sequenc
             state: tuple = (zeros, zeros.clone())
             for first in range(0, int(lengths.max()), sequence):
                 steps = torch.arange(first, min(first + sequence, int(lengths.max())))
-                mask = (steps[None, :] < lengths[:, None]).reshape(-1).float()
-                index = (begins[:, None] + torch.minimum(steps[None, :], lengths[:, None] - 1)).reshape(-1)
+                mask, index = recurrent_student.lane_rows(begins, lengths, steps)
                 means, state = recurrent_student.chunk_means(
                     policy, {k: v[index] for k, v in inputs.items()}, state, len(batch)
                 )
