@@ -80,6 +80,7 @@ class EnvKeywords(TypedDict, total=False):
     ray_max_angle: float
     ray_length: float
     ray_memory: int
+    food_memory: int
     ray_down_fan: float
     ray_width: float
     camera: bool
@@ -181,6 +182,9 @@ class AnimalAIEnv(gym.Env):
     - ``ray_length`` (float, default ``15.0``): how far a ray sees (a number from 1 to 100)
     - ``ray_memory`` (int, default ``0``): 0..10: n earlier sightings of food in the rays, 1, 2, 4 .. 2^(n-1) steps
       back (observation key ray_memory: n x rays x 3: green, yellow, distance) (an integer from 0 to 10)
+    - ``food_memory`` (int, default ``0``): 0..16: the n nearest pieces of food the rays have shown, carried with the
+      body (observation key food_memory: n x 6: present, green, yellow, ahead, left, age; docs: Environment) (an
+      integer from 0 to 16)
     - ``ray_down_fan`` (float, default ``0.0``): degrees, 0..45: the same fan again, pitched this far below the
       head's plane (0: none). The head walks about 2.3 high, so level rays pass over food smaller than that; a fan 8
       degrees down sees size-2 food 2 to 16 away (a number from 0 to 45)
@@ -433,7 +437,9 @@ class AnimalAIEnv(gym.Env):
         return self.senses.blackout.dark(self.steps)
 
     def _observe(self, angles, speeds, position, orientation) -> dict[str, np.ndarray]:
-        return self.senses.observe(angles, speeds, position, orientation, self._live_world().kind_index, self.dark)
+        return self.senses.observe(
+            angles, speeds, position, orientation, self._live_world().kind_index, self.dark, self.steps * self.control_dt
+        )
 
     def _info(self, terms: dict[str, float], fell: bool, blew_up: bool) -> dict[str, Any]:
         spec = self.level_spec

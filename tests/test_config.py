@@ -209,7 +209,9 @@ def test_a_config_that_is_neither_a_path_nor_a_mapping_is_refused():
 
 
 @pytest.mark.parametrize(
-    "key, value", [("ray_memory", 7), ("ray_down_fan", 8.0), ("ray_width", 1.0)], ids=["memory", "fan", "width"]
+    "key, value",
+    [("ray_memory", 7), ("food_memory", 4), ("ray_down_fan", 8.0), ("ray_width", 1.0)],
+    ids=["memory", "food_memory", "fan", "width"],
 )
 def test_an_option_of_the_rays_with_the_rays_off_is_refused_not_ignored(key, value):
     with pytest.raises(ConfigError, match=rf"'sensors.{key}': got {value!r} with 'sensors.rays': false"):

@@ -4,6 +4,7 @@ feet and tilt; gathered each step into one Dict observation."""
 from __future__ import annotations
 
 import bisect
+import math
 
 import cv2
 import numpy as np
@@ -280,6 +281,104 @@ class RayMemory:
         return recalled
 
 
+FOOD_MEMORY_FIELDS = 6  # present, green, yellow, ahead, left, age
+FOOD_MEMORY_AGE = 60.0  # seconds: the age field reads 1 from this on
+FOOD_PREDICT = 3.0  # seconds: a remembered piece is carried along its seen motion for at most this long
+FOOD_MOTION_GAP = 1.0  # seconds: two sightings this close in time give a velocity
+FOOD_MISS = 0.5  # a ray passing within this fraction of a piece's radius of where it should be would have hit it
+
+
+class FoodMemory:
+    """Where the rays last showed each piece of food, carried with the body (path integration).
+
+    A piece becomes remembered when one of the rays hits it: its position at that moment, and how
+    fast it moved between two sightings less than FOOD_MOTION_GAP apart (a piece out of view is
+    expected where that motion carries it, for at most FOOD_PREDICT seconds). It is forgotten when
+    it is eaten, or when a ray that would have hit it where it should be (passing within half its
+    radius of that place, unblocked before it) shows something else. The observation holds the
+    ``slots`` nearest remembered pieces, nearest first, each as ``present, green, yellow, ahead,
+    left, age``: where it should be in the head's frame turned by its yaw only (units over the
+    rays' length, clipped to -1..1) and the seconds since it was last seen over FOOD_MEMORY_AGE
+    (clipped to 1); empty slots read 0. Pieces in view read age 0. Perception of a piece seen is
+    exact; what is limited is which pieces the rays see (the same rule as ``--policy search``)."""
+
+    def __init__(self, rays: Rays, slots: int):
+        self.rays = rays
+        self.slots = slots
+        self.kinds = {KIND_INDEX["food_green"]: 1, KIND_INDEX["food_yellow"]: 2}  # kind index -> field
+        self.space = spaces.Box(-1.0, 1.0, (slots, FOOD_MEMORY_FIELDS), np.float32)
+        self.pieces: dict[int, list] = {}  # body -> [field, (x, y, z), (vx, vy), time seen, radius]
+
+    def clear(self) -> None:
+        self.pieces = {}
+
+    def where(self, body: int, now: float) -> tuple[float, float, float]:
+        """Where a remembered piece should be at ``now``."""
+        _, (x, y, z), (vx, vy), seen, _ = self.pieces[body]
+        lapse = min(max(now - seen, 0.0), FOOD_PREDICT)
+        return x + vx * lapse, y + vy * lapse, z
+
+    def recall(self, head_pos: np.ndarray, head_rot: np.ndarray, kind_index: np.ndarray, now: float) -> np.ndarray:
+        """Updates the memory from the rays' last cast, then reads it as the observation."""
+        client = self.rays.client
+        starts, dirs, hits = self.rays.last
+        known = len(kind_index)
+        seen = set()
+        for hit in hits:
+            body = hit[0]
+            if 0 <= body < known and kind_index[body] in self.kinds and body not in seen:
+                seen.add(body)
+                position = p.getBasePositionAndOrientation(body, physicsClientId=client)[0]
+                before = self.pieces.get(body)
+                velocity = (0.0, 0.0)
+                if before is not None and 0.0 < now - before[3] <= FOOD_MOTION_GAP:
+                    dt = now - before[3]
+                    velocity = ((position[0] - before[1][0]) / dt, (position[1] - before[1][1]) / dt)
+                elif before is not None and now == before[3]:
+                    velocity = before[2]
+                if before is None:
+                    low, high = p.getAABB(body, physicsClientId=client)
+                    radius = max(high[0] - low[0], high[1] - low[1]) / 2
+                else:
+                    radius = before[4]
+                self.pieces[body] = [self.kinds[int(kind_index[body])], tuple(position), velocity, now, radius]
+        if len(hits):
+            reach = np.array([hit[2] for hit in hits]) * self.rays.length
+            for body in [body for body in self.pieces if body not in seen]:
+                if not (0 <= body < known and kind_index[body] in self.kinds):  # eaten
+                    del self.pieces[body]
+                elif _would_hit(starts, dirs, reach, self.where(body, now), self.pieces[body][4]):
+                    del self.pieces[body]
+        out = np.zeros((self.slots, FOOD_MEMORY_FIELDS), np.float32)
+        if not self.pieces:
+            return out
+        yaw = math.atan2(head_rot[1, 0], head_rot[0, 0])
+        cos, sin = math.cos(yaw), math.sin(yaw)
+        rows = []
+        for body, (field, _, _, seen_at, _) in self.pieces.items():
+            x, y, _ = self.where(body, now)
+            dx, dy = x - head_pos[0], y - head_pos[1]
+            rows.append((dx * dx + dy * dy, body, field, cos * dx + sin * dy, -sin * dx + cos * dy, now - seen_at))
+        rows.sort()
+        scale = self.rays.length
+        for slot, (_, _, field, ahead, left, age) in enumerate(rows[: self.slots]):
+            out[slot, 0] = 1.0
+            out[slot, field] = 1.0
+            out[slot, 3] = min(max(ahead / scale, -1.0), 1.0)
+            out[slot, 4] = min(max(left / scale, -1.0), 1.0)
+            out[slot, 5] = min(age / FOOD_MEMORY_AGE, 1.0)
+        return out
+
+
+def _would_hit(starts: np.ndarray, dirs: np.ndarray, reach: np.ndarray, position, radius: float) -> bool:
+    """Would one of the rays, as cast (each stopped at ``reach``), have hit a piece of ``radius`` at ``position``?"""
+    offset = np.asarray(position) - starts
+    along = np.einsum("ij,ij->i", offset, dirs)
+    inside = (along > radius) & (along < reach - radius)
+    miss = np.linalg.norm(offset - along[:, None] * dirs, axis=1)
+    return bool(np.any(inside & (miss < FOOD_MISS * radius)))
+
+
 class Senses:
     """The body's senses as the config's ``sensors`` section sets them, and their Dict space."""
 
@@ -311,6 +410,9 @@ class Senses:
         self.memory = RayMemory(self.rays, depth) if self.rays and depth else None
         if self.memory:
             space["ray_memory"] = self.memory.space
+        self.food_memory = FoodMemory(self.rays, sensors.food_memory) if self.rays and sensors.food_memory else None
+        if self.food_memory:
+            space["food_memory"] = self.food_memory.space
         if self.camera:
             space["camera"] = self.camera.space
         if sensors.joint_velocities:
@@ -344,6 +446,8 @@ class Senses:
         self.feet[:] = 0.0
         if self.memory:
             self.memory.clear()
+        if self.food_memory:
+            self.food_memory.clear()
 
     def feel(self, contacts) -> None:
         """Which feet touch anything, from the step's contacts of the body (only worked out when the
@@ -357,8 +461,16 @@ class Senses:
                 self.feet[slot[contact[3]]] = 1.0
 
     def observe(
-        self, angles: np.ndarray, speeds: np.ndarray, position, orientation, kind_index: np.ndarray, dark: bool
+        self,
+        angles: np.ndarray,
+        speeds: np.ndarray,
+        position,
+        orientation,
+        kind_index: np.ndarray,
+        dark: bool,
+        now: float = 0.0,
     ) -> dict[str, np.ndarray]:
+        """The observation; ``now`` (seconds into the episode) times the food memory's sightings."""
         observation = {"joints": angles.astype(np.float32)}
         if self.rays or self.camera or self.head_orientation:
             head_pos = np.array(position)
@@ -367,6 +479,8 @@ class Senses:
             observation["rays"] = self.rays.observe(head_pos, head_rot, kind_index)
             if self.memory:
                 observation["ray_memory"] = self.memory.recall(observation["rays"])
+            if self.food_memory:
+                observation["food_memory"] = self.food_memory.recall(head_pos, head_rot, kind_index, now)
         if self.camera:
             observation["camera"] = self.camera.blank() if dark else self.camera.observe(head_pos, head_rot)
         if self.joint_velocities:
