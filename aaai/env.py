@@ -437,9 +437,8 @@ class AnimalAIEnv(gym.Env):
         return self.senses.blackout.dark(self.steps)
 
     def _observe(self, angles, speeds, position, orientation) -> dict[str, np.ndarray]:
-        return self.senses.observe(
-            angles, speeds, position, orientation, self._live_world().kind_index, self.dark, self.steps * self.control_dt
-        )
+        now = self.steps * self.control_dt
+        return self.senses.observe(angles, speeds, position, orientation, self._live_world().kind_index, self.dark, now)
 
     def _info(self, terms: dict[str, float], fell: bool, blew_up: bool) -> dict[str, Any]:
         spec = self.level_spec
