@@ -183,7 +183,7 @@ class AnimalAIEnv(gym.Env):
     - ``ray_memory`` (int, default ``0``): 0..10: n earlier sightings of food in the rays, 1, 2, 4 .. 2^(n-1) steps
       back (observation key ray_memory: n x rays x 3: green, yellow, distance) (an integer from 0 to 10)
     - ``food_memory`` (int, default ``0``): 0..16: the n nearest pieces of food the rays have shown, carried with the
-      body (observation key food_memory: n x 6: present, green, yellow, ahead, left, age; docs: Environment) (an
+      body (observation key food_memory: n x 7: present, green, yellow, ahead, left, size, age; docs: Environment) (an
       integer from 0 to 16)
     - ``ray_down_fan`` (float, default ``0.0``): degrees, 0..45: the same fan again, pitched this far below the
       head's plane (0: none). The head walks about 2.3 high, so level rays pass over food smaller than that; a fan 8

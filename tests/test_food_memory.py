@@ -11,7 +11,7 @@ from conftest import open_arena, sphere
 from aaai.config import ConfigError
 
 SENSES = dict(rays=True, rays_per_side=4, ray_max_angle=45.0, ray_length=50.0, ray_down_fan=8.0)
-PRESENT, GREEN, YELLOW, AHEAD, LEFT, AGE = range(6)
+PRESENT, GREEN, YELLOW, AHEAD, LEFT, SIZE, AGE = range(7)
 
 
 def turn_body(env, yaw: float) -> None:
@@ -30,11 +30,11 @@ def test_a_piece_in_view_is_slot_0_where_it_is_with_age_0(make_env):
     env = make_env(**SENSES, food_memory=2)
     observation, _ = env.reset(options={"spec": open_arena(sphere("food_green", 10.0, 0.0, 4.0))})
     memory = observation["food_memory"]
-    assert memory.shape == (2, 6) and env.observation_space["food_memory"].contains(memory)
+    assert memory.shape == (2, 7) and env.observation_space["food_memory"].contains(memory)
     assert memory[0, PRESENT] == memory[0, GREEN] == 1.0 and memory[0, YELLOW] == 0.0
     ahead = (10.0 - head_xy(env)[0]) / 50.0
     assert memory[0, AHEAD] == pytest.approx(ahead, abs=1e-3) and memory[0, LEFT] == pytest.approx(0.0, abs=1e-3)
-    assert memory[0, AGE] == 0.0
+    assert memory[0, SIZE] == pytest.approx(4.0 / 10.0) and memory[0, AGE] == 0.0
     assert not memory[1].any()  # one piece: the second slot is empty
 
 
@@ -81,11 +81,12 @@ def test_a_piece_behind_a_wall_is_never_remembered(make_env):
 
 def test_pieces_are_listed_nearest_first_and_a_reset_forgets(make_env):
     env = make_env(**dict(SENSES, rays_per_side=16), food_memory=3)
-    spec = open_arena(sphere("food_yellow", 20.0, 4.0, 4.0), sphere("food_green", 9.0, -2.0, 4.0))
+    spec = open_arena(sphere("food_yellow", 20.0, 4.0, 6.0), sphere("food_green", 9.0, -2.0, 4.0))
     observation, _ = env.reset(options={"spec": spec})
     memory = observation["food_memory"]
     assert memory[:, PRESENT].tolist() == [1.0, 1.0, 0.0]
     assert memory[0, GREEN] == 1.0 and memory[1, YELLOW] == 1.0  # the green is nearer
+    assert memory[0, SIZE] == pytest.approx(0.4) and memory[1, SIZE] == pytest.approx(0.6)
     assert memory[0, LEFT] < 0 < memory[1, LEFT] and memory[0, AHEAD] < memory[1, AHEAD]
     observation, _ = env.reset(options={"spec": open_arena()})
     assert not observation["food_memory"].any()

@@ -281,7 +281,8 @@ class RayMemory:
         return recalled
 
 
-FOOD_MEMORY_FIELDS = 6  # present, green, yellow, ahead, left, age
+FOOD_MEMORY_FIELDS = 7  # present, green, yellow, ahead, left, size, age
+FOOD_MEMORY_SIZE = 10.0  # units: the size field reads 1 from this diameter on
 FOOD_MEMORY_AGE = 60.0  # seconds: the age field reads 1 from this on
 FOOD_PREDICT = 3.0  # seconds: a remembered piece is carried along its seen motion for at most this long
 FOOD_MOTION_GAP = 1.0  # seconds: two sightings this close in time give a velocity
@@ -297,9 +298,9 @@ class FoodMemory:
     it is eaten, or when a ray that would have hit it where it should be (passing within half its
     radius of that place, unblocked before it) shows something else. The observation holds the
     ``slots`` nearest remembered pieces, nearest first, each as ``present, green, yellow, ahead,
-    left, age``: where it should be in the head's frame turned by its yaw only (units over the
-    rays' length, clipped to -1..1) and the seconds since it was last seen over FOOD_MEMORY_AGE
-    (clipped to 1); empty slots read 0. Pieces in view read age 0. Perception of a piece seen is
+    left, size, age``: where it should be in the head's frame turned by its yaw only (units over the
+    rays' length, clipped to -1..1), its width over FOOD_MEMORY_SIZE (clipped to 1) and the seconds
+    since it was last seen over FOOD_MEMORY_AGE (clipped to 1); empty slots read 0. Pieces in view read age 0. Perception of a piece seen is
     exact; what is limited is which pieces the rays see (the same rule as ``--policy search``)."""
 
     def __init__(self, rays: Rays, slots: int):
@@ -355,18 +356,20 @@ class FoodMemory:
         yaw = math.atan2(head_rot[1, 0], head_rot[0, 0])
         cos, sin = math.cos(yaw), math.sin(yaw)
         rows = []
-        for body, (field, _, _, seen_at, _) in self.pieces.items():
+        for body, (field, _, _, seen_at, radius) in self.pieces.items():
             x, y, _ = self.where(body, now)
             dx, dy = x - head_pos[0], y - head_pos[1]
-            rows.append((dx * dx + dy * dy, body, field, cos * dx + sin * dy, -sin * dx + cos * dy, now - seen_at))
+            ahead, left = cos * dx + sin * dy, -sin * dx + cos * dy
+            rows.append((dx * dx + dy * dy, body, field, ahead, left, now - seen_at, radius))
         rows.sort()
         scale = self.rays.length
-        for slot, (_, _, field, ahead, left, age) in enumerate(rows[: self.slots]):
+        for slot, (_, _, field, ahead, left, age, radius) in enumerate(rows[: self.slots]):
             out[slot, 0] = 1.0
             out[slot, field] = 1.0
             out[slot, 3] = min(max(ahead / scale, -1.0), 1.0)
             out[slot, 4] = min(max(left / scale, -1.0), 1.0)
-            out[slot, 5] = min(age / FOOD_MEMORY_AGE, 1.0)
+            out[slot, 5] = min(2 * radius / FOOD_MEMORY_SIZE, 1.0)
+            out[slot, 6] = min(age / FOOD_MEMORY_AGE, 1.0)
         return out
 
 
