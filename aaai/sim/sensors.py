@@ -300,8 +300,9 @@ class FoodMemory:
     ``slots`` nearest remembered pieces, nearest first, each as ``present, green, yellow, ahead,
     left, size, age``: where it should be in the head's frame turned by its yaw only (units over the
     rays' length, clipped to -1..1), its width over FOOD_MEMORY_SIZE (clipped to 1) and the seconds
-    since it was last seen over FOOD_MEMORY_AGE (clipped to 1); empty slots read 0. Pieces in view read age 0. Perception of a piece seen is
-    exact; what is limited is which pieces the rays see (the same rule as ``--policy search``)."""
+    since it was last seen over FOOD_MEMORY_AGE (clipped to 1); empty slots read 0. Pieces in view
+    read age 0. Perception of a piece seen is exact; what is limited is which pieces the rays see (the
+    same rule as ``--policy search``)."""
 
     def __init__(self, rays: Rays, slots: int):
         self.rays = rays
