@@ -56,6 +56,24 @@ def test_a_piece_out_of_view_is_kept_and_turned_with_the_body(make_env):
         assert memory[AGE] == pytest.approx(step * env.control_dt / 60.0, rel=1e-4)
 
 
+def test_a_moving_piece_out_of_view_is_expected_where_its_motion_carries_it(make_env):
+    env = make_env(**SENSES, food_memory=1)
+    env.reset(options={"spec": open_arena(sphere("food_green", 10.0, 0.0, 4.0))})
+    (food,) = env.world.food
+    p.resetBasePositionAndOrientation(food, (10.0, 0.5, 2.0), (0, 0, 0, 1), physicsClientId=env.client)
+    env.step(env.body.rest_action())  # seen again 0.5 further on, one control step later: its velocity
+    speed = 0.5 / env.control_dt
+    p.resetBasePositionAndOrientation(food, (0.0, 20.0, -50.0), (0, 0, 0, 1), physicsClientId=env.client)
+    turn_body(env, math.pi)  # facing away: no ray passes where it should be
+    for step in (1, 2, 3):
+        observation, *_ = env.step(env.body.rest_action())
+        head, forward = head_xy(env), _forward(env)
+        expected_y = 0.5 + speed * step * env.control_dt
+        dx, dy = 10.0 - head[0], expected_y - head[1]
+        left = (-forward[1] * dx + forward[0] * dy) / np.hypot(*forward)
+        assert observation["food_memory"][0, LEFT] == pytest.approx(left / 50.0, abs=2e-3), step
+
+
 def _forward(env) -> np.ndarray:
     orientation = p.getBasePositionAndOrientation(env.body.id, physicsClientId=env.client)[1]
     return np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)[:2, 0]
@@ -90,6 +108,21 @@ def test_pieces_are_listed_nearest_first_and_a_reset_forgets(make_env):
     assert memory[0, LEFT] < 0 < memory[1, LEFT] and memory[0, AHEAD] < memory[1, AHEAD]
     observation, _ = env.reset(options={"spec": open_arena()})
     assert not observation["food_memory"].any()
+
+
+def test_a_reset_starts_as_a_new_environment_does(make_env):
+    """What the last episode saw is gone, even where the rays of the new one cannot look (behind a wall)."""
+    from aaai.spec import ObjectSpec
+
+    wall = ObjectSpec("wall", "box", (7.0, 0.0, 2.5), (1.0, 20.0, 5.0))
+    behind = open_arena(sphere("food_green", -12.0, 0.0, 4.0), wall)
+    used = make_env(**SENSES, food_memory=2)
+    used.reset(options={"spec": open_arena(sphere("food_green", 12.0, 0.0, 4.0))})
+    used.step(used.body.rest_action())
+    again, _ = used.reset(options={"spec": behind})
+    fresh, _ = make_env(**SENSES, food_memory=2).reset(options={"spec": behind})
+    np.testing.assert_array_equal(again["food_memory"], fresh["food_memory"])
+    assert not again["food_memory"].any()
 
 
 def test_without_it_there_is_no_key(make_env):
