@@ -54,7 +54,7 @@ def scored_now(name: str) -> bool:
     return json.loads((BASELINES / PROVENANCE).read_text())[name]["numerics"] in (NUMERICS, "none")
 
 
-@pytest.mark.parametrize("name", ["reference", "student", "student_s1", "ppo_gait"])
+@pytest.mark.parametrize("name", ["reference", "student", "student_s1", "student_food_memory", "ppo_gait"])
 def test_committed_baseline_rows_rescore_exactly(name):
     if not scored_now(name):
         pytest.skip(f"baselines/{name}.csv was scored before {NUMERICS} (baselines/{PROVENANCE}); re-score it")
