@@ -139,7 +139,7 @@ def test_the_committed_models_are_scored_with_the_config_they_carry(tmp_path):
     """No --config: each committed model carries the config of the run that trained it (its YAML
     beside it), and loads in its environment on this Gymnasium."""
     needs("stable_baselines3", "train")
-    for name in ("student", "ppo_gait"):
+    for name in ("student", "student_food_memory", "ppo_gait"):
         policy = resolve(str(MODELS / f"{name}.zip"))
         assert policy.config() == load_config(str(MODELS / f"{name}.yaml")), name
         env = AnimalAIEnv(config=policy.play_config())
