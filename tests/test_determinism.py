@@ -122,7 +122,7 @@ def test_the_references_median_episodes_rescore_exactly():
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("name", ["reference", "student", "student_s1", "ppo_gait"])
+@pytest.mark.parametrize("name", ["reference", "student", "student_s1", "student_food_memory_s1", "ppo_gait"])
 def test_a_sample_rescores_identically_on_another_cpus_code_path(name):
     rows = short_rows(name)
     here = rescore(BASELINES, name, rows)

@@ -395,6 +395,7 @@ COMMITTED = {
     "student": ("models/student.zip", "models/student.yaml"),
     "student_s1": ("models/student_s1.zip", "models/student_s1.yaml"),
     "student_food_memory": ("models/student_food_memory.zip", "models/student_food_memory.yaml"),
+    "student_food_memory_s1": ("models/student_food_memory_s1.zip", "models/student_food_memory_s1.yaml"),
     "student_camera": ("models/student_camera.zip", "models/student_camera.yaml"),
     "student_search": ("models/student_search.zip", "models/student_search.yaml"),
     "student_search_lstm": ("models/student_search_lstm.zip", "models/student_search_lstm.yaml"),
