@@ -332,24 +332,20 @@ class FoodMemory:
                 seen.add(body)
                 position = p.getBasePositionAndOrientation(body, physicsClientId=client)[0]
                 before = self.pieces.get(body)
-                velocity = (0.0, 0.0)
-                if before is not None and 0.0 < now - before[3] <= FOOD_MOTION_GAP:
-                    dt = now - before[3]
-                    velocity = ((position[0] - before[1][0]) / dt, (position[1] - before[1][1]) / dt)
-                elif before is not None and now == before[3]:
-                    velocity = before[2]
                 if before is None:
                     low, high = p.getAABB(body, physicsClientId=client)
                     radius = max(high[0] - low[0], high[1] - low[1]) / 2
                 else:
                     radius = before[4]
+                velocity = sighting_velocity(before and before[1:4], position, now)
                 self.pieces[body] = [self.kinds[int(kind_index[body])], tuple(position), velocity, now, radius]
-        if len(hits):
+        unseen = [body for body in self.pieces if body not in seen]
+        if unseen and len(hits):
             reach = np.array([hit[2] for hit in hits]) * self.rays.length
-            for body in [body for body in self.pieces if body not in seen]:
+            for body in unseen:
                 if not (0 <= body < known and kind_index[body] in self.kinds):  # eaten
                     del self.pieces[body]
-                elif _would_hit(starts, dirs, reach, self.where(body, now), self.pieces[body][4]):
+                elif would_hit(starts, dirs, reach, self.where(body, now), self.pieces[body][4]):
                     del self.pieces[body]
         out = np.zeros((self.slots, FOOD_MEMORY_FIELDS), np.float32)
         if not self.pieces:
@@ -374,7 +370,19 @@ class FoodMemory:
         return out
 
 
-def _would_hit(starts: np.ndarray, dirs: np.ndarray, reach: np.ndarray, position, radius: float) -> bool:
+def sighting_velocity(before, position, now: float) -> tuple[float, float]:
+    """A seen piece's velocity in the floor's plane from its sighting ``before`` ((x, y, z), (vx, vy),
+    time; None for a first sighting) and this one: the motion between two sightings less than
+    FOOD_MOTION_GAP apart, the earlier velocity for a second sighting at the same moment, else 0."""
+    if not before:
+        return 0.0, 0.0
+    (x, y, _), velocity, seen = before
+    if 0.0 < now - seen <= FOOD_MOTION_GAP:
+        return (position[0] - x) / (now - seen), (position[1] - y) / (now - seen)
+    return velocity if now == seen else (0.0, 0.0)
+
+
+def would_hit(starts: np.ndarray, dirs: np.ndarray, reach: np.ndarray, position, radius: float) -> bool:
     """Would one of the rays, as cast (each stopped at ``reach``), have hit a piece of ``radius`` at ``position``?"""
     offset = np.asarray(position) - starts
     along = np.einsum("ij,ij->i", offset, dirs)

@@ -39,12 +39,11 @@ import pybullet as p
 from aaai.errors import ConfigError
 from aaai.levels import validate
 from aaai.sim.gait import SineGait
+from aaai.sim.sensors import sighting_velocity, would_hit
 from aaai.spec import ObjectSpec
 from aaai.task.reference import ReferenceController, _angle, _sector_of
 
 PREDICT_SECONDS = 3.0  # a piece out of view is predicted along its seen motion for at most this long
-MOTION_GAP = 1.0  # two sightings this close in time give a velocity
-MISS = 0.5  # a ray passing within this fraction of a piece's radius of where it should be would have hit it
 LOOK_MARGIN = math.radians(20)  # a look round turns this much beyond what the fan already covers
 LOOK_SECONDS = 12.0  # ... or for at most this long
 SECTOR_TURNS = 2  # in a level of sectors (L9) it turns round this many times before it counts the food it saw
@@ -126,20 +125,15 @@ class SearchController(ReferenceController):
                 del self.memory[body]
                 continue
             food, position = self.memory[body][0], self._where(body, now)
-            if self._should_see(starts, dirs, reach, position, food.size[0] / 2):
+            if would_hit(starts, dirs, reach, position, food.size[0] / 2):
                 del self.memory[body]
                 self.hint = position[0], position[1]
                 self._look_round(now)
 
     def _saw(self, body: int, food: ObjectSpec, now: float) -> None:
         position = p.getBasePositionAndOrientation(body, physicsClientId=self.env.client)[0]
-        velocity = (0.0, 0.0)
         before = self.memory.get(body)
-        if before is not None and 0.0 < now - before[3] <= MOTION_GAP:
-            dt = now - before[3]
-            velocity = ((position[0] - before[1][0]) / dt, (position[1] - before[1][1]) / dt)
-        elif before is not None and now == before[3]:
-            velocity = before[2]
+        velocity = sighting_velocity(before and before[1:4], position, now)
         self.memory[body] = [food, tuple(position), velocity, now]
         self.hint = None
 
@@ -158,15 +152,6 @@ class SearchController(ReferenceController):
                 break
             last = x + vx * t, y + vy * t
         return (*last, z)
-
-    @staticmethod
-    def _should_see(starts, dirs, reach, position, radius: float) -> bool:
-        """Would one of the rays, as cast, have hit a piece of ``radius`` at ``position``?"""
-        offset = np.asarray(position) - starts
-        along = np.einsum("ij,ij->i", offset, dirs)
-        inside = (along > radius) & (along < reach - radius)
-        miss = np.linalg.norm(offset - along[:, None] * dirs, axis=1)
-        return bool(np.any(inside & (miss < MISS * radius)))
 
     def _sweep(self, starts, dirs, reach, head: np.ndarray) -> None:
         """Marks the cells the rays passed over (their ground track up to what they hit)."""
