@@ -121,7 +121,9 @@ baselines-learned: install-all
 # trained (or resumed) into runs/NAME if not finished, then scored on all 1,430 reserved episodes as
 # the table's column NAME. STUDENTS="student_search:configs/student_search.yaml:0" makes one.
 STUDENTS ?= student_s1:configs/student.yaml:1 student_food_memory:configs/student_food_memory.yaml:0 \
-  student_food_memory_s1:configs/student_food_memory.yaml:1 student_search:configs/student_search.yaml:0 \
+  student_food_memory_s1:configs/student_food_memory.yaml:1 \
+  student_food_memory_r12:configs/student_food_memory_r12.yaml:0 \
+  student_food_memory_r12_s1:configs/student_food_memory_r12_s1.yaml:1 student_search:configs/student_search.yaml:0 \
   student_search_lstm:configs/student_lstm_default.yaml:0 student_lstm:configs/student_lstm.yaml:0 \
   student_camera:configs/student_camera.yaml:0
 students: install-all

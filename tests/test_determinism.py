@@ -54,7 +54,22 @@ def scored_now(name: str) -> bool:
     return json.loads((BASELINES / PROVENANCE).read_text())[name]["numerics"] in (NUMERICS, "none")
 
 
-@pytest.mark.parametrize("name", ["reference", "student", "student_s1", "student_food_memory", "ppo_gait"])
+LONG = pytest.mark.long  # the other students: each re-scored in make test-long, to keep make test short
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "reference",
+        "student",
+        "student_s1",
+        "student_food_memory",
+        "ppo_gait",
+        pytest.param("student_food_memory_s1", marks=LONG),
+        pytest.param("student_food_memory_r12", marks=LONG),
+        pytest.param("student_food_memory_r12_s1", marks=LONG),
+    ],
+)
 def test_committed_baseline_rows_rescore_exactly(name):
     if not scored_now(name):
         pytest.skip(f"baselines/{name}.csv was scored before {NUMERICS} (baselines/{PROVENANCE}); re-score it")
