@@ -337,7 +337,7 @@ class FoodMemory:
                     radius = max(high[0] - low[0], high[1] - low[1]) / 2
                 else:
                     radius = before[4]
-                velocity = sighting_velocity(before and before[1:4], position, now)
+                velocity = sighting_velocity(before[1:4] if before else None, position, now)
                 self.pieces[body] = [self.kinds[int(kind_index[body])], tuple(position), velocity, now, radius]
         unseen = [body for body in self.pieces if body not in seen]
         if unseen and len(hits):

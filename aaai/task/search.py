@@ -133,7 +133,7 @@ class SearchController(ReferenceController):
     def _saw(self, body: int, food: ObjectSpec, now: float) -> None:
         position = p.getBasePositionAndOrientation(body, physicsClientId=self.env.client)[0]
         before = self.memory.get(body)
-        velocity = sighting_velocity(before and before[1:4], position, now)
+        velocity = sighting_velocity(before[1:4] if before else None, position, now)
         self.memory[body] = [food, tuple(position), velocity, now]
         self.hint = None
 
