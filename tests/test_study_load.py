@@ -140,9 +140,9 @@ def test_the_default_cap_is_the_measured_figure_for_the_cores_one_server_uses(mo
 
     monkeypatch.setattr(server, "available_megabytes", lambda: 1e6)
     monkeypatch.setattr(server, "usable_cores", lambda: 3)
-    assert server.default_max_sessions() == server.SESSIONS_PER_CORE * server.SERVER_CORES == 4
-    monkeypatch.setattr(server, "available_megabytes", lambda: 300.0)  # memory for 3 sessions at 50 MB, half kept
-    assert server.default_max_sessions() == 3
+    assert server.default_max_sessions() == server.SESSIONS_PER_CORE * server.SERVER_CORES == 3
+    monkeypatch.setattr(server, "available_megabytes", lambda: 200.0)  # memory for 2 sessions at 50 MB, half kept
+    assert server.default_max_sessions() == 2
 
 
 # --- behind a TLS proxy: --public-url ------------------------------------------------------------

@@ -51,11 +51,12 @@ from aaai.tools.play.session import CONTROL_KEYS, GO_KEYS, InputError, PlaySetti
 
 STUDY_MESSAGES = ("join", "consent", "start")
 ENDED = ("finished", "error", "abandoned")
-# Participants one CPU core holds at 50 control steps a second with the camera at 84 px
+# Participants one server holds at 50 control steps a second with the camera at 84 px
 # (bench/study_load.py, bench/study_load.md; docs/play.md, "Many participants at once"): a session
-# costs the server 0.14 to 0.20 CPU seconds per second of play (0.20 alone): 0.9 / 0.20 = 4.5, so 4,
-# which leaves room for a busy machine (6 at once held 49 steps/s at a load of 4.7; 5 at once 42 at 6).
-SESSIONS_PER_CORE = 4
+# costs the server 0.14 to 0.20 CPU seconds per second of play (0.20 alone): 0.9 / 0.20 = 4.5 on the
+# machine the bench ran on, where 4 at once held 49.9 steps/s. On a slower shared machine (the CI's,
+# 2026-11-27) 4 at once held 40.5 to 46.1, so the default is 3, which leaves a quarter of a core spare.
+SESSIONS_PER_CORE = 3
 # The cores one server uses: its sessions are threads of one Python process, which runs Python on
 # one core at a time (8 and 10 sessions took 0.97 and 1.03 cores with the second core free, 44 and 40 steps/s).
 SERVER_CORES = 1
