@@ -51,7 +51,7 @@ from aaai.tools.play.session import CONTROL_KEYS, GO_KEYS, InputError, PlaySetti
 
 STUDY_MESSAGES = ("join", "consent", "start")
 ENDED = ("finished", "error", "abandoned")
-# Participants one server holds at 50 control steps a second with the camera at 84 px
+# Participants one core of the server holds at 50 control steps a second with the camera at 84 px
 # (bench/study_load.py, bench/study_load.md; docs/play.md, "Many participants at once"): a session
 # costs the server 0.14 to 0.20 CPU seconds per second of play (0.20 alone): 0.9 / 0.20 = 4.5 on the
 # machine the bench ran on, where 4 at once held 49.9 steps/s. On a slower shared machine (the CI's,
