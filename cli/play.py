@@ -100,7 +100,7 @@ from .options import DIFFICULTY, SEED, Finite, Output, SeedList, parse_levels, p
     "--max-sessions",
     type=click.IntRange(1, 10_000),
     help="Players at once (each holds a simulation); a join beyond is refused "
-    "[default: 4 per CPU core, within half the available memory at 50 MB each].",
+    "[default: 3, what one server process holds at 50 steps/s, within half the available memory at 50 MB each].",
 )
 def play(
     level,

@@ -24,9 +24,9 @@ if not os.environ.get("CI"):
     pytest.importorskip("websockets", reason="the load test's pages need websockets (the play extra)")
 
 from aaai.study.loadtest import play_one  # noqa: E402
-from aaai.study.server import default_max_sessions  # noqa: E402
 from aaai.study.store import Store  # noqa: E402
 from aaai.study.studyfile import load_study  # noqa: E402
+from aaai.tools.play.server import default_max_sessions  # noqa: E402
 from aaai_cli.main import cli  # noqa: E402
 
 # Control steps per second each session must keep: the 45, held by the long test at the
@@ -139,14 +139,21 @@ def test_as_many_participants_as_the_cap_allows_each_hold_45_steps_a_second(tmp_
     check_load(tmp_path, sessions=default_max_sessions(), seconds=5.0, floor=FLOOR_LONG)
 
 
-def test_the_default_cap_is_the_measured_figure_for_the_cores_one_server_uses(monkeypatch):
-    from aaai.study import server
+@pytest.mark.parametrize("module", ["aaai.study.server", "aaai.tools.play.server"])
+def test_the_default_cap_is_the_measured_figure_for_the_cores_one_server_uses(monkeypatch, module):
+    import importlib
+
+    from aaai.tools.play import server
+
+    used = importlib.import_module(module).default_max_sessions  # aaai study serve's and aaai play's
 
     monkeypatch.setattr(server, "available_megabytes", lambda: 1e6)
     monkeypatch.setattr(server, "usable_cores", lambda: 3)
-    assert server.default_max_sessions() == server.SESSIONS_PER_CORE * server.SERVER_CORES == 3
+    assert used() == server.SESSIONS_PER_CORE * server.SERVER_CORES == 3
+    monkeypatch.setattr(server, "usable_cores", lambda: 1)
+    assert used() == 3
     monkeypatch.setattr(server, "available_megabytes", lambda: 200.0)  # memory for 2 sessions at 50 MB, half kept
-    assert server.default_max_sessions() == 2
+    assert used() == 2
 
 
 # --- behind a TLS proxy: --public-url ------------------------------------------------------------

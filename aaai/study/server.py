@@ -24,7 +24,6 @@ import asyncio
 import contextlib
 import html
 import json
-import os
 import threading
 from collections.abc import AsyncIterator
 from importlib import resources
@@ -40,10 +39,9 @@ from aaai.study.studyfile import Study
 from aaai.tools.play.guard import Guard, is_loopback, link_host, own_hosts
 from aaai.tools.play.server import (
     MAX_MESSAGE_CHARS,
-    SESSION_MEGABYTES,
     Serving,
-    available_megabytes,
     bind,
+    default_max_sessions,
     deliver,
     parse_message,
 )
@@ -51,15 +49,6 @@ from aaai.tools.play.session import CONTROL_KEYS, GO_KEYS, InputError, PlaySetti
 
 STUDY_MESSAGES = ("join", "consent", "start")
 ENDED = ("finished", "error", "abandoned")
-# Participants one core of the server holds at 50 control steps a second with the camera at 84 px
-# (bench/study_load.py, bench/study_load.md; docs/play.md, "Many participants at once"): a session
-# costs the server 0.14 to 0.20 CPU seconds per second of play (0.20 alone): 0.9 / 0.20 = 4.5 on the
-# machine the bench ran on, where 4 at once held 49.9 steps/s. On a slower shared machine (the CI's,
-# 2026-11-27) 4 at once held 40.5 to 46.1, so the default is 3, which leaves a quarter of a core spare.
-SESSIONS_PER_CORE = 3
-# The cores one server uses: its sessions are threads of one Python process, which runs Python on
-# one core at a time (8 and 10 sessions took 0.97 and 1.03 cores with the second core free, 44 and 40 steps/s).
-SERVER_CORES = 1
 FULL_TITLE = "The study is full right now"
 FULL_TEXT = "Too many people are taking part at this moment. Please try again in a few minutes."
 
@@ -78,25 +67,6 @@ def public_origin(url: str) -> str:
     if parts.query or parts.fragment or parts.username or parts.password:
         raise ValueError(f"--public-url: got {url!r}; allowed: scheme, host and port only (no query, user)")
     return f"{parts.scheme}://{parts.netloc.lower()}"
-
-
-def usable_cores() -> int:
-    """The CPU cores this process may run on (its affinity, where the system tells it)."""
-    try:
-        return len(os.sched_getaffinity(0)) or 1
-    except (AttributeError, OSError):
-        return os.cpu_count() or 1
-
-
-def default_max_sessions() -> int:
-    """--max-sessions of ``aaai study serve`` by default: :data:`SESSIONS_PER_CORE` times the cores the
-    server can use (its usable cores, at most :data:`SERVER_CORES`), and no more than half the
-    available memory holds at 50 MB a session."""
-    cap = SESSIONS_PER_CORE * min(usable_cores(), SERVER_CORES)
-    memory = available_megabytes()
-    if memory is not None:
-        cap = min(cap, int(memory / 2 / SESSION_MEGABYTES))
-    return max(1, cap)
 
 
 def plain_page(title: str, text: str, status: int) -> HTMLResponse:
@@ -370,9 +340,6 @@ def link(base_url: str, token: str) -> str:
 
 
 __all__ = [
-    "SERVER_CORES",
-    "SESSIONS_PER_CORE",
-    "default_max_sessions",
     "public_origin",
     "StudyRegistry",
     "StudyServer",

@@ -59,7 +59,15 @@ from aaai.tools.play.session import (
 
 MAX_MESSAGE_CHARS = 1000
 MESSAGE_TYPES = ("join", "key", "focus", "ack")
-SESSIONS_PER_CORE = 4  # a running session takes a fifth to a quarter of a core (docs/play.md, "How many players")
+# Sessions one core of a server holds at 50 control steps a second with the camera at 84 px
+# (bench/study_load.py, bench/study_load.md; docs/play.md, "Many participants at once"): a session
+# costs the server 0.14 to 0.20 CPU seconds per second of play (0.20 alone): 0.9 / 0.20 = 4.5 on the
+# machine the bench ran on, where 4 at once held 49.9 steps/s. On a slower shared machine (the CI's,
+# 2026-11-27) 4 at once held 40.5 to 46.1, so the default is 3, which leaves a quarter of a core spare.
+SESSIONS_PER_CORE = 3
+# The cores one server uses: its sessions are threads of one Python process, which runs Python on
+# one core at a time (8 and 10 sessions took 0.97 and 1.03 cores with the second core free, 44 and 40 steps/s).
+SERVER_CORES = 1
 SESSION_MEGABYTES = 50  # a session's environment, camera and thread take 37 to 48 MB (docs/play.md)
 TAKEN_OVER = 4409  # the close code of a socket whose session another page (with its token) took over
 
@@ -76,11 +84,19 @@ def available_megabytes() -> float | None:
     return None
 
 
+def usable_cores() -> int:
+    """The CPU cores this process may run on (its affinity, where the system tells it)."""
+    try:
+        return len(os.sched_getaffinity(0)) or 1
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
 def default_max_sessions() -> int:
-    """--max-sessions by default: 4 per CPU core (a running session takes a fifth to a quarter of a
-    core at 50 control steps a second), and no more than half the available memory holds at 50 MB
-    a session (one takes 37 to 48 MB)."""
-    cap = SESSIONS_PER_CORE * (os.cpu_count() or 1)
+    """--max-sessions of ``aaai play`` and ``aaai study serve`` by default:
+    :data:`SESSIONS_PER_CORE` times the cores the server can use (its usable cores, at most
+    :data:`SERVER_CORES`), and no more than half the available memory holds at 50 MB a session."""
+    cap = SESSIONS_PER_CORE * min(usable_cores(), SERVER_CORES)
     memory = available_megabytes()
     if memory is not None:
         cap = min(cap, int(memory / 2 / SESSION_MEGABYTES))
