@@ -6,8 +6,8 @@ play the trial at once, holding a key and acknowledging every frame, as the part
 Measured per N: each page's control steps per second (wall clock), whether every finished trial's
 row is in the store, and the CPU time the server process used (from /proc) per session per second
 of play. Sessions per core = 1 / that CPU cost, with 10% headroom (the figure behind
-aaai.study.server.SESSIONS_PER_CORE, which is set below it for slower machines than the
-bench's). The load average is recorded with each row: the machine
+aaai.tools.play.server.SESSIONS_PER_CORE, the cap of aaai play and aaai study serve, which is
+set below it for slower machines than the bench's). The load average is recorded with each row: the machine
 may be shared.
 
     .venv/bin/python bench/study_load.py                  # N = 1 2 4 6 8, 84 px, 5 s trials

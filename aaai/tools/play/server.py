@@ -32,7 +32,6 @@ import asyncio
 import contextlib
 import errno
 import json
-import os
 import secrets
 import socket
 import threading
@@ -84,19 +83,11 @@ def available_megabytes() -> float | None:
     return None
 
 
-def usable_cores() -> int:
-    """The CPU cores this process may run on (its affinity, where the system tells it)."""
-    try:
-        return len(os.sched_getaffinity(0)) or 1
-    except (AttributeError, OSError):
-        return os.cpu_count() or 1
-
-
 def default_max_sessions() -> int:
     """--max-sessions of ``aaai play`` and ``aaai study serve`` by default:
-    :data:`SESSIONS_PER_CORE` times the cores the server can use (its usable cores, at most
-    :data:`SERVER_CORES`), and no more than half the available memory holds at 50 MB a session."""
-    cap = SESSIONS_PER_CORE * min(usable_cores(), SERVER_CORES)
+    :data:`SESSIONS_PER_CORE` times the :data:`SERVER_CORES` one server process uses (whatever the
+    machine has), and no more than half the available memory holds at 50 MB a session."""
+    cap = SESSIONS_PER_CORE * SERVER_CORES
     memory = available_megabytes()
     if memory is not None:
         cap = min(cap, int(memory / 2 / SESSION_MEGABYTES))
