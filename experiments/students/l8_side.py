@@ -1,8 +1,8 @@
 """Where a student is when L8's food goes out of sight, and which side it walks round the occluder.
 
 For each L8 episode (the first K reserved seeds of each difficulty) a student plays as `aaai eval`
-plays it, and at every step this reads what its rays hit (env.rays.last, as the searching teacher
-reads them) and where its head is. It writes one row per episode:
+plays it, and at every step this reads whether its rays show food (aaai.scoring.diagnose.food_in_view,
+as `aaai diagnose` reads it) and where its head is. It writes one row per episode:
   food_side     +1 east, -1 west (the level's draw; the pit is on the other side)
   hidden_step   the first decision, after the food was seen, from which no ray hits it for 10 decisions (1 s)
   heading_side  the side the head faces at that decision (its forward x-component beyond 0.2; 0: ahead)
@@ -26,6 +26,7 @@ import numpy as np
 from aaai.config import env_part
 from aaai.env import AnimalAIEnv
 from aaai.levels.seeds import reserved_seeds
+from aaai.scoring.diagnose import food_in_view
 from aaai.scoring.episodes import outcome, play
 from aaai.scoring.policies import resolve
 
@@ -51,16 +52,18 @@ def main() -> None:
         for seed in reserved_seeds(8, difficulty, args.k):
             trace: list[tuple[bool, np.ndarray, np.ndarray]] = []
 
-            def policy(observation, trace=trace):
-                starts, dirs, hits = env.rays.last
-                seen = any(hit[0] in env.world.food for hit in hits)
+            def look(observation, trace=trace) -> None:  # what each decision sees, and where the head is
                 head, rotation = env.body.head_pose()
-                trace.append((seen, head.copy(), rotation[:, 0].copy()))
-                return acting(observation)
+                trace.append((food_in_view(observation), head.copy(), rotation[:, 0].copy()))
 
-            if hasattr(acting, "reset"):
-                policy.reset = acting.reset  # type: ignore[attr-defined]
-            result = play(env, policy, seed, options={"level": 8, "difficulty": difficulty})
+            result = play(
+                env,
+                acting,
+                seed,
+                options={"level": 8, "difficulty": difficulty},
+                on_reset=lambda observation, info: look(observation),
+                on_step=lambda step, observation, reward, info: look(observation),
+            )
             info = result.info
             ratio = result.episode_return / info["max_reward"]
             side = 1 if env.world.spec.extras["food_side"] == "east" else -1
