@@ -2,7 +2,7 @@
 
 runs/NAME/
   config.yaml         the resolved configuration the run uses (resume reads it back)
-  versions.json       Python and package versions
+  versions.json       Python and package versions, and MKL's code path (aaai.numerics)
   episodes.csv        one row per finished training episode, flushed as it finishes
   curriculum.png      heatmap of mean return, z and p per cell
   checkpoints/step_000000020000/{state.json, model.zip}   (the step in 12 digits)
@@ -30,6 +30,7 @@ from typing import Iterator
 
 from aaai.config import Config, ConfigError, read_yaml
 from aaai.files import append_rows, hold, naming, sync_file, write_atomic  # write_atomic also re-exported
+from aaai.numerics import mkl_setting
 
 PACKAGES = ("aaai", "pybullet", "numpy", "gymnasium", "stable-baselines3", "torch", "opencv-python-headless")
 CHECKPOINT_FOLDER = "rllib"  # an RLlib run's Algorithm checkpoint, inside checkpoints/step_N/ and final/
@@ -85,6 +86,7 @@ def package_versions() -> dict[str, str]:
             versions[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             versions[name] = "not installed"
+    versions["MKL_CBWR"] = mkl_setting()  # MKL's code path (aaai.numerics): COMPATIBLE trains alike on every CPU
     return versions
 
 
