@@ -132,7 +132,7 @@ def test_scoring_imports_nothing_from_training(module):
 # The package's map, bottom to top: a module may import its own layer and the layers below, never above.
 # A unit is a folder of aaai (aaai.sim) or a module at its top (aaai.config); DEVELOPERS.md, "Layout", reads the same.
 LAYERS = (
-    ("aaai.errors", "aaai.files", "aaai.safe_yaml", "aaai.jobs"),  # what every module may use
+    ("aaai.errors", "aaai.files", "aaai.safe_yaml", "aaai.jobs", "aaai.numerics"),  # what every module may use
     ("aaai.agent",),  # the body: its URDF table and its handle in a client
     ("aaai.config",),  # the configuration and its rules
     ("aaai.spec",),  # a level as plain data: the spec and its hash, the kinds and moving parts it names
