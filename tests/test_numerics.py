@@ -3,9 +3,10 @@
 
 MKL picks its float32 kernels by the CPU, and a student's fit turns their last bits into other
 weights. The long tests train a small DAgger student (two rounds of six episodes) and compare its
-weights with the bytes pinned here, which were trained on another machine's CPU; and once more
-with the code paths of a CPU without AVX-512 simulated for torch, numpy and OpenBLAS (MKL's own
-path is the one this feature fixes)."""
+weights with the bytes pinned here (trained on 2026-12-01 on an AMD EPYC, so a CI machine of another
+CPU checks them across machines); and once more with the code paths of a CPU without AVX-512
+simulated for torch, numpy, OpenBLAS and MKL's instruction set (MKL's own choice of path is what
+this feature fixes)."""
 
 import hashlib
 import json
@@ -17,19 +18,16 @@ from pathlib import Path
 
 import pytest
 import yaml
+from conftest import AAAI
+from test_determinism import OTHER_CPU as SIMULATED
 
 ROOT = Path(__file__).resolve().parents[1]
-AAAI = str(Path(sys.executable).parent / "aaai")
 # policy.pth of the small run's final model, trained by `aaai train` with MKL_CBWR=COMPATIBLE. A
 # change to the env, the teacher or DAgger changes it: train the run again (test_..._pinned_bytes
 # prints the new digest) and pin that, after checking that MKL_CBWR=AVX2 still gives other bytes.
 PINNED = "a47ff6eed5d81eed168dd265548190fb2dc458754f3bf7ec5ffba1b7f7a6b095"
-OTHER_CPU = {  # tests/test_determinism.py's, but MKL's: what a CPU without AVX-512 changes elsewhere
-    "ATEN_CPU_CAPABILITY": "avx2",
-    "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
-    "OPENBLAS_CORETYPE": "Haswell",
-    "MKL_ENABLE_INSTRUCTIONS": "AVX2",
-}
+# test_determinism's CPU without AVX-512, but for MKL_CBWR (the setting under test): MKL limited to AVX2
+OTHER_CPU = {**{key: value for key, value in SIMULATED.items() if key != "MKL_CBWR"}, "MKL_ENABLE_INSTRUCTIONS": "AVX2"}
 
 
 def environment(**extra: str) -> dict[str, str]:
@@ -43,7 +41,7 @@ def small_student(tmp_path: Path, env: dict[str, str]) -> tuple[str, dict]:
     config["train"].update(dagger_iterations=2, dagger_episodes=6, dagger_episode_cap=80, processes=1)
     path, run = tmp_path / "small.yaml", tmp_path / "run"
     path.write_text(yaml.safe_dump(config))
-    command = [AAAI, "train", "--config", str(path), "--run", str(run)]
+    command = [*AAAI, "train", "--config", str(path), "--run", str(run)]
     done = subprocess.run(command, env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr[-3000:]
     with zipfile.ZipFile(run / "final" / "model.zip") as archive:
