@@ -70,6 +70,7 @@ SMALLER = [
     ("aaai train --curriculum --run runs/demo", "--run runs/demo", "--run runs/demo --steps 2000", "make demo's run"),
     ("aaai train --curriculum --levels 0-11", "--steps 20000000", "--steps 1000", "hours of training"),
     ("aaai train --resume runs/big --steps", "--steps 40000000", "--steps 5000", "hours of training"),
+    ("aaai train --config configs/reward_senses.yaml --minutes 60", "--steps 20000000", "--steps 1000", "an hour"),
     ("aaai experiment curricula --steps 20000", "--steps 20000", "--steps 1000", "minutes per run"),
     ("aaai experiment curricula --steps", "--out /tmp/small", "--out small", "a folder of this copy's own"),
     (

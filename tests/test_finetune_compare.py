@@ -1,5 +1,6 @@
 """`aaai compare`: two scoreboards of the same episodes, per level, with the difference's interval
-(how a fine-tuned student is compared with baselines/student.csv)."""
+(how a fine-tuned student is compared with baselines/student.csv); and two recipes by several
+training runs each, with Welch's interval over the runs."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from aaai.config import ConfigError
-from aaai.tools.compare import compare, comparison_markdown, mcnemar, read_scoreboard
+from aaai.tools.compare import compare, compare_runs, comparison_markdown, mcnemar, read_scoreboard, runs_markdown
 from aaai_cli.main import cli
 
 COLUMNS = ["level", "level_name", "difficulty", "seed", "return", "outcome", "arena"]
@@ -103,3 +104,51 @@ def test_the_command_prints_and_writes_the_table_and_refuses_what_is_not_a_score
     with pytest.raises(ConfigError, match="arena files' episodes"):
         write(tmp_path / "arenas.csv", [dict(board({0: 1})[0], arena="a.yaml")])
         read_scoreboard(tmp_path / "arenas.csv")
+
+
+def test_two_recipes_compare_by_their_runs_spread():
+    """Two runs a side: per level each run's rate, and Welch's interval of the difference of the means
+    over the runs, the same as scipy's own Welch interval; a level where the runs agree within a
+    side and the sides differ a lot is better, one where a side's runs disagree is not shown."""
+    from scipy import stats
+
+    bases = [board({0: 20, 1: 10, 2: 2}), board({0: 20, 1: 12, 2: 18})]
+    others = [board({0: 20, 1: 19, 2: 19}), board({0: 20, 1: 18, 2: 3})]
+    lines = compare_runs(bases, others)
+    assert [line.level for line in lines] == [0, 1, 2, None]
+    one = lines[1]
+    assert (one.base, one.other, one.episodes) == ((0.5, 0.6), (0.95, 0.9), 20)
+    assert one.difference == pytest.approx(0.375)
+    expected = stats.ttest_ind([0.95, 0.9], [0.5, 0.6], equal_var=False).confidence_interval(0.95)
+    assert one.interval == pytest.approx((expected.low, expected.high))
+    assert one.verdict == "better"
+    assert lines[2].difference == pytest.approx(0.05) and lines[2].verdict == "no difference shown"
+    assert lines[0].interval == (0.0, 0.0) and lines[0].verdict == "no difference shown"  # no spread, no difference
+    assert lines[-1].base == (32 / 60, 50 / 60)
+    table = runs_markdown(lines, ["student", "student_b"], ["memory", "memory_b"])
+    assert "| L1 food_retrieval | 20 | 50 / 60 | 55% | 95 / 90 | 92% | +38 (" in table
+    assert "| level | episodes | student (2 runs): each run | mean | memory (2 runs): each run |" in table
+    assert "student, student_b against memory, memory_b" in table
+
+
+def test_runs_are_compared_on_the_episodes_every_run_holds_and_need_two_a_side():
+    half = [row for row in board(OTHER) if int(row["seed"]) < 10]
+    lines = compare_runs([board(BASE), board(BASE)], [board(OTHER), half])
+    assert lines[-1].episodes == 60
+    with pytest.raises(ConfigError, match="1 training run of the base; allowed: 2 or more a side"):
+        compare_runs([board(BASE)], [board(OTHER), board(OTHER)])
+
+
+def test_the_command_compares_recipes_when_given_more_runs(tmp_path):
+    for name, passes in (("a", BASE), ("a2", BASE), ("b", OTHER), ("b2", OTHER)):
+        write(tmp_path / f"{name}.csv", board(passes))
+    paths = {name: str(tmp_path / f"{name}.csv") for name in ("a", "a2", "b", "b2")}
+    result = CliRunner().invoke(
+        cli, ["compare", paths["a"], paths["b"], "--base-run", paths["a2"], "--other-run", paths["b2"]]
+    )
+    assert result.exit_code == 0, result.output
+    assert "| L1 food_retrieval | 20 | 50 / 50 | 50% | 95 / 95 | 95% | +45 (+45 to +45) | better |" in result.output
+    result = CliRunner().invoke(cli, ["compare", paths["a"], paths["b"], "--base-run", paths["a2"]])
+    assert result.exit_code == 2
+    assert "1 training run of the other; allowed: 2 or more a side" in result.output
+    assert "Traceback" not in result.output

@@ -8,6 +8,13 @@ two pass rates as independent; both policies played the same seeds, so where the
 together the interval is wider than a paired one would be (it errs towards "no difference shown").
 The pairing is used by the last columns: the episodes only one of the two passed, and McNemar's exact
 test on them.
+
+Those intervals count the episodes' chance only: they say whether two *models* differ. Whether two
+*recipes* (a config trained with any seed) differ needs several training runs of each, since one run
+of a recipe moves a student by several points overall and tens on a level. :func:`compare_runs` takes
+each side's runs, and per level gives every run's pass rate and the difference of the two sides'
+means with Welch's 95 % t interval over the runs (each run's pass rate one value, so the interval
+counts the training's chance and the episodes' alike).
 """
 
 from __future__ import annotations
@@ -158,6 +165,88 @@ def compare(base: list[dict], other: list[dict]) -> list[LevelComparison]:
             )
         )
     return lines
+
+
+@dataclass(frozen=True)
+class RunsComparison:
+    """One level (``level`` None: all levels) of two recipes, each trained several times: every
+    run's pass rate on the ``episodes`` all runs hold, and the difference of the means ``other -
+    base`` with Welch's 95 % interval over the runs (fractions)."""
+
+    level: int | None
+    episodes: int
+    base: tuple[float, ...]
+    other: tuple[float, ...]
+
+    @property
+    def difference(self) -> float:
+        return sum(self.other) / len(self.other) - sum(self.base) / len(self.base)
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        from aaai.train.power import welch_interval
+
+        return welch_interval(list(self.other), list(self.base))
+
+    @property
+    def verdict(self) -> str:
+        low, high = self.interval
+        return "better" if low > 0 else "worse" if high < 0 else "no difference shown"
+
+
+def compare_runs(base: list[list[dict]], other: list[list[dict]]) -> list[RunsComparison]:
+    """Per level, then all levels: each scoreboard's pass rate (one a training run) on the episodes
+    every scoreboard holds; 2 or more runs a side."""
+    for side, boards in (("base", base), ("other", other)):
+        if len(boards) < 2:
+            raise ConfigError(
+                f"compare: {len(boards)} training run of the {side}; allowed: 2 or more a side "
+                "(the spread between runs is what the interval is made of)"
+            )
+    outcomes = [{_key(r): passed(r) for r in rows} for rows in base + other]
+    common = sorted(set.intersection(*(set(board) for board in outcomes)))
+    if not common:
+        raise ConfigError("compare: the scoreboards share no episode (level, difficulty and seed)")
+    lines = []
+    for level in sorted({key[0] for key in common}) + [None]:
+        keys = [key for key in common if level is None or key[0] == level]
+        rates = [sum(board[key] for key in keys) / len(keys) for board in outcomes]
+        lines.append(RunsComparison(level, len(keys), tuple(rates[: len(base)]), tuple(rates[len(base) :])))
+    return lines
+
+
+def runs_markdown(lines: list[RunsComparison], base_names: list[str], other_names: list[str]) -> str:
+    """The per-level table of :func:`compare_runs`: episodes, each run's pass rate and the mean of
+    each side, the difference of the means in points with its 95 % interval and its verdict."""
+
+    def rates(values: tuple[float, ...]) -> str:
+        return " / ".join(f"{100 * value:.0f}" for value in values)
+
+    def mean(values: tuple[float, ...]) -> str:
+        return f"{100 * sum(values) / len(values):.0f}%"
+
+    base, other = f"{base_names[0]} ({len(base_names)} runs)", f"{other_names[0]} ({len(other_names)} runs)"
+    out = [
+        f"| level | episodes | {base}: each run | mean | {other}: each run | mean | "
+        "difference of means (points, 95 % over runs) | |",
+        "|---|---:|---:|---:|---:|---:|---:|---|",
+    ]
+    for line in lines:
+        level = None if line.level is None else get_level(line.level)
+        label = "**all levels**" if level is None else f"{level.label} {level.name}"
+        low, high = line.interval
+        out.append(
+            f"| {label} | {line.episodes} | {rates(line.base)} | {mean(line.base)} | {rates(line.other)} | "
+            f"{mean(line.other)} | {100 * line.difference:+.0f} ({100 * low:+.0f} to {100 * high:+.0f}) | "
+            f"{line.verdict} |"
+        )
+    out += [
+        "",
+        f"Runs, in the order of each run's column: {', '.join(base_names)} against {', '.join(other_names)}. "
+        "Each run's pass rate is one value; the interval is Welch's t over the runs, so it counts the "
+        "training's chance as well as the episodes'.",
+    ]
+    return "\n".join(out) + "\n"
 
 
 def weakest(lines: list[LevelComparison], count: int = WEAKEST) -> list[int]:

@@ -157,6 +157,24 @@ def welch(a: list[float], b: list[float]) -> tuple[float, float, float]:
     return float(result.statistic), float(df), float(result.pvalue)
 
 
+def welch_interval(a: list[float], b: list[float], confidence: float = CONFIDENCE) -> tuple[float, float]:
+    """Welch's two-sided ``confidence`` interval of mean(a) - mean(b), on the Welch-Satterthwaite
+    degrees of freedom of :func:`welch`: NaN bounds with fewer than 2 values on a side; the point
+    itself when neither side has any spread."""
+    x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if len(x) < 2 or len(y) < 2:
+        return math.nan, math.nan
+    difference = float(x.mean() - y.mean())
+    va, vb = x.var(ddof=1) / len(x), y.var(ddof=1) / len(y)
+    if va + vb == 0:
+        return difference, difference
+    from scipy import stats
+
+    df = (va + vb) ** 2 / (va**2 / (len(x) - 1) + vb**2 / (len(y) - 1))
+    half = float(stats.t.ppf(0.5 + confidence / 2, df)) * math.sqrt(va + vb)
+    return difference - half, difference + half
+
+
 def anova(groups: list[list[float]]) -> tuple[float, float]:
     """One-way ANOVA over the groups with 2 or more values: (F, p); NaN with fewer than 2 such groups."""
     kept = [np.asarray(g, dtype=float) for g in groups if len(g) > 1]
