@@ -225,6 +225,9 @@ def runs_markdown(lines: list[RunsComparison], base_names: list[str], other_name
     def mean(values: tuple[float, ...]) -> str:
         return f"{100 * sum(values) / len(values):.0f}%"
 
+    def points(value: float) -> str:  # signed whole points, never "-0"
+        return "nan" if math.isnan(value) else f"{round(100 * value):+d}"
+
     base, other = f"{base_names[0]} ({len(base_names)} runs)", f"{other_names[0]} ({len(other_names)} runs)"
     out = [
         f"| level | episodes | {base}: each run | mean | {other}: each run | mean | "
@@ -237,7 +240,7 @@ def runs_markdown(lines: list[RunsComparison], base_names: list[str], other_name
         low, high = line.interval
         out.append(
             f"| {label} | {line.episodes} | {rates(line.base)} | {mean(line.base)} | {rates(line.other)} | "
-            f"{mean(line.other)} | {100 * line.difference:+.0f} ({100 * low:+.0f} to {100 * high:+.0f}) | "
+            f"{mean(line.other)} | {points(line.difference)} ({points(low)} to {points(high)}) | "
             f"{line.verdict} |"
         )
     out += [
