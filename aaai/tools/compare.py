@@ -80,8 +80,20 @@ class LevelComparison:
 
     @property
     def verdict(self) -> str:
-        low, high = self.interval
-        return "better" if low > 0 else "worse" if high < 0 else "no difference shown"
+        return verdict(self.interval)
+
+
+def verdict(interval: tuple[float, float]) -> str:
+    """What an interval of a difference ``other - base`` says: better (above 0), worse (below 0), or
+    no difference shown."""
+    low, high = interval
+    return "better" if low > 0 else "worse" if high < 0 else "no difference shown"
+
+
+def by_level(common: list[tuple[int, int, int]]):
+    """(level, its episodes) for each level of ``common`` in order, then (None, all of them)."""
+    for level in sorted({key[0] for key in common}) + [None]:
+        yield level, [key for key in common if level is None or key[0] == level]
 
 
 def newcombe(base: Rate, other: Rate) -> tuple[float, float]:
@@ -153,8 +165,7 @@ def compare(base: list[dict], other: list[dict]) -> list[LevelComparison]:
     if not common:
         raise ConfigError("compare: the two scoreboards share no episode (level, difficulty and seed)")
     lines = []
-    for level in sorted({key[0] for key in common}) + [None]:
-        keys = [key for key in common if level is None or key[0] == level]
+    for level, keys in by_level(common):
         lines.append(
             LevelComparison(
                 level,
@@ -190,8 +201,7 @@ class RunsComparison:
 
     @property
     def verdict(self) -> str:
-        low, high = self.interval
-        return "better" if low > 0 else "worse" if high < 0 else "no difference shown"
+        return verdict(self.interval)
 
 
 def compare_runs(base: list[list[dict]], other: list[list[dict]]) -> list[RunsComparison]:
@@ -208,8 +218,7 @@ def compare_runs(base: list[list[dict]], other: list[list[dict]]) -> list[RunsCo
     if not common:
         raise ConfigError("compare: the scoreboards share no episode (level, difficulty and seed)")
     lines = []
-    for level in sorted({key[0] for key in common}) + [None]:
-        keys = [key for key in common if level is None or key[0] == level]
+    for level, keys in by_level(common):
         rates = [sum(board[key] for key in keys) / len(keys) for board in outcomes]
         lines.append(RunsComparison(level, len(keys), tuple(rates[: len(base)]), tuple(rates[len(base) :])))
     return lines

@@ -140,6 +140,15 @@ def mean_interval(values: list[float], confidence: float = CONFIDENCE) -> tuple[
     return mean, mean - half, mean + half
 
 
+def _welch_terms(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
+    """The squared standard errors of the two means and their Welch-Satterthwaite degrees of freedom
+    (NaN when neither side has any spread)."""
+    va, vb = float(x.var(ddof=1)) / len(x), float(y.var(ddof=1)) / len(y)
+    if va + vb == 0:
+        return va, vb, math.nan
+    return va, vb, (va + vb) ** 2 / (va**2 / (len(x) - 1) + vb**2 / (len(y) - 1))
+
+
 def welch(a: list[float], b: list[float]) -> tuple[float, float, float]:
     """Welch's t test of mean(a) - mean(b): (t, degrees of freedom, two-sided p); NaN with fewer than
     2 values on a side. Two groups without any spread give t = ±inf (p = 0) or NaN (equal means)."""
@@ -148,29 +157,27 @@ def welch(a: list[float], b: list[float]) -> tuple[float, float, float]:
         return math.nan, math.nan, math.nan
     from scipy import stats
 
-    va, vb = x.var(ddof=1) / len(x), y.var(ddof=1) / len(y)
+    va, vb, df = _welch_terms(x, y)
     if va + vb == 0:
         difference = x.mean() - y.mean()
         return (math.copysign(math.inf, difference), math.nan, 0.0) if difference else (math.nan, math.nan, math.nan)
-    df = (va + vb) ** 2 / (va**2 / (len(x) - 1) + vb**2 / (len(y) - 1))
     result = stats.ttest_ind(x, y, equal_var=False)
     return float(result.statistic), float(df), float(result.pvalue)
 
 
 def welch_interval(a: list[float], b: list[float], confidence: float = CONFIDENCE) -> tuple[float, float]:
-    """Welch's two-sided ``confidence`` interval of mean(a) - mean(b), on the Welch-Satterthwaite
-    degrees of freedom of :func:`welch`: NaN bounds with fewer than 2 values on a side; the point
-    itself when neither side has any spread."""
+    """Welch's two-sided ``confidence`` interval of mean(a) - mean(b), on the degrees of freedom of
+    :func:`welch`: NaN bounds with fewer than 2 values on a side; the point itself when neither side
+    has any spread."""
     x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     if len(x) < 2 or len(y) < 2:
         return math.nan, math.nan
     difference = float(x.mean() - y.mean())
-    va, vb = x.var(ddof=1) / len(x), y.var(ddof=1) / len(y)
+    va, vb, df = _welch_terms(x, y)
     if va + vb == 0:
         return difference, difference
     from scipy import stats
 
-    df = (va + vb) ** 2 / (va**2 / (len(x) - 1) + vb**2 / (len(y) - 1))
     half = float(stats.t.ppf(0.5 + confidence / 2, df)) * math.sqrt(va + vb)
     return difference - half, difference + half
 
