@@ -31,7 +31,7 @@ $(VENV)/.installed-all: $(VENV)/.installed-train
 
 # The browser test of `aaai play` drives Debian's Chromium through its chromedriver (as root on CI).
 CHROMIUM_BINARIES := /usr/bin/chromium /usr/bin/chromedriver
-$(CHROMIUM_BINARIES):
+$(CHROMIUM_BINARIES) &:
 	DEBIAN_FRONTEND=noninteractive apt-get update -qq >/dev/null
 	DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium chromium-driver >/dev/null
 
@@ -51,8 +51,10 @@ install-train: $(VENV)/.installed-train
 install-all: $(VENV)/.installed-all
 
 # The suite on both cores (pytest-xdist): each test file runs whole in one of two worker processes,
-# so a file's shared fixtures are built once.
-test: install-all $(CHROMIUM_BINARIES) check
+# so a file's shared fixtures are built once. The install (pip) and Chromium (apt) run side by side.
+test:
+	$(MAKE) --no-print-directory -j2 install-all $(CHROMIUM_BINARIES)
+	$(MAKE) --no-print-directory check
 	$(BIN)/python -m pytest -q -m "not long and not docs_commands" -n 2 --dist loadfile $(PYTEST_ARGS)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --quiet
 

@@ -185,7 +185,9 @@ def _table(path: Path) -> list[list[str]]:
         return [row[:-1] for row in csv.reader(handle)]
 
 
-@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.long), pytest.param(2, marks=pytest.mark.long)])
+# long: about 45 s a seed (Ray starts twice); test_ray_eval's resume test covers a rerun in make test
+@pytest.mark.long
+@pytest.mark.parametrize("seed", [0, 1, 2])
 def test_ray_eval_driver_killed_at_a_random_moment_then_rerun_equals_an_uninterrupted_run(tmp_path, seed, ray_env):
     rng = random.Random(seed)
     config = tmp_path / "short.yaml"
