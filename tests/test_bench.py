@@ -37,6 +37,7 @@ def test_ratios_are_taken_within_a_round_and_summarised_by_median_and_spread():
     assert "+61% (+55..+70%)" == bench_report._ratio(rounds.summary([0.55, 0.61, 0.70]), percent=True)
 
 
+@pytest.mark.long  # about 15 s (every figure measured once): in make test-long
 def test_bench_writes_every_figure_with_medians_spreads_and_load(tmp_path):
     result = subprocess.run(
         [

@@ -113,7 +113,7 @@ print("RESULT " + json.dumps({{
 """
 
 
-@pytest.mark.long  # about 30 s (Ray starts, RLlib builds PPO): in make test-long; test_rllib covers RLlib in make test
+@pytest.mark.long  # about 30 s (Ray starts, RLlib builds PPO): in make test-long, as are test_rllib's runs
 def test_rllib_ppo(tmp_path):
     pytest.importorskip("ray.rllib", reason="needs the ray extra, which make test installs")
     batch, checkpoint = 256, tmp_path / "checkpoint"

@@ -69,6 +69,7 @@ print("RESULT " + json.dumps({"first": [first.steps, first.episodes], "resumed":
 """
 
 
+@pytest.mark.long  # about 40 s (Ray and RLlib start twice): in make test-long, with the RLlib kill tests
 def test_rllib_run_writes_its_folder_and_resumes(tmp_path):
     ray_tmp = tempfile.mkdtemp(prefix="aaairl", dir="/tmp")  # short: Ray's socket paths live here
     run, board = tmp_path / "run", tmp_path / "board.csv"
