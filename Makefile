@@ -73,7 +73,7 @@ docs: install-all
 play-screenshot: install-all $(CHROMIUM_BINARIES)
 	AAAI_PLAY_SCREENSHOT=docs/play.png $(BIN)/python -m pytest -q tests/test_play.py -k browser
 
-# The long checks (docs: Development, Long checks), about 25 minutes on 2 idle cores; CI runs them
+# The long checks (docs: Development, Long checks), about 35 minutes on 2 idle cores; CI runs them
 # after make test. The 20 slowest tests are listed at the end.
 # PostgreSQL's programs, for the long test of a study kept on a PostgreSQL server (tests/test_study_postgres.py).
 POSTGRES_PROGRAMS := /usr/lib/postgresql
