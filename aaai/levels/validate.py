@@ -637,8 +637,21 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     from where the body stands at most FOOD_REACH_HEIGHT below the piece's bottom (not on a pole or a
     block it cannot climb; on a platform it walks on to, yes: :func:`surface_heights`); a piece on what
     sinks (a pillar that brings it down) counts as on the floor. (From a top it does not reach down to
-    the floor beside it: the region keeps the body's footprint from the top's rim.)"""
-    x, y, z = food_places(food)[-1]
+    the floor beside it: the region keeps the body's footprint from the top's rim.) A piece that never
+    comes to rest (a bouncing one) is reachable if it is at its start or at any place of its path
+    within the level's time limit (:meth:`aaai.spec.behaviours.Behaviour.path`): it passes where the
+    body can wait for it."""
+    if _reachable_at(spec, region, food, food_places(food)[-1]):
+        return True
+    moving = behaviour_class(food)
+    return bool(moving) and any(
+        _reachable_at(spec, region, food, place) for place in moving.path(food, spec, spec.time_limit)
+    )
+
+
+def _reachable_at(spec: LevelSpec, region: np.ndarray, food: ObjectSpec, place) -> bool:
+    """:func:`food_reachable` for the piece at ``place`` (x, y, z)."""
+    x, y, z = place
     bottom = z - food.size[2] / 2
     if bottom > FOOD_REACH_HEIGHT and _on_sinking(spec, x, y):
         bottom = 0.0

@@ -11,6 +11,34 @@ from aaai.spec import LevelSpec, ObjectSpec
 TOLERANCE = 1e-3  # faces that touch do not overlap
 
 
+class Bounds:
+    """What a moving part (a random walker, a bouncing piece) steers clear of: the arena's edge and
+    the axis-aligned boxes round the footprints of the static solids inside the arena (not zones,
+    not food, not anything that moves). Built from a spec alone, so a part's path can be worked out
+    without physics (aaai.spec.behaviours.Bounce.path) as the world moves it."""
+
+    def __init__(self, spec: LevelSpec):
+        from aaai.spec.kinds import kind_class
+
+        self.half_x, self.half_y = spec.arena_size[0] / 2, spec.arena_size[1] / 2
+        self.boxes = [
+            footprint(obj)
+            for obj in spec.objects
+            if not obj.is_edible
+            and obj.mass == 0
+            and abs(obj.position[0]) < self.half_x
+            and abs(obj.position[1]) < self.half_y
+            and not getattr(kind_class(obj.kind), "zone", False)
+        ]
+
+    def blocked(self, x: float, y: float, radius: float) -> bool:
+        """Would a disc at (x, y) leave the arena or overlap a static solid's footprint box?"""
+        half_x, half_y = self.half_x - radius, self.half_y - radius
+        if not (-half_x <= x <= half_x and -half_y <= y <= half_y):
+            return True
+        return any(abs(x - ox) < hx + radius and abs(y - oy) < hy + radius for ox, oy, hx, hy in self.boxes)
+
+
 def merge_tiles(nx: int, ny: int, holes: set[tuple[int, int]]) -> list[tuple[int, int, int, int]]:
     """Covers the present tiles with few rectangles (i0, j0, i1, j1), end-exclusive.
 

@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pybullet as p
 
-from aaai.sim.geometry import footprint, merge_tiles
+from aaai.sim.geometry import Bounds, merge_tiles
 from aaai.sim.snapshot import Pose
 from aaai.spec import LevelSpec, ObjectSpec
 from aaai.spec.behaviours import Behaviour, Door, behaviour_class
@@ -60,14 +60,7 @@ class World:
         # the multi_food rule: the episode ends once every piece of such a kind is eaten
         self.all_end = {obj.kind for obj in self.food.values() if getattr(kind_class(obj.kind), "all_end", False)}
         self._eaten: bool | None = None  # all_eaten's answer, until food is eaten or a door closes
-        self._obstacles = [  # footprints that random walkers steer clear of
-            footprint(obj)
-            for obj in spec.objects
-            if not obj.is_edible
-            and obj.mass == 0
-            and _inside_arena(obj, spec)
-            and not getattr(kind_class(obj.kind), "zone", False)
-        ]
+        self.bounds = Bounds(spec)  # what random walkers and bouncing pieces steer clear of
 
     # --- building -------------------------------------------------------------------
     def _register(self, body: int, kind: str) -> None:
@@ -393,11 +386,4 @@ class World:
 
     def blocked(self, x: float, y: float, radius: float) -> bool:
         """Would a disc at (x, y) leave the arena or overlap a static solid's footprint?"""
-        half_x, half_y = self.spec.arena_size[0] / 2 - radius, self.spec.arena_size[1] / 2 - radius
-        if not (-half_x <= x <= half_x and -half_y <= y <= half_y):
-            return True
-        return any(abs(x - ox) < hx + radius and abs(y - oy) < hy + radius for ox, oy, hx, hy in self._obstacles)
-
-
-def _inside_arena(obj: ObjectSpec, spec: LevelSpec) -> bool:
-    return abs(obj.position[0]) < spec.arena_size[0] / 2 and abs(obj.position[1]) < spec.arena_size[1] / 2
+        return self.bounds.blocked(x, y, radius)

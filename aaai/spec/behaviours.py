@@ -26,6 +26,8 @@ import math
 from typing import ClassVar
 
 RANDOM_WALK_TURN = 2.0  # heading noise of a random walk, rad per sqrt(s)
+PATH_STEP = 0.02  # s: a bouncing piece's path (Bounce.path) is worked out in steps this long (the world's, by default)
+PATH_EVERY = 0.5  # s: ... and kept every this long (1.5 units at Animal-AI's bouncing speed here, 3 units/s)
 
 REGISTRY: dict[str, type["Behaviour"]] = {}
 
@@ -68,6 +70,12 @@ class Behaviour:
         """Where the part is heading, for the viewer's arrow (None: nowhere in particular)."""
         return None
 
+    @classmethod
+    def path(cls, obj, spec, seconds: float) -> list[tuple[float, float, float]]:
+        """Where a part that never comes to rest will be over its first ``seconds``, sampled (validate
+        counts food on such a path reachable where any place of it is; empty: not such a part)."""
+        return []
+
     def start(self, world, body: int) -> None:
         """Called once the body is in the world."""
 
@@ -108,15 +116,42 @@ class Bounce(Behaviour):
         heading = float(self.obj.behaviour["heading"])
         self.state = [*self.obj.position, math.cos(heading), math.sin(heading)]  # x, y, z, direction
 
-    def advance(self, world, body: int, dt: float, head) -> bool:
-        x, y, z, ux, uy = self.state
-        step, radius = self.obj.behaviour["speed"] * dt, self.obj.size[0] / 2
-        for dx, dy in ((ux, uy), (-ux, uy), (ux, -uy), (-ux, -uy)):  # on, or reflected off a side, or back
+    @staticmethod
+    def step(state: list[float], step: float, radius: float, blocked) -> None:
+        """Moves ``state`` (x, y, z, ux, uy) by ``step`` units: on, or reflected off a side, or back;
+        where every way is blocked it stays. ``blocked(x, y, radius)`` is the world's, or a spec's
+        :class:`aaai.sim.geometry.Bounds`' (one rule for both)."""
+        x, y, z, ux, uy = state
+        for dx, dy in ((ux, uy), (-ux, uy), (ux, -uy), (-ux, -uy)):
             nx, ny = x + step * dx, y + step * dy
-            if not world.blocked(nx, ny, radius):
-                self.state[:] = [nx, ny, z, dx, dy]
-                world.place(body, (nx, ny, z), None)
-                break
+            if not blocked(nx, ny, radius):
+                state[:] = [nx, ny, z, dx, dy]
+                return
+
+    @classmethod
+    def path(cls, obj, spec, seconds: float, every: float = PATH_EVERY) -> list[tuple[float, float, float]]:
+        """Where the piece is every ``every`` seconds of its first ``seconds`` (after its start), moved
+        as :meth:`advance` moves it, in steps of PATH_STEP seconds: the world's steps with the default
+        physics (timestep 0.01 s, action_repeat 2); with others a reflection comes up to a step earlier
+        or later there."""
+        from aaai.sim.geometry import Bounds
+
+        blocked = Bounds(spec).blocked
+        heading = float(obj.behaviour["heading"])
+        state = [*map(float, obj.position), math.cos(heading), math.sin(heading)]
+        step, radius = float(obj.behaviour["speed"]) * PATH_STEP, obj.size[0] / 2
+        places, per = [], max(1, round(every / PATH_STEP))
+        for index in range(1, int(seconds / PATH_STEP) + 1):
+            cls.step(state, step, radius, blocked)
+            if index % per == 0:
+                places.append((state[0], state[1], state[2]))
+        return places
+
+    def advance(self, world, body: int, dt: float, head) -> bool:
+        before = self.state[:2]
+        self.step(self.state, self.obj.behaviour["speed"] * dt, self.obj.size[0] / 2, world.blocked)
+        if self.state[:2] != before:
+            world.place(body, tuple(self.state[:3]), None)
         return False
 
 

@@ -10,6 +10,9 @@ own). Its tactic is the same in every level, driven by what the level holds:
 - a yellow on a sinking pillar (L2b): wait beside the pillar until the piece is down, eat it,
   then the green;
 - a sliding piece (L8): go to where it will stop;
+- a bouncing piece (Animal-AI's bouncing goals): while it is far, stand on its path where the body
+  gets first with INTERCEPT_MARGIN seconds to spare, before the episode's time is up (the path worked
+  out once, as the world moves it, aaai.spec.behaviours.Bounce), facing it; once it is near, go at it;
 - a big piece (Animal-AI's size 10, its centre HIGH_FOOD or more above the floor), which the front legs
   meet before the head: crouched up to it, then the head up, onto it;
 - sectors with doors (L9): only the sector with the most food, and every piece in it;
@@ -44,7 +47,7 @@ from aaai.levels.validate import FOOTPRINT_RADIUS
 from aaai.sim.gait import BACK_UP, SineGait, approach, steer
 from aaai.sim.geometry import corners
 from aaai.spec import LevelSpec, ObjectSpec
-from aaai.spec.behaviours import Sink, behaviour_class
+from aaai.spec.behaviours import PATH_STEP, Bounce, Sink, behaviour_class
 from aaai.spec.kinds import ENDING_KINDS, FOOD_KINDS, kind_class
 from aaai.task.arena import best_side
 from aaai.task.sphere_steer import SphereSteer
@@ -83,6 +86,11 @@ HOT_COST = 20.0  # extra path cost per unit where a foot may touch a hot zone
 HIGH_FOOD = 4.0  # a piece whose centre is this high (size 8 and more) is touched by the head rising from
 HEAD_UP = 2.2  # its crouch (to about this height) once near enough for the head up to touch it
 PLAN_NEAR = 1.5  # progress is the least plan cost this near a head just off the plan
+INTERCEPT_SPEED = 2.0  # units/s: the walking speed an interception counts on (about 2.7 on open floor)
+INTERCEPT_MARGIN = 3.0  # s: it stands on a bouncing piece's path this long before the piece comes by
+INTERCEPT_ROOM = 3.0  # it waits only where a wall, an edge or a zone is this much farther than its footprint
+INTERCEPT_PICK = 0.5  # s: the places of the path it picks from are this far apart
+INTERCEPT_EVERY = 1.0  # s: the place on the path is picked again this often
 
 
 class ReferenceController:
@@ -136,6 +144,8 @@ class ReferenceController:
         self.detour, self.approached, self.tries = None, set(), 0
         self.best_progress, self.progress_time, self.back_off_until = math.inf, 0.0, -1.0
         self.progress_key = None
+        self.intercepts: dict[int, tuple[float, tuple[float, float] | None]] = {}  # body -> (picked at, place)
+        self.bounce_paths: dict[int, tuple] = {}  # body -> a bouncing piece's path (_bounce_path)
         self.lures = self._lures(spec)
         side = best_side(spec) if self.ledge is not None else None  # start on a ledge: it takes one side
         if side is not None:  # the one whose food is worth most; the other sides' pieces are never gone for
@@ -260,15 +270,82 @@ class ReferenceController:
             down = [f for f in down if f not in last]
         if down:
             body, food, position = min(down, key=lambda f: math.dist(head[:2], f[2][:2]))
-            return self._food_goal(food, position), self.radius + food.size[0] / 2, body, avoid, False
+            return self._meet(head, body, food, position, avoid) or (
+                self._food_goal(food, position),
+                self.radius + food.size[0] / 2,
+                body,
+                avoid,
+                False,
+            )
         if sinking:
             body, food, position = min(sinking, key=lambda f: math.dist(head[:2], f[2][:2]))
             return position[:2], PILLAR_WAIT, ("wait", body), avoid, True
         if greens:
             body, food, position = max(greens, key=lambda f: (f[1].food_value, -math.dist(head[:2], f[2][:2])))
             others = [berth for berth, green in zip(avoid, greens) if green[0] != body]
-            return self._food_goal(food, position), self.radius + food.size[0] / 2, body, others, False
+            return self._meet(head, body, food, position, others) or (
+                self._food_goal(food, position),
+                self.radius + food.size[0] / 2,
+                body,
+                others,
+                False,
+            )
         return None
+
+    def _meet(self, head: np.ndarray, body: int, food: ObjectSpec, position, avoid):
+        """For a bouncing piece still far off: (its place to wait at, reach, key, avoid, wait), else None."""
+        reach = self.radius + food.size[0] / 2
+        if math.dist(head[:2], position[:2]) < DIRECT + reach:
+            return None
+        place = self._intercept(head, body, food)
+        return (place, self.radius, ("intercept", body), avoid, True) if place is not None else None
+
+    def _intercept(self, head: np.ndarray, body: int, food: ObjectSpec) -> tuple[float, float] | None:
+        """The first place on a bouncing piece's path, before the episode's time is up, where the body
+        can stand and gets to INTERCEPT_MARGIN seconds before the piece (None: not a bouncing piece, or
+        no such place). Picked again every INTERCEPT_EVERY seconds, from the path worked out once
+        (:meth:`_bounce_path`)."""
+        part = self.env.world.running.get(body)
+        if not isinstance(part, Bounce):
+            return None
+        now = self.env.steps * self.env.control_dt
+        picked = self.intercepts.get(body)
+        if picked is not None and now - picked[0] < INTERCEPT_EVERY:
+            return picked[1]
+        xs, ys, walkable, offset = self._bounce_path(body, part, food, now)
+        every = max(1, round(INTERCEPT_PICK / PATH_STEP))
+        ahead = np.arange(offset + every, len(xs), every)
+        walk_time = np.hypot(xs[ahead] - head[0], ys[ahead] - head[1]) / INTERCEPT_SPEED + INTERCEPT_MARGIN
+        fits = walkable[ahead] & (walk_time <= (ahead - offset) * PATH_STEP)
+        place = (float(xs[ahead[fits.argmax()]]), float(ys[ahead[fits.argmax()]])) if fits.any() else None
+        self.intercepts[body] = (now, place)
+        return place
+
+    def _bounce_path(self, body: int, part: Bounce, food: ObjectSpec, now: float):
+        """(xs, ys, walkable, offset): the piece's places every PATH_STEP to the end of the episode,
+        whether the body may wait at each (its walking region, INTERCEPT_ROOM more than its footprint clear), and the
+        index of now. Worked out
+        from the piece's state when first asked, and again if the piece is more than REPLAN_MOVE
+        from where the path puts it now (with other physics steps than PATH_STEP, or a new map)."""
+        kept = self.bounce_paths.get(body)
+        if kept is not None:
+            start, xs, ys, walkable, walk = kept
+            offset = round((now - start) / PATH_STEP)
+            if walk is self.walk and offset < len(xs):
+                if math.dist(part.state[:2], (xs[offset], ys[offset])) <= REPLAN_MOVE:
+                    return xs, ys, walkable, offset
+        state, places = list(part.state), [tuple(part.state[:2])]
+        step, radius = food.behaviour["speed"] * PATH_STEP, food.size[0] / 2
+        for _ in range(max(0, int((self.level.time_limit - now) / PATH_STEP))):
+            Bounce.step(state, step, radius, self.env.world.blocked)
+            places.append((state[0], state[1]))
+        xs, ys = (np.array(values) for values in zip(*places))
+        shape, size = self.walk.shape, self.level.arena_size
+        cols = np.clip(np.floor((xs + size[0] / 2) / validate.GRID), 0, shape[1] - 1).astype(int)
+        rows = np.clip(np.floor((ys + size[1] / 2) / validate.GRID), 0, shape[0] - 1).astype(int)
+        walkable = self.walk[rows, cols] & (self.clearance[rows, cols] > self.footprint + INTERCEPT_ROOM)
+        self.bounce_paths[body] = (now, xs, ys, walkable, self.walk)
+        return xs, ys, walkable, 0
 
     def _ends_episode(self, food: ObjectSpec) -> bool:
         """Is ``food`` the last piece left of a kind whose every piece eaten ends the episode (multi_food)?"""
@@ -330,6 +407,8 @@ class ReferenceController:
             target = rest, 0.5, "rest", [], False
         goal, reach, key, avoid, wait = target
         if wait and math.dist(head[:2], goal) <= reach + 1.0:
+            if isinstance(key, tuple) and key[0] == "intercept":  # on a bouncing piece's path: face the piece
+                goal = p.getBasePositionAndOrientation(key[1], physicsClientId=env.client)[0][:2]
             error = _angle(math.atan2(goal[1] - head[1], goal[0] - head[0]) - yaw)
             self.gait.command(0.0, steer(error, 0.0, reverse=False)[1] * 0.5)  # head, not tail, to it
             self._progress(0.0, now, key)
