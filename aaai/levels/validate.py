@@ -644,9 +644,9 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     if _reachable_at(spec, region, food, food_places(food)[-1]):
         return True
     moving = behaviour_class(food)
-    return bool(moving) and any(
-        _reachable_at(spec, region, food, place) for place in moving.path(food, spec, spec.time_limit)
-    )
+    if moving is None:
+        return False
+    return any(_reachable_at(spec, region, food, place) for place in moving.path(food, spec, spec.time_limit))
 
 
 def _reachable_at(spec: LevelSpec, region: np.ndarray, food: ObjectSpec, place) -> bool:
