@@ -10,9 +10,10 @@ own). Its tactic is the same in every level, driven by what the level holds:
 - a yellow on a sinking pillar (L2b): wait beside the pillar until the piece is down, eat it,
   then the green;
 - a sliding piece (L8): go to where it will stop;
-- a bouncing piece (Animal-AI's bouncing goals): while it is far, stand on its path where the body
-  gets first with INTERCEPT_MARGIN seconds to spare, before the episode's time is up (the path worked
-  out once, as the world moves it, aaai.spec.behaviours.Bounce), facing it; once it is near, go at it;
+- a bouncing piece (Animal-AI's bouncing goals), with the quadruped: while it is far, stand on its
+  path where the body gets first with INTERCEPT_MARGIN seconds to spare, before the episode's time is
+  up (the path worked out once, as the world moves it, aaai.spec.behaviours.Bounce), facing it; once
+  it is near, go at it (the sphere, many times as fast, goes straight at it);
 - a big piece (Animal-AI's size 10, its centre HIGH_FOOD or more above the floor), which the front legs
   meet before the head: crouched up to it, then the head up, onto it;
 - sectors with doors (L9): only the sector with the most food, and every piece in it;
@@ -293,7 +294,10 @@ class ReferenceController:
         return None
 
     def _meet(self, head: np.ndarray, body: int, food: ObjectSpec, position, avoid):
-        """For a bouncing piece still far off: (its place to wait at, reach, key, avoid, wait), else None."""
+        """For a bouncing piece still far off: (its place to wait at, reach, key, avoid, wait), else None.
+        Not for the sphere: many times as fast as a bouncing piece, it goes straight at it."""
+        if self.sphere:
+            return None
         reach = self.radius + food.size[0] / 2
         if math.dist(head[:2], position[:2]) < DIRECT + reach:
             return None
