@@ -271,27 +271,21 @@ class ReferenceController:
             down = [f for f in down if f not in last]
         if down:
             body, food, position = min(down, key=lambda f: math.dist(head[:2], f[2][:2]))
-            return self._meet(head, body, food, position, avoid) or (
-                self._food_goal(food, position),
-                self.radius + food.size[0] / 2,
-                body,
-                avoid,
-                False,
-            )
+            return self._go_for(head, body, food, position, avoid)
         if sinking:
             body, food, position = min(sinking, key=lambda f: math.dist(head[:2], f[2][:2]))
             return position[:2], PILLAR_WAIT, ("wait", body), avoid, True
         if greens:
             body, food, position = max(greens, key=lambda f: (f[1].food_value, -math.dist(head[:2], f[2][:2])))
             others = [berth for berth, green in zip(avoid, greens) if green[0] != body]
-            return self._meet(head, body, food, position, others) or (
-                self._food_goal(food, position),
-                self.radius + food.size[0] / 2,
-                body,
-                others,
-                False,
-            )
+            return self._go_for(head, body, food, position, others)
         return None
+
+    def _go_for(self, head: np.ndarray, body: int, food: ObjectSpec, position, avoid):
+        """The target for eating ``food`` (body id ``body``, now at ``position``): where it is, where it
+        will stop (:meth:`_food_goal`), or, for a bouncing piece still far off, where to wait (:meth:`_meet`)."""
+        eat = (self._food_goal(food, position), self.radius + food.size[0] / 2, body, avoid, False)
+        return self._meet(head, body, food, position, avoid) or eat
 
     def _meet(self, head: np.ndarray, body: int, food: ObjectSpec, position, avoid):
         """For a bouncing piece still far off: (its place to wait at, reach, key, avoid, wait), else None.
