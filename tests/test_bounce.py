@@ -9,6 +9,7 @@ import numpy as np
 from conftest import open_arena
 
 from aaai.levels import validate
+from aaai.sim.geometry import Bounds
 from aaai.spec import ObjectSpec
 from aaai.spec.behaviours import PATH_STEP, Bounce
 from aaai.task.reference import ReferenceController
@@ -39,7 +40,8 @@ def test_the_world_moves_a_bouncing_piece_along_the_path_worked_out_without_phys
     for _ in range(200):  # 20 s in gait decisions of 0.1 s: off the block, the arena's walls, and back
         env.step(np.zeros(3, np.float32))
         moved.append(env.unwrapped.world.food_positions()[0])
-    path = Bounce.path(env.unwrapped.level_spec.foods[0], env.unwrapped.level_spec, 20.0, every=0.1)
+    spec = env.unwrapped.level_spec
+    path = Bounce.path(spec.foods[0], Bounds(spec).blocked, 20.0, every=0.1)
     np.testing.assert_allclose(np.array(moved), np.array(path), atol=1e-9)
     headings = [(np.sign(b[0] - a[0]), np.sign(b[1] - a[1])) for a, b in zip(path, path[1:])]
     assert sum(a != b for a, b in zip(headings, headings[1:])) >= 2  # reflected off the block, then a wall
@@ -62,7 +64,7 @@ def test_a_first_reachable_place_between_the_bounds_of_the_time_limit():
     food = spec.foods[0]
     region, clear = validate.reachable_region(spec)
     assert clear
-    places = Bounce.path(food, spec, 60.0)
+    places = Bounce.path(food, Bounds(spec).blocked, 60.0)
     first = next(i for i, place in enumerate(places) if validate._reachable_at(spec, region, food, place))
     seconds = (first + 1) * 0.5  # places are kept every 0.5 s
     just_short = dataclasses.replace(spec, time_limit=seconds - 0.25)

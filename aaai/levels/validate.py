@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
-from aaai.sim.geometry import TOLERANCE, corners, footprints_overlap
+from aaai.sim.geometry import TOLERANCE, Bounds, corners, footprints_overlap
 from aaai.spec import LevelSpec, ObjectSpec
 from aaai.spec.behaviours import REGISTRY, behaviour_class
 from aaai.spec.kinds import REGISTRY as REGISTRY_KINDS
@@ -646,7 +646,8 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     moving = behaviour_class(food)
     if moving is None:
         return False
-    return any(_reachable_at(spec, region, food, place) for place in moving.path(food, spec, spec.time_limit))
+    places = moving.path(food, Bounds(spec).blocked, spec.time_limit)
+    return any(_reachable_at(spec, region, food, place) for place in places)
 
 
 def _reachable_at(spec: LevelSpec, region: np.ndarray, food: ObjectSpec, place) -> bool:

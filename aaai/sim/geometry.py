@@ -7,6 +7,7 @@ import math
 from collections.abc import Sequence
 
 from aaai.spec import LevelSpec, ObjectSpec
+from aaai.spec.kinds import kind_class
 
 TOLERANCE = 1e-3  # faces that touch do not overlap
 
@@ -15,11 +16,9 @@ class Bounds:
     """What a moving part (a random walker, a bouncing piece) steers clear of: the arena's edge and
     the axis-aligned boxes round the footprints of the static solids inside the arena (not zones,
     not food, not anything that moves). Built from a spec alone, so a part's path can be worked out
-    without physics (aaai.spec.behaviours.Bounce.path) as the world moves it."""
+    without physics (aaai.spec.behaviours.Bounce.path, given its ``blocked``) as the world moves it."""
 
     def __init__(self, spec: LevelSpec):
-        from aaai.spec.kinds import kind_class
-
         self.half_x, self.half_y = spec.arena_size[0] / 2, spec.arena_size[1] / 2
         self.boxes = [
             footprint(obj)
@@ -82,14 +81,6 @@ def missing_floor(spec: LevelSpec) -> list[tuple[float, float, float, float]]:
     ]
 
 
-def footprint(obj: ObjectSpec) -> tuple[float, float, float, float]:
-    """Centre and half extents (x, y) of the axis-aligned box around an object's footprint."""
-    cos, sin = abs(math.cos(obj.yaw)), abs(math.sin(obj.yaw))
-    half_x = 0.5 * (cos * obj.size[0] + sin * obj.size[1])
-    half_y = 0.5 * (sin * obj.size[0] + cos * obj.size[1])
-    return obj.position[0], obj.position[1], half_x, half_y
-
-
 Quad = tuple[tuple[float, float], ...]
 
 
@@ -122,6 +113,14 @@ def footprints_overlap(a: Sequence[tuple[float, float]], b: Sequence[tuple[float
             if max(pa) + margin <= min(pb) or max(pb) + margin <= min(pa):
                 return False
     return True
+
+
+def footprint(obj: ObjectSpec) -> tuple[float, float, float, float]:
+    """Centre and half extents (x, y) of the axis-aligned box around an object's footprint."""
+    cos, sin = abs(math.cos(obj.yaw)), abs(math.sin(obj.yaw))
+    half_x = 0.5 * (cos * obj.size[0] + sin * obj.size[1])
+    half_y = 0.5 * (sin * obj.size[0] + cos * obj.size[1])
+    return obj.position[0], obj.position[1], half_x, half_y
 
 
 def distance_to_footprint(obj: ObjectSpec, x: float, y: float) -> float:

@@ -71,9 +71,10 @@ class Behaviour:
         return None
 
     @classmethod
-    def path(cls, obj, spec, seconds: float) -> list[tuple[float, float, float]]:
-        """Where a part that never comes to rest will be over its first ``seconds``, sampled (validate
-        counts food on such a path reachable where any place of it is; empty: not such a part)."""
+    def path(cls, obj, blocked, seconds: float) -> list[tuple[float, float, float]]:
+        """Where a part that never comes to rest will be over its first ``seconds``, sampled, moved off
+        what ``blocked(x, y, radius)`` says (validate counts food on such a path reachable where any
+        place of it is; empty: not such a part)."""
         return []
 
     def start(self, world, body: int) -> None:
@@ -129,14 +130,12 @@ class Bounce(Behaviour):
                 return
 
     @classmethod
-    def path(cls, obj, spec, seconds: float, every: float = PATH_EVERY) -> list[tuple[float, float, float]]:
+    def path(cls, obj, blocked, seconds: float, every: float = PATH_EVERY) -> list[tuple[float, float, float]]:
         """Where the piece is every ``every`` seconds of its first ``seconds`` (after its start), moved
-        as :meth:`advance` moves it, in steps of PATH_STEP seconds: the world's steps with the default
-        physics (timestep 0.01 s, action_repeat 2); with others a reflection comes up to a step earlier
-        or later there."""
-        from aaai.sim.geometry import Bounds
-
-        blocked = Bounds(spec).blocked
+        as :meth:`advance` moves it, off what ``blocked(x, y, radius)`` says (the spec's
+        :class:`aaai.sim.geometry.Bounds`, as the world's), in steps of PATH_STEP seconds: the world's
+        steps with the default physics (timestep 0.01 s, action_repeat 2); with others a reflection
+        comes up to a step earlier or later there."""
         heading = float(obj.behaviour["heading"])
         state = [*map(float, obj.position), math.cos(heading), math.sin(heading)]
         step, radius = float(obj.behaviour["speed"]) * PATH_STEP, obj.size[0] / 2
