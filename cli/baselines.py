@@ -39,7 +39,8 @@ from .options import WORKERS, Output, parse_levels, parse_range, rule
     "more",
     multiple=True,
     metavar="NAME=RUN",
-    help="Another trained run, scored as NAME (a-z, 0-9 and _; e.g. student_lstm=runs/student_lstm); repeatable.",
+    help="Another trained run (a run folder or a model file), scored as NAME (a-z, 0-9 and _; e.g. "
+    "student_lstm=runs/student_lstm or student=baselines/models/student.zip); repeatable.",
 )
 @click.option(
     "--only",
@@ -107,8 +108,8 @@ def baselines_command(
                 f"--learned: got {given!r}; allowed: NAME=RUN, NAME of 1-40 of a-z, 0-9 and _, not random, "
                 "reference, ppo_demo or a name given twice"
             )
-        if not Path(path).is_dir():
-            raise click.UsageError(f"--learned: got {given!r}; {path!r} is not a run folder")
+        if not Path(path).is_dir() and not (Path(path).suffix == ".zip" and Path(path).is_file()):
+            raise click.UsageError(f"--learned: got {given!r}; {path!r} is not a run folder or a model file (.zip)")
         learned[name] = Path(path)
     chosen = [name.strip() for name in only.split(",")] if only else None
     needs_demo = chosen is None or "ppo_demo" in chosen

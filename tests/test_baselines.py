@@ -1,6 +1,7 @@
 """make baselines: three scoreboards, a pass-rate table and a heatmap, on the reserved seeds."""
 
 import csv
+from pathlib import Path
 
 import cv2
 import pytest
@@ -90,13 +91,25 @@ def test_aaai_baselines_scores_any_trained_run_given_as_learned(tmp_path):
     assert trained.exit_code == 0, trained.output
     out = tmp_path / "baselines"
     args = ["baselines", "--out", str(out), "--levels", "0", "--difficulty", "0", "-k", "1", "--workers", "1"]
-    result = CliRunner().invoke(cli, [*args, "--learned", f"my_run2={run}", "--only", "my_run2"])
+    model = Path(__file__).resolve().parents[1] / "baselines" / "models" / "student.zip"  # a committed model file
+    given = ["--learned", f"my_run2={run}", "--learned", f"my_model={model}", "--only", "my_run2,my_model"]
+    result = CliRunner().invoke(cli, [*args, *given])
     assert result.exit_code == 0, result.output
-    assert (out / "my_run2.csv").is_file() and "my_run2" in (out / "table.md").read_text().splitlines()[0]
+    header = (out / "table.md").read_text().splitlines()[0]
+    assert (out / "my_run2.csv").is_file() and "my_run2" in header
+    assert (out / "my_model.csv").is_file() and "my_model" in header
 
 
 def test_aaai_baselines_refuses_a_learned_run_badly_named_or_missing(tmp_path):
     args = ["baselines", "--out", str(tmp_path / "out"), "--levels", "0", "--difficulty", "0", "-k", "1"]
-    for bad in ("My-Run=x", f"reference={tmp_path}", f"student_x={tmp_path}/missing", "noequals"):
+    (tmp_path / "notes.txt").write_text("not a model")
+    for bad in (
+        "My-Run=x",
+        f"reference={tmp_path}",
+        f"student_x={tmp_path}/missing",
+        f"student_x={tmp_path}/missing.zip",
+        f"student_x={tmp_path}/notes.txt",
+        "noequals",
+    ):
         refused = CliRunner().invoke(cli, [*args, "--learned", bad, "--only", "reference"])
         assert refused.exit_code == 2 and f"--learned: got {bad!r}" in refused.output, (bad, refused.output)
