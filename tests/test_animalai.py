@@ -305,3 +305,35 @@ def test_a_skipped_arena_is_named_in_a_short_line_however_large_its_value(tmp_pa
     result, _, _ = run_import(tmp_path, text)
     assert result.exit_code == 1 and "attack.yaml, arena 0: items must be a list, got {'a': [" in result.output
     assert len(result.output) < 1000, result.output
+
+
+def test_a_negative_pass_mark_is_passed_by_standing_still_here_only_where_it_is_in_animalai(tmp_path, make_env):
+    """Animal-AI's agent that eats nothing ends an episode at -1 (its time cost), ours at -0.5 to -1:
+    a pass mark a hair above -1 must fail it, a hair below pass it (physics: the body stands still to
+    the time limit, 20 of Animal-AI's steps, with the food out of its way)."""
+    import numpy as np
+
+    results = {}
+    for mark in (-0.99, -1.01):
+        source = tmp_path / f"still{mark}.yaml"
+        source.write_text(
+            "!ArenaConfig\narenas:\n  0: !Arena\n"
+            f"    pass_mark: {mark}\n    t: 20\n    items:\n"
+            "    - !Item\n      name: Agent\n      positions:\n      - !Vector3 {x: 20, y: 0, z: 5}\n"
+            "      rotations: [0]\n"
+            "    - !Item\n      name: GoodGoal\n      positions:\n      - !Vector3 {x: 20, y: 0, z: 35}\n"
+            "      sizes:\n      - !Vector3 {x: 1, y: 1, z: 1}\n"
+        )
+        (converted,) = convert_file(source, fitted=False)
+        (tmp_path / converted.name).write_text(converted.text)
+        spec = load_arena(tmp_path / converted.name, 0)
+        env = make_env(action_mode="gait")
+        env.reset(seed=0, options={"spec": spec, "check": False})
+        total, done = 0.0, False
+        while not done:
+            _, reward, terminated, truncated, info = env.step(np.zeros(env.action_space.shape, np.float32))
+            total += reward
+            done = terminated or truncated
+        assert info["food_eaten"] == 0 and not info["fell"] and -1.0 <= total <= -0.5, total
+        results[mark] = passed(total, spec)
+    assert results == {-0.99: False, -1.01: True}

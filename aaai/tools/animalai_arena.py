@@ -13,8 +13,11 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
 - ``t`` / ``timeLimit`` (steps) -> time_limit t x SECONDS_PER_STEP x scale seconds, one rule for
   every file (250 steps: 160 s at scale 5, 500: 320 s, 1000: 640 s), at most MAX_TIME (t = 0, no limit: MAX_TIME);
 - ``pass_mark`` / ``passMark`` p -> pass_mark: food rewards grow with the scale and the time costs
-  (at most 1 in an episode in both) do not, so p <= 0 becomes scale x p and p > 0 becomes
-  max(scale x p - (scale - 1) / 2, scale x p / 2);
+  do not (a whole episode costs Animal-AI's agent 1, ours 0.5 to 1: LEAST_TIME_COST), so p > 0
+  becomes max(scale x p - (scale - 1) / 2, scale x p / 2); -1 <= p <= 0 (the food must pay for the
+  time used, less -p: an agent that eats nothing fails) becomes LEAST_TIME_COST x p, which an agent
+  that eats nothing reaches only at p = -1, as in Animal-AI; p < -1 (an agent that waits passes
+  unless it dies or eats bad food) stays p;
 - ``blackouts: [-n]`` (dark and light every n frames) -> blackout {light, dark} of n steps each;
   rising frames f1, f2, ... (dark from f1 to f2, ...) -> blackout {switches: [seconds]}, a frame a step;
 - -1 (or a missing value) in a position or rotation -> ``{uniform: [low, high]}``, drawn afresh
@@ -155,6 +158,22 @@ _SHOWN = reprlib.Repr()
 _SHOWN.maxlevel, _SHOWN.maxstring, _SHOWN.maxother, _SHOWN.maxlist, _SHOWN.maxdict = 3, 60, 60, 6, 6
 
 
+# The least a whole episode's time costs our agent (aaai.task.rewards: the step term, -0.5/T a step;
+# the head on the floor doubles it), against Animal-AI's 1 (-1/T a step).
+LEAST_TIME_COST = 0.5
+
+
+def pass_mark(mark: float, scale: float) -> float:
+    """Animal-AI's pass mark ``mark`` as ours at ``scale`` (the module's rule): food pays ``scale``
+    times as much here, time costs the same or less, so an agent that eats nothing passes here where it
+    passes there (``mark`` <= -1) and fails where it fails there (-1 < ``mark`` <= 0)."""
+    if mark > 0:
+        return max(scale * mark - (scale - 1) / 2, scale * mark / 2)
+    if mark >= -1:
+        return LEAST_TIME_COST * mark
+    return float(mark)
+
+
 def shown(value: object) -> str:
     """A value from the file as a message shows it: its repr, cut short (an alias can make it huge)."""
     return _SHOWN.repr(value)
@@ -236,7 +255,7 @@ class _Arena:
             if not is_number(mark):
                 raise Unmappable(f"{self.source}, arena {self.key}: pass mark {shown(mark)}; allowed: a number")
             s = self.scale
-            out["pass_mark"] = round(s * mark if mark <= 0 else max(s * mark - (s - 1) / 2, s * mark / 2), 4)
+            out["pass_mark"] = round(pass_mark(mark, s), 4)
             out["reach"] = "pass_mark"  # food out of reach is a lure as long as what can be reached passes
         blackouts = arena.get("blackouts")
         if blackouts:

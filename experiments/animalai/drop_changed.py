@@ -1,0 +1,58 @@
+"""Drop from battery scoreboards the rows of arena files that changed or left the battery since they
+were scored, so that `aaai baselines --battery` scores those files again and leaves every other row
+as it is.
+
+    python experiments/animalai/drop_changed.py BATTERY baselines/battery/reference.csv ...
+
+BATTERY is the new import (`aaai import-animalai`'s --out). For each scoreboard, a row is dropped when
+its file is no longer at BATTERY's top level (no longer valid on every seed) or its SHA-256 differs
+from the one the scoreboard's record (``<name>_scored_with.json``, ``arena_sha256``) holds; the
+record loses those files' hashes, and its ``arenas`` names BATTERY. Both files are rewritten
+atomically. Prints what was dropped. `aaai baselines --battery BATTERY --battery-seeds N --only ...`
+then scores the missing episodes (the files changed, and the files new to the battery).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import sys
+from pathlib import Path
+
+from aaai.files import file_sha256, write_atomic
+
+
+def drop(battery: Path, board: Path) -> list[str]:
+    record_path = board.with_name(board.stem + "_scored_with.json")
+    record = json.loads(record_path.read_text())
+    hashes: dict[str, str] = record["arena_sha256"]
+    now = {p.name: file_sha256(p) for p in battery.glob("*.yaml")}
+    gone = sorted(name for name, sha in hashes.items() if now.get(name) != sha)
+    with board.open(newline="") as f:
+        reader = csv.DictReader(f)
+        fields, rows = reader.fieldnames or [], list(reader)
+    kept = [row for row in rows if row["arena"] not in gone]
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=fields)  # as aaai eval writes them: \r\n
+    writer.writeheader()
+    writer.writerows(kept)
+    write_atomic(board, text.getvalue())
+    record["arena_sha256"] = {name: sha for name, sha in hashes.items() if name not in gone}
+    record["arenas"] = str(battery.resolve())
+    write_atomic(record_path, json.dumps(record, indent=1, sort_keys=True) + "\n")
+    print(f"{board}: {len(rows) - len(kept)} rows of {len(gone)} files dropped: {', '.join(gone)}")
+    return gone
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) < 2:
+        print(__doc__)
+        return 2
+    for board in argv[1:]:
+        drop(Path(argv[0]), Path(board))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
