@@ -40,7 +40,7 @@ from .options import WORKERS, Output, parse_levels, parse_range, rule
     multiple=True,
     metavar="NAME=RUN",
     help="Another trained run (a run folder or a model file), scored as NAME (a-z, 0-9 and _; e.g. "
-    "student_lstm=runs/student_lstm or student=baselines/models/student.zip); repeatable.",
+    "student_lstm=runs/student_lstm or sfm=baselines/models/student_food_memory.zip); repeatable.",
 )
 @click.option(
     "--only",
