@@ -108,9 +108,10 @@ def baselines_command(
                 f"--learned: got {given!r}; allowed: NAME=RUN, NAME of 1-40 of a-z, 0-9 and _, not random, "
                 "reference, ppo_demo or a name given twice"
             )
-        if not Path(path).is_dir() and not (Path(path).suffix == ".zip" and Path(path).is_file()):
+        target = Path(path)
+        if not target.is_dir() and not (target.suffix == ".zip" and target.is_file()):
             raise click.UsageError(f"--learned: got {given!r}; {path!r} is not a run folder or a model file (.zip)")
-        learned[name] = Path(path)
+        learned[name] = target
     chosen = [name.strip() for name in only.split(",")] if only else None
     needs_demo = chosen is None or "ppo_demo" in chosen
     if needs_demo and not Path(demo_run).is_dir():

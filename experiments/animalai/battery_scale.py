@@ -12,7 +12,6 @@ to the nearest good food (within the student's ray length, 50; 50 to 100; beyond
 
 from __future__ import annotations
 
-import csv
 import math
 import statistics
 import sys
@@ -21,27 +20,25 @@ from pathlib import Path
 from aaai.levels import all_levels, generate
 from aaai.spec import LevelSpec
 from aaai.task.arena import parse_arena
+from aaai.tools.baselines import passed
+from aaai.train.limbs import read_rows
 
-BUCKETS = (
-    (0.0, 50.0, "up to 50 (student_food_memory's ray length; student_search's is 15)"),
+BUCKETS = (  # (low, high]: the first takes in food right at the start
+    (-math.inf, 50.0, "up to 50 (student_food_memory's ray length; student_search's is 15)"),
     (50.0, 100.0, "50 to 100"),
     (100.0, math.inf, "beyond 100"),
 )
 
 
-def _good(spec: LevelSpec) -> list:
-    return [o for o in spec.objects if "food" in o.kind and not o.kind.startswith("bad")]
-
-
 def _nearest(spec: LevelSpec) -> float:
-    return min(
-        (math.hypot(o.position[0] - spec.agent.x, o.position[1] - spec.agent.y) for o in _good(spec)), default=math.nan
-    )
+    """From the agent's start to the nearest piece of good food (``spec.foods``: not bad food)."""
+    start = (spec.agent.x, spec.agent.y)
+    return min((math.dist(start, food.position[:2]) for food in spec.foods), default=math.nan)
 
 
 def _describe(name: str, specs: list[LevelSpec]) -> str:
     widths = sorted({s.arena_size[0] for s in specs})
-    sizes = sorted({o.size[0] for s in specs for o in _good(s)})
+    sizes = sorted({food.size[0] for s in specs for food in s.foods})
     near = [d for d in map(_nearest, specs) if not math.isnan(d)]
     return (
         f"| {name} | {len(specs)} | {widths[0]:g} to {widths[-1]:g} | {sizes[0]:g} to {sizes[-1]:g} | "
@@ -54,27 +51,21 @@ def main(argv: list[str]) -> int:
         print(__doc__)
         return 2
     battery, boards = Path(argv[0]), [Path(a) for a in argv[1:]]
-    files = sorted(p.name for p in battery.glob("*.yaml"))
-    specs = {name: parse_arena(battery / name, 0)[0] for name in files}
+    specs = {path.name: parse_arena(path, 0)[0] for path in sorted(battery.glob("*.yaml"))}
+    distance = {name: _nearest(spec) for name, spec in specs.items()}
     levels = [generate(level, d, seed) for level in all_levels() for d in (0, 5, 10) for seed in (1000, 1001)]
     print("| specs | how many | arena across | good food across | start to nearest good food: median | farthest |")
     print("|---|---:|---:|---:|---:|---:|")
     print(_describe("the levels (a sample)", levels))
     print(_describe("the battery's valid files, seed 0", list(specs.values())))
     print()
-    names = [b.stem for b in boards]
-    print("| start to nearest good food | files | " + " | ".join(names) + " |")
-    print("|---|---:|" + "---:|" * len(names))
-    passed = []
-    for board in boards:
-        with board.open(newline="") as f:
-            rows = {r["arena"]: r for r in csv.DictReader(f) if r["seed"] == "0"}
-        passed.append({a for a, r in rows.items() if r["outcome"] in ("succeeded", "passed")})
+    print("| start to nearest good food | files | " + " | ".join(b.stem for b in boards) + " |")
+    print("|---|---:|" + "---:|" * len(boards))
+    passes = [{row["arena"] for row in read_rows(b) if row["seed"] == "0" and passed(row)} for b in boards]
     for low, high, label in BUCKETS:
-        inside = [n for n in files if low < _nearest(specs[n]) <= high or (low == 0 and _nearest(specs[n]) == 0)]
+        inside = {name for name, d in distance.items() if low < d <= high}
         cells = [
-            f"{len(p & set(inside))}/{len(inside)} ({100 * len(p & set(inside)) / max(len(inside), 1):.0f} %)"
-            for p in passed
+            f"{len(p & inside)}/{len(inside)} ({100 * len(p & inside) / max(len(inside), 1):.0f} %)" for p in passes
         ]
         print(f"| {label} | {len(inside)} | " + " | ".join(cells) + " |")
     return 0

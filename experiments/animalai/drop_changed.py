@@ -20,27 +20,26 @@ import json
 import sys
 from pathlib import Path
 
-from aaai.files import file_sha256, write_atomic
+from aaai.files import write_atomic
+from aaai.scoring.provenance import ARENA_HASHES, arena_hashes, read_record, record_path
+from aaai.train.limbs import read_rows
 
 
 def drop(battery: Path, board: Path) -> list[str]:
-    record_path = board.with_name(board.stem + "_scored_with.json")
-    record = json.loads(record_path.read_text())
-    hashes: dict[str, str] = record["arena_sha256"]
-    now = {p.name: file_sha256(p) for p in battery.glob("*.yaml")}
+    record = read_record(board)
+    hashes: dict[str, str] = record[ARENA_HASHES]
+    now = arena_hashes(battery.glob("*.yaml"))
     gone = sorted(name for name, sha in hashes.items() if now.get(name) != sha)
-    with board.open(newline="") as f:
-        reader = csv.DictReader(f)
-        fields, rows = reader.fieldnames or [], list(reader)
+    rows = read_rows(board)
     kept = [row for row in rows if row["arena"] not in gone]
     text = io.StringIO()
-    writer = csv.DictWriter(text, fieldnames=fields)  # as aaai eval writes them: \r\n
+    writer = csv.DictWriter(text, fieldnames=list(rows[0]))  # as aaai eval writes them: \r\n
     writer.writeheader()
     writer.writerows(kept)
     write_atomic(board, text.getvalue())
-    record["arena_sha256"] = {name: sha for name, sha in hashes.items() if name not in gone}
+    record[ARENA_HASHES] = {name: sha for name, sha in hashes.items() if name not in gone}
     record["arenas"] = str(battery.resolve())
-    write_atomic(record_path, json.dumps(record, indent=1, sort_keys=True) + "\n")
+    write_atomic(record_path(board), json.dumps(record, indent=1, sort_keys=True) + "\n")
     print(f"{board}: {len(rows) - len(kept)} rows of {len(gone)} files dropped: {', '.join(gone)}")
     return gone
 
