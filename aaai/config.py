@@ -143,6 +143,7 @@ RULES: dict[str, Rule] = {
     "sensors.ray_length": Rule("float", 1, 100),
     "sensors.ray_memory": Rule("int", 0, 10),  # earlier food sightings 1, 2, 4 .. 2^(n-1) steps back (0: none)
     "sensors.food_memory": Rule("int", 0, 16),  # the n nearest pieces of food the rays have shown (0: none)
+    "sensors.sweep_memory": Rule("int", 0, 36),  # where the rays have looked, in n sectors round the body (0: none)
     "sensors.ray_down_fan": Rule("float", 0, 45),  # degrees: a second fan pitched down (0: none)
     "sensors.ray_width": Rule("float", 0, 5),  # aaai.sim.sensors.Rays: 0 thin lines; w: two more rays +-w/2 aside
     "sensors.camera": Rule("bool"),
@@ -246,6 +247,7 @@ class SensorsConfig:
     ray_down_fan: float
     ray_memory: int
     food_memory: int
+    sweep_memory: int
     rays_flat: bool
     ray_kinds: str
     ray_width: float
@@ -543,7 +545,13 @@ def load_config(config: str | Path | Mapping[str, Any] | Config | None = None, *
     return Config.from_flat(flat)
 
 
-RAY_OPTIONS = ("sensors.ray_memory", "sensors.food_memory", "sensors.ray_down_fan", "sensors.ray_width")
+RAY_OPTIONS = (
+    "sensors.ray_memory",
+    "sensors.food_memory",
+    "sensors.sweep_memory",
+    "sensors.ray_down_fan",
+    "sensors.ray_width",
+)
 
 
 def _check_ray_options(flat: Mapping[str, Any]) -> None:

@@ -81,6 +81,7 @@ class EnvKeywords(TypedDict, total=False):
     ray_length: float
     ray_memory: int
     food_memory: int
+    sweep_memory: int
     ray_down_fan: float
     ray_width: float
     camera: bool
@@ -185,6 +186,9 @@ class AnimalAIEnv(gym.Env):
     - ``food_memory`` (int, default ``0``): 0..16: the n nearest pieces of food the rays have shown, carried with the
       body (observation key food_memory: n x 7: present, green, yellow, ahead, left, size, age; docs: Environment) (an
       integer from 0 to 16)
+    - ``sweep_memory`` (int, default ``0``): 0..36: where the rays have looked, in n sectors round the body
+      (observation key sweep_memory: n x 3, the share of the floor not yet looked over within 1, 2 and 4 ray lengths;
+      docs: Environment) (an integer from 0 to 36)
     - ``ray_down_fan`` (float, default ``0.0``): degrees, 0..45: the same fan again, pitched this far below the
       head's plane (0: none). The head walks about 2.3 high, so level rays pass over food smaller than that; a fan 8
       degrees down sees size-2 food 2 to 16 away (a number from 0 to 45)

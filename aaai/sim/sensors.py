@@ -65,6 +65,7 @@ class Rays:
         self.eye = EYE_OFFSET  # from the head's centre to where the rays start (the body's, Senses.start)
         angles = np.radians(np.linspace(-max_angle, max_angle, 2 * rays_per_side + 1))
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
+        self.level_rays = len(angles)  # the rows of the level fan (the down fan's follow)
         if down_fan > 0:  # the same fan again, pitched down_fan degrees below the head's plane
             pitch = np.radians(down_fan)
             lower = np.stack(
@@ -370,6 +371,94 @@ class FoodMemory:
         return out
 
 
+SWEEP_CELLS = 15  # cells of the sweep memory's map of the floor to a ray's length (1 unit for the default 15)
+SWEEP_RINGS = (1.0, 2.0, 4.0)  # its rings' outer radii, in ray lengths: near, middle, far
+SWEEP_BODY = 2.0  # floor this close to the head counts as looked over (the body stands there)
+
+
+class SweepMemory:
+    """Where the rays have looked: a map of the arena's floor in square cells (SWEEP_CELLS of them to
+    a ray's length), each marked once the level fan has passed over its centre (nearer than what the
+    rays hit at its bearing: the reach of the two rays either side, interpolated) or the head has
+    been within SWEEP_BODY of it.
+
+    The observation, shape (sectors, 3), says how much of the floor round the body is still unlooked
+    at: ``sectors`` equal sectors of directions, the first centred straight ahead and the rest going
+    round to the left, each cut into three rings (out to 1, 2 and 4 ray lengths); each reads the share
+    of that ring-sector's cells, inside the arena, not yet looked over (0 when it holds none). A cell
+    is placed by its offset from the cell the head is in (to within half a cell). It is the searching
+    teacher's map of where it has looked (aaai.task.search), as a sense: unexplored space lies where it
+    reads high. The arena's size is the one fact it takes from the level; what is in the arena comes
+    from the rays alone (the inside of a wall is never looked over)."""
+
+    def __init__(self, rays: Rays, sectors: int):
+        self.rays = rays
+        self.sectors = sectors
+        self.space = spaces.Box(0.0, 1.0, (sectors, len(SWEEP_RINGS)), np.float32)
+        fan = rays.local_dirs[: rays.level_rays]
+        self.angles = np.arctan2(fan[:, 1], fan[:, 0])  # the level fan's bearings, right to left
+        self.all_round = self.angles[-1] - self.angles[0] >= 2 * math.pi - 1e-6
+        self.cell = rays.length / SWEEP_CELLS
+        self.pad = pad = int(math.ceil(SWEEP_RINGS[-1] * SWEEP_CELLS))  # the read's window: 2 pad + 1 cells a side
+        offsets = np.arange(-pad, pad + 1) * self.cell
+        distance = np.hypot(offsets[None, :], offsets[:, None])
+        ring = np.searchsorted(np.array(SWEEP_RINGS) * rays.length, distance)
+        self.keep = ring < len(SWEEP_RINGS)  # the window's cells in some ring
+        self.ring = ring[self.keep]
+        self.bearing = np.arctan2(offsets[:, None], offsets[None, :])[self.keep]
+        self.near = int(math.ceil(SWEEP_CELLS + rays.eye / self.cell)) + 1  # the update's window: 2 near + 1 a side
+        self.floor = self.seen = np.zeros((0, 0), bool)
+        self.x0 = self.y0 = 0.0
+
+    def start(self, arena_size) -> None:
+        """A new, unlooked-at map of an arena ``arena_size`` (x, y) across, centred on the origin."""
+        cols, rows = (max(1, int(math.ceil(side / self.cell))) for side in arena_size[:2])
+        pad = self.pad
+        self.floor = np.zeros((rows + 2 * pad, cols + 2 * pad), bool)  # padded all round with cells of no floor
+        self.floor[pad:-pad, pad:-pad] = True
+        self.seen = np.zeros_like(self.floor)
+        self.x0, self.y0 = -cols * self.cell / 2, -rows * self.cell / 2
+
+    def recall(self, head_pos: np.ndarray, head_rot: np.ndarray) -> np.ndarray:
+        """Marks what the rays' last cast looked over, then reads the map round the head."""
+        yaw = math.atan2(head_rot[1, 0], head_rot[0, 0])
+        pad, cell, length = self.pad, self.cell, self.rays.length
+        rows, cols = self.floor.shape[0] - 2 * pad, self.floor.shape[1] - 2 * pad
+        col = min(max(int((head_pos[0] - self.x0) // cell), 0), cols - 1)
+        row = min(max(int((head_pos[1] - self.y0) // cell), 0), rows - 1)
+        # the update, on the exact head position, over the cells a ray can reach
+        near = self.near
+        index = np.arange(-near, near + 1)
+        x = self.x0 + (col + index + 0.5) * cell
+        y = self.y0 + (row + index + 0.5) * cell
+        dx, dy = x[None, :] - head_pos[0], y[:, None] - head_pos[1]
+        distance = np.hypot(dx, dy)
+        looked = distance <= SWEEP_BODY
+        _, _, hits = self.rays.last
+        if len(hits):
+            reach = np.array([hit[2] for hit in hits[: len(self.angles)]]) * length + self.rays.eye
+            bearing = (np.arctan2(dy, dx) - yaw + math.pi) % (2 * math.pi) - math.pi
+            if self.all_round:
+                limit = np.interp(bearing, self.angles, reach, period=2 * math.pi)
+                looked |= distance <= limit
+            else:
+                inside = (bearing >= self.angles[0]) & (bearing <= self.angles[-1])
+                looked |= inside & (distance <= np.interp(bearing, self.angles, reach))
+        self.seen[pad + row - near : pad + row + near + 1, pad + col - near : pad + col + near + 1] |= looked
+        # the read: the window centred on the head's cell
+        window = (slice(row, row + 2 * pad + 1), slice(col, col + 2 * pad + 1))
+        floor = self.floor[window][self.keep]
+        unlooked = floor & ~self.seen[window][self.keep]
+        width = 2 * math.pi / self.sectors
+        sector = ((self.bearing - yaw + width / 2) % (2 * math.pi) // width).astype(np.intp)
+        np.minimum(sector, self.sectors - 1, out=sector)
+        bins = sector * len(SWEEP_RINGS) + self.ring
+        size = self.sectors * len(SWEEP_RINGS)
+        total = np.bincount(bins[floor], minlength=size)
+        share = np.divide(np.bincount(bins[unlooked], minlength=size), total, out=np.zeros(size), where=total > 0)
+        return share.reshape(self.sectors, len(SWEEP_RINGS)).astype(np.float32)
+
+
 def sighting_velocity(before, position, now: float) -> tuple[float, float]:
     """A seen piece's velocity in the floor's plane from its sighting ``before`` ((x, y, z), (vx, vy),
     time; None for a first sighting) and this one: the motion between two sightings less than
@@ -425,6 +514,9 @@ class Senses:
         self.food_memory = FoodMemory(self.rays, sensors.food_memory) if self.rays and sensors.food_memory else None
         if self.food_memory:
             space["food_memory"] = self.food_memory.space
+        self.sweep_memory = SweepMemory(self.rays, sensors.sweep_memory) if self.rays and sensors.sweep_memory else None
+        if self.sweep_memory:
+            space["sweep_memory"] = self.sweep_memory.space
         if self.camera:
             space["camera"] = self.camera.space
         if sensors.joint_velocities:
@@ -460,6 +552,8 @@ class Senses:
             self.memory.clear()
         if self.food_memory:
             self.food_memory.clear()
+        if self.sweep_memory:
+            self.sweep_memory.start(spec.arena_size)
 
     def feel(self, contacts) -> None:
         """Which feet touch anything, from the step's contacts of the body (only worked out when the
@@ -493,6 +587,8 @@ class Senses:
                 observation["ray_memory"] = self.memory.recall(observation["rays"])
             if self.food_memory:
                 observation["food_memory"] = self.food_memory.recall(head_pos, head_rot, kind_index, now)
+            if self.sweep_memory:
+                observation["sweep_memory"] = self.sweep_memory.recall(head_pos, head_rot)
         if self.camera:
             observation["camera"] = self.camera.blank() if dark else self.camera.observe(head_pos, head_rot)
         if self.joint_velocities:
