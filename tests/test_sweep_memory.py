@@ -60,7 +60,8 @@ def test_walking_on_reads_the_old_view_behind_and_a_reset_forgets(make_env):
     assert memory[BEHIND, NEAR] < 0.5  # the fan's first look lies behind now
     assert memory[AHEAD, NEAR] == 0.0
     fresh = env.reset(options={"spec": open_arena()})[0]["sweep_memory"]
-    np.testing.assert_array_equal(fresh, make_env(**SENSES, sweep_memory=8).reset(options={"spec": open_arena()})[0]["sweep_memory"])
+    new = make_env(**SENSES, sweep_memory=8).reset(options={"spec": open_arena()})[0]["sweep_memory"]
+    np.testing.assert_array_equal(fresh, new)
 
 
 def test_floor_outside_the_arena_counts_for_nothing(make_env):
