@@ -87,7 +87,15 @@ def test_the_camera_students_rows_rescore_exactly():
     assert differing(rows, rescore(BASELINES, "student_camera", rows)) == []
 
 
-@pytest.mark.parametrize("name", ["student_search", "student_search_lstm"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "student_search",
+        "student_search_lstm",
+        "student_search_sweep",
+        pytest.param("student_search_sweep_s1", marks=LONG),
+    ],
+)
 def test_the_students_of_the_level_table_rescore_exactly(name):
     """The students of docs/learned-agents.md ("What each level measures"), scored on part of the
     reserved seeds (experiments/students/), their models in baselines/models: 8 rows each, the

@@ -53,6 +53,7 @@ SKIPPED = {
     "aaai train --resume runs/student_camera": "needs runs/student_camera (above, not run)",
     "nice -n 10 .venv/bin/python bench/search_teacher.py": "about 1 CPU-hour: 3 x 1,430 episodes (small run: bench/)",
     "aaai train --config configs/student_search.yaml": "about half an hour of DAgger",
+    "aaai train --config configs/student_search_sweep": "13 to 15 minutes of DAgger each (make students trains them)",
     "aaai train --config configs/student_food_memory.yaml": "22 minutes of DAgger (make students trains it)",
     "aaai train --config configs/student_food_memory_r12": "needs runs/student_food_memory (not run); 17 minutes",
     "aaai eval --policy runs/student_search": "needs runs/student_search (above, not run) and its scoring",

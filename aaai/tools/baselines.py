@@ -69,6 +69,8 @@ ORDER = (
     "student_food_memory_r12_s1",
     "student_search",
     "student_search_lstm",
+    "student_search_sweep",
+    "student_search_sweep_s1",
     "student_lstm",
     "student_camera",
 )
@@ -403,6 +405,8 @@ COMMITTED = {
     "student_camera": ("models/student_camera.zip", "models/student_camera.yaml"),
     "student_search": ("models/student_search.zip", "models/student_search.yaml"),
     "student_search_lstm": ("models/student_search_lstm.zip", "models/student_search_lstm.yaml"),
+    "student_search_sweep": ("models/student_search_sweep.zip", "models/student_search_sweep.yaml"),
+    "student_search_sweep_s1": ("models/student_search_sweep_s1.zip", "models/student_search_sweep_s1.yaml"),
     "ppo_gait": ("models/ppo_gait.zip", "models/ppo_gait.yaml"),
 }
 UNTIMED = [column for column in COLUMNS if column != "wall_seconds"]  # what a re-score must repeat
