@@ -52,6 +52,7 @@ SENSOR_SETTINGS: dict[str, dict[str, Any]] = {
 NO_HOLE_CASTING = "joints+rays without hole casting"
 RAYS_TWO_THREADS = "joints+rays, rayTestBatch on 2 threads"
 WIDE_RAYS = "joints+rays 1.0 wide"  # sensors.ray_width 1.0: three casts a ray (Animal-AI's 0.5 sphere casts)
+SWEEP = "joints+rays+sweep memory"  # sensors.sweep_memory 8: the map of where the rays have looked, read each step
 
 
 # --- what is timed ----------------------------------------------------------------------------
@@ -144,6 +145,7 @@ def level_rates(level: int, steps: int, rounds: int) -> dict:
     runners[RAYS_TWO_THREADS] = EnvLoop(_env(level, SENSOR_SETTINGS["joints+rays"]), steps)
     runners[RAYS_TWO_THREADS].env.rays.threads = 2  # PyBullet's numThreads: the same hits, split over threads
     runners[WIDE_RAYS] = EnvLoop(_env(level, {**SENSOR_SETTINGS["joints+rays"], "ray_width": 1.0}), steps)
+    runners[SWEEP] = EnvLoop(_env(level, {**SENSOR_SETTINGS["joints+rays"], "sweep_memory": 8}), steps)
     if runners["joints+rays"].env.rays._holes is not None:
         runners[NO_HOLE_CASTING] = EnvLoop(_without_hole_casting(_env(level, SENSOR_SETTINGS["joints+rays"])), steps)
     rates, machine_load = run_group(runners, rounds)
@@ -152,6 +154,7 @@ def level_rates(level: int, steps: int, rounds: int) -> dict:
         "rays overhead": per_round(rates["joints"], rates["joints+rays"], minus_one=True),
         "rays overhead, 2 threads": per_round(rates["joints"], rates[RAYS_TWO_THREADS], minus_one=True),
         "wide rays overhead": per_round(rates["joints"], rates[WIDE_RAYS], minus_one=True),
+        "sweep memory overhead": per_round(rates["joints+rays"], rates[SWEEP], minus_one=True),
     }
     if NO_HOLE_CASTING in rates:
         ratios["cost of seeing holes"] = per_round(rates[NO_HOLE_CASTING], rates["joints+rays"], minus_one=True)

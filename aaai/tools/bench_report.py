@@ -63,6 +63,16 @@ def markdown(results: dict) -> str:
             "- Rays 1.0 wide (sensors.ray_width 1.0, three casts a ray), overhead over joints-only: " + ", ".join(wide),
             "",
         ]
+    sweep = [
+        f"{label} {_ratio(level['ratios']['sweep memory overhead'], True)}"
+        for label, level in results["levels"].items()
+        if "sweep memory overhead" in level["ratios"]
+    ]
+    if sweep:
+        lines += [
+            "- The sweep memory (sensors.sweep_memory 8), overhead over the same rays without it: " + ", ".join(sweep),
+            "",
+        ]
     workers = results["workers"]
     w_rates, w_ratios = workers["rates"], workers["ratios"]
     lines += [
