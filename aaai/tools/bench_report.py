@@ -53,26 +53,18 @@ def markdown(results: dict) -> str:
                 f"({_ratio(level_ratios['cost of seeing holes'], True)} for seeing holes)"
             )
     lines += [""] + holes + ([""] if holes else [])
-    wide = [
-        f"{label} {_ratio(level['ratios']['wide rays overhead'], True)}"
-        for label, level in results["levels"].items()
-        if "wide rays overhead" in level["ratios"]
-    ]
-    if wide:
-        lines += [
-            "- Rays 1.0 wide (sensors.ray_width 1.0, three casts a ray), overhead over joints-only: " + ", ".join(wide),
-            "",
+    overheads = {
+        "wide rays overhead": "Rays 1.0 wide (sensors.ray_width 1.0, three casts a ray), overhead over joints-only",
+        "sweep memory overhead": "The sweep memory (sensors.sweep_memory 8), overhead over the same rays without it",
+    }
+    for key, title in overheads.items():
+        per_level = [
+            f"{label} {_ratio(level['ratios'][key], True)}"
+            for label, level in results["levels"].items()
+            if key in level["ratios"]
         ]
-    sweep = [
-        f"{label} {_ratio(level['ratios']['sweep memory overhead'], True)}"
-        for label, level in results["levels"].items()
-        if "sweep memory overhead" in level["ratios"]
-    ]
-    if sweep:
-        lines += [
-            "- The sweep memory (sensors.sweep_memory 8), overhead over the same rays without it: " + ", ".join(sweep),
-            "",
-        ]
+        if per_level:
+            lines += [f"- {title}: " + ", ".join(per_level), ""]
     workers = results["workers"]
     w_rates, w_ratios = workers["rates"], workers["ratios"]
     lines += [
