@@ -34,6 +34,12 @@ def test_the_fan_looks_over_what_is_ahead_and_nothing_behind(make_env):
     assert memory[LEFT, NEAR] > 0.9 and memory[RIGHT, NEAR] > 0.9
 
 
+def test_the_floor_under_the_body_counts_as_looked_over(make_env):
+    env = make_env(**SENSES, sweep_memory=8)
+    memory = env.reset(options={"spec": open_arena()})[0]["sweep_memory"]
+    assert 0.9 < memory[BEHIND, NEAR] < 1.0  # out of the fan's sight: only the disk of radius 2 round the head
+
+
 def test_what_was_looked_over_is_kept_and_turned_with_the_body(make_env):
     env = make_env(**SENSES, sweep_memory=8)
     env.reset(options={"spec": open_arena()})

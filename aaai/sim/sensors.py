@@ -89,6 +89,7 @@ class Rays:
         self._zones: np.ndarray | None = None  # (m, 7) floor areas: centre x y, cos, sin of yaw, half x y, column
         self.threads = 1  # rayTestBatch's numThreads (0: all cores); the hits are the same for any
         self.last: tuple = (np.zeros((0, 3)), np.zeros((0, 3)), [])  # the last cast: starts, directions, hits
+        self._reach: np.ndarray | None = None  # the last cast's reach, worked out when first asked for
 
     def set_holes(self, rectangles) -> None:
         """The level's missing floor as world rectangles (x0, y0, x1, y1); empty for none."""
@@ -124,6 +125,7 @@ class Rays:
         if self.width:
             hits = self._nearest(hits, kind_index)
         self.last = starts, dirs, hits  # what the rays reported, by body (aaai.task.search reads it)
+        self._reach = None
         # A plain loop: for a few dozen rays it is several times faster than numpy's fancy indexing.
         obs = np.zeros(self.grid_shape, np.float32)
         known = len(kind_index)
@@ -142,6 +144,14 @@ class Rays:
         if self._zones is not None:
             self._see_zones(obs, starts, dirs)
         return obs.reshape(-1) if self.flat else obs
+
+    def reach(self) -> np.ndarray:
+        """How far along each ray of the last cast it went before it hit something (its length when it hit
+        nothing), from where it starts; worked out once a cast for the memories and the searching teacher."""
+        if self._reach is None:
+            self._reach = np.array([hit[2] for hit in self.last[2]]) * self.length
+            self._reach.setflags(write=False)  # shared by its readers
+        return self._reach
 
     def _nearest(self, hits, kind_index) -> list:
         """Of each ray's three hits (centre, left, right), the nearest of a known kind."""
@@ -342,7 +352,7 @@ class FoodMemory:
                 self.pieces[body] = [self.kinds[int(kind_index[body])], tuple(position), velocity, now, radius]
         unseen = [body for body in self.pieces if body not in seen]
         if unseen and len(hits):
-            reach = np.array([hit[2] for hit in hits]) * self.rays.length
+            reach = self.rays.reach()
             for body in unseen:
                 if not (0 <= body < known and kind_index[body] in self.kinds):  # eaten
                     del self.pieces[body]
@@ -406,9 +416,11 @@ class SweepMemory:
         self.keep = ring < len(SWEEP_RINGS)  # the window's cells in some ring
         self.ring = ring[self.keep]
         self.bearing = np.arctan2(offsets[:, None], offsets[None, :])[self.keep]
-        self.near = int(math.ceil(SWEEP_CELLS + rays.eye / self.cell)) + 1  # the update's window: 2 near + 1 a side
+        near = int(math.ceil(SWEEP_CELLS + rays.eye / self.cell)) + 1  # the update's window: 2 near + 1 cells a side
+        self.near = np.arange(-near, near + 1)
         self.floor = self.seen = np.zeros((0, 0), bool)
         self.x0 = self.y0 = 0.0
+        self.cols = self.rows = 0  # the arena's cells, unpadded
 
     def start(self, arena_size) -> None:
         """A new, unlooked-at map of an arena ``arena_size`` (x, y) across, centred on the origin."""
@@ -418,25 +430,23 @@ class SweepMemory:
         self.floor[pad:-pad, pad:-pad] = True
         self.seen = np.zeros_like(self.floor)
         self.x0, self.y0 = -cols * self.cell / 2, -rows * self.cell / 2
+        self.cols, self.rows = cols, rows
 
     def recall(self, head_pos: np.ndarray, head_rot: np.ndarray) -> np.ndarray:
         """Marks what the rays' last cast looked over, then reads the map round the head."""
         yaw = math.atan2(head_rot[1, 0], head_rot[0, 0])
-        pad, cell, length = self.pad, self.cell, self.rays.length
-        rows, cols = self.floor.shape[0] - 2 * pad, self.floor.shape[1] - 2 * pad
-        col = min(max(int((head_pos[0] - self.x0) // cell), 0), cols - 1)
-        row = min(max(int((head_pos[1] - self.y0) // cell), 0), rows - 1)
+        pad, cell = self.pad, self.cell
+        col = min(max(int((head_pos[0] - self.x0) // cell), 0), self.cols - 1)
+        row = min(max(int((head_pos[1] - self.y0) // cell), 0), self.rows - 1)
         # the update, on the exact head position, over the cells a ray can reach
-        near = self.near
-        index = np.arange(-near, near + 1)
+        index, near = self.near, int(self.near[-1])
         x = self.x0 + (col + index + 0.5) * cell
         y = self.y0 + (row + index + 0.5) * cell
         dx, dy = x[None, :] - head_pos[0], y[:, None] - head_pos[1]
         distance = np.hypot(dx, dy)
         looked = distance <= SWEEP_BODY
-        _, _, hits = self.rays.last
-        if len(hits):
-            reach = np.array([hit[2] for hit in hits[: len(self.angles)]]) * length + self.rays.eye
+        reach = self.rays.reach()[: len(self.angles)] + self.rays.eye
+        if len(reach):
             bearing = (np.arctan2(dy, dx) - yaw + math.pi) % (2 * math.pi) - math.pi
             if self.all_round:
                 limit = np.interp(bearing, self.angles, reach, period=2 * math.pi)

@@ -111,8 +111,7 @@ class SearchController(ReferenceController):
         starts, dirs, hits = env.rays.last
         if not len(hits):
             return
-        fractions = np.array([hit[2] for hit in hits])
-        reach = fractions * env.rays.length
+        reach = env.rays.reach()
         hit_now = set()
         for hit in hits:
             body = hit[0]
