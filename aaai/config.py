@@ -196,7 +196,7 @@ RULES: dict[str, Rule] = {
     "train.value_warmup_epochs": Rule("int", 1, 1000),
     "train.bc_coef": Rule("float", 0, 1e6),  # aaai.train.finetune: the anchor to the student (0: none)
     "train.bc_decay_steps": Rule("int", 1, 10**10),
-    "train.teacher": Rule("choice", choices=("none", "reference", "search")),
+    "train.teacher": Rule("choice", choices=("none", "reference", "search", "search_strict")),
     "train.dagger_iterations": Rule("int", 1, 1000),
     "train.dagger_episodes": Rule("int", 1, 10**6),
     "train.dagger_beta": Rule("float", 0, 1),

@@ -39,7 +39,8 @@ from .progress import progress_output
     "--policy",
     default="random",
     show_default=True,
-    help="A run folder, a model .zip, random, reference, search, gait, or module:callable (called with the env).",
+    help="A run folder, a model .zip, random, reference, search, search_strict, gait, or module:callable "
+    "(called with the env).",
 )
 @click.option(
     "--levels",

@@ -44,8 +44,8 @@ def frame_every(fps: float, control_dt: float) -> int:
     "--policy",
     default="random",
     show_default=True,
-    help="Who moves the agent in the video: random, reference, search, gait, a model .zip, a run folder or "
-    "module:callable.",
+    help="Who moves the agent in the video: random, reference, search, search_strict, gait, a model .zip, a run "
+    "folder or module:callable.",
 )
 @click.option(
     "--steps",

@@ -72,7 +72,7 @@ def _overrides(**values) -> dict:
 )
 @click.option(
     "--teacher",
-    type=click.Choice(["reference", "search"]),
+    type=click.Choice(["reference", "search", "search_strict"]),
     help="Train a student of this teacher by DAgger instead of PPO: it sees only the agent's senses and "
     "learns the teacher's actions (train.dagger_* keys; docs, Learned agents).",
 )

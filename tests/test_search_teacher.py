@@ -11,7 +11,7 @@ import pytest
 
 from aaai.config import ConfigError, load_config
 from aaai.env import AnimalAIEnv
-from aaai.task.search import SearchController
+from aaai.task.search import SearchController, StrictSearchController
 
 
 @pytest.fixture(scope="module")
@@ -125,8 +125,9 @@ def test_an_l0_episode_with_the_food_behind_the_start_is_passed_by_searching(gai
     assert info["food_eaten"] == 1 and terminated and decision < 150, decision
 
 
-def test_a_search_teacher_teaches_a_student_that_drives_part_of_the_time():
-    """``train.teacher: search`` in a DAgger round with the student driving about half the time:
+@pytest.mark.parametrize("teacher", ["search", "search_strict"])
+def test_a_search_teacher_teaches_a_student_that_drives_part_of_the_time(teacher):
+    """``train.teacher: search`` (and ``search_strict``) in a DAgger round with the student driving about half the time:
     every decision is labelled, some by the student's actions, and bad teachers are refused."""
     pytest.importorskip("stable_baselines3", reason="needs the train extra")
     from aaai.train.student import Job, build_policy, check_teachable, play_job
@@ -135,7 +136,7 @@ def test_a_search_teacher_teaches_a_student_that_drives_part_of_the_time():
         {
             "agent": {"action_mode": "gait"},
             "curriculum": {"levels": "5", "difficulties": "0"},
-            "train": {"teacher": "search", "num_envs": 1, "net_width": 16},
+            "train": {"teacher": teacher, "num_envs": 1, "net_width": 16},
         }
     )
     check_teachable(config)
@@ -157,3 +158,69 @@ def test_without_rays_the_search_is_refused_naming_the_key():
             SearchController(env)
     finally:
         env.close()
+
+
+def test_a_new_exploration_goal_lies_the_way_the_body_faces(gait_env):
+    """L5 d0, nothing seen: set down in the open facing east and then west, the first place it
+    chooses to explore lies ahead of it each time (less than a right angle off its heading), so that
+    the way it goes follows from where it faces, as a student sees it."""
+    env = gait_env
+    for yaw in (0.0, math.pi):
+        controller = SearchController(env)
+        env.reset(seed=1, options={"level": 5, "difficulty": 0})
+        controller.reset(1)
+        _place(env, 12.0, -15.0, yaw)  # in the open half, 17 from the walls east and west
+        controller._start_episode()
+        controller.looking = False
+        head = env.body.head_pose()[0]
+        goal = controller._explore_goal(head)
+        bearing = math.atan2(goal[1] - head[1], goal[0] - head[0])
+        assert abs(math.remainder(bearing - _yaw(env), 2 * math.pi)) < math.pi / 2, (yaw, goal)
+
+
+def _cell(env, x: float, y: float) -> tuple[int, int]:
+    from aaai.levels import validate
+
+    return validate.cell(env.level_spec, x, y, validate.blocked_grid(env.level_spec).shape)
+
+
+def test_the_strict_search_knows_a_wall_once_a_ray_hits_it_or_the_body_meets_it(gait_env):
+    """L2 d0 (the Y-maze; the divider between the arms runs from y = 3 to the north wall). The strict
+    searching reference plans as if no wall stood until its senses show one: facing the divider's end
+    from 6 units off, the cells a ray hit are walls to it and the divider's far part is still free
+    (the searching reference knows all of it); set down with its head about 2 units from a stem wall, facing away, the
+    body feels that wall."""
+    env = gait_env
+    strict, knowing = StrictSearchController(env), SearchController(env)
+    observation, _ = env.reset(seed=1, options={"level": 2, "difficulty": 0})
+    strict.reset(1)
+    knowing.reset(1)
+    observation = _place(env, 0.0, -3.0, math.pi / 2)
+    strict(observation)
+    knowing(observation)
+    near_end, far = _cell(env, 0.0, 3.2), _cell(env, 0.0, 20.0)
+    assert strict.grid[near_end] == 1 and strict.grid[far] == 0
+    assert knowing.grid[near_end] == 1 and knowing.grid[far] == 1
+    assert strict.walk[_cell(env, 0.0, 12.0)] and not knowing.walk[_cell(env, 0.0, 12.0)]
+    stem = _cell(env, 7.5, -20.0)  # the east stem wall, under no ray yet
+    assert strict.grid[stem] == 0
+    observation = _place(env, 5.8, -20.0, math.pi)  # the head about 2 from its face (x = 7), facing west
+    strict(observation)
+    assert strict.grid[stem] == 1
+
+
+def test_the_strict_search_finds_food_behind_walls_it_learns_on_the_way(gait_env):
+    """L5 d0 seed 2 (the food behind a wall): the strict searching reference eats it within the time
+    limit without once touching a wall, and ends the episode still not knowing some of the level's
+    walls: it did without the layout. (With what its rays show not learned, it walks into the walls and
+    runs out of time.)"""
+    env = gait_env
+    controller = StrictSearchController(env)
+    observation, _ = env.reset(seed=2, options={"level": 5, "difficulty": 0})
+    controller.reset(2)
+    for _ in range(env.max_steps // env.hold):
+        observation, _, terminated, truncated, info = env.step(controller(observation))
+        if terminated or truncated:
+            break
+    assert info["food_eaten"] == 1 and terminated and info["wall_hits"] == 0
+    assert controller.hidden.any()

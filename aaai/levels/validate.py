@@ -293,8 +293,6 @@ def tile_at(spec: LevelSpec, x: float, y: float) -> tuple[int, int]:
 # --- the occupancy grid ------------------------------------------------------------------
 def blocked_grid(spec: LevelSpec) -> np.ndarray:
     """uint8 (rows along y, columns along x), 1 where the agent cannot stand: solids and holes."""
-    width, height = spec.arena_size
-    cols, rows = math.ceil(width / GRID), math.ceil(height / GRID)
     bridge = spec.bridge
     heights, hard = surface_heights(spec)
     grid = hard.copy()
@@ -307,6 +305,19 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
             reached.add(int(labels[cell(spec, spec.agent.x, spec.agent.y, grid.shape)]))
         reached.discard(0)
         grid[(grid == 0) & raised & ~np.isin(labels, sorted(reached))] = 1
+    grid[hazard_grid(spec) == 1] = 1
+    if bridge:  # the L10 plank, pushed over, is floor across the trench
+        x0, y0, x1, y1 = bridge
+        fill(grid, spec, np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)]), value=0)
+    return grid
+
+
+def hazard_grid(spec: LevelSpec) -> np.ndarray:
+    """uint8 as :func:`blocked_grid`, 1 only where the floor is missing or deadly and round bad food:
+    holes, death zones, and bad food, kept clear of as a solid is."""
+    width, height = spec.arena_size
+    cols, rows = math.ceil(width / GRID), math.ceil(height / GRID)
+    grid = np.zeros((rows, cols), np.uint8)
     for obj in spec.objects:  # a death zone is missing floor; bad food is to be kept clear of, as a solid
         cls = kind_class(obj.kind)
         if cls is not None and (cls.deadly or (cls.edible and cls.value < 0)):
@@ -319,9 +330,6 @@ def blocked_grid(spec: LevelSpec) -> np.ndarray:
         tile_col = np.minimum(((np.arange(cols) + 0.5) * GRID / (width / nx)).astype(int), nx - 1)
         tile_row = np.minimum(((np.arange(rows) + 0.5) * GRID / (height / ny)).astype(int), ny - 1)
         grid[missing[tile_row][:, tile_col]] = 1
-    if bridge:  # the L10 plank, pushed over, is floor across the trench
-        x0, y0, x1, y1 = bridge
-        fill(grid, spec, np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)]), value=0)
     return grid
 
 

@@ -14,15 +14,19 @@ each ray hit), never from a line of sight worked out from the spec. Then:
   of that place, unblocked before it) reports something else; it is then searched for from there.
 - **search**: with no food known, it turns on the spot to look round (once at the start, and after
   losing a piece), then walks to unexplored space: the cell of the planner's grid, not yet swept by
-  any of its rays, that is cheapest to reach with the most unswept space round it (frontier
-  exploration). Rays sweep the cells they pass over, up to what they hit; a wall or an occluder
-  leaves the space behind it unswept, so that is where it goes next. When everything reachable has
+  any of its rays, that is cheapest to reach with the most unswept space round it and the least turn
+  from where the head faces (frontier exploration; so which way it goes follows from where it faces,
+  which a student sees, more than from which of two like places scores a hair better). Rays sweep
+  the cells they pass over, up to what they hit; a wall or an occluder leaves the space behind it
+  unswept, so that is where it goes next. When everything reachable has
   been swept without food in sight, the sweep is forgotten and it starts again.
 - **sectors** (L9): it looks round first, then goes into the sector where it has seen the most food.
 
 What it knows of the static layout: the walls, holes and the plank of L10 are the planner's, as for the
 reference (it plans paths and keeps clear of walls on the full occupancy grid, and so knows which
-unswept places can be walked to). The food, and where to look for it, come from its rays alone.
+unswept places can be walked to). ``StrictSearchController`` (``--policy search_strict``) knows the
+solids only once its rays have hit them or its head has come near them; it still knows the holes,
+death zones and bad food from the layout. The food, and where to look for it, come from its rays alone.
 The one privileged fact it reads is whether any food is left to eat at all (the world's list of
 uneaten pieces): with none left it stops searching and stands, as the reference does; that ends
 the search, it never chooses where to go.
@@ -50,8 +54,11 @@ SECTOR_TURNS = 2  # in a level of sectors (L9) it turns round this many times be
 BODY_SEEN = 2.0  # cells this close to the head count as swept (it stands there)
 GAIN_SPAN = 8.0  # unexplored space is weighed within a square this wide round a candidate cell
 GAIN_WEIGHT = 20.0  # units of path cost one fully unswept neighbourhood is worth
+TURN_WEIGHT = 8.0  # units of path cost a radian of turn from the head's heading to a goal's bearing costs
 GOAL_SECONDS = 15.0  # gives up an exploration goal after this long, marking it swept
 GOAL_REACHED = 2.0
+REVEAL = 0.75  # strict: a ray that hits a solid shows it within this far of the point it hit (units) ...
+TOUCH = 3.0  # ... and a solid this near the head is felt (one under the rays: the legs meet it)
 SEARCH_CROUCH = 1.0  # it searches with its head low (about 1.7 above the floor, not 2.3): level rays see size-2 food
 
 
@@ -67,6 +74,7 @@ class _SearchGait(SineGait):
 class SearchController(ReferenceController):
     """A policy: ``action = controller(observation)``; ``reset(seed)`` at each episode start."""
 
+    strict = False  # plans on the solids its rays have shown, not on the level's layout (StrictSearchController)
     gait: _SearchGait
     memory: dict[int, list]  # body -> [spec, (x, y, z), (vx, vy), time seen]
     seen: np.ndarray  # cells some ray has swept
@@ -97,6 +105,17 @@ class SearchController(ReferenceController):
         self.goal = None
         self.goal_started, self.goals = 0.0, 0
         self.hint = None
+        if self.strict:  # the solids (walls, boxes, blocks, drops) are unknown, so free, until seen or felt
+            self.hidden = (self.grid == 1) & (validate.hazard_grid(self.level) == 0)
+            self.grid[self.hidden] = 0
+            self._map()
+            span = int(math.ceil(REVEAL / validate.GRID))
+            self.reveal_offsets = [
+                (dr, dc)
+                for dr in range(-span, span + 1)
+                for dc in range(-span, span + 1)
+                if math.hypot(dr, dc) * validate.GRID <= REVEAL
+            ]
 
     def student_drove(self, seconds: float) -> None:
         super().student_drove(seconds)
@@ -119,6 +138,8 @@ class SearchController(ReferenceController):
                 hit_now.add(body)
                 self._saw(body, env.world.food[body], now)
         self._sweep(starts, dirs, reach, head)
+        if self.strict:
+            self._reveal(starts, dirs, reach, hits, head)
         for body in [body for body in self.memory if body not in hit_now]:
             if body not in env.world.food:  # eaten
                 del self.memory[body]
@@ -165,6 +186,27 @@ class SearchController(ReferenceController):
         near = np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]) <= BODY_SEEN
         self.seen |= near
 
+    def _reveal(self, starts, dirs, reach, hits, head: np.ndarray) -> None:
+        """Strict: the hidden solid cells near where a ray hit something other than food, and near the
+        head, become known; the map is made again (from where the head is) when any did."""
+        shape, level = self.grid.shape, self.level
+        solid = np.array([hit[0] >= 0 and hit[0] not in self.env.world.food for hit in hits])
+        found = np.zeros(shape, bool)
+        if solid.any():
+            points = starts[solid, :2] + dirs[solid, :2] * reach[solid, None]
+            cols = np.floor((points[:, 0] + level.arena_size[0] / 2) / validate.GRID).astype(int)
+            rows = np.floor((points[:, 1] + level.arena_size[1] / 2) / validate.GRID).astype(int)
+            for dr, dc in self.reveal_offsets:
+                r, c = rows + dr, cols + dc
+                inside = (r >= 0) & (r < shape[0]) & (c >= 0) & (c < shape[1])
+                found[r[inside], c[inside]] = True
+        found |= np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]) <= TOUCH
+        new = found & self.hidden
+        if new.any():
+            self.hidden &= ~new
+            self.grid[new] = 1
+            self._map((float(head[0]), float(head[1])))
+
     # --- what to do ----------------------------------------------------------------------
     def _look_round(self, now: float) -> None:
         self.looking, self.look_turned, self.look_yaw, self.look_started = True, 0.0, None, now
@@ -208,7 +250,7 @@ class SearchController(ReferenceController):
         now = self.env.steps * self.env.control_dt
         if self.goal is not None:
             row, col = validate.cell(self.level, *self.goal, self.seen.shape)
-            timed_out = now - self.goal_started > GOAL_SECONDS
+            timed_out = now - self.goal_started > GOAL_SECONDS or not self.walk[row, col]  # (strict: a wall there)
             if timed_out:
                 self.seen[row, col] = True
             if not (self.seen[row, col] or math.dist(head[:2], self.goal) < GOAL_REACHED):
@@ -230,7 +272,10 @@ class SearchController(ReferenceController):
         cost = validate.path_costs(self.walk, here, self.crowding)
         if self.hint is not None:
             cost = cost + np.hypot(self.cell_x[None, :] - self.hint[0], self.cell_y[:, None] - self.hint[1])
-        score = np.where(unswept & np.isfinite(cost), cost - GAIN_WEIGHT * gain, np.inf)
+        rotation = self.env.body.head_pose()[1]
+        yaw = math.atan2(rotation[1, 0], rotation[0, 0])
+        turn = np.abs(_angle(np.arctan2(self.cell_y[:, None] - head[1], self.cell_x[None, :] - head[0]) - yaw))
+        score = np.where(unswept & np.isfinite(cost), cost - GAIN_WEIGHT * gain + TURN_WEIGHT * turn, np.inf)
         if not np.isfinite(score).any():
             self.seen |= unswept  # nothing unswept can be reached from here
             return None
@@ -262,3 +307,14 @@ class SearchController(ReferenceController):
                 self.gait.command(0.0, 1.0)
                 return self.gait()
         return super()._act()
+
+
+class StrictSearchController(SearchController):
+    """The searching reference that knows the solids only as its senses show them (``--policy
+    search_strict``, ``train.teacher: search_strict``): the walls, boxes, blocks and drops of the level
+    are free space to its planner until a ray hits them (the cells within REVEAL of where it hit) or
+    the head comes within TOUCH of them; then it plans round them. Holes, death zones and bad food it
+    knows from the layout, as the searching reference does (the rays, in the head's plane, do not show
+    a gap in the floor)."""
+
+    strict = True

@@ -67,7 +67,8 @@ BATCH_SIZE = 1024
 LEARNING_RATE = 1e-3
 EPISODES_PER_JOB = 4  # episodes a worker plays per task: small enough to share the load evenly
 DATA_FOLDER = "dagger"
-TEACHERS = ("reference", "search")  # the all-knowing reference; the one that searches (aaai.task.search)
+# the all-knowing reference; the one that searches; the one that also learns the walls (aaai.task.search)
+TEACHERS = ("reference", "search", "search_strict")
 
 
 @dataclass(frozen=True)
@@ -163,11 +164,13 @@ def play_job(job: Job) -> dict:
 
     from aaai.env import AnimalAIEnv
     from aaai.task.reference import ReferenceController
-    from aaai.task.search import SearchController
+    from aaai.task.search import SearchController, StrictSearchController
 
     torch.set_num_threads(1)
     env = AnimalAIEnv(config=env_part(job.config, 0.0))
-    teacher = SearchController(env) if job.config.train.teacher == "search" else ReferenceController(env)
+    teacher = {"search": SearchController, "search_strict": StrictSearchController}.get(
+        job.config.train.teacher, ReferenceController
+    )(env)
     student, actor = None, None
     if job.weights is not None:
         student = build_student(job.student_policy, seen_space(env.observation_space), env.action_space, job.net_width)
