@@ -7,6 +7,8 @@ level with its 95 % Wilson interval, overall and at difficulties 0, 5 and 10
 
 - ``reference``: the all-knowing reference;
 - ``search_default``: the searching reference on the default senses (17 rays over 90 degrees, 15 long);
+- ``search_strict_default``: the strict one (``--policy search_strict``: the walls too known only as
+  the rays show them) on the default senses;
 - ``search_student``: the searching reference on configs/student.yaml's senses (33 rays all round, 50
   long, two fans).
 
@@ -33,6 +35,7 @@ from aaai.tools.baselines import table_markdown  # noqa: E402
 POLICIES = {  # name: (policy, extra eval arguments)
     "reference": ("reference", []),
     "search_default": ("search", []),
+    "search_strict_default": ("search_strict", []),
     "search_student": ("search", ["--config", "configs/student.yaml"]),
 }
 

@@ -250,7 +250,7 @@ class SearchController(ReferenceController):
         now = self.env.steps * self.env.control_dt
         if self.goal is not None:
             row, col = validate.cell(self.level, *self.goal, self.seen.shape)
-            timed_out = now - self.goal_started > GOAL_SECONDS or not self.walk[row, col]  # (strict: a wall there)
+            timed_out = now - self.goal_started > GOAL_SECONDS or self.strict and not self.walk[row, col]  # a wall seen
             if timed_out:
                 self.seen[row, col] = True
             if not (self.seen[row, col] or math.dist(head[:2], self.goal) < GOAL_REACHED):
