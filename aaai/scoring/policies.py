@@ -108,14 +108,10 @@ class Policy:
             from aaai.task.reference import ReferenceController
 
             return ReferenceController(env)
-        if self.kind == "search":
-            from aaai.task.search import SearchController
+        if self.kind in ("search", "search_strict"):
+            from aaai.task.search import SEARCHERS
 
-            return SearchController(env)
-        if self.kind == "search_strict":
-            from aaai.task.search import StrictSearchController
-
-            return StrictSearchController(env)
+            return SEARCHERS[self.kind](env)
         if self.kind == "gait":
             return gait_policy(env)
         if self.kind == "model":

@@ -59,6 +59,13 @@ GOAL_SECONDS = 15.0  # gives up an exploration goal after this long, marking it 
 GOAL_REACHED = 2.0
 REVEAL = 0.75  # strict: a ray that hits a solid shows it within this far of the point it hit (units) ...
 TOUCH = 3.0  # ... and a solid this near the head is felt (one under the rays: the legs meet it)
+_SPAN = int(math.ceil(REVEAL / validate.GRID))
+REVEAL_OFFSETS = [  # the cells (row, column offsets) within REVEAL of a ray's hit
+    (dr, dc)
+    for dr in range(-_SPAN, _SPAN + 1)
+    for dc in range(-_SPAN, _SPAN + 1)
+    if math.hypot(dr, dc) * validate.GRID <= REVEAL
+]
 SEARCH_CROUCH = 1.0  # it searches with its head low (about 1.7 above the floor, not 2.3): level rays see size-2 food
 
 
@@ -109,13 +116,6 @@ class SearchController(ReferenceController):
             self.hidden = (self.grid == 1) & (validate.hazard_grid(self.level) == 0)
             self.grid[self.hidden] = 0
             self._map()
-            span = int(math.ceil(REVEAL / validate.GRID))
-            self.reveal_offsets = [
-                (dr, dc)
-                for dr in range(-span, span + 1)
-                for dc in range(-span, span + 1)
-                if math.hypot(dr, dc) * validate.GRID <= REVEAL
-            ]
 
     def student_drove(self, seconds: float) -> None:
         super().student_drove(seconds)
@@ -137,9 +137,10 @@ class SearchController(ReferenceController):
             if body in env.world.food and body not in hit_now:
                 hit_now.add(body)
                 self._saw(body, env.world.food[body], now)
-        self._sweep(starts, dirs, reach, head)
+        from_head = np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1])  # each cell's distance
+        self._sweep(starts, dirs, reach, from_head)
         if self.strict:
-            self._reveal(starts, dirs, reach, hits, head)
+            self._reveal(starts, dirs, reach, hits, head, from_head)
         for body in [body for body in self.memory if body not in hit_now]:
             if body not in env.world.food:  # eaten
                 del self.memory[body]
@@ -173,7 +174,7 @@ class SearchController(ReferenceController):
             last = x + vx * t, y + vy * t
         return (*last, z)
 
-    def _sweep(self, starts, dirs, reach, head: np.ndarray) -> None:
+    def _sweep(self, starts, dirs, reach, from_head: np.ndarray) -> None:
         """Marks the cells the rays passed over (their ground track up to what they hit)."""
         shape, level = self.seen.shape, self.level
         samples = np.arange(0.0, float(reach.max()) + validate.GRID, validate.GRID / 2)
@@ -183,10 +184,9 @@ class SearchController(ReferenceController):
         cols = np.clip(np.floor((x + level.arena_size[0] / 2) / validate.GRID).astype(int), 0, shape[1] - 1)
         rows = np.clip(np.floor((y + level.arena_size[1] / 2) / validate.GRID).astype(int), 0, shape[0] - 1)
         self.seen[rows, cols] = True
-        near = np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]) <= BODY_SEEN
-        self.seen |= near
+        self.seen |= from_head <= BODY_SEEN
 
-    def _reveal(self, starts, dirs, reach, hits, head: np.ndarray) -> None:
+    def _reveal(self, starts, dirs, reach, hits, head: np.ndarray, from_head: np.ndarray) -> None:
         """Strict: the hidden solid cells near where a ray hit something other than food, and near the
         head, become known; the map is made again (from where the head is) when any did."""
         shape, level = self.grid.shape, self.level
@@ -196,11 +196,11 @@ class SearchController(ReferenceController):
             points = starts[solid, :2] + dirs[solid, :2] * reach[solid, None]
             cols = np.floor((points[:, 0] + level.arena_size[0] / 2) / validate.GRID).astype(int)
             rows = np.floor((points[:, 1] + level.arena_size[1] / 2) / validate.GRID).astype(int)
-            for dr, dc in self.reveal_offsets:
+            for dr, dc in REVEAL_OFFSETS:
                 r, c = rows + dr, cols + dc
                 inside = (r >= 0) & (r < shape[0]) & (c >= 0) & (c < shape[1])
                 found[r[inside], c[inside]] = True
-        found |= np.hypot(self.cell_x[None, :] - head[0], self.cell_y[:, None] - head[1]) <= TOUCH
+        found |= from_head <= TOUCH
         new = found & self.hidden
         if new.any():
             self.hidden &= ~new
@@ -318,3 +318,6 @@ class StrictSearchController(SearchController):
     a gap in the floor)."""
 
     strict = True
+
+
+SEARCHERS = {"search": SearchController, "search_strict": StrictSearchController}  # by policy and teacher name

@@ -164,13 +164,11 @@ def play_job(job: Job) -> dict:
 
     from aaai.env import AnimalAIEnv
     from aaai.task.reference import ReferenceController
-    from aaai.task.search import SearchController, StrictSearchController
+    from aaai.task.search import SEARCHERS
 
     torch.set_num_threads(1)
     env = AnimalAIEnv(config=env_part(job.config, 0.0))
-    teacher = {"search": SearchController, "search_strict": StrictSearchController}.get(
-        job.config.train.teacher, ReferenceController
-    )(env)
+    teacher = SEARCHERS.get(job.config.train.teacher, ReferenceController)(env)
     student, actor = None, None
     if job.weights is not None:
         student = build_student(job.student_policy, seen_space(env.observation_space), env.action_space, job.net_width)
