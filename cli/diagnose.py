@@ -37,10 +37,16 @@ from .options import MANY, POLICY_HELP, parse_levels
     help="For a scoreboard of arena files (aaai eval --arenas, aaai baselines --battery): the folder they "
     "are in (default: the folder its *_scored_with.json names).",
 )
-def diagnose_command(policy, scoreboard, levels, limit, config_path, arenas):
+@click.option(
+    "--teacher",
+    type=click.Choice(["reference", "search", "search_strict"]),
+    help="Watch each replay with this teacher, as DAgger does (gait mode): adds the share of decisions the "
+    "student stood where the teacher asked it to move, and turned the other way from the turn it asked for.",
+)
+def diagnose_command(policy, scoreboard, levels, limit, config_path, arenas, teacher):
     """Why a policy fails: its failed episodes replayed, each sorted into a first cause (fell, never
     saw food, lost sight of it, saw it but did not reach it, ate the wrong food); per level, and per
-    category for arena files."""
+    category for arena files. With --teacher, also where a student parted from its teacher."""
     from aaai.scoring.diagnose import diagnose, scored_config, table_markdown
 
     try:
@@ -53,6 +59,7 @@ def diagnose_command(policy, scoreboard, levels, limit, config_path, arenas):
             limit,
             Path(arenas) if arenas else None,
             warn=lambda message: click.echo(message, err=True),
+            teacher=teacher,
         )
     except (ConfigError, FileNotFoundError) as error:
         raise click.UsageError(str(error)) from None

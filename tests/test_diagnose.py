@@ -4,6 +4,7 @@ file missing or changed since it was scored refused before any replay."""
 import json
 import shutil
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -98,3 +99,65 @@ def test_diagnose_replays_in_the_environment_the_scoreboard_records(scored, tmp_
     refused = CliRunner().invoke(cli, args)
     assert refused.exit_code == 2 and "scored in another environment" in refused.output, refused.output
     assert "agent.body: 'quadruped' there, 'sphere' now" in refused.output
+
+
+# --- a teacher watching the replays (aaai diagnose --teacher) -----------------------------------------------
+@pytest.fixture(scope="module")
+def gait_env():
+    from aaai.env import AnimalAIEnv
+
+    env = AnimalAIEnv(config={"agent": {"action_mode": "gait"}})
+    yield env
+    env.close()
+
+
+L0_ROW = {"level": "0", "difficulty": "0", "seed": "3"}  # the food ahead: the reference walks to it from the start
+
+
+def test_a_teacher_watching_counts_the_decisions_a_standing_student_was_taught_to_move(gait_env):
+    from aaai.scoring.diagnose import replay_failure, teacher_for
+
+    def stand(observation):
+        return np.zeros(3, np.float32)
+
+    failure = replay_failure(gait_env, stand, L0_ROW, teacher=teacher_for("reference", gait_env))
+    assert failure.stood > 0.9 and failure.against == 0.0
+    assert replay_failure(gait_env, stand, L0_ROW).stood is None  # no teacher: no such share
+
+
+def test_a_student_that_does_what_its_teacher_does_never_parts_from_it_and_plays_the_same_episode(gait_env):
+    from aaai.scoring.diagnose import replay_failure, teacher_for
+    from aaai.task.reference import ReferenceController
+
+    alone = replay_failure(gait_env, ReferenceController(gait_env), L0_ROW)
+    watched = replay_failure(
+        gait_env, ReferenceController(gait_env), L0_ROW, teacher=teacher_for("reference", gait_env)
+    )
+    assert watched.stood == 0.0 and watched.against == 0.0
+    assert (watched.seen_share, watched.food_eaten, watched.cause) == (alone.seen_share, alone.food_eaten, alone.cause)
+
+
+def test_a_student_that_turns_the_other_way_from_its_teacher_is_counted_turning_against_it(gait_env):
+    from aaai.scoring.diagnose import replay_failure, teacher_for
+    from aaai.task.reference import ReferenceController
+
+    own = ReferenceController(gait_env)
+
+    def mirrored(observation):  # the teacher's own command, its turn the other way round
+        action = np.array(own(observation), np.float32)
+        action[1] = -action[1]
+        return action
+
+    mirrored.reset = own.reset
+    row = {"level": "1", "difficulty": "0", "seed": "3"}  # the food off to one side: it turns to face it
+    failure = replay_failure(gait_env, mirrored, row, teacher=teacher_for("reference", gait_env))
+    assert failure.against > 0.5 and failure.stood == 0.0
+
+
+def test_diagnose_with_a_teacher_refuses_a_scoreboard_not_scored_in_gait_mode(scored):
+    folder, board = scored  # scored in the default action mode
+    result = CliRunner().invoke(
+        cli, ["diagnose", "--policy", "random", "--scoreboard", str(board), "--teacher", "reference"]
+    )
+    assert result.exit_code == 2
+    assert "--teacher" in result.output and "gait" in result.output and "rotation" in result.output

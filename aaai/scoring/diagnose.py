@@ -12,6 +12,19 @@ what the rays showed and where the body was, to sort the failure into one first 
 - ``ate the wrong food``: it ate, but not enough to pass (a green before the yellows, a smaller
   green).
 
+With a teacher (``--teacher reference``, ``search`` or ``search_strict``; gait mode), each replay is
+also watched by it as DAgger's teacher watches a student drive (aaai.train.student): at every decision
+it says what it would do there, and two shares of the decisions say where the student parted from it:
+
+- ``stood while taught to move``: the student all but stood (forward under STILL_FORWARD and turn under
+  STILL_TURN, in size) where its teacher asked for a walk (forward of MOVE_FORWARD or more) or a
+  turn (TURN_ASKED or more);
+- ``turned against``: the teacher asked for a turn of TURN_ASKED or more one way and the student turned
+  at least STILL_TURN the other way.
+
+A student that imitates well scores low on both; a student whose teacher's labels it cannot tell apart
+(the same view taught both ways) learns their mean, and stands.
+
 ``aaai diagnose --policy RUN --scoreboard CSV [--levels …]`` prints the table per level; the docs'
 Learned agents page quotes it. A scoreboard of arena files (``aaai eval --arenas``, ``aaai baselines
 --battery``) is replayed the same way, each failed row on its arena file (found in ``--arenas DIR``,
@@ -49,6 +62,9 @@ from aaai.spec.kinds import KIND_INDEX
 from aaai.task.arena import arena_meta, load_arena
 
 FOOD_CHANNELS = (KIND_INDEX["food_green"], KIND_INDEX["food_yellow"])
+TEACHERS = ("reference", "search", "search_strict")  # --teacher: the controllers a DAgger student learns from
+STILL_FORWARD, STILL_TURN = 0.2, 0.3  # a student's gait command this small in both: it all but stands
+MOVE_FORWARD, TURN_ASKED = 0.3, 0.5  # a teacher's forward or turn this large: it asks for a walk or a turn
 RAY_WIDTH = 11  # the classic rays: nine kinds, nothing, distance
 CAUSES = ("fell", "never saw food", "lost sight", "saw, did not reach", "ate the wrong food")
 
@@ -64,6 +80,8 @@ class Failure:
     wall_hits: int
     arena: str = ""  # the arena file's name, for a row of an arena scoreboard
     group: str = ""  # what the table groups it by: the level's label and name, or the arena's category
+    stood: float | None = None  # with a teacher: decisions the student stood where it was taught to move / decisions
+    against: float | None = None  # ... it turned the other way from the turn it was taught / decisions
 
 
 def food_in_view(observation: dict) -> bool:
@@ -74,10 +92,60 @@ def food_in_view(observation: dict) -> bool:
     return bool(grid[:, list(FOOD_CHANNELS)].any())
 
 
-def replay_failure(env: AnimalAIEnv, policy, row: dict, arena: Path | None = None) -> Failure:
-    """Replays one failed row (on ``arena``, the file of an arena row) and names its first cause."""
+class _Watched:
+    """The policy, with a teacher watching each decision (as DAgger's does, :mod:`aaai.train.student`):
+    what the teacher would do there is kept beside what the policy did."""
+
+    def __init__(self, policy, teacher, env: AnimalAIEnv):
+        self.policy, self.teacher, self.env = policy, teacher, env
+        self.pairs: list[tuple[np.ndarray, np.ndarray]] = []  # (the policy's action, the teacher's)
+
+    def reset(self, seed: int) -> None:
+        self.pairs = []
+        self.teacher.reset(seed)
+        if hasattr(self.policy, "reset"):
+            self.policy.reset(seed)
+
+    def __call__(self, observation):
+        label = np.asarray(self.teacher(observation), np.float64)
+        action = self.policy(observation)
+        self.teacher.student_drove(self.env.hold * self.env.control_dt)
+        self.pairs.append((np.asarray(action, np.float64), label))
+        return action
+
+    def shares(self) -> tuple[float, float]:
+        """(stood while taught to move, turned against), each a share of the decisions."""
+        if not self.pairs:
+            return 0.0, 0.0
+        own = np.array([a for a, _ in self.pairs])
+        taught = np.array([t for _, t in self.pairs])
+        still = (np.abs(own[:, 0]) < STILL_FORWARD) & (np.abs(own[:, 1]) < STILL_TURN)
+        asked = (taught[:, 0] >= MOVE_FORWARD) | (np.abs(taught[:, 1]) >= TURN_ASKED)
+        against = (np.abs(taught[:, 1]) >= TURN_ASKED) & (own[:, 1] * np.sign(taught[:, 1]) <= -STILL_TURN)
+        return float((still & asked).mean()), float(against.mean())
+
+
+def teacher_for(name: str, env: AnimalAIEnv):
+    """The controller ``--teacher NAME`` watches with, on ``env`` (gait mode: it labels gait commands)."""
+    from aaai.task.reference import ReferenceController
+    from aaai.task.search import SEARCHERS
+
+    if name not in TEACHERS:
+        raise ConfigError(f"--teacher: got {name!r}; allowed: {', '.join(TEACHERS)}")
+    if env.gait is None:
+        raise ConfigError(
+            f"--teacher: the scoreboard was scored in action mode {env.config.agent.action_mode!r}; allowed: "
+            "gait (a teacher's labels are gait commands, as a DAgger student's are)"
+        )
+    return SEARCHERS.get(name, ReferenceController)(env)
+
+
+def replay_failure(env: AnimalAIEnv, policy, row: dict, arena: Path | None = None, teacher=None) -> Failure:
+    """Replays one failed row (on ``arena``, the file of an arena row) and names its first cause; with
+    ``teacher`` (a controller on ``env``), also where the policy parted from it (``stood``, ``against``)."""
     level, difficulty, seed = int(row["level"]), int(row["difficulty"]), int(row["seed"])
     seen: list[bool] = []
+    watched = _Watched(policy, teacher, env) if teacher is not None else None
     if arena is None:
         options: dict = {"level": level, "difficulty": difficulty}
         group = _level_group(level)
@@ -86,7 +154,7 @@ def replay_failure(env: AnimalAIEnv, policy, row: dict, arena: Path | None = Non
         group = f"category {arena_meta(arena)['category'] or 'uncategorised'}"
     result = play(
         env,
-        policy,
+        watched or policy,
         seed,
         options=options,
         on_reset=lambda observation, info: seen.append(food_in_view(observation)),
@@ -115,6 +183,7 @@ def replay_failure(env: AnimalAIEnv, policy, row: dict, arena: Path | None = Non
         int(info["wall_hits"]),
         arena.name if arena is not None else "",
         group,
+        *(watched.shares() if watched is not None else ()),
     )
 
 
@@ -205,11 +274,12 @@ def diagnose(
     limit: int | None = None,
     arenas: Path | None = None,
     warn: Callable[[str], None] = print,
+    teacher: str | None = None,
 ) -> list[Failure]:
     """Replays the failed rows of ``scoreboard`` (of ``levels``, which leave arena rows out; at most
     ``limit`` per level or arena category) with ``policy`` (a Policy, or a --policy string); an arena
     row on its file (:func:`arena_sources`, every file checked before any replay; ``warn`` told of
-    a record without their SHA-256)."""
+    a record without their SHA-256); with ``teacher`` (one of TEACHERS) watching each replay."""
     policy = as_policy(policy)
 
     with open(scoreboard, newline="") as handle:
@@ -230,19 +300,25 @@ def diagnose(
         rows = kept
     env = AnimalAIEnv(config=env_part(config, shaping=0.0))
     try:
+        watcher = teacher_for(teacher, env) if teacher is not None else None
         acting = policy.build(env)
-        return [replay_failure(env, acting, row, sources.get(row.get("arena") or "")) for row in rows]
+        return [replay_failure(env, acting, row, sources.get(row.get("arena") or ""), watcher) for row in rows]
     finally:
         env.close()
 
 
 def table_markdown(failures: list[Failure]) -> str:
     """A row per level (in level order), then per arena category: the failed episodes replayed, each
-    cause's count and the share of decisions with food in view."""
+    cause's count and the share of decisions with food in view; with a teacher, the shares of decisions
+    the student stood where it was taught to move and turned against it (the mean over the episodes)."""
     first = "level or category" if any(f.arena for f in failures) else "level"
+    taught = any(f.stood is not None for f in failures)
+    extra = " stood while taught to move | turned against its teacher |" if taught else ""
     lines = [
-        f"| {first} | failed episodes replayed | " + " | ".join(CAUSES) + " | food in view (share of decisions) |",
-        "|---|---:|" + "---:|" * len(CAUSES) + "---:|",
+        f"| {first} | failed episodes replayed | "
+        + " | ".join(CAUSES)
+        + f" | food in view (share of decisions) |{extra}",
+        "|---|---:|" + "---:|" * len(CAUSES) + "---:|" + "---:|---:|" * taught,
     ]
     groups = sorted({(bool(f.arena), f.level if not f.arena else 0, f.group) for f in failures})
     for _, _, group in groups:
@@ -252,5 +328,10 @@ def table_markdown(failures: list[Failure]) -> str:
             f"| {group} | {len(mine)} | "
             + " | ".join(str(counts[c]) for c in CAUSES)
             + f" | {100 * np.mean([f.seen_share for f in mine]):.0f}% |"
+            + (
+                f" {100 * np.mean([f.stood for f in mine]):.0f}% | {100 * np.mean([f.against for f in mine]):.0f}% |"
+                if taught
+                else ""
+            )
         )
     return "\n".join(lines) + "\n"
