@@ -123,6 +123,7 @@ def parse_int_set(value: Any, key: str, low: int, high: int) -> list[int]:
 
 
 MAX_LEVEL_ID = 999  # level ids are 0..999; which exist, the level registry says (aaai.levels)
+TEACHERS = ("reference", "search", "search_strict")  # the controllers a DAgger student learns from (train.teacher)
 RULES: dict[str, Rule] = {
     "level": Rule("int", 0, MAX_LEVEL_ID, levels=True),  # a registered level's id (aaai.levels); 12 is L2b
     "difficulty": Rule("int", 0, 10),
@@ -196,7 +197,7 @@ RULES: dict[str, Rule] = {
     "train.value_warmup_epochs": Rule("int", 1, 1000),
     "train.bc_coef": Rule("float", 0, 1e6),  # aaai.train.finetune: the anchor to the student (0: none)
     "train.bc_decay_steps": Rule("int", 1, 10**10),
-    "train.teacher": Rule("choice", choices=("none", "reference", "search", "search_strict")),
+    "train.teacher": Rule("choice", choices=("none", *TEACHERS)),
     "train.dagger_iterations": Rule("int", 1, 1000),
     "train.dagger_episodes": Rule("int", 1, 10**6),
     "train.dagger_beta": Rule("float", 0, 1),

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from aaai.config import ConfigError
+from aaai.config import TEACHERS, ConfigError
 from aaai.scoring.policies import resolve
 
 from .options import MANY, POLICY_HELP, parse_levels
@@ -39,7 +39,7 @@ from .options import MANY, POLICY_HELP, parse_levels
 )
 @click.option(
     "--teacher",
-    type=click.Choice(["reference", "search", "search_strict"]),
+    type=click.Choice(TEACHERS),
     help="Watch each replay with this teacher, as DAgger does (gait mode): adds the share of decisions the "
     "student stood where the teacher asked it to move, and turned the other way from the turn it asked for.",
 )

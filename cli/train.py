@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from aaai.config import ConfigError, load_config
+from aaai.config import TEACHERS, ConfigError, load_config
 from aaai.errors import needs_extra
 from aaai.files import InUse
 
@@ -72,7 +72,7 @@ def _overrides(**values) -> dict:
 )
 @click.option(
     "--teacher",
-    type=click.Choice(["reference", "search", "search_strict"]),
+    type=click.Choice(TEACHERS),
     help="Train a student of this teacher by DAgger instead of PPO: it sees only the agent's senses and "
     "learns the teacher's actions (train.dagger_* keys; docs, Learned agents).",
 )

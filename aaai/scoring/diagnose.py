@@ -44,7 +44,7 @@ from typing import Callable
 
 import numpy as np
 
-from aaai.config import Config, ConfigError, env_part, load_config
+from aaai.config import TEACHERS, Config, ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
 from aaai.files import file_sha256
 from aaai.scoring.episodes import play
@@ -62,7 +62,6 @@ from aaai.spec.kinds import KIND_INDEX
 from aaai.task.arena import arena_meta, load_arena
 
 FOOD_CHANNELS = (KIND_INDEX["food_green"], KIND_INDEX["food_yellow"])
-TEACHERS = ("reference", "search", "search_strict")  # --teacher: the controllers a DAgger student learns from
 STILL_FORWARD, STILL_TURN = 0.2, 0.3  # a student's gait command this small in both: it all but stands
 MOVE_FORWARD, TURN_ASKED = 0.3, 0.5  # a teacher's forward or turn this large: it asks for a walk or a turn
 RAY_WIDTH = 11  # the classic rays: nine kinds, nothing, distance
