@@ -5,8 +5,9 @@ CPU it finds (AVX-512 on one machine, AVX2 or a vendor's own path on another). T
 in the last bits, and training turns last bits into other weights: the same DAgger config, seed and
 data gave other weights from its first refit on two machines, and another student (docs:
 Determinism, "Training on another CPU"). MKL's Conditional Numerical Reproducibility mode
-``COMPATIBLE`` runs one set of kernels on every x86-64 CPU, so the same config and seed train the
-same weights anywhere.
+``COMPATIBLE`` is meant to run one set of kernels on every x86-64 CPU; measured, the same config and
+seed train the same weights on CPUs of one maker, and other weights on an AMD EPYC and an Intel Xeon
+(docs: Determinism, "Training on another CPU").
 
 The ``aaai`` command asks for it before anything is computed (``portable_maths``, called when the
 command's package is imported), and its worker processes inherit it. A user's own ``MKL_CBWR`` is
