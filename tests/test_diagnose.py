@@ -1,5 +1,6 @@
 """aaai diagnose on a scoreboard of arena files: each failed row replayed on its arena file, and a
-file missing or changed since it was scored refused before any replay."""
+file missing or changed since it was scored refused before any replay; and with a teacher watching
+(--teacher): where a student stood or turned against what its teacher asked, the episode unchanged."""
 
 import json
 import shutil
