@@ -48,6 +48,14 @@ def reference_on_arena(make_env, folder, text: str):
     return env, controller
 
 
+@pytest.fixture(scope="module")
+def gait_env():
+    """One env of a module in gait mode with the default senses (17 rays over 90 degrees)."""
+    env = AnimalAIEnv(config={"agent": {"action_mode": "gait"}})
+    yield env
+    env.close()
+
+
 @pytest.fixture
 def make_env():
     envs = []

@@ -103,15 +103,6 @@ def test_diagnose_replays_in_the_environment_the_scoreboard_records(scored, tmp_
 
 
 # --- a teacher watching the replays (aaai diagnose --teacher) -----------------------------------------------
-@pytest.fixture(scope="module")
-def gait_env():
-    from aaai.env import AnimalAIEnv
-
-    env = AnimalAIEnv(config={"agent": {"action_mode": "gait"}})
-    yield env
-    env.close()
-
-
 L0_ROW = {"level": "0", "difficulty": "0", "seed": "3"}  # the food ahead: the reference walks to it from the start
 
 

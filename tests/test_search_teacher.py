@@ -14,13 +14,6 @@ from aaai.env import AnimalAIEnv
 from aaai.task.search import SearchController, StrictSearchController
 
 
-@pytest.fixture(scope="module")
-def gait_env():
-    env = AnimalAIEnv(config={"agent": {"action_mode": "gait"}})  # the default senses: 17 rays over 90 degrees
-    yield env
-    env.close()
-
-
 def _place(env, x: float, y: float, yaw: float) -> dict:
     """The body set down at (x, y) facing ``yaw``; one standing decision so the rays cast from there."""
     p.resetBasePositionAndOrientation(

@@ -126,8 +126,7 @@ class _Watched:
 
 def teacher_for(name: str, env: AnimalAIEnv):
     """The controller ``--teacher NAME`` watches with, on ``env`` (gait mode: it labels gait commands)."""
-    from aaai.task.reference import ReferenceController
-    from aaai.task.search import SEARCHERS
+    from aaai.task.search import teacher
 
     if name not in TEACHERS:
         raise ConfigError(f"--teacher: got {name!r}; allowed: {', '.join(TEACHERS)}")
@@ -136,7 +135,7 @@ def teacher_for(name: str, env: AnimalAIEnv):
             f"--teacher: the scoreboard was scored in action mode {env.config.agent.action_mode!r}; allowed: "
             "gait (a teacher's labels are gait commands, as a DAgger student's are)"
         )
-    return SEARCHERS.get(name, ReferenceController)(env)
+    return teacher(name, env)
 
 
 def replay_failure(env: AnimalAIEnv, policy, row: dict, arena: Path | None = None, teacher=None) -> Failure:

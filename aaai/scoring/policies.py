@@ -27,7 +27,7 @@ from typing import Any, Callable, Iterator, Mapping
 
 import numpy as np
 
-from aaai.config import Config, ConfigError, env_part, load_config
+from aaai.config import TEACHERS, Config, ConfigError, env_part, load_config
 from aaai.env import AnimalAIEnv
 from aaai.files import file_sha256, folder_sha256
 from aaai.scoring.runs import RunFolder, model_problem, rllib_checkpoint, run_backend
@@ -104,14 +104,10 @@ class Policy:
     def _acting(self, env: Any, extra_keys: tuple) -> Callable:
         if self.kind == "random":
             return RandomPolicy(env)
-        if self.kind == "reference":
-            from aaai.task.reference import ReferenceController
+        if self.kind in TEACHERS:
+            from aaai.task.search import teacher
 
-            return ReferenceController(env)
-        if self.kind in ("search", "search_strict"):
-            from aaai.task.search import SEARCHERS
-
-            return SEARCHERS[self.kind](env)
+            return teacher(self.kind, env)
         if self.kind == "gait":
             return gait_policy(env)
         if self.kind == "model":

@@ -321,3 +321,8 @@ class StrictSearchController(SearchController):
 
 
 SEARCHERS = {"search": SearchController, "search_strict": StrictSearchController}  # by policy and teacher name
+
+
+def teacher(name: str, env) -> ReferenceController:
+    """The controller a teacher's name (aaai.config.TEACHERS: reference, search, search_strict) names, on ``env``."""
+    return SEARCHERS.get(name, ReferenceController)(env)

@@ -163,12 +163,11 @@ def play_job(job: Job) -> dict:
     import torch
 
     from aaai.env import AnimalAIEnv
-    from aaai.task.reference import ReferenceController
-    from aaai.task.search import SEARCHERS
+    from aaai.task.search import teacher as controller
 
     torch.set_num_threads(1)
     env = AnimalAIEnv(config=env_part(job.config, 0.0))
-    teacher = SEARCHERS.get(job.config.train.teacher, ReferenceController)(env)
+    teacher = controller(job.config.train.teacher, env)
     student, actor = None, None
     if job.weights is not None:
         student = build_student(job.student_policy, seen_space(env.observation_space), env.action_space, job.net_width)
