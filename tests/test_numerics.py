@@ -43,10 +43,11 @@ def cpu_maker() -> str:
 
 
 def pinned(digest: str) -> str:
-    """The pinned bytes for this CPU's maker; a maker not measured yet is skipped, naming the digest to pin."""
+    """The pinned bytes for this CPU's maker. A maker not measured yet has nothing to compare with: the
+    test is skipped, saying so and naming the digest to pin (the simulated-paths test still runs)."""
     maker = cpu_maker()
     if maker not in PINNED:
-        pytest.skip(f"no weights pinned for CPUs made by {maker!r}: this one trains to {digest}")
+        pytest.skip(f"no weights pinned yet for CPUs made by {maker!r} (PINNED): this one trains to {digest}; pin it")
     return PINNED[maker]
 
 
@@ -57,6 +58,7 @@ def environment(**extra: str) -> dict[str, str]:
 
 def small_student(tmp_path: Path, env: dict[str, str]) -> tuple[str, dict]:
     """Trains the small student in a fresh ``aaai`` process; its final weights' SHA-256 and versions.json."""
+    tmp_path.mkdir(parents=True, exist_ok=True)
     config = yaml.safe_load((ROOT / "configs" / "student_food_memory.yaml").read_text())
     config["train"].update(dagger_iterations=2, dagger_episodes=6, dagger_episode_cap=80, processes=1)
     path, run = tmp_path / "small.yaml", tmp_path / "run"
@@ -85,8 +87,10 @@ def test_a_small_student_trains_to_the_pinned_bytes(tmp_path):
 
 @pytest.mark.long
 def test_a_small_student_trains_to_the_same_bytes_on_another_cpus_code_paths(tmp_path):
-    digest, _ = small_student(tmp_path, environment(**OTHER_CPU))
-    assert digest == pinned(digest)
+    digest, _ = small_student(tmp_path / "simulated", environment(**OTHER_CPU))
+    # against the bytes pinned for this CPU's maker, or (a maker not measured yet) this CPU's own run
+    expected = PINNED.get(cpu_maker()) or small_student(tmp_path / "native", environment())[0]
+    assert digest == expected
 
 
 @pytest.mark.long
