@@ -128,7 +128,8 @@ RULES: dict[str, Rule] = {
     "level": Rule("int", 0, MAX_LEVEL_ID, levels=True),  # a registered level's id (aaai.levels); 12 is L2b
     "difficulty": Rule("int", 0, 10),
     "agent.body": Rule("choice", choices=(*BODIES, "sphere")),  # sphere: Animal-AI's body (aaai.agent.sphere)
-    "agent.action_mode": Rule("choice", choices=("rotation", "velocity", "gait")),
+    # discrete: Animal-AI's actions (forward/backward, right/left) and a crouch, as the gait's commands
+    "agent.action_mode": Rule("choice", choices=("rotation", "velocity", "gait", "discrete")),
     "agent.decision_interval": Rule("float", 1e-4, 1e4),  # gait mode: seconds an action is held
     "agent.max_force": Rule("float", 1e-3, 1e5),
     "agent.position_gain": Rule("float", 1e-4, 10),
@@ -214,7 +215,8 @@ RULES: dict[str, Rule] = {
 }
 
 
-ActionMode = Literal["rotation", "velocity", "gait"]  # what the env's actions mean (agent.action_mode)
+ActionMode = Literal["rotation", "velocity", "gait", "discrete"]  # what the env's actions mean (agent.action_mode)
+ACTION_MODES: tuple[str, ...] = RULES["agent.action_mode"].choices  # the CLI's --action-mode choices
 
 
 # --- the typed configuration: one frozen dataclass per section of configs/default.yaml ----------

@@ -21,7 +21,7 @@ from aaai.agent.sphere import Sphere, SphereCommands
 from aaai.config import ActionMode, Config, ConfigError, env_keywords, load_config
 from aaai.levels import check_difficulty, episode_rngs, generate, get_level, validate
 from aaai.levels.seeds import TRAIN_SEEDS
-from aaai.sim.gait import SineGait
+from aaai.sim.gait import DISCRETE_CHOICES, SineGait, command_of_choice
 from aaai.sim.sensors import Senses, render_rgb
 from aaai.sim.simulation import Simulation, display_available
 from aaai.sim.snapshot import Leg, Pose, Snapshot
@@ -115,7 +115,10 @@ class AnimalAIEnv(gym.Env):
     (0.02 s). With ``action_mode: gait``, Box([-1, -1, 0], [1, 1, 1]): the forward, turn and
     crouch commands of the tuned steerable gait (aaai.sim.gait), each held for ``decision_interval``
     seconds (default 0.1 s, 5 control steps); reward and reward terms are summed over the held
-    steps and ``info["steps"]`` still counts control steps.
+    steps and ``info["steps"]`` still counts control steps. With ``action_mode: discrete``,
+    MultiDiscrete([3, 3, 2]): Animal-AI's actions, forward (0 none, 1 forward, 2 backward) and turn
+    (0 none, 1 right, 2 left), and a crouch (0 stand, 1 crouch), each the gait's command at full
+    strength, held as in gait mode.
 
     Observations: a Dict: ``joints`` (8,) always; ``rays``, ``camera``, ``joint_velocities``,
     ``head_orientation`` and ``foot_contacts`` as the ``sensors`` config turns them on (docs/environment.md,
@@ -151,11 +154,12 @@ class AnimalAIEnv(gym.Env):
     Agent (``agent.*``): the body and what an action means.
 
     - ``body`` (str, default ``quadruped``): quadruped (8 axes), quadruped16 (16 axes) or sphere (Animal-AI's
-      own body, aaai.agent.sphere: its actions are always the gait mode's forward, turn and crouch commands,
-      crouch ignored, held for decision_interval) (one of quadruped, quadruped16, sphere)
+      own body, aaai.agent.sphere: its actions are always the gait mode's forward, turn and crouch commands, or
+      their choices in discrete mode, crouch ignored, held for decision_interval) (one of quadruped, quadruped16, sphere)
     - ``action_mode`` (str, default ``rotation``): rotation: action -> target angle; velocity: action -> target
       speed (8 joints, each control step); gait: action -> forward, turn, crouch of the tuned steerable gait
-      (aaai/sim/gait.py), held for decision_interval (one of rotation, velocity, gait)
+      (aaai/sim/gait.py), held for decision_interval; discrete: Animal-AI's choices, forward/backward and right/left,
+      and a crouch, as the gait's commands (one of rotation, velocity, gait, discrete)
     - ``decision_interval`` (float, default ``0.1``): gait mode: seconds each action is held (a whole number of
       control steps of physics.timestep x action_repeat = 0.02 s); 0.1 = 5 steps (a number from 0.0001 to 10000)
     - ``max_force`` (float, default ``93.58``): motor force limit per axis (N m) (a number from 0.001 to 100000)
@@ -298,7 +302,8 @@ class AnimalAIEnv(gym.Env):
         self.task = FoodTask(
             cfg.episode, agent.limb_food_reward, self.control_dt, head_rests=isinstance(self.body, Sphere)
         )
-        if isinstance(self.body, Sphere) or self.action_mode == "gait":
+        self.action_space: spaces.Box | spaces.MultiDiscrete
+        if isinstance(self.body, Sphere) or self.action_mode in ("gait", "discrete"):
             sphere = isinstance(self.body, Sphere)
             self.gait = SphereCommands() if sphere else SineGait(self.body.joint_names, control_dt=self.control_dt)
             self.hold = hold_steps(agent.decision_interval, self.control_dt)
@@ -308,6 +313,8 @@ class AnimalAIEnv(gym.Env):
             self.action_space = spaces.Box(-1.0, 1.0, (self.body.n_axes,), np.float32)
         self._low = self.action_space.low.astype(np.float64)
         self._high = self.action_space.high.astype(np.float64)
+        if self.action_mode == "discrete":  # Animal-AI's choices, each standing for gait commands (aaai.sim.gait)
+            self.action_space = spaces.MultiDiscrete(list(DISCRETE_CHOICES))
         self.observation_space: spaces.Dict = self.senses.space
         self.level_spec: LevelSpec | None = None  # the LevelSpec of the current episode
         self.world: World | None = None
@@ -371,11 +378,30 @@ class AnimalAIEnv(gym.Env):
         info = self._info({term: 0.0 for term in TERMS}, fell=False, blew_up=False)
         return self._observe(angles, speeds, position, orientation), info
 
+    def _choice(self, action: np.ndarray) -> np.ndarray:
+        """A discrete action as the gait commands it stands for; anything but one whole choice per
+        part, within its count, is refused naming what is allowed."""
+        nvec = np.asarray(DISCRETE_CHOICES)
+        if (
+            action.shape != nvec.shape
+            or not np.isfinite(action).all()
+            or (action != np.rint(action)).any()
+            or (action < 0).any()
+            or (action >= nvec).any()
+        ):
+            raise ValueError(
+                f"action: got {action.tolist()!r}; allowed in action_mode discrete: 3 whole numbers, forward "
+                "(0 none, 1 forward, 2 backward), turn (0 none, 1 right, 2 left), crouch (0 stand, 1 crouch)"
+            )
+        return command_of_choice(action).astype(np.float64)
+
     def step(self, action):
         self._check_open()
         if self.world is None:
             raise gym.error.ResetNeeded("step() before reset(): call reset() to build a level first")
         action = np.asarray(action, dtype=np.float64)
+        if self.action_mode == "discrete":
+            action = self._choice(action)
         if action.shape != self.action_space.shape:
             raise ValueError(f"action: got shape {action.shape}; allowed: shape {self.action_space.shape}")
         if not np.isfinite(action).all():

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from aaai.config import ConfigError
+from aaai.config import ACTION_MODES, ConfigError
 from aaai.errors import needs_extra
 from aaai.scoring.eval_job import with_action_mode
 from aaai.scoring.policies import resolve
@@ -31,7 +31,7 @@ from .options import POLICY_HELP, Output, SeedList, parse_levels, parse_range, r
 )
 @click.option(
     "--action-mode",
-    type=click.Choice(["rotation", "velocity", "gait"]),
+    type=click.Choice(ACTION_MODES),
     help="The actions recorded (default: the config's, or the run's for a run folder).",
 )
 @click.option("--config", "config_path", type=click.Path(), help="A YAML for the env.")

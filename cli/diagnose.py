@@ -40,7 +40,7 @@ from .options import MANY, POLICY_HELP, parse_levels
 @click.option(
     "--teacher",
     type=click.Choice(TEACHERS),
-    help="Watch each replay with this teacher, as DAgger does (gait mode): adds the share of decisions the "
+    help="Watch each replay with this teacher, as DAgger does (gait or discrete mode): adds the share of decisions the "
     "student stood where the teacher asked it to move, and turned the other way from the turn it asked for.",
 )
 def diagnose_command(policy, scoreboard, levels, limit, config_path, arenas, teacher):

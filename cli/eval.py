@@ -7,7 +7,7 @@ from typing import Iterator
 
 import click
 
-from aaai.config import ConfigError
+from aaai.config import ACTION_MODES, ConfigError
 from aaai.errors import needs_extra
 from aaai.files import InUse
 
@@ -88,7 +88,7 @@ from .progress import progress_output
 )
 @click.option(
     "--action-mode",
-    type=click.Choice(["rotation", "velocity", "gait"]),
+    type=click.Choice(ACTION_MODES),
     help="Score in this action mode (default: the run's or config's). A model is scored only in the "
     "mode it was trained in.",
 )

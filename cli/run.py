@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from aaai.config import ConfigError
+from aaai.config import ACTION_MODES, ConfigError
 from aaai.env import AnimalAIEnv
 from aaai.levels import SEED_LIMIT, get_level
 from aaai.scoring.episodes import play
@@ -44,7 +44,7 @@ from .options import COUNT, POLICY_HELP, SEED, TRUST_HELP, parse_levels, parse_r
 )
 @click.option(
     "--action-mode",
-    type=click.Choice(["rotation", "velocity", "gait"]),
+    type=click.Choice(ACTION_MODES),
     help="rotation or velocity: 8 joint targets a control step; gait: forward, turn, crouch of the gait, "
     "held for agent.decision_interval (default: the config's).",
 )

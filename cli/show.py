@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from aaai.config import ConfigError
+from aaai.config import ACTION_MODES, ConfigError
 from aaai.levels import check_difficulty, check_seed, get_level
 from aaai.scoring.episodes import play
 from aaai.tools.media import VIDEO_CODECS, VideoWriter, save_png, video_extension_error
@@ -71,7 +71,7 @@ def frame_every(fps: float, control_dt: float) -> int:
 @click.option("--config", "config_path", type=click.Path(), help="A YAML overriding configs/default.yaml.")
 @click.option(
     "--action-mode",
-    type=click.Choice(["rotation", "velocity", "gait"]),
+    type=click.Choice(ACTION_MODES),
     help="The policy's action mode (default: the config's); gait: forward, turn, crouch commands.",
 )
 @click.option(

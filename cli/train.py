@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from aaai.config import TEACHERS, ConfigError, load_config
+from aaai.config import ACTION_MODES, TEACHERS, ConfigError, load_config
 from aaai.errors import needs_extra
 from aaai.files import InUse
 
@@ -66,7 +66,7 @@ def _overrides(**values) -> dict:
 @click.option("--progress-every", type=Seconds(0.1), default=30.0, show_default=True, help=PROGRESS_HELP)
 @click.option(
     "--action-mode",
-    type=click.Choice(["rotation", "velocity", "gait"]),
+    type=click.Choice(ACTION_MODES),
     help="rotation or velocity: 8 joint targets a control step; gait: forward, turn, crouch of the gait, "
     "held for agent.decision_interval (default: the config's).",
 )

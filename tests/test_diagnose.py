@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from aaai.env import AnimalAIEnv
 from aaai.files import file_sha256
 from aaai_cli.main import cli
 
@@ -115,6 +116,33 @@ def test_a_teacher_watching_counts_the_decisions_a_standing_student_was_taught_t
     failure = replay_failure(gait_env, stand, L0_ROW, teacher=teacher_for("reference", gait_env))
     assert failure.stood > 0.9 and failure.against == 0.0
     assert replay_failure(gait_env, stand, L0_ROW).stood is None  # no teacher: no such share
+
+
+def test_in_discrete_mode_the_choices_are_read_as_the_commands_they_stand_for():
+    """As in gait mode: a standing student ([0, 0, 0]) is counted standing; the reference's own
+    choices never part from it; its choices with right and left swapped turn against it."""
+    from aaai.scoring.diagnose import replay_failure, teacher_for
+    from aaai.task.reference import ReferenceController
+
+    env = AnimalAIEnv(config={"agent": {"action_mode": "discrete"}})
+    try:
+        failure = replay_failure(env, lambda o: np.zeros(3, np.int64), L0_ROW, teacher=teacher_for("reference", env))
+        assert failure.stood > 0.9 and failure.against == 0.0
+        row = {"level": "1", "difficulty": "0", "seed": "3"}  # the food off to one side: it turns to face it
+        same = replay_failure(env, ReferenceController(env), row, teacher=teacher_for("reference", env))
+        assert same.stood == 0.0 and same.against == 0.0
+        own = ReferenceController(env)
+
+        def mirrored(observation):  # the teacher's own choice, right (1) and left (2) swapped
+            choice = np.array(own(observation))
+            choice[1] = (0, 2, 1)[choice[1]]
+            return choice
+
+        mirrored.reset = own.reset
+        failure = replay_failure(env, mirrored, row, teacher=teacher_for("reference", env))
+        assert failure.against > 0.5 and failure.stood == 0.0
+    finally:
+        env.close()
 
 
 def test_a_student_that_does_what_its_teacher_does_never_parts_from_it_and_plays_the_same_episode(gait_env):

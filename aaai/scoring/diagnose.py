@@ -12,7 +12,7 @@ what the rays showed and where the body was, to sort the failure into one first 
 - ``ate the wrong food``: it ate, but not enough to pass (a green before the yellows, a smaller
   green).
 
-With a teacher (``--teacher reference``, ``search`` or ``search_strict``; gait mode), each replay is
+With a teacher (``--teacher reference``, ``search`` or ``search_strict``; gait or discrete mode), each replay is
 also watched by it as DAgger's teacher watches a student drive (aaai.train.student): at every decision
 it says what it would do there, and two shares of the decisions say where the student parted from it:
 
@@ -58,6 +58,7 @@ from aaai.scoring.provenance import (
     record_path,
     unhashed_arenas,
 )
+from aaai.sim.gait import as_command
 from aaai.spec.kinds import KIND_INDEX
 from aaai.task.arena import arena_meta, load_arena
 
@@ -106,10 +107,13 @@ class _Watched:
             self.policy.reset(seed)
 
     def __call__(self, observation):
-        label = np.asarray(self.teacher(observation), np.float64)
+        label = self.teacher(observation)
         action = self.policy(observation)
         self.teacher.student_drove(self.env.hold * self.env.control_dt)
-        self.pairs.append((np.asarray(action, np.float64), label))
+        # as gait commands (forward, turn, crouch): a discrete choice as the command it stands for
+        self.pairs.append(
+            (as_command(self.env, action).astype(np.float64), as_command(self.env, label).astype(np.float64))
+        )
         return action
 
     def shares(self) -> tuple[float, float]:
@@ -125,7 +129,8 @@ class _Watched:
 
 
 def teacher_for(name: str, env: AnimalAIEnv):
-    """The controller ``--teacher NAME`` watches with, on ``env`` (gait mode: it labels gait commands)."""
+    """The controller ``--teacher NAME`` watches with, on ``env`` (gait or discrete mode: it labels gait
+    commands, or the choices nearest them)."""
     from aaai.task.search import teacher
 
     if name not in TEACHERS:
@@ -133,7 +138,7 @@ def teacher_for(name: str, env: AnimalAIEnv):
     if env.gait is None:
         raise ConfigError(
             f"--teacher: the scoreboard was scored in action mode {env.config.agent.action_mode!r}; allowed: "
-            "gait (a teacher's labels are gait commands, as a DAgger student's are)"
+            "gait or discrete (a teacher's labels are gait commands or their choices, as a DAgger student's are)"
         )
     return teacher(name, env)
 

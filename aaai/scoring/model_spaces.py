@@ -82,8 +82,8 @@ def _space_parts(text: str) -> dict[str, SpaceValue]:
 
 
 def stored_space(archive: Archive, field: str) -> dict[str, SpaceValue] | None:
-    """The space a file keeps, by value: {key: value} for a Dict space, {"": value} for a Box or a
-    Discrete; None when the file keeps no readable description of it."""
+    """The space a file keeps, by value: {key: value} for a Dict space, {"": value} for a Box, a
+    Discrete or a MultiDiscrete; None when the file keeps no readable description of it."""
     entry = archive.data.get(field)
     if not isinstance(entry, dict):
         return None
@@ -96,6 +96,11 @@ def stored_space(archive: Archive, field: str) -> dict[str, SpaceValue] | None:
         high = entry.get("high_repr") if isinstance(entry.get("high_repr"), str) else entry.get("high")
         text = f"Box({low}, {high}, {shape}, {entry.get('dtype')})"
         return {"": SpaceValue(text, "Box", shape, str(entry.get("dtype")), _bound(low), _bound(high))}
+    if kind.endswith(".MultiDiscrete'>"):
+        counts, starts = _bound(entry.get("nvec")), _bound(entry.get("start"))
+        if counts is None:
+            return None
+        return {"": _multi_discrete(counts, starts, str(entry.get("dtype")))}
     if kind.endswith(".Discrete'>"):
         start = entry.get("start")
         shown = "" if start in (None, 0, "0") else f", start={start}"
@@ -104,9 +109,20 @@ def stored_space(archive: Archive, field: str) -> dict[str, SpaceValue] | None:
     return None
 
 
+def _multi_discrete(counts: np.ndarray, starts: np.ndarray | None, dtype: str) -> SpaceValue:
+    """A MultiDiscrete space by value, shown as gymnasium shows it (``MultiDiscrete([3 3 2])``)."""
+    shown = "[" + " ".join(f"{int(n)}" for n in counts) + "]"
+    if starts is not None and starts.any():
+        shown += ", start=[" + " ".join(f"{int(n)}" for n in starts) + "]"
+    return SpaceValue(f"MultiDiscrete({shown})", "MultiDiscrete", (len(counts),), dtype)
+
+
 def _live_value(space) -> SpaceValue:
     from gymnasium import spaces
 
+    if isinstance(space, spaces.MultiDiscrete) and space.nvec.ndim == 1:
+        starts = np.asarray(space.start, np.float64)
+        return _multi_discrete(np.asarray(space.nvec, np.float64), starts, str(space.dtype))
     if isinstance(space, spaces.Box):
         low, high = np.asarray(space.low, np.float64).ravel(), np.asarray(space.high, np.float64).ravel()
         return SpaceValue(repr(space), "Box", tuple(space.shape), str(space.dtype), low, high)

@@ -187,19 +187,60 @@ def approach(
     return forward, turn, 0.0
 
 
+# --- action_mode: discrete -------------------------------------------------------------------
+# Animal-AI's actions, with a crouch: three choices, each an index. Forward: 0 none, 1 forward,
+# 2 backward; turn: 0 none, 1 right, 2 left (Animal-AI's coding of its MultiDiscrete([3, 3])); crouch:
+# 0 stand, 1 crouch. Each choice is the gait's command at full strength, held as a gait-mode action is.
+DISCRETE_CHOICES = (3, 3, 2)
+FORWARD_OF_CHOICE = (0.0, 1.0, -1.0)
+TURN_OF_CHOICE = (0.0, -1.0, 1.0)  # turn: -1 right .. 1 left
+CHOICE_THRESHOLD = 1.0 / 3.0  # a command nearer 0 than this is "none" (aaai.sim.gait.choice_of_command)
+
+
+def command_of_choice(choice) -> np.ndarray:
+    """The gait commands (forward, turn, crouch) a discrete action ``choice`` stands for."""
+    forward, turn, crouch = (int(c) for c in choice)
+    return np.array([FORWARD_OF_CHOICE[forward], TURN_OF_CHOICE[turn], float(crouch)], np.float32)
+
+
+def choice_of_command(command) -> np.ndarray:
+    """The discrete action nearest the gait commands ``command`` (forward, turn, crouch): a forward
+    or turn command nearer 0 than CHOICE_THRESHOLD is none, else its direction at full strength;
+    crouch from 0.5 up is a crouch. How a teacher of gait commands labels a discrete student."""
+    forward, turn, crouch = (float(c) for c in command)
+
+    def direction(value: float, positive: int, negative: int) -> int:
+        return 0 if abs(value) < CHOICE_THRESHOLD else positive if value > 0 else negative
+
+    return np.array([direction(forward, 1, 2), direction(turn, 2, 1), int(crouch >= 0.5)], np.int64)
+
+
+def as_command(env, action) -> np.ndarray:
+    """A gait- or discrete-mode ``action`` of ``env`` as its gait commands (forward, turn, crouch)."""
+    if getattr(env.unwrapped, "action_mode", None) == "discrete":
+        return command_of_choice(action)
+    return np.asarray(action, np.float32)
+
+
 class WalkForward:
-    """``--policy gait`` in gait mode: the command to walk straight ahead, every decision."""
+    """``--policy gait`` in gait mode: the command to walk straight ahead, every decision (in
+    discrete mode its choice: forward, no turn, standing)."""
+
+    def __init__(self, discrete: bool = False) -> None:
+        self.discrete = discrete
 
     def reset(self, seed: int | None = None) -> None:
         pass
 
     def __call__(self, observation=None) -> np.ndarray:
+        if self.discrete:
+            return np.array([1, 0, 0], np.int64)
         return np.array([1.0, 0.0, 0.0], np.float32)
 
 
 def gait_policy(env, direction: str = "forward"):
     """The ``gait`` policy for an env in any action mode: the trot's joint targets in the joint
-    modes, its straight-ahead command in gait mode."""
+    modes, its straight-ahead command in gait and discrete mode."""
     if getattr(env.unwrapped, "gait", None) is not None:
-        return WalkForward()
+        return WalkForward(discrete=getattr(env.unwrapped, "action_mode", None) == "discrete")
     return SineGait.for_env(env, direction)

@@ -45,7 +45,7 @@ from aaai.agent.sphere import Sphere
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.levels import validate
 from aaai.levels.validate import FOOTPRINT_RADIUS
-from aaai.sim.gait import BACK_UP, SineGait, approach, steer
+from aaai.sim.gait import BACK_UP, SineGait, approach, choice_of_command, steer
 from aaai.sim.geometry import corners
 from aaai.spec import LevelSpec, ObjectSpec
 from aaai.spec.behaviours import PATH_STEP, Bounce, Sink, behaviour_class
@@ -360,10 +360,13 @@ class ReferenceController:
     # --- acting ---------------------------------------------------------------------
     def __call__(self, observation=None) -> np.ndarray:
         """The next action: joint targets in the joint modes; in gait mode the gait commands
-        (forward, turn, crouch) that its own gait would be following now."""
+        (forward, turn, crouch) that its own gait would be following now; in discrete mode the
+        choice nearest them (aaai.sim.gait.choice_of_command)."""
         joints = self._act()
         if self.env.gait is None:
             return joints
+        if self.env.action_mode == "discrete":
+            return choice_of_command(self.gait.target)
         return np.asarray(self.gait.target, np.float32)
 
     def command(self) -> np.ndarray:

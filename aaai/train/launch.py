@@ -51,7 +51,7 @@ def new_run_dir() -> str:
 def step_note(config: Config) -> str:
     """The unit of a progress line's steps: 'steps: gait decisions of 0.1 s' or 'steps: control steps of 0.02 s'."""
     agent, physics = config.agent, config.physics
-    if agent.action_mode == "gait":
+    if agent.action_mode in ("gait", "discrete"):
         return f"steps: gait decisions of {agent.decision_interval:g} s"
     return f"steps: control steps of {physics.timestep * physics.action_repeat:g} s"
 
@@ -59,7 +59,7 @@ def step_note(config: Config) -> str:
 def step_unit(config: Config) -> str:
     """What a training step counts in a run of this config: agent decisions or control steps."""
     agent = config.agent
-    if agent.action_mode == "gait":
+    if agent.action_mode in ("gait", "discrete"):
         return f"agent decisions (of {agent.decision_interval:g} s each)"
     physics = config.physics
     return f"agent decisions (control steps of {physics.timestep * physics.action_repeat:g} s)"

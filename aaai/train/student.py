@@ -12,8 +12,10 @@ gets only the ordinary observation (rays, proprioception, the camera if on). Eac
    cloning);
 2. adds the (observation, label) pairs to everything gathered so far;
 3. refits the student to all of it by supervised learning: the mean action of a
-   stable-baselines3 ``MultiInputPolicy`` regressed on the labels (mean squared error, Adam),
-   continuing from the last round's weights.
+   stable-baselines3 ``MultiInputPolicy`` regressed on the labels (mean squared error, Adam), or,
+   with ``agent.action_mode: discrete``, its choices classified (cross-entropy: the teacher's gait
+   commands labelled with the nearest choice, aaai.sim.gait.choice_of_command), continuing from
+   the last round's weights.
 
 The teacher is stateful: it notices when it makes no progress and backs off, and it times its
 plank pushes. While the student drives, those clocks are held (``ReferenceController.
@@ -137,10 +139,28 @@ def act(policy, observation: dict) -> np.ndarray:
 
 
 def mean_actions(policy, observations: dict):
-    """The policy's mean action for a batch of observations (torch tensors), with gradients."""
+    """The policy's mean action for a batch of observations (torch tensors), with gradients; for a
+    discrete action space (``agent.action_mode: discrete``) the logits of every part's choices."""
     features = policy.extract_features(observations, policy.pi_features_extractor)
     latent = policy.mlp_extractor.forward_actor(features)
     return policy.action_net(latent)
+
+
+def imitation_loss(policy, outputs, targets):
+    """How far ``outputs`` (:func:`mean_actions`) are from the teacher's labels ``targets``: the mean
+    squared error of continuous actions; for discrete ones, the sum over the action's parts of the
+    cross-entropy of that part's choices, so the student learns which choice the teacher makes, not
+    the mean of choices it cannot tell apart."""
+    import torch
+    from gymnasium import spaces
+
+    space = policy.action_space
+    if isinstance(space, spaces.MultiDiscrete):
+        parts = torch.split(outputs, [int(n) for n in space.nvec], dim=1)
+        return sum(
+            torch.nn.functional.cross_entropy(logits, target) for logits, target in zip(parts, targets.long().unbind(1))
+        )
+    return torch.nn.functional.mse_loss(outputs, targets)
 
 
 # --- playing episodes -------------------------------------------------------------------
@@ -265,7 +285,7 @@ def fit(
         for start in range(0, size, BATCH_SIZE):
             index = order[start : start + BATCH_SIZE]
             batch = {key: value[index] for key, value in inputs.items()}
-            loss = torch.nn.functional.mse_loss(mean_actions(policy, batch), targets[index])
+            loss = imitation_loss(policy, mean_actions(policy, batch), targets[index])
             optimizer.zero_grad()
             loss.backward()
             for group in optimizer.param_groups:
@@ -295,11 +315,16 @@ def check_teachable(config: Config) -> None:
     if config.agent.action_mode == "velocity":
         raise ConfigError(
             "config key 'agent.action_mode': got 'velocity'; allowed for a student of the reference: "
-            "gait or rotation (the reference steers the gait by joint angles)"
+            "gait, discrete or rotation (the reference steers the gait by joint angles)"
         )
     check_memory(config)  # a student with images: its labelled data within a stated bound
     if config.train.student_policy == "lstm":
         recurrent_student.check_available()
+        if config.agent.action_mode == "discrete":
+            raise ConfigError(
+                "config key 'train.student_policy': got 'lstm' with agent.action_mode discrete; allowed with "
+                "discrete actions: mlp (the recurrent student is fitted to continuous gait commands)"
+            )
         if config.train.dagger_max_decisions:
             raise ConfigError(
                 f"config key 'train.dagger_max_decisions': got {config.train.dagger_max_decisions}; allowed with "
@@ -455,8 +480,9 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
         return fit(model.policy, data.observations, data.labels, settings.epochs, settings.seed + iteration, end)
 
     def checkpoint(step: int, iterations_done: int) -> None:
-        with torch.no_grad():
-            model.policy.log_std.fill_(settings.log_std_init)
+        if hasattr(model.policy, "log_std"):  # a discrete student's choices have no spread to set
+            with torch.no_grad():
+                model.policy.log_std.fill_(settings.log_std_init)
 
         def save(path: Path) -> None:
             save_model(model, path, config)  # the model file carries the run's config
