@@ -154,8 +154,9 @@ class AnimalAIEnv(gym.Env):
     Agent (``agent.*``): the body and what an action means.
 
     - ``body`` (str, default ``quadruped``): quadruped (8 axes), quadruped16 (16 axes) or sphere (Animal-AI's
-      own body, aaai.agent.sphere: its actions are always the gait mode's forward, turn and crouch commands, or
-      their choices in discrete mode, crouch ignored, held for decision_interval) (one of quadruped, quadruped16, sphere)
+      own body, aaai.agent.sphere: its actions are always the gait mode's forward, turn and crouch commands,
+      or their choices in discrete mode, crouch ignored, held for decision_interval) (one of quadruped,
+      quadruped16, sphere)
     - ``action_mode`` (str, default ``rotation``): rotation: action -> target angle; velocity: action -> target
       speed (8 joints, each control step); gait: action -> forward, turn, crouch of the tuned steerable gait
       (aaai/sim/gait.py), held for decision_interval; discrete: Animal-AI's choices, forward/backward and right/left,

@@ -18,6 +18,7 @@ and never climbs back, so what it reaches is what lies in the regions it steps d
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, Callable
 
@@ -108,29 +109,35 @@ def overlapping_solids(spec: LevelSpec, index: Solids | None = None) -> list[str
     """Pairs of solid objects that overlap (boxes cut into each other), by index and kind; each
     piece is compared with the pieces near it (``index``: the spec's :class:`Solids`)."""
     index = index if index is not None else Solids(spec)
-    objs, quads, owners, zs = index.pieces, index.quads, index.owners, index.heights
+    objs, quads, owners = index.pieces, index.quads, index.owners
     boxes = [index.box(quad) for quad in quads]
     problems = []
-    for i, (lx, ly, hx, hy) in enumerate(boxes):
+    for i in range(len(boxes)):
         for j in index.near(quads[i]):
             if j <= i:
                 continue
-            jx, jy, kx, ky = boxes[j]
-            if (
-                lx < kx - TOLERANCE
-                and ly < ky - TOLERANCE
-                and jx < hx - TOLERANCE
-                and jy < hy - TOLERANCE
-                and zs[i][0] < zs[j][1] - TOLERANCE
-                and zs[j][0] < zs[i][1] - TOLERANCE
-                and owners[i] != owners[j]
-                and footprints_overlap(quads[i], quads[j])
-            ):
+            if owners[i] != owners[j] and _pieces_overlap(index, boxes, i, j):
                 problems.append(
                     f"solid objects overlap: {objs[i].kind} at {_xy(objs[i].position)} "
                     f"and {objs[j].kind} at {_xy(objs[j].position)}"
                 )
     return problems
+
+
+def _pieces_overlap(index: "Solids", boxes: list, i: int, j: int) -> bool:
+    """Solid pieces ``i`` and ``j`` of ``index`` cut into each other (``boxes``: their bounding boxes)."""
+    lx, ly, hx, hy = boxes[i]
+    jx, jy, kx, ky = boxes[j]
+    (zi0, zi1), (zj0, zj1) = index.heights[i], index.heights[j]
+    return (
+        lx < kx - TOLERANCE
+        and ly < ky - TOLERANCE
+        and jx < hx - TOLERANCE
+        and jy < hy - TOLERANCE
+        and zi0 < zj1 - TOLERANCE
+        and zj0 < zi1 - TOLERANCE
+        and footprints_overlap(index.quads[i], index.quads[j])
+    )
 
 
 def exact_overlaps(spec: LevelSpec) -> list[str]:
@@ -220,7 +227,6 @@ def food_problems(spec: LevelSpec, food: ObjectSpec, index: Solids | None = None
         if abs(x) + radius > spec.arena_size[0] / 2 or abs(y) + radius > spec.arena_size[1] / 2:
             problems.append(f"{where} is outside the arena")
             continue
-        bottom, top = z - radius, z + radius
         quad = corners(ObjectSpec(food.kind, "box", (x, y, z), food.size))
         near = index.near(quad)
         slopes = {k: ramp_clearance(index.pieces[k], x, y, z, radius) for k in near if index.pieces[k].kind == "ramp"}
@@ -228,20 +234,66 @@ def food_problems(spec: LevelSpec, food: ObjectSpec, index: Solids | None = None
         if spec.heightfield is None and not on_slope and not _supported(spec, x, y, z - radius, index):
             problems.append(f"{where} is not on solid ground")
         for k in near:
-            obj, (low, high) = index.pieces[k], index.heights[k]
-            if k in slopes:  # a ramp, a wedge: the piece may rest on its slope
-                clear = slopes[k]
-                if clear is not None:
-                    if clear < -RAMP_REST:
-                        problems.append(f"{where} cuts into {obj.kind} at {_xy(obj.position)}")
-                    continue
-                high = low + ramp_height(obj, x, y)  # beside it: as high as its nearest edge
-            if low < top - TOLERANCE and bottom < high - TOLERANCE and footprints_overlap(quad, index.quads[k]):
+            if _food_cuts(index, k, (x, y, z), radius, quad, slopes.get(k)):
+                obj = index.pieces[k]
                 problems.append(f"{where} cuts into {obj.kind} at {_xy(obj.position)}")
     return problems
 
 
+def _food_cuts(index: Solids, k: int, place, radius: float, quad, clear: float | None = None) -> bool:
+    """A piece of food of ``radius`` at ``place`` (its footprint ``quad``) cuts into solid piece ``k``
+    (``clear``: its clearance over a ramp's slope, ramp_clearance, when known)."""
+    x, y, z = place
+    piece, (low, high) = index.pieces[k], index.heights[k]
+    if piece.kind == "ramp":  # a ramp, a wedge: the piece may rest on its slope
+        clear = clear if clear is not None else ramp_clearance(piece, x, y, z, radius)
+        if clear is not None:
+            return clear < -RAMP_REST
+        high = low + ramp_height(piece, x, y)  # beside it: as high as its nearest edge
+    return low < z + radius - TOLERANCE and z - radius < high - TOLERANCE and footprints_overlap(quad, index.quads[k])
+
+
 RAMP_REST = 0.05  # units: a sphere this close to a ramp's slope rests on it
+
+
+def overlaps_earlier(spec: LevelSpec, index: int) -> bool:
+    """Whether ``spec.objects[index]`` overlaps an object before it, as Animal-AI's ArenaBuilder
+    tests an item before it places it: a solid cutting into an earlier solid or piece of food, or a
+    piece of food cutting into an earlier solid or piece of food (its start, as :func:`food_problems`
+    measures a cut). Objects after ``index`` are not looked at."""
+    earlier = dataclasses.replace(spec, objects=spec.objects[: index + 1])
+    index_of = Solids(earlier)
+    obj = spec.objects[index]
+
+    def cuts(food: ObjectSpec, owner: int | None) -> bool:
+        """``food`` (at its start) cuts into a solid piece: of object ``owner``, or of any other than it (None)."""
+        quad = corners(ObjectSpec(food.kind, "box", food.position, food.size))
+        return any(
+            _food_cuts(index_of, k, food.position, food.size[0] / 2, quad)
+            for k in index_of.near(quad)
+            if (index_of.owners[k] == owner if owner is not None else index_of.owners[k] != index)
+        )
+
+    earlier_food = [other for other in spec.objects[:index] if other.is_food]
+    if obj.is_food:
+        if cuts(obj, None):
+            return True
+        return any(
+            math.dist(obj.position, other.position) < (obj.size[0] + other.size[0]) / 2 - TOLERANCE
+            for other in earlier_food
+        )
+    if obj.kind not in SOLID_KINDS:
+        return False
+    if any(cuts(food, index) for food in earlier_food):
+        return True
+    boxes = [index_of.box(quad) for quad in index_of.quads]
+    return any(
+        _pieces_overlap(index_of, boxes, i, j)
+        for i, owner in enumerate(index_of.owners)
+        if owner == index
+        for j in index_of.near(index_of.quads[i])
+        if index_of.owners[j] != index
+    )
 
 
 def _local(obj: ObjectSpec, x: float, y: float) -> tuple[float, float]:

@@ -21,6 +21,9 @@ An arena file's keys are the spec's fields (docs, "Write your own test"):
 - ``reach``: ``all`` (default: every piece of food must be reachable) or ``pass_mark`` (food out of
   reach is allowed while the reachable food gives the pass mark, as in Animal-AI's tasks whose
   food behind a barrier is a lure); kept in ``extras["reach"]``;
+- ``on_overlap`` (an object's key): ``refuse`` (default) or ``redraw``: placed as Animal-AI's
+  ArenaBuilder places an item, drawn again where it overlaps an object before it and left out
+  where it cannot be placed (:func:`_place`; the spec's ``extras["left_out"]`` lists those);
 - ``walls_cross``: true lets static walls cross each other (Animal-AI's arenas do; a wall is static
   in physics, so nothing moves); kept in ``extras["walls_cross"]``;
 - and three keys that are not the spec's: ``description`` (one line for people), ``category``
@@ -341,6 +344,12 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, Sourc
             )
         elif reach is not None:
             fields["extras"] = {**(fields["extras"] or {}), "reach": reach}
+    if not read.problems and agent is not None:  # objects to be drawn again where they overlap (Animal-AI's rule)
+        objects, left_out = _place(
+            read, objects_value, objects, source.offset, (level, name, difficulty, spec_seed, agent), fields
+        )
+        if left_out:
+            fields["extras"] = {**(fields["extras"] or {}), "left_out": left_out}
     if "max_food_reward" in data:
         fields["max_food_reward"] = attempt(lambda: read.number(data["max_food_reward"], ("max_food_reward",)), 0.0)
     else:
@@ -353,6 +362,46 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, Sourc
     assert agent is not None  # a missing or unreadable agent is a problem
     spec = LevelSpec(level, name, difficulty, spec_seed, agent, objects, **fields)
     return spec, meta, source
+
+
+REDRAW_ATTEMPTS = 20  # Animal-AI's ArenaBuilder: draws of a random item's place before it is left out
+
+
+def _place(
+    read: Reader, values: list, objects: tuple, offset: int, head: tuple, fields: dict
+) -> tuple[tuple, list[int]]:
+    """The objects as Animal-AI's ArenaBuilder places them, for those whose file says ``on_overlap:
+    redraw``: in order, each that overlaps an object before it (validate.overlaps_earlier) has its
+    random numbers drawn again, up to REDRAW_ATTEMPTS draws in all, and is left out when every draw
+    overlaps (one with no random number at once). The draws come after every other draw of the
+    file, so a file whose objects never overlap gives the spec it gave before. Returns the objects
+    and the file indices of those left out."""
+    placed, left_out = list(objects), []
+    for i, value in enumerate(values):
+        if not (isinstance(value, dict) and value.get("on_overlap") == "redraw"):
+            continue
+        k = offset + i - len(left_out)
+        random = _has_draw(value)
+        for draw in range(REDRAW_ATTEMPTS if random else 1):
+            if draw:
+                placed[k] = read.obj(read.draw(value, ("objects", i)), i)
+            if not validate.overlaps_earlier(LevelSpec(*head, tuple(placed[: k + 1]), **fields), k):
+                break
+        else:
+            del placed[k]
+            left_out.append(i)
+    return tuple(placed), left_out
+
+
+def _has_draw(value) -> bool:
+    """Whether a file's value holds a randomisation form anywhere."""
+    from aaai.task.arena_reader import RANDOM_FORMS
+
+    if isinstance(value, dict):
+        return (len(value) == 1 and next(iter(value)) in RANDOM_FORMS) or any(_has_draw(v) for v in value.values())
+    if isinstance(value, list):
+        return any(_has_draw(v) for v in value)
+    return False
 
 
 _OBJECT_REF = re.compile(

@@ -18,7 +18,8 @@ from aaai.spec import SHAPES, AgentPose, ObjectSpec
 from aaai.spec.behaviours import REGISTRY
 from aaai.spec.kinds import FOOD_KINDS, OBJECT_KINDS, kind_class
 
-OBJECT_KEYS = ("kind", "shape", "position", "size", "yaw", "colour", "mass", "behaviour", "timing")
+OBJECT_KEYS = ("kind", "shape", "position", "size", "yaw", "colour", "mass", "behaviour", "timing", "on_overlap")
+ON_OVERLAP = ("refuse", "redraw")  # an object that overlaps one before it: the arena is refused, or it is drawn again
 AGENT_KEYS = ("x", "y", "yaw")
 RANDOM_FORMS = ("uniform", "integers", "choice")
 MAX_DRAWN_INTEGER = 10**15  # {integers: [low, high]}: numpy draws within int64, and no count or seed is larger
@@ -211,6 +212,7 @@ class Reader:
             self.attempt(lambda: self.fail(where + ("mass",), f"got {mass!r}; allowed: 0 (static) or more"))
         behaviour = self.attempt(lambda: self._behaviour(value, where))
         timing = self.attempt(lambda: self.plain(value.get("timing"), where + ("timing",)))
+        self.attempt(lambda: self.text(value.get("on_overlap", "refuse"), where + ("on_overlap",), ON_OVERLAP))
         if len(self.problems) > before:
             raise Skip
         assert kind is not None and position is not None and size is not None  # else a problem was recorded

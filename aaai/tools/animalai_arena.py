@@ -21,7 +21,9 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
 - ``blackouts: [-n]`` (dark and light every n frames) -> blackout {light, dark} of n steps each;
   rising frames f1, f2, ... (dark from f1 to f2, ...) -> blackout {switches: [seconds]}, a frame a step;
 - -1 (or a missing value) in a position or rotation -> ``{uniform: [low, high]}``, drawn afresh
-  for every episode seed as any arena file's randomisation; a random size is drawn once, here,
+  for every episode seed as any arena file's randomisation, with ``on_overlap: redraw``: a random
+  place that overlaps an item placed before it is drawn again, up to 20 times, and the item left
+  out when none is clear, as Animal-AI's ArenaBuilder places it; a random size is drawn once, here,
   from ``np.random.default_rng([IMPORT_SEED, crc32(file name), arena])`` (a random height would
   move the object's centre, which an arena file cannot express);
 - colours (0..255) -> colour (0..1); a missing colour: the kind's own;
@@ -323,6 +325,9 @@ class _Arena:
             if settled[k].get("mass") and settled[k]["kind"] == "plank" and _numbers(settled[k]):
                 supports.append(settled[k])  # a movable box (not a U, L or hollow one): what falls on it rests on it
         out["objects"] = [settled[k] for k in range(len(objects))]
+        for obj in out["objects"]:  # a random place overlapping an item before it is drawn again, as Animal-AI does
+            if any(isinstance(v, dict) for v in obj["position"]):
+                obj["on_overlap"] = "redraw"
         return out, names
 
     def floors(self, objects: list[dict], out: dict) -> list[dict]:
