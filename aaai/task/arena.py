@@ -48,7 +48,7 @@ from __future__ import annotations
 import re
 import zlib
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import yaml
@@ -345,8 +345,9 @@ def parse_arena(path: str | Path, seed: int = 0) -> tuple[LevelSpec, dict, Sourc
         elif reach is not None:
             fields["extras"] = {**(fields["extras"] or {}), "reach": reach}
     if not read.problems and agent is not None:  # objects to be drawn again where they overlap (Animal-AI's rule)
+        head = (level, name, difficulty, spec_seed, agent)
         objects, left_out = _place(
-            read, objects_value, objects, source.offset, (level, name, difficulty, spec_seed, agent), fields
+            read, objects_value, objects, source.offset, lambda placed: LevelSpec(*head, placed, **fields)
         )
         if left_out:
             fields["extras"] = {**(fields["extras"] or {}), "left_out": left_out}
@@ -368,7 +369,7 @@ REDRAW_ATTEMPTS = 20  # Animal-AI's ArenaBuilder: draws of a random item's place
 
 
 def _place(
-    read: Reader, values: list, objects: tuple, offset: int, head: tuple, fields: dict
+    read: Reader, values: list, objects: tuple, offset: int, spec_of: Callable[[tuple], LevelSpec]
 ) -> tuple[tuple, list[int]]:
     """The objects as Animal-AI's ArenaBuilder places them, for those whose file says ``on_overlap:
     redraw``: in order, each that overlaps an object before it (validate.overlaps_earlier) has its
@@ -376,7 +377,8 @@ def _place(
     overlaps (one with no random number at once). The draws come after every other draw of the
     file, so a file whose objects never overlap gives the spec it gave before. Returns the objects
     and the file indices of those left out."""
-    placed, left_out = list(objects), []
+    placed: list = list(objects)
+    left_out: list[int] = []
     for i, value in enumerate(values):
         if not (isinstance(value, dict) and value.get("on_overlap") == "redraw"):
             continue
@@ -385,7 +387,7 @@ def _place(
         for draw in range(REDRAW_ATTEMPTS if random else 1):
             if draw:
                 placed[k] = read.obj(read.draw(value, ("objects", i)), i)
-            if not validate.overlaps_earlier(LevelSpec(*head, tuple(placed[: k + 1]), **fields), k):
+            if not validate.overlaps_earlier(spec_of(tuple(placed[: k + 1])), k):
                 break
         else:
             del placed[k]
