@@ -148,3 +148,32 @@ def test_a_discrete_student_run_is_scored_without_trust_and_refused_by_a_gait_en
             resolve(str(model)).build(env)
     finally:
         env.close()
+
+
+def test_an_rllib_policy_in_discrete_mode_takes_each_parts_likeliest_choice():
+    """RLlib's module gives the logits of each part in turn (3, 3 and 2 of them); the scored action
+    is each part's likeliest choice, in the environment's space."""
+    pytest.importorskip("ray.rllib", reason="needs the ray extra")
+    import torch
+
+    from aaai.scoring.policies import OnGrid
+    from aaai.scoring.rllib_policy import RLlibPolicy
+
+    class Module:
+        def forward_inference(self, batch):
+            return {"action_dist_inputs": torch.tensor([[0.0, 5.0, 1.0, 2.0, 0.0, 9.0, 3.0, 1.0]])}
+
+    env = AnimalAIEnv(action_mode="discrete")
+    try:
+        policy = RLlibPolicy.__new__(RLlibPolicy)  # its module given here: no checkpoint needed
+        policy.torch, policy.module, policy.dtype = torch, Module(), np.float64
+        policy.space = env.action_space
+        from ray.rllib.utils.spaces.space_utils import get_base_struct_from_space
+
+        policy.structure = get_base_struct_from_space(env.observation_space)
+        observation, _ = env.reset(seed=0)
+        action = OnGrid(policy)(observation)  # as the scoreboard plays it
+        assert action.tolist() == [1, 2, 0]  # forward, left, standing
+        env.step(action)  # the environment takes it
+    finally:
+        env.close()

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from gymnasium.spaces import MultiDiscrete
 
 from aaai.scoring.model_io import in_float64
 from aaai.scoring.rllib_checkpoints import check_rllib_checkpoint
@@ -14,9 +15,9 @@ from aaai.scoring.runs import MODULE_PATH, rllib_checkpoint
 
 class RLlibPolicy:
     """A policy trained by ``aaai train --backend rllib``, acting deterministically (the mean
-    action), as the scoreboard's policies do: ``policy(observation) -> action`` for an environment
-    with the run's observations. The observation is flattened as RLlib's FlattenObservations
-    connector does it."""
+    action; with discrete actions each part's likeliest choice), as the scoreboard's policies do:
+    ``policy(observation) -> action`` for an environment with the run's observations. The
+    observation is flattened as RLlib's FlattenObservations connector does it."""
 
     def __init__(self, checkpoint: str | Path, env, trust: bool = False):
         import torch
@@ -44,6 +45,10 @@ class RLlibPolicy:
         flat = flatten_inputs_to_1d_tensor(observation, spaces_struct=self.structure, batch_axis=False)
         with self.torch.no_grad():
             out = self.module.forward_inference({"obs": self.torch.as_tensor(np.asarray(flat, self.dtype)[None])})
-        mean = out["action_dist_inputs"][0].numpy()[: self.space.shape[0]]  # a diagonal Gaussian: means, log stds
+        inputs = out["action_dist_inputs"][0].numpy()
+        if isinstance(self.space, MultiDiscrete):  # each part's logits in turn: its likeliest choice
+            bounds = np.cumsum(self.space.nvec)[:-1]
+            return np.array([int(np.argmax(part)) for part in np.split(inputs, bounds)], np.int64)
+        mean = inputs[: self.space.shape[0]]  # a diagonal Gaussian: means, log stds
         squashed = np.clip(mean, -1.0, 1.0)  # RLlib's unsquash_action: [-1, 1] onto the space's bounds
         return self.space.low + (squashed + 1.0) * (self.space.high - self.space.low) / 2.0  # float64: put on the grid
