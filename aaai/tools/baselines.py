@@ -71,6 +71,8 @@ ORDER = (
     "student_search_lstm",
     "student_search_sweep",
     "student_search_sweep_s1",
+    "student_search_sweep_discrete",
+    "student_search_sweep_discrete_s1",
     "student_lstm",
     "student_camera",
 )
@@ -407,6 +409,14 @@ COMMITTED = {
     "student_search_lstm": ("models/student_search_lstm.zip", "models/student_search_lstm.yaml"),
     "student_search_sweep": ("models/student_search_sweep.zip", "models/student_search_sweep.yaml"),
     "student_search_sweep_s1": ("models/student_search_sweep_s1.zip", "models/student_search_sweep_s1.yaml"),
+    "student_search_sweep_discrete": (
+        "models/student_search_sweep_discrete.zip",
+        "models/student_search_sweep_discrete.yaml",
+    ),
+    "student_search_sweep_discrete_s1": (
+        "models/student_search_sweep_discrete_s1.zip",
+        "models/student_search_sweep_discrete_s1.yaml",
+    ),
     "ppo_gait": ("models/ppo_gait.zip", "models/ppo_gait.yaml"),
 }
 UNTIMED = [column for column in COLUMNS if column != "wall_seconds"]  # what a re-score must repeat
