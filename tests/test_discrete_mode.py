@@ -177,3 +177,15 @@ def test_an_rllib_policy_in_discrete_mode_takes_each_parts_likeliest_choice():
         env.step(action)  # the environment takes it
     finally:
         env.close()
+
+
+def test_a_recurrent_student_of_choices_is_refused_naming_the_key():
+    pytest.importorskip("sb3_contrib", reason="needs the train extra")
+    from aaai.config import ConfigError, load_config
+    from aaai.train.student import check_teachable
+    from tests.test_student import TINY
+
+    config = load_config(TINY, action_mode="discrete", student_policy="lstm")
+    with pytest.raises(ConfigError, match=r"train.student_policy.*'lstm' with agent.action_mode discrete.*mlp"):
+        check_teachable(config)
+    check_teachable(load_config(TINY, action_mode="discrete"))  # the stateless student of choices is taught
