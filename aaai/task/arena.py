@@ -60,7 +60,7 @@ from aaai.levels import all_levels, get_level, validate
 from aaai.levels.common import arena_walls
 from aaai.spec import Blackout, InnerLevel, LevelSpec
 from aaai.spec.kinds import ENDING_KINDS, OBJECT_KINDS
-from aaai.task.arena_reader import ArenaProblems, Reader, Source
+from aaai.task.arena_reader import RANDOM_FORMS, ArenaProblems, Reader, Source
 
 META_KEYS = ("description", "category", "arena_walls", "pass_mark", "reach", "walls_cross")
 REACH = ("all", "pass_mark")  # which food must be reachable: every piece, or enough for the pass mark
@@ -397,8 +397,6 @@ def _place(
 
 def _has_draw(value) -> bool:
     """Whether a file's value holds a randomisation form anywhere."""
-    from aaai.task.arena_reader import RANDOM_FORMS
-
     if isinstance(value, dict):
         return (len(value) == 1 and next(iter(value)) in RANDOM_FORMS) or any(_has_draw(v) for v in value.values())
     if isinstance(value, list):
