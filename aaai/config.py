@@ -146,6 +146,7 @@ RULES: dict[str, Rule] = {
     "sensors.ray_memory": Rule("int", 0, 10),  # earlier food sightings 1, 2, 4 .. 2^(n-1) steps back (0: none)
     "sensors.food_memory": Rule("int", 0, 16),  # the n nearest pieces of food the rays have shown (0: none)
     "sensors.sweep_memory": Rule("int", 0, 36),  # where the rays have looked, in n sectors round the body (0: none)
+    "sensors.sweep_map": Rule("int", 0, 32),  # where the rays have looked and met something, an n x n map (0: none)
     "sensors.ray_down_fan": Rule("float", 0, 45),  # degrees: a second fan pitched down (0: none)
     "sensors.ray_width": Rule("float", 0, 5),  # aaai.sim.sensors.Rays: 0 thin lines; w: two more rays +-w/2 aside
     "sensors.camera": Rule("bool"),
@@ -251,6 +252,7 @@ class SensorsConfig:
     ray_memory: int
     food_memory: int
     sweep_memory: int
+    sweep_map: int
     rays_flat: bool
     ray_kinds: str
     ray_width: float
@@ -552,6 +554,7 @@ RAY_OPTIONS = (
     "sensors.ray_memory",
     "sensors.food_memory",
     "sensors.sweep_memory",
+    "sensors.sweep_map",
     "sensors.ray_down_fan",
     "sensors.ray_width",
 )

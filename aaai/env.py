@@ -82,6 +82,7 @@ class EnvKeywords(TypedDict, total=False):
     ray_memory: int
     food_memory: int
     sweep_memory: int
+    sweep_map: int
     ray_down_fan: float
     ray_width: float
     camera: bool
@@ -194,6 +195,9 @@ class AnimalAIEnv(gym.Env):
     - ``sweep_memory`` (int, default ``0``): 0..36: where the rays have looked, in n sectors round the body
       (observation key sweep_memory: n x 3, the share of the floor not yet looked over within 1, 2 and 4 ray lengths;
       docs: Environment) (an integer from 0 to 36)
+    - ``sweep_map`` (int, default ``0``): 0..32: the same as an n x n map turned with the head, 2 ray lengths each way
+      (observation key sweep_map: 2 x n x n: the share of a block's floor not yet looked over, and 1 where a ray has
+      met something; docs: Environment) (an integer from 0 to 32)
     - ``ray_down_fan`` (float, default ``0.0``): degrees, 0..45: the same fan again, pitched this far below the
       head's plane (0: none). The head walks about 2.3 high, so level rays pass over food smaller than that; a fan 8
       degrees down sees size-2 food 2 to 16 away (a number from 0 to 45)

@@ -384,6 +384,7 @@ class FoodMemory:
 SWEEP_CELLS = 15  # cells of the sweep memory's map of the floor to a ray's length (1 unit for the default 15)
 SWEEP_RINGS = (1.0, 2.0, 4.0)  # its rings' outer radii, in ray lengths: near, middle, far
 SWEEP_BODY = 2.0  # floor this close to the head counts as looked over (the body stands there)
+SWEEP_MAP_REACH = 2.0  # ray lengths: the sweep map reaches this far ahead, behind and to either side
 
 
 class SweepMemory:
@@ -401,10 +402,13 @@ class SweepMemory:
     reads high. The arena's size is the one fact it takes from the level; what is in the arena comes
     from the rays alone (the inside of a wall is never looked over)."""
 
-    def __init__(self, rays: Rays, sectors: int):
+    def __init__(self, rays: Rays, sectors: int, map_cells: int = 0):
         self.rays = rays
         self.sectors = sectors
         self.space = spaces.Box(0.0, 1.0, (sectors, len(SWEEP_RINGS)), np.float32)
+        self.map_cells = map_cells
+        self.map_space = spaces.Box(0.0, 1.0, (2, map_cells, map_cells), np.float32)
+        self.map_reach = SWEEP_MAP_REACH * rays.length
         fan = rays.local_dirs[: rays.level_rays]
         self.angles = np.arctan2(fan[:, 1], fan[:, 0])  # the level fan's bearings, right to left
         self.all_round = self.angles[-1] - self.angles[0] >= 2 * math.pi - 1e-6
@@ -418,7 +422,9 @@ class SweepMemory:
         self.bearing = np.arctan2(offsets[:, None], offsets[None, :])[self.keep]
         near = int(math.ceil(SWEEP_CELLS + rays.eye / self.cell)) + 1  # the update's window: 2 near + 1 cells a side
         self.near = np.arange(-near, near + 1)
-        self.floor = self.seen = np.zeros((0, 0), bool)
+        self.map_pad = int(math.ceil(self.map_reach * math.sqrt(2) / self.cell))  # the map's window (turned square)
+        assert self.map_pad <= pad
+        self.floor = self.seen = self.hit = np.zeros((0, 0), bool)
         self.x0 = self.y0 = 0.0
         self.cols = self.rows = 0  # the arena's cells, unpadded
 
@@ -429,15 +435,18 @@ class SweepMemory:
         self.floor = np.zeros((rows + 2 * pad, cols + 2 * pad), bool)  # padded all round with cells of no floor
         self.floor[pad:-pad, pad:-pad] = True
         self.seen = np.zeros_like(self.floor)
+        self.hit = np.zeros_like(self.floor)
         self.x0, self.y0 = -cols * self.cell / 2, -rows * self.cell / 2
         self.cols, self.rows = cols, rows
 
     def recall(self, head_pos: np.ndarray, head_rot: np.ndarray) -> np.ndarray:
-        """Marks what the rays' last cast looked over, then reads the map round the head."""
+        """Marks what the rays' last cast looked over, then reads the map round the head (the sectors;
+        :meth:`read_map` reads the same marks as a map)."""
         yaw = math.atan2(head_rot[1, 0], head_rot[0, 0])
         pad, cell = self.pad, self.cell
         col = min(max(int((head_pos[0] - self.x0) // cell), 0), self.cols - 1)
         row = min(max(int((head_pos[1] - self.y0) // cell), 0), self.rows - 1)
+        self._where = (float(head_pos[0]), float(head_pos[1]), yaw, row, col)
         # the update, on the exact head position, over the cells a ray can reach
         index, near = self.near, int(self.near[-1])
         x = self.x0 + (col + index + 0.5) * cell
@@ -455,6 +464,15 @@ class SweepMemory:
                 inside = (bearing >= self.angles[0]) & (bearing <= self.angles[-1])
                 looked |= inside & (distance <= np.interp(bearing, self.angles, reach))
         self.seen[pad + row - near : pad + row + near + 1, pad + col - near : pad + col + near + 1] |= looked
+        if self.map_cells and len(reach):  # where a ray of the level fan stopped short of its length
+            short = reach < self.rays.length + self.rays.eye - 1e-6
+            ends_x = head_pos[0] + reach[short] * np.cos(self.angles[short] + yaw)
+            ends_y = head_pos[1] + reach[short] * np.sin(self.angles[short] + yaw)
+            hit_cols = np.clip(((ends_x - self.x0) // cell).astype(np.intp), -pad, self.cols + pad - 1)
+            hit_rows = np.clip(((ends_y - self.y0) // cell).astype(np.intp), -pad, self.rows + pad - 1)
+            self.hit[hit_rows + pad, hit_cols + pad] = True
+        if not self.sectors:
+            return np.zeros((0, len(SWEEP_RINGS)), np.float32)
         # the read: the window centred on the head's cell
         window = (slice(row, row + 2 * pad + 1), slice(col, col + 2 * pad + 1))
         floor = self.floor[window][self.keep]
@@ -467,6 +485,33 @@ class SweepMemory:
         total = np.bincount(bins[floor], minlength=size)
         share = np.divide(np.bincount(bins[unlooked], minlength=size), total, out=np.zeros(size), where=total > 0)
         return share.reshape(self.sectors, len(SWEEP_RINGS)).astype(np.float32)
+
+    def read_map(self) -> np.ndarray:
+        """The marks round the head as a map turned with it (after :meth:`recall`), shape (2, n, n):
+        a square SWEEP_MAP_REACH ray lengths each way from the head, cut into n x n blocks, the first
+        axis from behind to ahead, the second from right to left. Channel 0: the share of a block's
+        floor, inside the arena, not yet looked over (0 where it holds none); channel 1: 1 where a ray
+        has stopped on something there (a wall, a box, food: what the rays have met), else 0."""
+        n, reach, m, pad, cell = self.map_cells, self.map_reach, self.map_pad, self.pad, self.cell
+        x, y, yaw, row, col = self._where
+        offsets = np.arange(-m, m + 1)
+        dx = self.x0 + (col + offsets + 0.5) * cell - x
+        dy = self.y0 + (row + offsets + 0.5) * cell - y
+        c, s = math.cos(yaw), math.sin(yaw)
+        ahead = c * dx[None, :] + s * dy[:, None]
+        left = -s * dx[None, :] + c * dy[:, None]
+        width = 2 * reach / n
+        i = np.floor((ahead + reach) / width).astype(np.intp)
+        j = np.floor((left + reach) / width).astype(np.intp)
+        inside = (i >= 0) & (i < n) & (j >= 0) & (j < n)
+        bins = (i * n + j)[inside]
+        window = (slice(pad + row - m, pad + row + m + 1), slice(pad + col - m, pad + col + m + 1))
+        floor = self.floor[window][inside]
+        unlooked = floor & ~self.seen[window][inside]
+        total = np.bincount(bins[floor], minlength=n * n)
+        share = np.divide(np.bincount(bins[unlooked], minlength=n * n), total, out=np.zeros(n * n), where=total > 0)
+        hit = np.bincount(bins[self.hit[window][inside]], minlength=n * n) > 0
+        return np.stack([share, hit]).reshape(2, n, n).astype(np.float32)
 
 
 def sighting_velocity(before, position, now: float) -> tuple[float, float]:
@@ -524,9 +569,14 @@ class Senses:
         self.food_memory = FoodMemory(self.rays, sensors.food_memory) if self.rays and sensors.food_memory else None
         if self.food_memory:
             space["food_memory"] = self.food_memory.space
-        self.sweep_memory = SweepMemory(self.rays, sensors.sweep_memory) if self.rays and sensors.sweep_memory else None
-        if self.sweep_memory:
+        sweeps = sensors.sweep_memory or sensors.sweep_map
+        self.sweep_memory = (
+            SweepMemory(self.rays, sensors.sweep_memory, sensors.sweep_map) if self.rays and sweeps else None
+        )
+        if self.sweep_memory and sensors.sweep_memory:
             space["sweep_memory"] = self.sweep_memory.space
+        if self.sweep_memory and sensors.sweep_map:
+            space["sweep_map"] = self.sweep_memory.map_space
         if self.camera:
             space["camera"] = self.camera.space
         if sensors.joint_velocities:
@@ -598,7 +648,11 @@ class Senses:
             if self.food_memory:
                 observation["food_memory"] = self.food_memory.recall(head_pos, head_rot, kind_index, now)
             if self.sweep_memory:
-                observation["sweep_memory"] = self.sweep_memory.recall(head_pos, head_rot)
+                sectors = self.sweep_memory.recall(head_pos, head_rot)
+                if self.sweep_memory.sectors:
+                    observation["sweep_memory"] = sectors
+                if self.sweep_memory.map_cells:
+                    observation["sweep_map"] = self.sweep_memory.read_map()
         if self.camera:
             observation["camera"] = self.camera.blank() if dark else self.camera.observe(head_pos, head_rot)
         if self.joint_velocities:
