@@ -79,6 +79,7 @@ def test_bench_writes_every_figure_with_medians_spreads_and_load(tmp_path):
         bench.RAYS_TWO_THREADS,
         bench.WIDE_RAYS,
         bench.SWEEP,
+        bench.SWEEP_MAP,
     }
     for figure in [*level["rates"].values(), *level["ratios"].values()]:
         assert len(figure["rounds"]) == 2 and figure["min"] <= figure["median"] <= figure["max"]
@@ -97,6 +98,7 @@ def test_bench_writes_every_figure_with_medians_spreads_and_load(tmp_path):
     assert "| L0 |" in markdown and "| L0 |" in result.stdout and "L10 rays seeing holes" in markdown
     assert "Rays 1.0 wide (sensors.ray_width 1.0, three casts a ray), overhead over joints-only: L0 " in markdown
     assert "The sweep memory (sensors.sweep_memory 8), overhead over the same rays without it: L0 " in markdown
+    assert "The sweep map (sensors.sweep_map 15), overhead over the sweep memory without it: L0 " in markdown
     assert "Load average" in markdown and "2 alternated rounds" in markdown
 
 

@@ -53,6 +53,7 @@ NO_HOLE_CASTING = "joints+rays without hole casting"
 RAYS_TWO_THREADS = "joints+rays, rayTestBatch on 2 threads"
 WIDE_RAYS = "joints+rays 1.0 wide"  # sensors.ray_width 1.0: three casts a ray (Animal-AI's 0.5 sphere casts)
 SWEEP = "joints+rays+sweep memory"  # sensors.sweep_memory 8: the map of where the rays have looked, read each step
+SWEEP_MAP = "joints+rays+sweep memory+map"  # and sensors.sweep_map 15: the same marks read as a 15 x 15 map
 
 
 # --- what is timed ----------------------------------------------------------------------------
@@ -146,6 +147,9 @@ def level_rates(level: int, steps: int, rounds: int) -> dict:
     runners[RAYS_TWO_THREADS].env.rays.threads = 2  # PyBullet's numThreads: the same hits, split over threads
     runners[WIDE_RAYS] = EnvLoop(_env(level, {**SENSOR_SETTINGS["joints+rays"], "ray_width": 1.0}), steps)
     runners[SWEEP] = EnvLoop(_env(level, {**SENSOR_SETTINGS["joints+rays"], "sweep_memory": 8}), steps)
+    runners[SWEEP_MAP] = EnvLoop(
+        _env(level, {**SENSOR_SETTINGS["joints+rays"], "sweep_memory": 8, "sweep_map": 15}), steps
+    )
     if runners["joints+rays"].env.rays._holes is not None:
         runners[NO_HOLE_CASTING] = EnvLoop(_without_hole_casting(_env(level, SENSOR_SETTINGS["joints+rays"])), steps)
     rates, machine_load = run_group(runners, rounds)
@@ -155,6 +159,7 @@ def level_rates(level: int, steps: int, rounds: int) -> dict:
         "rays overhead, 2 threads": per_round(rates["joints"], rates[RAYS_TWO_THREADS], minus_one=True),
         "wide rays overhead": per_round(rates["joints"], rates[WIDE_RAYS], minus_one=True),
         "sweep memory overhead": per_round(rates["joints+rays"], rates[SWEEP], minus_one=True),
+        "sweep map overhead": per_round(rates[SWEEP], rates[SWEEP_MAP], minus_one=True),
     }
     if NO_HOLE_CASTING in rates:
         ratios["cost of seeing holes"] = per_round(rates[NO_HOLE_CASTING], rates["joints+rays"], minus_one=True)

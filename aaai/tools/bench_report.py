@@ -56,6 +56,7 @@ def markdown(results: dict) -> str:
     overheads = {
         "wide rays overhead": "Rays 1.0 wide (sensors.ray_width 1.0, three casts a ray), overhead over joints-only",
         "sweep memory overhead": "The sweep memory (sensors.sweep_memory 8), overhead over the same rays without it",
+        "sweep map overhead": "The sweep map (sensors.sweep_map 15), overhead over the sweep memory without it",
     }
     for key, title in overheads.items():
         per_level = [
