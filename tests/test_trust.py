@@ -309,6 +309,26 @@ def test_rows_of_another_config_are_refused_naming_the_keys_that_differ(tmp_path
     assert same.exit_code == 0 and len(out.read_text().splitlines()) == 3
 
 
+def test_a_key_added_since_at_its_default_is_no_difference_but_set_otherwise_it_is(tmp_path):
+    import hashlib
+
+    out = tmp_path / "board.csv"
+    first = _eval("--policy", "random", "--config", _yaml(tmp_path, "a.yaml", SHORT), "--out", out)
+    assert first.exit_code == 0, first.output
+    record = json.loads(record_path(out).read_text())  # as a scoreboard scored before sensors.sweep_map existed
+    del record["env_config"]["sensors"]["sweep_map"]
+    record["env_config_sha256"] = hashlib.sha256(json.dumps(record["env_config"], sort_keys=True).encode()).hexdigest()
+    record_path(out).write_text(json.dumps(record))
+    more = _eval("--policy", "random", "--config", _yaml(tmp_path, "a.yaml", SHORT), "-k", "2", "--out", out)
+    assert more.exit_code == 0, more.output
+    assert len(out.read_text().splitlines()) == 3
+    assert json.loads(record_path(out).read_text())["env_config"]["sensors"]["sweep_map"] == 0
+    mapped = _yaml(tmp_path, "b.yaml", {**SHORT, "sensors": {"sweep_map": 5}})
+    refused = _eval("--policy", "random", "--config", mapped, "-k", "3", "--out", out)
+    message = " ".join(refused.output.split())
+    assert refused.exit_code == 2 and "env_config.sensors.sweep_map: 0 there, 5 now" in message  # named since
+
+
 def test_a_model_file_is_recorded_by_its_hash(trained, tmp_path):
     import hashlib
 

@@ -13,7 +13,7 @@ import os
 from pathlib import Path
 from typing import Any, Iterable
 
-from aaai.config import Config, ConfigError, env_part
+from aaai.config import Config, ConfigError, env_part, load_config
 from aaai.files import file_sha256
 from aaai.levels.seeds import key_record
 from aaai.scoring.policies import Policy, as_policy
@@ -139,6 +139,30 @@ def record_differences(earlier: Any, record: dict) -> list[str]:
     ]
 
 
+def with_added_defaults(earlier: Any, record: dict) -> Any:
+    """``earlier`` (a scoreboard's record) with each environment key it does not name that ``record``
+    holds at the key's default value, and its digest made again: a key added to the environment after
+    the scoreboard was scored (a new sense, off by default) changed nothing its episodes saw, so it is
+    no difference. A key it names, or one set to anything but its default now, is left to differ."""
+    if not (isinstance(earlier, dict) and isinstance(earlier.get("env_config"), dict)):
+        return earlier
+    then, now = earlier["env_config"], record.get("env_config")
+    default = env_record(load_config())["env_config"]
+    if not isinstance(now, dict):
+        return earlier
+    filled, added = {k: dict(v) if isinstance(v, dict) else v for k, v in then.items()}, False
+    for section, keys in now.items():
+        if not (isinstance(keys, dict) and isinstance(filled.get(section), dict)):
+            continue
+        for key, value in keys.items():
+            if key not in filled[section] and key in default.get(section, {}) and default[section][key] == value:
+                filled[section][key], added = value, True
+    if not added:
+        return earlier
+    digest = hashlib.sha256(json.dumps(filled, sort_keys=True).encode()).hexdigest()
+    return {**earlier, "env_config": filled, "env_config_sha256": digest}
+
+
 def _has_rows(output: Path) -> bool:
     try:
         with open(output, "rb") as handle:  # bytes: any file may be handed in as --out
@@ -157,7 +181,8 @@ def check_record(output: Path, record: dict) -> dict:
     (:func:`unhashed_arenas`), and stays without them. A battery of arena files may grow (a new
     import that makes more files valid, in the same folder or another): files the scoreboard's record
     does not name yet are added to it, and the folder is the one scored now, while every file both
-    name has the same SHA-256 (:func:`check_arena_hashes` refuses one that changed)."""
+    name has the same SHA-256 (:func:`check_arena_hashes` refuses one that changed). An environment key
+    added since it was scored, at its default value, is no difference (:func:`with_added_defaults`)."""
     path = record_path(output)
     if not _has_rows(output):
         return record
@@ -170,6 +195,7 @@ def check_record(output: Path, record: dict) -> dict:
         earlier = json.loads(path.read_text())
     except (OSError, ValueError):
         earlier = None
+    earlier = with_added_defaults(earlier, record)
     if isinstance(earlier, dict) and ARENA_HASHES not in earlier:  # an older scoreboard (unhashed_arenas)
         older = (ARENA_HASHES, *(() if "arenas" in earlier else ("arenas",)))  # nor, maybe, the folder
         record = {key: value for key, value in record.items() if key not in older}

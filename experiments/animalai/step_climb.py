@@ -53,7 +53,15 @@ def trial(height: float, seconds: float = 60.0) -> dict:
             break
     x = pos[0]
     env.close()
-    return dict(H=height, head_top=round(top, 2), x_end=round(x, 1), off_far_end=x > LENGTH + 12, end=end, wall_hits=hits, steps=step + 1)
+    return dict(
+        H=height,
+        head_top=round(top, 2),
+        x_end=round(x, 1),
+        off_far_end=x > LENGTH + 12,
+        end=end,
+        wall_hits=hits,
+        steps=step + 1,
+    )
 
 
 if __name__ == "__main__":
