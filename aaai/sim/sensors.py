@@ -427,6 +427,7 @@ class SweepMemory:
         self.floor = self.seen = self.hit = np.zeros((0, 0), bool)
         self.x0 = self.y0 = 0.0
         self.cols = self.rows = 0  # the arena's cells, unpadded
+        self._where = (0.0, 0.0, 0.0, 0, 0)  # the head's x, y, yaw and cell at the last recall (read_map reads it)
 
     def start(self, arena_size) -> None:
         """A new, unlooked-at map of an arena ``arena_size`` (x, y) across, centred on the origin."""
