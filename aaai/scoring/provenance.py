@@ -147,9 +147,9 @@ def with_added_defaults(earlier: Any, record: dict) -> Any:
     if not (isinstance(earlier, dict) and isinstance(earlier.get("env_config"), dict)):
         return earlier
     then, now = earlier["env_config"], record.get("env_config")
-    default = env_record(load_config())["env_config"]
     if not isinstance(now, dict):
         return earlier
+    default = env_record(load_config())["env_config"]
     filled, added = {k: dict(v) if isinstance(v, dict) else v for k, v in then.items()}, False
     for section, keys in now.items():
         if not (isinstance(keys, dict) and isinstance(filled.get(section), dict)):

@@ -424,10 +424,11 @@ class SweepMemory:
         self.near = np.arange(-near, near + 1)
         self.map_pad = int(math.ceil(self.map_reach * math.sqrt(2) / self.cell))  # the map's window (turned square)
         assert self.map_pad <= pad
+        self.map_offsets = np.arange(-self.map_pad, self.map_pad + 1)  # the map window's cells from the head's
         self.floor = self.seen = self.hit = np.zeros((0, 0), bool)
         self.x0 = self.y0 = 0.0
         self.cols = self.rows = 0  # the arena's cells, unpadded
-        self._where = (0.0, 0.0, 0.0, 0, 0)  # the head's x, y, yaw and cell at the last recall (read_map reads it)
+        self._where = (0.0, 0.0, 0.0, 0, 0)  # the head's x, y, yaw and cell at the last mark (the reads read it)
 
     def start(self, arena_size) -> None:
         """A new, unlooked-at map of an arena ``arena_size`` (x, y) across, centred on the origin."""
@@ -440,9 +441,9 @@ class SweepMemory:
         self.x0, self.y0 = -cols * self.cell / 2, -rows * self.cell / 2
         self.cols, self.rows = cols, rows
 
-    def recall(self, head_pos: np.ndarray, head_rot: np.ndarray) -> np.ndarray:
-        """Marks what the rays' last cast looked over, then reads the map round the head (the sectors;
-        :meth:`read_map` reads the same marks as a map)."""
+    def mark(self, head_pos: np.ndarray, head_rot: np.ndarray) -> None:
+        """Marks what the rays' last cast looked over (and, with a map, where they stopped), from the
+        head's place, which :meth:`read_sectors` and :meth:`read_map` then read round."""
         yaw = math.atan2(head_rot[1, 0], head_rot[0, 0])
         pad, cell = self.pad, self.cell
         col = min(max(int((head_pos[0] - self.x0) // cell), 0), self.cols - 1)
@@ -472,9 +473,11 @@ class SweepMemory:
             hit_cols = np.clip(((ends_x - self.x0) // cell).astype(np.intp), -pad, self.cols + pad - 1)
             hit_rows = np.clip(((ends_y - self.y0) // cell).astype(np.intp), -pad, self.rows + pad - 1)
             self.hit[hit_rows + pad, hit_cols + pad] = True
-        if not self.sectors:
-            return np.zeros((0, len(SWEEP_RINGS)), np.float32)
-        # the read: the window centred on the head's cell
+
+    def read_sectors(self) -> np.ndarray:
+        """The marks round the head (after :meth:`mark`) in its sectors and rings, shape (sectors, 3)."""
+        _, _, yaw, row, col = self._where
+        pad = self.pad
         window = (slice(row, row + 2 * pad + 1), slice(col, col + 2 * pad + 1))
         floor = self.floor[window][self.keep]
         unlooked = floor & ~self.seen[window][self.keep]
@@ -482,22 +485,19 @@ class SweepMemory:
         sector = ((self.bearing - yaw + width / 2) % (2 * math.pi) // width).astype(np.intp)
         np.minimum(sector, self.sectors - 1, out=sector)
         bins = sector * len(SWEEP_RINGS) + self.ring
-        size = self.sectors * len(SWEEP_RINGS)
-        total = np.bincount(bins[floor], minlength=size)
-        share = np.divide(np.bincount(bins[unlooked], minlength=size), total, out=np.zeros(size), where=total > 0)
+        share = _unlooked_share(bins, floor, unlooked, self.sectors * len(SWEEP_RINGS))
         return share.reshape(self.sectors, len(SWEEP_RINGS)).astype(np.float32)
 
     def read_map(self) -> np.ndarray:
-        """The marks round the head as a map turned with it (after :meth:`recall`), shape (2, n, n):
+        """The marks round the head as a map turned with it (after :meth:`mark`), shape (2, n, n):
         a square SWEEP_MAP_REACH ray lengths each way from the head, cut into n x n blocks, the first
         axis from behind to ahead, the second from right to left. Channel 0: the share of a block's
         floor, inside the arena, not yet looked over (0 where it holds none); channel 1: 1 where a ray
         has stopped on something there (a wall, a box, food: what the rays have met), else 0."""
         n, reach, m, pad, cell = self.map_cells, self.map_reach, self.map_pad, self.pad, self.cell
         x, y, yaw, row, col = self._where
-        offsets = np.arange(-m, m + 1)
-        dx = self.x0 + (col + offsets + 0.5) * cell - x
-        dy = self.y0 + (row + offsets + 0.5) * cell - y
+        dx = self.x0 + (col + self.map_offsets + 0.5) * cell - x
+        dy = self.y0 + (row + self.map_offsets + 0.5) * cell - y
         c, s = math.cos(yaw), math.sin(yaw)
         ahead = c * dx[None, :] + s * dy[:, None]
         left = -s * dx[None, :] + c * dy[:, None]
@@ -509,10 +509,15 @@ class SweepMemory:
         window = (slice(pad + row - m, pad + row + m + 1), slice(pad + col - m, pad + col + m + 1))
         floor = self.floor[window][inside]
         unlooked = floor & ~self.seen[window][inside]
-        total = np.bincount(bins[floor], minlength=n * n)
-        share = np.divide(np.bincount(bins[unlooked], minlength=n * n), total, out=np.zeros(n * n), where=total > 0)
+        share = _unlooked_share(bins, floor, unlooked, n * n)
         hit = np.bincount(bins[self.hit[window][inside]], minlength=n * n) > 0
         return np.stack([share, hit]).reshape(2, n, n).astype(np.float32)
+
+
+def _unlooked_share(bins: np.ndarray, floor: np.ndarray, unlooked: np.ndarray, size: int) -> np.ndarray:
+    """Per bin (of ``size``), the share of its floor cells not yet looked over (0 where it holds none)."""
+    total = np.bincount(bins[floor], minlength=size)
+    return np.divide(np.bincount(bins[unlooked], minlength=size), total, out=np.zeros(size), where=total > 0)
 
 
 def sighting_velocity(before, position, now: float) -> tuple[float, float]:
@@ -649,9 +654,9 @@ class Senses:
             if self.food_memory:
                 observation["food_memory"] = self.food_memory.recall(head_pos, head_rot, kind_index, now)
             if self.sweep_memory:
-                sectors = self.sweep_memory.recall(head_pos, head_rot)
+                self.sweep_memory.mark(head_pos, head_rot)
                 if self.sweep_memory.sectors:
-                    observation["sweep_memory"] = sectors
+                    observation["sweep_memory"] = self.sweep_memory.read_sectors()
                 if self.sweep_memory.map_cells:
                     observation["sweep_map"] = self.sweep_memory.read_map()
         if self.camera:
