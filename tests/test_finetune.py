@@ -128,6 +128,50 @@ def test_a_heavy_anchor_holds_the_policy_at_the_student():
     assert held < free / 5
 
 
+class Choices(Target):
+    """Target with Animal-AI's discrete choices (agent.action_mode: discrete): reward for the last
+    choice of each part, which the started policy takes a third of the time."""
+
+    action_space = gym.spaces.MultiDiscrete([3, 3, 2])
+
+    def step(self, action):
+        self.t += 1
+        reward = float((np.asarray(action) == np.array([2, 2, 1])).sum()) / 3
+        return self._observe(), reward, False, self.t >= 16, {}
+
+
+def choice_drift(bc_coef: float) -> float:
+    """How far the choices' probabilities on fixed observations move in 4 updates."""
+    model = sb3.PPO(
+        "MultiInputPolicy",
+        DummyVecEnv([Choices]),
+        n_steps=32,
+        batch_size=16,
+        n_epochs=4,
+        learning_rate=1e-2,
+        policy_kwargs={"net_arch": [16, 16]},
+        seed=3,
+        device="cpu",
+    )
+
+    def probabilities():
+        with torch.no_grad():
+            parts = model.policy.get_distribution(FIXED).distribution
+            return torch.cat([part.probs for part in parts], dim=1).numpy().copy()
+
+    start = probabilities()
+    student = {k: v.clone() for k, v in model.policy.state_dict().items()}
+    model.learn(128, callback=StudentAnchor(student, bc_coef=bc_coef, decay_steps=10**6))
+    return float(np.abs(probabilities() - start).mean())
+
+
+def test_a_heavy_anchor_holds_a_student_of_choices():
+    """The KL to the student adds over the parts of a MultiDiscrete action (a Categorical each)."""
+    free, held = choice_drift(0.0), choice_drift(1e4)
+    assert free > 0.02  # PPO alone moves the choices towards the rewarded ones
+    assert held < free / 5
+
+
 def test_the_anchor_needs_a_policy_to_start_from(tmp_path):
     with pytest.raises(ConfigError, match=r"'train.bc_coef': got 0.5 for a run that starts from no policy"):
         check_finetune(load_config(train={"bc_coef": 0.5}))

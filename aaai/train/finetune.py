@@ -188,12 +188,22 @@ class StudentAnchor(BaseCallback):
         values, log_prob, entropy = self._evaluate(observations, actions, *args, **kwargs)
         if self.weight <= 0:
             return values, log_prob, entropy
-        distribution = self._ppo.policy.get_distribution(observations).distribution
+        distribution = self._ppo.policy.get_distribution(observations)
         with torch.no_grad():
-            target = self.frozen.get_distribution(observations).distribution
-        kl = sum_independent_dims(torch.distributions.kl_divergence(target, distribution)).mean()
+            target = self.frozen.get_distribution(observations)
+        kl = kl_divergence(target, distribution).mean()
         self.logger.record_mean("train/bc_kl", float(kl.detach()))
         return _AddLoss.apply(values, kl, self.weight), log_prob, entropy
+
+
+def kl_divergence(target, distribution) -> torch.Tensor:
+    """KL(target || distribution) per observation, summed over the action's independent parts: the
+    dimensions of a Gaussian (gait or joint commands), or the choices of each part of a MultiDiscrete
+    action (``agent.action_mode: discrete``: a Categorical per part, whose KLs add as the parts do)."""
+    if isinstance(target.distribution, list):
+        parts = zip(target.distribution, distribution.distribution)
+        return torch.stack([torch.distributions.kl_divergence(t, d) for t, d in parts], dim=1).sum(dim=1)
+    return sum_independent_dims(torch.distributions.kl_divergence(target.distribution, distribution.distribution))
 
 
 def anchor_from_config(config: Config, student: dict | None) -> StudentAnchor | None:
