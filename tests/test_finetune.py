@@ -49,11 +49,10 @@ class Target(gym.Env):
 FIXED = {"x": torch.as_tensor(np.random.default_rng(1).uniform(-1, 1, (64, 3)).astype(np.float32))}
 
 
-def ppo(seed: int = 0):
-    env = DummyVecEnv([Target])
+def ppo(seed: int = 0, env: type[gym.Env] = Target):
     return sb3.PPO(
         "MultiInputPolicy",
-        env,
+        DummyVecEnv([env]),
         n_steps=32,
         batch_size=16,
         n_epochs=4,
@@ -142,17 +141,7 @@ class Choices(Target):
 
 def choice_drift(bc_coef: float) -> float:
     """How far the choices' probabilities on fixed observations move in 4 updates."""
-    model = sb3.PPO(
-        "MultiInputPolicy",
-        DummyVecEnv([Choices]),
-        n_steps=32,
-        batch_size=16,
-        n_epochs=4,
-        learning_rate=1e-2,
-        policy_kwargs={"net_arch": [16, 16]},
-        seed=3,
-        device="cpu",
-    )
+    model = ppo(seed=3, env=Choices)
 
     def probabilities():
         with torch.no_grad():

@@ -103,10 +103,9 @@ def env_record(config: Config) -> dict:
 
     part = {k: v for k, v in env_part(config, shaping=0.0).env_dict().items() if k not in ("level", "difficulty")}
     part = json.loads(json.dumps(part, sort_keys=True, default=str))  # as it reads back from the file
-    digest = hashlib.sha256(json.dumps(part, sort_keys=True).encode()).hexdigest()
     return {
         "env_config": part,
-        "env_config_sha256": digest,
+        "env_config_sha256": config_digest(part),
         "action_mode": part.get("agent", {}).get("action_mode"),
         "aaai_version": __version__,
     }
@@ -139,28 +138,37 @@ def record_differences(earlier: Any, record: dict) -> list[str]:
     ]
 
 
+def config_digest(part: dict) -> str:
+    """The SHA-256 a record keeps of its environment config (``env_config_sha256``)."""
+    return hashlib.sha256(json.dumps(part, sort_keys=True).encode()).hexdigest()
+
+
 def with_added_defaults(earlier: Any, record: dict) -> Any:
     """``earlier`` (a scoreboard's record) with each environment key it does not name that ``record``
     holds at the key's default value, and its digest made again: a key added to the environment after
     the scoreboard was scored (a new sense, off by default) changed nothing its episodes saw, so it is
     no difference. A key it names, or one set to anything but its default now, is left to differ."""
-    if not (isinstance(earlier, dict) and isinstance(earlier.get("env_config"), dict)):
+    then = earlier.get("env_config") if isinstance(earlier, dict) else None
+    now = record.get("env_config")
+    if not (isinstance(then, dict) and isinstance(now, dict)):
         return earlier
-    then, now = earlier["env_config"], record.get("env_config")
-    if not isinstance(now, dict):
+    missing = [
+        (section, key, value)
+        for section, keys in now.items()
+        if isinstance(keys, dict) and isinstance(then.get(section), dict)
+        for key, value in keys.items()
+        if key not in then[section]
+    ]
+    if not missing:  # the usual case: the defaults are not read
         return earlier
     default = env_record(load_config())["env_config"]
-    filled, added = {k: dict(v) if isinstance(v, dict) else v for k, v in then.items()}, False
-    for section, keys in now.items():
-        if not (isinstance(keys, dict) and isinstance(filled.get(section), dict)):
-            continue
-        for key, value in keys.items():
-            if key not in filled[section] and key in default.get(section, {}) and default[section][key] == value:
-                filled[section][key], added = value, True
+    added = [(s, k, v) for s, k, v in missing if k in default.get(s, {}) and default[s][k] == v]
     if not added:
         return earlier
-    digest = hashlib.sha256(json.dumps(filled, sort_keys=True).encode()).hexdigest()
-    return {**earlier, "env_config": filled, "env_config_sha256": digest}
+    filled = {k: dict(v) if isinstance(v, dict) else v for k, v in then.items()}
+    for section, key, value in added:
+        filled[section][key] = value
+    return {**earlier, "env_config": filled, "env_config_sha256": config_digest(filled)}
 
 
 def _has_rows(output: Path) -> bool:
