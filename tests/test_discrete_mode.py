@@ -179,13 +179,37 @@ def test_an_rllib_policy_in_discrete_mode_takes_each_parts_likeliest_choice():
         env.close()
 
 
-def test_a_recurrent_student_of_choices_is_refused_naming_the_key():
+def test_a_recurrent_student_of_choices_is_trained_saved_as_recurrent_ppo_and_scored_by_choices(tmp_path):
+    """train.student_policy lstm with agent.action_mode discrete: a RecurrentPPO model over the
+    environment's MultiDiscrete space, which eval plays (its hidden state carried) by choices."""
     pytest.importorskip("sb3_contrib", reason="needs the train extra")
-    from aaai.config import ConfigError, load_config
-    from aaai.train.student import check_teachable
+    from aaai.config import load_config
+    from aaai.scoring.model_archive import read_archive
+    from aaai.scoring.model_io import policy_class_name
+    from aaai.scoring.policies import resolve
+    from aaai.train.student import train_student
+    from aaai_cli.main import cli
     from tests.test_student import TINY
 
-    config = load_config(TINY, action_mode="discrete", student_policy="lstm")
-    with pytest.raises(ConfigError, match=r"train.student_policy.*'lstm' with agent.action_mode discrete.*mlp"):
-        check_teachable(config)
-    check_teachable(load_config(TINY, action_mode="discrete"))  # the stateless student of choices is taught
+    run = tmp_path / "student"
+    config = load_config(
+        TINY, action_mode="discrete", student_policy="lstm", dagger_iterations=1, dagger_episode_cap=40, net_width=16
+    )
+    train_student(run, config, say=lambda message: None)
+    model = run / "final" / "model.zip"
+    assert policy_class_name(read_archive(model)) == "RecurrentMultiInputActorCriticPolicy"
+    source = resolve(str(run))
+    env = AnimalAIEnv(config=source.play_config())
+    try:
+        policy = source.build(env)
+        observation, _ = env.reset(seed=0)
+        action = np.asarray(policy(observation))
+        assert env.action_space.contains(action.astype(np.int64)), action
+    finally:
+        env.close()
+    out = tmp_path / "scores.csv"
+    scored = CliRunner().invoke(
+        cli, ["eval", "--policy", str(run), "--levels", "0", "--difficulty", "0", "-k", "1", "--out", str(out)]
+    )
+    assert scored.exit_code == 0, scored.output
+    assert len(out.read_text().splitlines()) == 2

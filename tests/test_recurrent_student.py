@@ -158,11 +158,13 @@ def test_a_student_policy_that_is_not_allowed_is_refused_in_one_line(tmp_path):
 
 
 @pytest.mark.parametrize("chunks", ["shuffled", "episodes"])
-def test_backpropagation_through_time_carries_the_memory_across_chunks(chunks):
+@pytest.mark.parametrize("actions", ["commands", "choices"])
+def test_backpropagation_through_time_carries_the_memory_across_chunks(chunks, actions):
     """A cue seen only at an episode's first decision is the label of all of its 12: learnable only
     if the hidden state is carried from one chunk of 4 decisions into the next (train.dagger_chunks
     shuffled: from the state its episode gives a chunk; episodes: chunk after chunk), and reset
-    between episodes (the cue of one episode says nothing of the next's)."""
+    between episodes (the cue of one episode says nothing of the next's). The label is a command
+    (regressed) or a choice of 3 (agent.action_mode discrete: classified)."""
     import torch
     from gymnasium import spaces
 
@@ -170,21 +172,24 @@ def test_backpropagation_through_time_carries_the_memory_across_chunks(chunks):
 
     torch.manual_seed(0)
     observation_space = spaces.Dict({"x": spaces.Box(-1.0, 1.0, (2,), np.float32)})
-    action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+    choices = actions == "choices"
+    action_space = spaces.MultiDiscrete([3]) if choices else spaces.Box(-1.0, 1.0, (1,), np.float32)
     policy = build_policy(observation_space, action_space, 16)
     cues = np.random.default_rng(0).choice([-1.0, 1.0], size=48).astype(np.float32)
     x = np.zeros((48, 12, 2), np.float32)
     x[:, 0, 0], x[:, 0, 1] = cues, 1.0  # the cue, and "an episode starts here"
-    labels = np.repeat(cues, 12)[:, None]
+    labels = np.repeat(cues + 1.0 if choices else cues, 12)[:, None]  # choice 0 or 2
     starts = np.tile(np.arange(12) == 0, 48)
     fitter = fit_shuffled_chunks if chunks == "shuffled" else fit_sequences
     loss = fitter(policy, {"x": x.reshape(-1, 2)}, labels, starts, 60, 0, 4, 2e-2, 48 * 4)
-    assert loss < 0.1, loss  # without the memory across chunks, 8 of 12 labels are a coin toss: 0.67
+    # without the memory across chunks, 8 of 12 labels are a coin toss: 0.67, or a cross-entropy of 0.46
+    assert loss < 0.1, loss
     actor = RecurrentActor(policy)
     for cue in (1.0, -1.0):  # the memory as it acts: the cue's sign to the end of the episode
         actor.reset()
-        actions = [actor({"x": np.array([cue, 1.0] if t == 0 else [0.0, 0.0], np.float32)}) for t in range(12)]
-        assert all(np.sign(a[0]) == cue for a in actions[8:]), actions
+        played = [actor({"x": np.array([cue, 1.0] if t == 0 else [0.0, 0.0], np.float32)}) for t in range(12)]
+        side = [int(a[0]) - 1 if choices else np.sign(a[0]) for a in played[8:]]
+        assert side == [cue] * 4, played
 
 
 def test_a_run_starts_from_another_runs_rounds_and_refits_on_them_without_playing(lstm_run, tmp_path):

@@ -11,7 +11,8 @@ next through the episode and starts from zero at its start. The student sees eve
 its episodes, also those where the teacher drives, so its state is the one its own history gives.
 
 Fitting: the episodes are kept whole (the data records where each one starts). A refit regresses
-the student's mean action on the teacher's labels (mean squared error, Adam) by truncated
+the student's mean action on the teacher's labels (mean squared error, Adam; with
+``agent.action_mode: discrete`` it classifies the teacher's choices, cross-entropy) by truncated
 backpropagation through time, in chunks of ``train.dagger_sequence`` decisions: the gradient stops
 at a chunk's start, the memory does not. At an episode's start the state is zero, as sb3-contrib's
 recurrent rollout buffer masks it at ``episode_starts``; the padding after a shorter sequence's end
@@ -176,12 +177,29 @@ def lane_rows(begins, lengths, steps) -> tuple[Any, Any]:
     return mask, index
 
 
+def decision_losses(action_space, outputs, targets):
+    """Each decision's distance from the teacher's label: the mean squared error of a continuous
+    action's parts; for discrete actions (``agent.action_mode: discrete``, ``outputs`` the logits of
+    every part's choices), the sum over the action's parts of the cross-entropy of that part's choice,
+    as the stateless student of choices is fitted (aaai.train.student.imitation_loss)."""
+    import torch
+    from gymnasium import spaces
+
+    if isinstance(action_space, spaces.MultiDiscrete):
+        parts = torch.split(outputs, [int(n) for n in action_space.nvec], dim=1)
+        choices = targets.long().unbind(1)
+        cross_entropy = torch.nn.functional.cross_entropy
+        return sum(cross_entropy(logits, choice, reduction="none") for logits, choice in zip(parts, choices))
+    return ((outputs - targets) ** 2).mean(dim=-1)
+
+
 def masked_step(policy, optimizer, means, targets, mask, step_size: float):
-    """One step of Adam on the mean squared error of ``means`` over the real decisions (``mask``),
-    gradients clipped as RecurrentPPO clips its own; returns the loss."""
+    """One step of Adam on the loss of ``means`` (:func:`decision_losses`: mean squared error, or the
+    choices' cross-entropy) over the real decisions (``mask``), gradients clipped as RecurrentPPO
+    clips its own; returns the loss."""
     import torch
 
-    errors = ((means - targets) ** 2).mean(dim=-1)
+    errors = decision_losses(policy.action_space, means, targets)
     loss = (errors * mask).sum() / mask.sum()
     optimizer.zero_grad()
     loss.backward()

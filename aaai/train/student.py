@@ -320,11 +320,6 @@ def check_teachable(config: Config) -> None:
     check_memory(config)  # a student with images: its labelled data within a stated bound
     if config.train.student_policy == "lstm":
         recurrent_student.check_available()
-        if config.agent.action_mode == "discrete":
-            raise ConfigError(
-                "config key 'train.student_policy': got 'lstm' with agent.action_mode discrete; allowed with "
-                "discrete actions: mlp (the recurrent student is fitted to continuous gait commands)"
-            )
         if config.train.dagger_max_decisions:
             raise ConfigError(
                 f"config key 'train.dagger_max_decisions': got {config.train.dagger_max_decisions}; allowed with "
