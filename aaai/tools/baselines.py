@@ -73,6 +73,7 @@ ORDER = (
     "student_search_sweep_s1",
     "student_search_sweep_discrete",
     "student_search_sweep_discrete_s1",
+    "student_search_lstm_discrete",
     "student_lstm",
     "student_camera",
 )
@@ -416,6 +417,10 @@ COMMITTED = {
     "student_search_sweep_discrete_s1": (
         "models/student_search_sweep_discrete_s1.zip",
         "models/student_search_sweep_discrete_s1.yaml",
+    ),
+    "student_search_lstm_discrete": (
+        "models/student_search_lstm_discrete.zip",
+        "models/student_search_lstm_discrete.yaml",
     ),
     "ppo_gait": ("models/ppo_gait.zip", "models/ppo_gait.yaml"),
 }
