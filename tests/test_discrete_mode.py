@@ -181,7 +181,8 @@ def test_an_rllib_policy_in_discrete_mode_takes_each_parts_likeliest_choice():
 
 def test_a_recurrent_student_of_choices_is_trained_saved_as_recurrent_ppo_and_scored_by_choices(tmp_path):
     """train.student_policy lstm with agent.action_mode discrete: a RecurrentPPO model over the
-    environment's MultiDiscrete space, which eval plays (its hidden state carried) by choices."""
+    environment's MultiDiscrete space, whose actions are choices the environment takes, and which
+    eval scores (its memory through an episode: test_determinism's rows of the committed one)."""
     pytest.importorskip("sb3_contrib", reason="needs the train extra")
     from aaai.config import load_config
     from aaai.scoring.model_archive import read_archive
