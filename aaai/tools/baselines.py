@@ -74,6 +74,7 @@ ORDER = (
     "student_search_sweep_discrete",
     "student_search_sweep_discrete_s1",
     "student_search_lstm_discrete",
+    "student_search_lstm_discrete_s1",
     "student_lstm",
     "student_camera",
 )
@@ -421,6 +422,10 @@ COMMITTED = {
     "student_search_lstm_discrete": (
         "models/student_search_lstm_discrete.zip",
         "models/student_search_lstm_discrete.yaml",
+    ),
+    "student_search_lstm_discrete_s1": (
+        "models/student_search_lstm_discrete_s1.zip",
+        "models/student_search_lstm_discrete_s1.yaml",
     ),
     "ppo_gait": ("models/ppo_gait.zip", "models/ppo_gait.yaml"),
 }
