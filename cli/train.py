@@ -31,6 +31,12 @@ def _overrides(**values) -> dict:
     "ends at the first multiple of their number at or past it.",
 )
 @click.option(
+    "--rounds",
+    type=rule("train.dagger_iterations"),
+    help="A student's rounds of DAgger (train.dagger_iterations). With --resume: moves a finished or "
+    "stopped student's end, so it goes on with the rounds after the ones it has.",
+)
+@click.option(
     "--minutes",
     "max_minutes",
     type=rule("train.max_minutes"),
@@ -101,6 +107,7 @@ def train_command(
     levels,
     difficulty,
     total_steps,
+    rounds,
     max_minutes,
     num_envs,
     seed,
@@ -162,6 +169,7 @@ def train_command(
                     levels=parse_levels(levels) if levels is not None else None,
                     difficulties=parse_range(difficulty, "--difficulty", 0, 10) if difficulty is not None else None,
                     total_steps=total_steps,
+                    dagger_iterations=rounds,
                     max_minutes=max_minutes,
                     num_envs=num_envs,
                     seed=seed,
@@ -183,6 +191,7 @@ def train_command(
             resume=bool(resume_dir),
             backend=backend,
             total_steps=total_steps,
+            rounds=rounds,
             address=address,
             trust_model=trust_model,
             progress_every=progress_every,

@@ -52,6 +52,7 @@ def rows_of(path: Path) -> list[dict]:
             ["train", "--teacher", "reference", "--steps", "100"],
             "--steps: got 100 for a student of a teacher, whose budget is rounds of DAgger",
         ),
+        (["train", "--rounds", "3"], "--rounds: got 3 for a PPO run, whose budget is steps; allowed: --steps"),
         (["eval", "--arenas", str(ARENA), "--levels", "0"], "--arenas: --levels cannot be used with it"),
         (
             ["eval", "--arenas", str(ARENA), "--backend", "ray"],

@@ -83,14 +83,19 @@ def test_a_student_run_is_an_ordinary_run_that_eval_scores_and_resume_continues(
     assert scored.exit_code == 0, scored.output
     assert len(out.read_text().splitlines()) == 3
 
-    # A run stopped after its first iteration resumes from it and ends as the uninterrupted run.
+    # A run of one round, given a second by --resume --rounds, ends as the run of two rounds.
     again = tmp_path / "again"
     first = train_student(again, load_config(TINY, dagger_iterations=1), say=lambda message: None)
     assert first.steps < result.steps
-    folder = RunFolder(again)
-    folder.update_config(load_config(folder.read_config(), dagger_iterations=2))  # a longer run, resumed
-    resumed = CliRunner().invoke(cli, ["train", "--resume", str(again)])
+    resumed = CliRunner().invoke(cli, ["train", "--resume", str(again), "--rounds", "2"])
     assert resumed.exit_code == 0, resumed.output
+    assert RunFolder(again).read_config()["train"]["dagger_iterations"] == 2  # the move is recorded
+    rows = (again / "dagger.csv").read_text().splitlines()
+    assert [row.rsplit(",", 1)[0] for row in rows] == [row.rsplit(",", 1)[0] for row in lines]  # but seconds
+    refused = CliRunner().invoke(cli, ["train", "--resume", str(again), "--rounds", "2"])
+    assert refused.exit_code == 2
+    assert "--rounds: got 2;" in refused.output
+    assert "already has 2 rounds of DAgger; allowed: more than 2" in refused.output
     import torch
 
     ours = torch.load(run / "final" / "student.pth", weights_only=True)

@@ -39,7 +39,7 @@ def check_options(resume_dir: str | None, backend: str | None, address: str | No
         options = ", ".join(f"--{name.replace('_', '-')}" for name in changed)
         raise ConfigError(
             f"--resume continues a run with the config it was started with; {options} cannot "
-            "change on resume (allowed with --resume: --steps, to move the run's end)"
+            "change on resume (allowed with --resume: --steps, or --rounds for a student, to move the run's end)"
         )
 
 
@@ -80,6 +80,7 @@ def train_run(
     resume: bool = False,
     backend: str | None = None,
     total_steps: int | None = None,
+    rounds: int | None = None,
     address: str | None = None,
     trust_model: bool = False,
     progress_every: float | None = None,
@@ -87,7 +88,8 @@ def train_run(
     say: Callable[[str], None] = print,
 ) -> Trained:
     """Trains a new run in ``run_dir`` with ``config`` (a resolved config), or resumes the run there
-    (``resume``; ``config`` None: the run's own, and its own backend; ``total_steps`` moves its end).
+    (``resume``; ``config`` None: the run's own, and its own backend; ``total_steps`` moves its end,
+    or ``rounds`` a DAgger student's).
 
     The trainer: a DAgger student when the config names a teacher (train.teacher; stable-baselines3
     only, its budget in rounds, not steps); else PPO on RLlib for ``backend`` 'rllib' (on the Ray
@@ -116,6 +118,11 @@ def train_run(
             f"config key 'train.dagger_data_from': got {run_config.train.dagger_data_from!r} for a PPO run; allowed: "
             "null, or a student of a teacher (train.teacher: reference or search), which starts from those rounds"
         )
+    if run_config.train.teacher == "none" and rounds is not None:
+        raise ConfigError(
+            f"--rounds: got {rounds} for a PPO run, whose budget is steps; allowed: --steps, or --rounds for a "
+            "student of a teacher (train.teacher: reference or search)"
+        )
     if run_config.train.teacher != "none":
         if run_config.train.max_minutes:
             raise ConfigError(
@@ -131,7 +138,9 @@ def train_run(
             )
         from aaai.train.student import train_student
 
-        return Trained(train_student(run_dir, config, resume=resume, say=say), student=True)
+        return Trained(
+            train_student(run_dir, config, resume=resume, say=say, rounds=rounds if resume else None), student=True
+        )
     report = Progress(
         total,
         done=steps_done(run_dir if resume else None),

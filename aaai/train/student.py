@@ -401,17 +401,23 @@ def _save_data(folder: Path, iteration: int, observations: dict, labels: np.ndar
 
 
 def train_student(
-    run_dir: str | Path, config: Config | None = None, resume: bool = False, say: Callable[[str], None] = print
+    run_dir: str | Path,
+    config: Config | None = None,
+    resume: bool = False,
+    say: Callable[[str], None] = print,
+    rounds: int | None = None,
 ) -> StudentResult:
     """Starts a DAgger run in ``run_dir`` with ``config`` (resolved), or resumes the one there;
     the run folder is locked for the whole call, as in aaai.train.training.train."""
     run = RunFolder(run_dir)
     check_writable(run.path, "--resume" if resume else "--run", folder=True)
     with run.locked("--resume" if resume else "--run"):
-        return _train_student(run, config, resume, say)
+        return _train_student(run, config, resume, say, rounds)
 
 
-def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Callable[[str], None]) -> StudentResult:
+def _train_student(
+    run: RunFolder, config: Config | None, resume: bool, say: Callable[[str], None], rounds: int | None
+) -> StudentResult:
     import torch
 
     from aaai.env import AnimalAIEnv
@@ -424,6 +430,8 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
         if point is not None:
             state = point[1]
             done = state["agent"]["iterations_done"]
+        if rounds is not None:
+            config = move_last_round(run, config, done, rounds)
         run.trim_episodes(state["step"] if state else 0)  # to its header when there is no checkpoint
     else:
         if config is None:
@@ -573,6 +581,26 @@ def _train_student(run: RunFolder, config: Config | None, resume: bool, say: Cal
             )
             checkpoint(step, iteration + 1)
     return StudentResult(run, data.size, episodes_logged, done)
+
+
+def move_last_round(run: RunFolder, config: Config, done: int, rounds: int) -> Config:
+    """On resume: the run's config with its end moved to ``rounds`` rounds of DAgger (recorded in the
+    run folder); refused at or below the rounds the run has done. The rounds before are unchanged:
+    each round's plan and mixing share depend on the seed and the round's number only."""
+    if rounds <= done:
+        raise ConfigError(
+            f"--rounds: got {rounds}; the run {str(run.path)!r} already has {done} rounds of DAgger; "
+            f"allowed: more than {done}"
+        )
+    if config.train.dagger_max_decisions:
+        raise ConfigError(
+            f"--rounds: got {rounds} for a run with train.dagger_max_decisions "
+            f"{config.train.dagger_max_decisions}, whose rounds each keep that cap over its "
+            f"{config.train.dagger_iterations} rounds; allowed: no --rounds (a new run with train.dagger_iterations)"
+        )
+    config = load_config(config, dagger_iterations=rounds)
+    run.update_config(config)
+    return config
 
 
 def _ppo(env, config: Config):
