@@ -123,12 +123,30 @@ def test_two_recipes_compare_by_their_runs_spread():
     assert one.interval == pytest.approx((expected.low, expected.high))
     assert one.verdict == "better"
     assert lines[2].difference == pytest.approx(0.05) and lines[2].verdict == "no difference shown"
-    assert lines[0].interval == (0.0, 0.0) and lines[0].verdict == "no difference shown"  # no spread, no difference
+    assert lines[0].unspread and lines[0].verdict == "no difference shown"  # no spread, no difference
     assert lines[-1].base == (32 / 60, 50 / 60)
     table = runs_markdown(lines, ["student", "student_b"], ["memory", "memory_b"])
     assert "| L1 food_retrieval | 20 | 50 / 60 | 55% | 95 / 90 | 92% | +38 (" in table
     assert "| level | episodes | student (2 runs): each run | mean | memory (2 runs): each run |" in table
     assert "student, student_b against memory, memory_b" in table
+
+
+def test_runs_without_spread_are_judged_by_the_episodes_chance_alone():
+    """Where every run of each side passes the same count, Welch's interval has no spread to stand on
+    and would shrink to the point: one episode more in 110 on every run of one side would be "better".
+    The interval is then the episodes' (Newcombe's on one run's episodes), and the table marks it."""
+    lines = compare_runs([board({2: 60}, 110)] * 2, [board({2: 61}, 110)] * 3)
+    level = lines[0]
+    assert level.unspread and level.difference == pytest.approx(1 / 110)
+    from aaai.tools.compare import Rate, newcombe
+
+    assert level.interval == pytest.approx(newcombe(Rate(60, 110), Rate(61, 110)))
+    assert level.interval[0] < -0.1 and level.interval[1] > 0.1
+    assert level.verdict == "no difference shown"
+    spread = compare_runs([board({2: 60}, 110), board({2: 62}, 110)], [board({2: 61}, 110)] * 2)[0]
+    assert not spread.unspread  # one side's runs differ: Welch's over the runs, as before
+    table = runs_markdown(lines, ["a", "a2"], ["b", "b2", "b3"])
+    assert "| +1 (-12 to +14) * | no difference shown |" in table
 
 
 def test_runs_are_compared_on_the_episodes_every_run_holds_and_need_two_a_side():
@@ -147,7 +165,8 @@ def test_the_command_compares_recipes_when_given_more_runs(tmp_path):
         cli, ["compare", paths["a"], paths["b"], "--base-run", paths["a2"], "--other-run", paths["b2"]]
     )
     assert result.exit_code == 0, result.output
-    assert "| L1 food_retrieval | 20 | 50 / 50 | 50% | 95 / 95 | 95% | +45 (+45 to +45) | better |" in result.output
+    assert "| L1 food_retrieval | 20 | 50 / 50 | 50% | 95 / 95 | 95% | +45 (+18 to +65) * | better |" in result.output
+    assert "\\* Every run of a side passed as many episodes as the other runs of its side" in result.output
     result = CliRunner().invoke(cli, ["compare", paths["a"], paths["b"], "--base-run", paths["a2"]])
     assert result.exit_code == 2
     assert "1 training run of the other; allowed: 2 or more a side" in result.output

@@ -14,7 +14,9 @@ Those intervals count the episodes' chance only: they say whether two *models* d
 of a recipe moves a student by several points overall and tens on a level. :func:`compare_runs` takes
 each side's runs, and per level gives every run's pass rate and the difference of the two sides'
 means with Welch's 95 % t interval over the runs (each run's pass rate one value, so the interval
-counts the training's chance and the episodes' alike).
+counts the training's chance and the episodes' alike). Where every run of each side passes the same
+count, the runs give no spread to build that interval from, and the episodes' Newcombe interval is
+given instead (marked in the table).
 """
 
 from __future__ import annotations
@@ -194,9 +196,22 @@ class RunsComparison:
         return sum(self.other) / len(self.other) - sum(self.base) / len(self.base)
 
     @property
+    def unspread(self) -> bool:
+        """Every run of each side passed as many episodes as the others of its side: the runs show
+        no training chance to build Welch's interval from."""
+        return len(set(self.base)) == 1 and len(set(self.other)) == 1
+
+    @property
     def interval(self) -> tuple[float, float]:
+        """Welch's over the runs; where no side has any spread (:attr:`unspread`), the episodes'
+        chance is all that is left to count: the two rates' Newcombe interval on one run's episodes
+        (else the interval would shrink to the point, and a level passed 60 times of 110 by every run
+        of one side and 61 by every run of the other would be called a difference)."""
         from aaai.train.power import welch_interval
 
+        if self.unspread:
+            passes = [round(side[0] * self.episodes) for side in (self.base, self.other)]
+            return newcombe(Rate(passes[0], self.episodes), Rate(passes[1], self.episodes))
         return welch_interval(list(self.other), list(self.base))
 
     @property
@@ -237,6 +252,9 @@ def runs_markdown(lines: list[RunsComparison], base_names: list[str], other_name
     def points(value: float) -> str:  # signed whole points, never "-0"
         return "nan" if math.isnan(value) else f"{round(100 * value):+d}"
 
+    def mark(line: RunsComparison) -> str:
+        return " *" if line.unspread else ""
+
     base, other = f"{base_names[0]} ({len(base_names)} runs)", f"{other_names[0]} ({len(other_names)} runs)"
     out = [
         f"| level | episodes | {base}: each run | mean | {other}: each run | mean | "
@@ -249,7 +267,7 @@ def runs_markdown(lines: list[RunsComparison], base_names: list[str], other_name
         low, high = line.interval
         out.append(
             f"| {label} | {line.episodes} | {rates(line.base)} | {mean(line.base)} | {rates(line.other)} | "
-            f"{mean(line.other)} | {points(line.difference)} ({points(low)} to {points(high)}) | "
+            f"{mean(line.other)} | {points(line.difference)} ({points(low)} to {points(high)}){mark(line)} | "
             f"{line.verdict} |"
         )
     out += [
@@ -258,6 +276,12 @@ def runs_markdown(lines: list[RunsComparison], base_names: list[str], other_name
         "Each run's pass rate is one value; the interval is Welch's t over the runs, so it counts the "
         "training's chance as well as the episodes'.",
     ]
+    if any(line.unspread for line in lines):
+        out.append(
+            "\n\\* Every run of a side passed as many episodes as the other runs of its side, so the runs show no "
+            "spread to count the training's chance by: the interval is the episodes' alone (Newcombe's, on one "
+            "run's episodes)."
+        )
     return "\n".join(out) + "\n"
 
 
