@@ -75,6 +75,8 @@ ORDER = (
     "student_search_sweep_discrete_s1",
     "student_search_lstm_discrete",
     "student_search_lstm_discrete_s1",
+    "student_search_lstm_discrete_r12",
+    "student_search_lstm_discrete_r12_s1",
     "student_lstm",
     "student_camera",
 )
@@ -426,6 +428,14 @@ COMMITTED = {
     "student_search_lstm_discrete_s1": (
         "models/student_search_lstm_discrete_s1.zip",
         "models/student_search_lstm_discrete_s1.yaml",
+    ),
+    "student_search_lstm_discrete_r12": (
+        "models/student_search_lstm_discrete_r12.zip",
+        "models/student_search_lstm_discrete_r12.yaml",
+    ),
+    "student_search_lstm_discrete_r12_s1": (
+        "models/student_search_lstm_discrete_r12_s1.zip",
+        "models/student_search_lstm_discrete_r12_s1.yaml",
     ),
     "ppo_gait": ("models/ppo_gait.zip", "models/ppo_gait.yaml"),
 }
