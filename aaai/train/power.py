@@ -167,15 +167,16 @@ def welch(a: list[float], b: list[float]) -> tuple[float, float, float]:
 
 def welch_interval(a: list[float], b: list[float], confidence: float = CONFIDENCE) -> tuple[float, float]:
     """Welch's two-sided ``confidence`` interval of mean(a) - mean(b), on the degrees of freedom of
-    :func:`welch`: NaN bounds with fewer than 2 values on a side; the point itself when neither side
-    has any spread."""
+    :func:`welch`: NaN bounds with fewer than 2 values on a side, or when neither side has any spread
+    (there is nothing to build it from; :class:`aaai.tools.compare.RunsComparison` then counts the
+    episodes' chance instead)."""
     x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     if len(x) < 2 or len(y) < 2:
         return math.nan, math.nan
     difference = float(x.mean() - y.mean())
     va, vb, df = _welch_terms(x, y)
     if va + vb == 0:
-        return difference, difference
+        return math.nan, math.nan
     from scipy import stats
 
     half = float(stats.t.ppf(0.5 + confidence / 2, df)) * math.sqrt(va + vb)
