@@ -204,7 +204,7 @@ RULES: dict[str, Rule] = {
     "train.dagger_episodes": Rule("int", 1, 10**6),
     "train.dagger_beta": Rule("float", 0, 1),
     "train.dagger_epochs": Rule("int", 1, 1000),
-    "train.dagger_episode_cap": Rule("int", 1, 10**6),
+    "train.dagger_episode_cap": Rule("int", 0, 10**6),  # 0: each episode to its own end
     "train.dagger_max_decisions": Rule("int", 0, 10**9),  # aaai.train.camera_student.Dataset; 0: no cap
     "train.student_policy": Rule("choice", choices=("mlp", "lstm")),
     "train.dagger_sequence": Rule("int", 2, 10**4),

@@ -167,6 +167,11 @@ def test_a_camera_student_without_a_cap_on_its_data_is_refused_before_its_run_ex
     assert check_memory(load_config(CAMERA))[0] == 200_000
     small = load_config(CAMERA, dagger_max_decisions=0, camera_resolution=36, dagger_episodes=20)
     assert check_memory(small) == (None, 3 * 36 * 36 + 8 * 4 + 3 * 4)  # 96,000 decisions: 0.36 GiB at most
+    # With no cap on an episode (0), each is counted at the longest a level lasts: 200 s, 2,000 decisions
+    # of 0.1 s; 8 rounds x 68 episodes of them fit in 4 GiB, 8 x 69 do not.
+    assert check_memory(load_config(small, dagger_episode_cap=0, dagger_episodes=68))[0] is None
+    with pytest.raises(ConfigError, match=r"could reach 4\.0\d GiB \(1,104,000 decisions of 3,932 bytes"):
+        check_memory(load_config(small, dagger_episode_cap=0, dagger_episodes=69))
     uncapped = yaml.safe_load(CAMERA.read_text())
     uncapped["train"]["dagger_max_decisions"] = 0
     path = tmp_path / "uncapped.yaml"

@@ -16,7 +16,7 @@ from aaai.env import AnimalAIEnv  # noqa: E402
 from aaai.levels.seeds import TRAIN_SEEDS  # noqa: E402
 from aaai.scoring.runs import RunFolder  # noqa: E402
 from aaai.task.reference import ReferenceController  # noqa: E402
-from aaai.train.student import Job, plan_episodes, play_job, train_student  # noqa: E402
+from aaai.train.student import Job, capped_note, plan_episodes, play_job, train_student  # noqa: E402
 from aaai_cli.main import cli  # noqa: E402
 
 TINY = {
@@ -65,6 +65,25 @@ def test_the_labels_are_the_teachers_actions_and_the_inputs_only_the_agents_obse
         assert all(e.task_return / e.max_reward >= 0.8 for e in gathered["episodes"])  # the teacher eats
     finally:
         env.close()
+
+
+def test_an_episode_stops_at_the_cap_and_is_counted_and_with_no_cap_runs_to_its_end():
+    config = load_config(TINY)
+    whole = play_job(Job(config, None, 32, 1.0, 0, ((0, 0, 3),), cap=0))  # 0: to the episode's end
+    length = whole["episodes"][0].length
+    assert whole["capped"] == [] and whole["episodes"][0].food_eaten == 1
+    at_end = play_job(Job(config, None, 32, 1.0, 0, ((0, 0, 3),), cap=length))  # its end, not the cap
+    assert at_end["capped"] == [] and at_end["episodes"][0].length == length
+    short = play_job(Job(config, None, 32, 1.0, 0, ((0, 0, 3),), cap=length - 1))
+    assert short["capped"] == [0] and short["episodes"][0].length == length - 1
+    assert np.array_equal(short["labels"], whole["labels"][: length - 1])
+    assert capped_note([5, 1, 5], 600) == (
+        "; 3 episodes stopped at the cap of 600 decisions before their end (L1 1, L5 2; "
+        "train.dagger_episode_cap 0 plays each to its time limit)"
+    )
+    assert capped_note([], 600) == ""
+    with pytest.raises(ConfigError, match=r"'train.dagger_episode_cap': got -1"):
+        load_config(TINY, dagger_episode_cap=-1)
 
 
 def test_a_student_run_is_an_ordinary_run_that_eval_scores_and_resume_continues(tmp_path):

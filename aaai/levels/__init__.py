@@ -67,6 +67,9 @@ class Level:
         return float(resolve({"time_limit": self.time_limit}, difficulty, ("time_limit",), self.source)["time_limit"])
 
 
+LONGEST_TIME_LIMIT = 200.0  # seconds: a level's longest episode at any difficulty
+
+
 def _load_level(path) -> Level:
     data = read_yaml(path, "level file")
     for key in data:
@@ -87,7 +90,7 @@ def _load_level(path) -> Level:
         data["time_limit"],
     )
     for difficulty in DIFFICULTIES:
-        if not 0.2 <= level.time_limit_at(difficulty) <= 200.0:
+        if not 0.2 <= level.time_limit_at(difficulty) <= LONGEST_TIME_LIMIT:
             raise ConfigError(
                 f"{path.name}: key 'time_limit': got {level.time_limit_at(difficulty)!r} at difficulty "
                 f"{difficulty}; allowed: 0.2 to 200 seconds"

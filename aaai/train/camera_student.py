@@ -70,7 +70,7 @@ def has_images(config: Config) -> bool:
 def check_memory(config: Config) -> tuple[int | None, int]:
     """The labelled data's bound: (decisions kept at most or None for all, bytes a decision). Refuses a
     cap below one decision a round, and a student with images and no cap whose data could pass
-    :data:`MEMORY_LIMIT` (every round's every episode played to ``dagger_episode_cap``)."""
+    :data:`MEMORY_LIMIT` (every round's every episode played for as long as it can last: :func:`longest_episode`)."""
     from aaai.env import AnimalAIEnv
 
     train = config.train
@@ -79,6 +79,7 @@ def check_memory(config: Config) -> tuple[int | None, int]:
         shape = env.action_space.shape
         assert shape is not None, "a Box action space has a shape"
         size = decision_bytes(env.observation_space, shape)
+        longest = longest_episode(config, env.hold)
     finally:
         env.close()
     cap = train.dagger_max_decisions
@@ -89,15 +90,29 @@ def check_memory(config: Config) -> tuple[int | None, int]:
         )
     if cap:
         return cap, size
-    worst = train.dagger_iterations * train.dagger_episodes * train.dagger_episode_cap
+    worst = train.dagger_iterations * train.dagger_episodes * longest
     if has_images(config) and worst * size > MEMORY_LIMIT:
         raise ConfigError(
             f"config key 'train.dagger_max_decisions': got 0 (no cap) for a student with the camera, whose "
             f"labelled data could reach {_gib(worst * size)} ({worst:,} decisions of {size:,} bytes: "
-            f"dagger_iterations x dagger_episodes x dagger_episode_cap); allowed: a cap of at most "
+            f"dagger_iterations x dagger_episodes x the decisions of an episode at most); allowed: a cap of at most "
             f"{MEMORY_LIMIT // size:,} decisions ({_gib(MEMORY_LIMIT)}), or a smaller sensors.camera_resolution"
         )
     return None, size
+
+
+def longest_episode(config: Config, hold: int) -> int:
+    """Decisions a DAgger episode is played for at most: ``train.dagger_episode_cap``, or with 0 the
+    longest an episode can last (``episode.max_steps``, or a level's longest time limit), in
+    decisions of ``hold`` control steps."""
+    from aaai.levels import LONGEST_TIME_LIMIT
+
+    if config.train.dagger_episode_cap:
+        return config.train.dagger_episode_cap
+    steps = config.episode.max_steps
+    if steps == "auto":
+        steps = round(LONGEST_TIME_LIMIT / config.physics.control_dt)
+    return -(-int(steps) // hold)
 
 
 def _gib(size: float) -> str:

@@ -41,6 +41,7 @@ beyond that is measured by ``aaai diagnose`` (docs, Learned agents).
 from __future__ import annotations
 
 import time
+from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from multiprocessing import get_context
@@ -172,7 +173,7 @@ class Job:
     beta: float  # the probability that the teacher's action is taken
     iteration: int
     episodes: tuple[tuple[int, int, int], ...]  # (level, difficulty, seed)
-    cap: int = 10**9  # decisions an episode is played for at most
+    cap: int = 0  # decisions an episode is played for at most; 0: to its own end (the time limit)
     student_policy: str = "mlp"  # train.student_policy: mlp, or lstm (its hidden state carried through an episode)
 
 
@@ -196,7 +197,7 @@ def play_job(job: Job) -> dict:
         if job.student_policy == "lstm":
             actor = recurrent_student.RecurrentActor(student)
     observations: dict[str, list] = {key: [] for key in env.observation_space.spaces}
-    labels, starts, records, taught = [], [], [], 0
+    labels, starts, records, taught, capped = [], [], [], 0, []
     try:
         for level, difficulty, seed in job.episodes:
             observation, info = env.reset(seed=seed, options={"level": level, "difficulty": difficulty})
@@ -221,7 +222,10 @@ def play_job(job: Job) -> dict:
                 total += reward
                 task += reward - info["reward_terms"].get("shaping", 0.0)
                 length += 1
-                if terminated or truncated or length >= job.cap:
+                if terminated or truncated:
+                    break
+                if job.cap and length >= job.cap:  # stopped short of the episode's end: counted
+                    capped.append(level)
                     break
             records.append(
                 Episode(
@@ -247,6 +251,7 @@ def play_job(job: Job) -> dict:
         "starts": np.asarray(starts, bool),
         "episodes": records,
         "taught": taught,
+        "capped": capped,  # the level of each episode stopped at the cap before its end
     }
 
 
@@ -553,6 +558,7 @@ def _train_student(
             )
             finished = [episode for r in results for episode in r["episodes"]]
             taught = sum(r["taught"] for r in results)
+            capped = [level for r in results for level in r["capped"]]
             del results  # the round's whole data: only its kept sample stays in memory
             _save_data(data_folder, iteration, new_obs, new_labels, new_starts)
             data.add(new_obs, new_labels, new_starts)
@@ -578,9 +584,23 @@ def _train_student(
                 f"DAgger iteration {iteration}: beta {beta:.3f}, {len(finished)} episodes passed {passed} "
                 f"({100 * line['pass_rate']:.0f} %, teacher's share of actions {100 * line['teacher_share']:.0f} %), "
                 f"{step} labelled decisions, loss {loss:.4f}, {line['seconds']:.0f} s"
+                + capped_note(capped, settings.episode_cap)
             )
             checkpoint(step, iteration + 1)
     return StudentResult(run, data.size, episodes_logged, done)
+
+
+def capped_note(levels: list[int], cap: int) -> str:
+    """The round's episodes stopped at ``train.dagger_episode_cap`` before their end, by level: the
+    teacher's labels never show how those end (an empty string when none was)."""
+    if not levels:
+        return ""
+    counts = Counter(levels)
+    by_level = ", ".join(f"L{level} {counts[level]}" for level in sorted(counts))
+    return (
+        f"; {len(levels)} episodes stopped at the cap of {cap} decisions before their end ({by_level}; "
+        "train.dagger_episode_cap 0 plays each to its time limit)"
+    )
 
 
 def move_last_round(run: RunFolder, config: Config, done: int, rounds: int) -> Config:
