@@ -598,7 +598,8 @@ def capped_note(levels: list[int], cap: int) -> str:
     counts = Counter(levels)
     by_level = ", ".join(f"L{level} {counts[level]}" for level in sorted(counts))
     return (
-        f"; {len(levels)} episodes stopped at the cap of {cap} decisions before their end ({by_level}; "
+        f"; {len(levels)} episode{'s' if len(levels) > 1 else ''} stopped at the cap of {cap} decisions before "
+        f"their end ({by_level}; "
         "train.dagger_episode_cap 0 plays each to its time limit)"
     )
 
