@@ -81,7 +81,7 @@ def test_an_episode_stops_at_the_cap_and_is_counted_and_with_no_cap_runs_to_its_
         "; 3 episodes stopped at the cap of 600 decisions before their end (L1 1, L5 2; "
         "train.dagger_episode_cap 0 plays each to its time limit)"
     )
-    assert capped_note([3], 600).startswith("; 1 episode stopped at the cap of 600 decisions before their end (L3 1;")
+    assert capped_note([12], 600).startswith("; 1 episode stopped at the cap of 600 decisions before their end (L2b 1;")
     assert capped_note([], 600) == ""
     with pytest.raises(ConfigError, match=r"'train.dagger_episode_cap': got -1"):
         load_config(TINY, dagger_episode_cap=-1)

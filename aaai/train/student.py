@@ -595,8 +595,10 @@ def capped_note(levels: list[int], cap: int) -> str:
     teacher's labels never show how those end (an empty string when none was)."""
     if not levels:
         return ""
+    from aaai.levels import get_level
+
     counts = Counter(levels)
-    by_level = ", ".join(f"L{level} {counts[level]}" for level in sorted(counts))
+    by_level = ", ".join(f"{get_level(level).label} {counts[level]}" for level in sorted(counts))
     return (
         f"; {len(levels)} episode{'s' if len(levels) > 1 else ''} stopped at the cap of {cap} decisions before "
         f"their end ({by_level}; "
