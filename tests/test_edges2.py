@@ -196,7 +196,7 @@ def test_a_reload_takes_its_session_over_and_an_idle_session_frees_its_world(tmp
         output=str(tmp_path / "human_{player}.csv"),
         between_seconds=0.0,
         grace_seconds=0.0,
-        idle_seconds=1.0,
+        idle_seconds=2.0,  # long enough for the takeover below on a loaded machine, short for the test
     )
     server = Server(settings, port=0).start()
     origin = server.url.split("/?")[0].rstrip("/")
@@ -232,18 +232,18 @@ def test_a_reload_takes_its_session_over_and_an_idle_session_frees_its_world(tmp
             new = page(stack)  # the reloaded page, while the old socket is still open
             new.send(json.dumps({"type": "join", "player": "ann", "token": token}))
             assert until(new, lambda m: m["type"] in ("joined", "error"))["type"] == "joined"
+            new.send(json.dumps({"type": "key", "key": "ArrowUp", "down": True}))  # the new page drives
             told = until(old, lambda m: m["type"] == "error")["message"]
             assert told == "player 'ann' was taken over by another page (a reload or a duplicated tab)"
             with pytest.raises(ConnectionClosed) as closed:
                 until(old, lambda m: False)
             assert closed.value.rcvd is not None and closed.value.rcvd.code == TAKEN_OVER
-            new.send(json.dumps({"type": "key", "key": "ArrowUp", "down": True}))  # the new page drives
             until(new, lambda m: m.get("phase") == "running")
             session = server.registry.sessions["ann"]
             assert session.attached and server.registry.live() == 1  # the old socket's close detached nothing
             # no key for --idle seconds: the battery is abandoned and its environment closed
             ended = until(new, lambda m: m.get("phase") == "abandoned")
-            assert ended["message"] == "abandoned: no key was pressed for 1 seconds (--idle)"
+            assert ended["message"] == "abandoned: no key was pressed for 2 seconds (--idle)"
             assert session.done.wait(5) and session.env is None and server.registry.live() == 0
             assert abandoned_path(tmp_path / "human_ann.csv").is_file()
     finally:
