@@ -87,6 +87,16 @@ def test_an_episode_stops_at_the_cap_and_is_counted_and_with_no_cap_runs_to_its_
         load_config(TINY, dagger_episode_cap=-1)
 
 
+def test_a_rounds_log_line_counts_the_episodes_its_cap_stopped(tmp_path):
+    said: list[str] = []
+    train_student(tmp_path / "run", load_config(TINY, dagger_iterations=1, dagger_episode_cap=5), say=said.append)
+    line = next(message for message in said if message.startswith("DAgger iteration 0:"))
+    assert line.endswith(
+        "; 4 episodes stopped at the cap of 5 decisions before their end (L0 4; "
+        "train.dagger_episode_cap 0 plays each to its time limit)"
+    )
+
+
 def test_a_student_run_is_an_ordinary_run_that_eval_scores_and_resume_continues(tmp_path):
     run = tmp_path / "student"
     result = train_student(run, load_config(TINY), say=lambda message: None)

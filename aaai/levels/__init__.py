@@ -93,7 +93,7 @@ def _load_level(path) -> Level:
         if not 0.2 <= level.time_limit_at(difficulty) <= LONGEST_TIME_LIMIT:
             raise ConfigError(
                 f"{path.name}: key 'time_limit': got {level.time_limit_at(difficulty)!r} at difficulty "
-                f"{difficulty}; allowed: 0.2 to 200 seconds"
+                f"{difficulty}; allowed: 0.2 to {LONGEST_TIME_LIMIT:g} seconds"
             )
     return level
 

@@ -18,6 +18,7 @@ from collections import defaultdict
 from pathlib import Path
 
 from aaai.levels import all_levels
+from aaai.scoring.episodes import PASS_RATIO
 
 
 def main() -> None:
@@ -44,7 +45,7 @@ def main() -> None:
                 cell[0] += 1
                 cell[1] += int(row["length"]) >= args.cap
                 maximum = float(row["max_reward"])
-                cell[2] += maximum > 0 and float(row["task_return"]) / maximum >= 0.8
+                cell[2] += maximum > 0 and float(row["task_return"]) / maximum >= PASS_RATIO
         counts.append(by_level)
     for level_id in sorted(counts[0]):
         level = levels[level_id]
