@@ -123,7 +123,8 @@ def parse_int_set(value: Any, key: str, low: int, high: int) -> list[int]:
 
 
 MAX_LEVEL_ID = 999  # level ids are 0..999; which exist, the level registry says (aaai.levels)
-TEACHERS = ("reference", "search", "search_strict")  # the controllers a DAgger student learns from (train.teacher)
+# the controllers a DAgger student learns from (train.teacher; aaai.task.search.teacher builds each)
+TEACHERS = ("reference", "search", "search_strict", "search_thorough")
 RULES: dict[str, Rule] = {
     "level": Rule("int", 0, MAX_LEVEL_ID, levels=True),  # a registered level's id (aaai.levels); 12 is L2b
     "difficulty": Rule("int", 0, 10),

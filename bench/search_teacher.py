@@ -9,6 +9,8 @@ level with its 95 % Wilson interval, overall and at difficulties 0, 5 and 10
 - ``search_default``: the searching reference on the default senses (17 rays over 90 degrees, 15 long);
 - ``search_strict_default``: the strict one (``--policy search_strict``: the walls too known only as
   the rays show them) on the default senses;
+- ``search_thorough_default``: the thorough one (``--policy search_thorough``: it searches on for food it
+  has not seen before eating a green) on the default senses;
 - ``search_student``: the searching reference on configs/student.yaml's senses (33 rays all round, 50
   long, two fans).
 
@@ -16,7 +18,7 @@ level with its 95 % Wilson interval, overall and at difficulties 0, 5 and 10
     nice -n 10 .venv/bin/python bench/search_teacher.py -k 2 --difficulty 0,5,10 --tag small
     .venv/bin/python bench/search_teacher.py --table-only                      # the table from the CSVs
 
-The scoreboards are bench/search_teacher{_TAG}_{reference,search_default,search_student}.csv.
+The scoreboards are bench/search_teacher{_TAG}_{NAME}.csv, one per name above.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ POLICIES = {  # name: (policy, extra eval arguments)
     "reference": ("reference", []),
     "search_default": ("search", []),
     "search_strict_default": ("search_strict", []),
+    "search_thorough_default": ("search_thorough", []),
     "search_student": ("search", ["--config", "configs/student.yaml"]),
 }
 

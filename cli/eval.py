@@ -10,6 +10,7 @@ import click
 from aaai.config import ACTION_MODES, ConfigError
 from aaai.errors import needs_extra
 from aaai.files import InUse
+from aaai.scoring.policies import BUILT_IN
 
 from .options import (
     MANY,
@@ -39,8 +40,7 @@ from .progress import progress_output
     "--policy",
     default="random",
     show_default=True,
-    help="A run folder, a model .zip, random, reference, search, search_strict, gait, or module:callable "
-    "(called with the env).",
+    help=f"A run folder, a model .zip, {', '.join(BUILT_IN)}, or module:callable (called with the env).",
 )
 @click.option(
     "--levels",

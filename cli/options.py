@@ -88,7 +88,8 @@ class Output(click.Path):
 POLICY_HELP = (
     "random, reference (the privileged reference controller), search (the reference knowing only the "
     "food the rays have shown it), search_strict (the same, knowing the walls too only as the rays show "
-    "them), gait (the example trot), "
+    "them), search_thorough (the search that looks on for food it has not seen before eating a green), "
+    "gait (the example trot), "
     "a model .zip, a run folder or module:callable"
 )
 TRUST_HELP = (

@@ -9,6 +9,7 @@ import click
 from aaai.config import ACTION_MODES, ConfigError
 from aaai.levels import check_difficulty, check_seed, get_level
 from aaai.scoring.episodes import play
+from aaai.scoring.policies import BUILT_IN
 from aaai.tools.media import VIDEO_CODECS, VideoWriter, save_png, video_extension_error
 from aaai.tools.viewer import compose, draw_top_down, draw_world
 
@@ -44,8 +45,7 @@ def frame_every(fps: float, control_dt: float) -> int:
     "--policy",
     default="random",
     show_default=True,
-    help="Who moves the agent in the video: random, reference, search, search_strict, gait, a model .zip, a run "
-    "folder or module:callable.",
+    help=f"Who moves the agent in the video: {', '.join(BUILT_IN)}, a model .zip, a run folder or module:callable.",
 )
 @click.option(
     "--steps",

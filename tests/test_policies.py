@@ -168,13 +168,13 @@ def test_a_model_without_an_environment_is_refused_naming_it(run):
         ("missing.zip", r"model file 'missing.zip' does not exist"),
         (
             "nonsense",
-            r"'nonsense' is no run folder or model file here; allowed: random, reference, search, search_strict, gait, "
-            r"a model .zip",
+            r"'nonsense' is no run folder or model file here; allowed: random, reference, search, search_strict, "
+            r"search_thorough, gait, a model .zip",
         ),
         (
             "runs/nothing",
             r"'runs/nothing' is no run folder or model file here; allowed: random, reference, search, search_strict, "
-            r"gait",
+            r"search_thorough, gait",
         ),
         ("no_such_module_here:make", r"cannot load 'no_such_module_here:make'"),
         ("json:no_such_name", r"cannot load 'json:no_such_name'"),

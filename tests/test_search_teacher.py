@@ -11,7 +11,15 @@ import pytest
 
 from aaai.config import ConfigError, load_config
 from aaai.env import AnimalAIEnv
-from aaai.task.search import SearchController, StrictSearchController
+from aaai.scoring.episodes import PASS_RATIO, play
+from aaai.task.search import (
+    HOLD_DETOUR,
+    HOLD_MARGIN,
+    INTERCEPT_SPEED,
+    SearchController,
+    StrictSearchController,
+    ThoroughSearchController,
+)
 
 
 def _place(env, x: float, y: float, yaw: float) -> dict:
@@ -118,7 +126,7 @@ def test_an_l0_episode_with_the_food_behind_the_start_is_passed_by_searching(gai
     assert info["food_eaten"] == 1 and terminated and decision < 150, decision
 
 
-@pytest.mark.parametrize("teacher", ["search", "search_strict"])
+@pytest.mark.parametrize("teacher", ["search", "search_strict", "search_thorough"])
 def test_a_search_teacher_teaches_a_student_that_drives_part_of_the_time(teacher):
     """``train.teacher: search`` (and ``search_strict``) in a DAgger round with the student driving about half the time:
     every decision is labelled, some by the student's actions, and bad teachers are refused."""
@@ -217,3 +225,44 @@ def test_the_strict_search_finds_food_behind_walls_it_learns_on_the_way(gait_env
             break
     assert info["food_eaten"] == 1 and terminated and info["wall_hits"] == 0
     assert controller.hidden.any()
+
+
+def test_the_thorough_search_waits_for_l2b_yellow_where_the_search_eats_the_green_at_once(gait_env):
+    """L2b d0 seed 3: the green lies ahead in the rays' view, the yellow on its pillar above them. The
+    searching reference eats the green at once, ending the episode with the yellow uneaten (below the
+    pass mark); the thorough one searches on while the time allows, finds the yellow once it has
+    sunk, eats it and then the green."""
+    env, l2b = gait_env, {"level": 12, "difficulty": 0}
+    plain = play(env, SearchController(env), 3, options=l2b)
+    assert plain.info["food_eaten"] == 1 and plain.episode_return < PASS_RATIO * plain.info["max_reward"]
+    thorough = play(env, ThoroughSearchController(env), 3, options=l2b)
+    assert thorough.info["food_eaten"] == 2 and thorough.episode_return >= PASS_RATIO * thorough.info["max_reward"]
+
+
+def test_the_thorough_search_holds_off_a_green_only_while_unseen_food_is_left_and_time_allows(gait_env):
+    """L2b d0 seed 3, set down facing the green 8 units off: the green is known, the yellow (on its
+    pillar) never seen. With time left a hair more than walking to the green takes (its straight
+    line x HOLD_DETOUR at INTERCEPT_SPEED, + HOLD_MARGIN) it explores, keeping a berth round the
+    green; a hair less, it goes for the green. Once a ray has shown it the yellow (wherever that is
+    now) it goes for the green too, as the searching reference always does."""
+    env = gait_env
+    controller = ThoroughSearchController(env)
+    env.reset(seed=3, options={"level": 12, "difficulty": 0})
+    controller.reset(3)
+    green = next(body for body, food in env.world.food.items() if food.kind == "food_green")
+    yellow = next(body for body in env.world.food if body != green)
+    x, y, _ = env.world.food[green].position
+    controller(_place(env, x, y - 8.0, math.pi / 2))
+    assert green in controller.memory and yellow not in controller.sighted
+    head = env.body.head_pose()[0]
+    walk = math.dist(head[:2], (x, y)) * HOLD_DETOUR / INTERCEPT_SPEED + HOLD_MARGIN
+    limit, dt = env.level_spec.time_limit, env.control_dt
+    for left, holds in ((walk + 0.05, True), (walk - 0.05, False)):
+        env.steps = math.ceil((limit - left) / dt)  # just under ``left`` seconds to go
+        target = controller._target(head)
+        assert (target[2] != green) == holds, left
+        if holds:
+            assert target[2][0] == "explore" and any(math.dist(b[:2], (x, y)) < 0.5 for b in target[3])
+    env.steps = 0
+    controller.sighted.add(yellow)
+    assert controller._target(head)[2] == green

@@ -33,16 +33,16 @@ from aaai.files import file_sha256, folder_sha256
 from aaai.scoring.runs import RunFolder, model_problem, rllib_checkpoint, run_backend
 from aaai.sim.gait import gait_policy
 
-BUILT_IN = ("random", "reference", "search", "search_strict", "gait")
+BUILT_IN = ("random", *TEACHERS, "gait")  # TEACHERS: reference and the searching references
 # How a scoreboard's actions are computed (recorded with it): a learned policy's forward pass in
 # float64, and the action that a learned policy or the reference hands to the environment put on a
 # grid of 2**-20 (the nearest multiple, then float32, which holds it exactly), so that last-bit
 # differences between CPUs' code paths (MKL's kernels, vector maths) do not reach the physics.
 NUMERICS = "f64-grid2^-20"
 GRID = 2.0**-20
-ON_GRID = ("reference", "search", "search_strict", "model", "rllib")  # the kinds whose actions are put on the grid
+ON_GRID = (*TEACHERS, "model", "rllib")  # the kinds whose actions are put on the grid
 KINDS = (*BUILT_IN, "model", "rllib", "callable", "external")
-ALLOWED = "random, reference, search, search_strict, gait, a model .zip, a run folder, module:callable"
+ALLOWED = f"{', '.join(BUILT_IN)}, a model .zip, a run folder, module:callable"
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,9 @@ solids only once its rays have hit them or its head has come near them; it still
 death zones and bad food from the layout. The food, and where to look for it, come from its rays alone.
 The one privileged fact it reads is whether any food is left to eat at all (the world's list of
 uneaten pieces): with none left it stops searching and stands, as the reference does; that ends
-the search, it never chooses where to go.
+the search, it never chooses where to go. ``ThoroughSearchController`` (``--policy search_thorough``)
+reads one more, whether food of positive value is left that its rays have never shown it: while some
+is and the time allows, it searches on instead of eating a piece that ends the episode.
 """
 
 from __future__ import annotations
@@ -45,7 +47,7 @@ from aaai.levels import validate
 from aaai.sim.gait import SineGait
 from aaai.sim.sensors import sighting_velocity, would_hit
 from aaai.spec import ObjectSpec
-from aaai.task.reference import ReferenceController, _angle, _sector_of
+from aaai.task.reference import GREEN_BERTH, INTERCEPT_SPEED, LAST, ReferenceController, _angle, _sector_of
 
 PREDICT_SECONDS = 3.0  # a piece out of view is predicted along its seen motion for at most this long
 LOOK_MARGIN = math.radians(20)  # a look round turns this much beyond what the fan already covers
@@ -57,6 +59,8 @@ GAIN_WEIGHT = 20.0  # units of path cost one fully unswept neighbourhood is wort
 TURN_WEIGHT = 8.0  # units of path cost a radian of turn from the head's heading to a goal's bearing costs
 GOAL_SECONDS = 15.0  # gives up an exploration goal after this long, marking it swept
 GOAL_REACHED = 2.0
+HOLD_DETOUR = 1.5  # thorough: the way to a piece is counted as this many times the straight line ...
+HOLD_MARGIN = 5.0  # ... walked at INTERCEPT_SPEED, plus this many seconds to spare
 REVEAL = 0.75  # strict: a ray that hits a solid shows it within this far of the point it hit (units) ...
 TOUCH = 3.0  # ... and a solid this near the head is felt (one under the rays: the legs meet it)
 _SPAN = int(math.ceil(REVEAL / validate.GRID))
@@ -82,6 +86,7 @@ class SearchController(ReferenceController):
     """A policy: ``action = controller(observation)``; ``reset(seed)`` at each episode start."""
 
     strict = False  # plans on the solids its rays have shown, not on the level's layout (StrictSearchController)
+    thorough = False  # searches on before eating a piece that ends the episode (ThoroughSearchController)
     gait: _SearchGait
     memory: dict[int, list]  # body -> [spec, (x, y, z), (vx, vy), time seen]
     seen: np.ndarray  # cells some ray has swept
@@ -107,6 +112,7 @@ class SearchController(ReferenceController):
         self.sectors = self.sector is not None  # the level has sectors (layout), not which holds most food
         self.sector = None
         self.memory = {}
+        self.sighted: set[int] = set()  # the pieces its rays have ever shown it
         self.seen = np.zeros(self.walk.shape, bool)
         self.looking, self.look_turned, self.look_yaw, self.look_started = True, 0.0, None, 0.0
         self.goal = None
@@ -156,6 +162,7 @@ class SearchController(ReferenceController):
         before = self.memory.get(body)
         velocity = sighting_velocity(before[1:4] if before else None, position, now)
         self.memory[body] = [food, tuple(position), velocity, now]
+        self.sighted.add(body)
         self.hint = None
 
     def _where(self, body: int, now: float) -> tuple[float, float, float]:
@@ -237,12 +244,33 @@ class SearchController(ReferenceController):
 
     def _target(self, head: np.ndarray):
         target = super()._target(head)
-        if target is not None or not self.env.world.food:  # nothing left to eat: the search is over
+        avoid: list = []
+        if target is not None:
+            if not self._holds_off(head, target):
+                return target
+            food, position = self.env.world.food[target[2]], self.memory[target[2]][1]
+            avoid = [*target[3], (position[0], position[1], food.size[0] / 2 + self.radius + GREEN_BERTH)]
+        elif not self.env.world.food:  # nothing left to eat: the search is over
             return target
         goal = self._explore_goal(head)
         if goal is None:
             return None
-        return goal, 0.5, ("explore", self.goals), [], False
+        return goal, 0.5, ("explore", self.goals), avoid, False
+
+    def _holds_off(self, head: np.ndarray, target) -> bool:
+        """Thorough: does it search on instead of eating the piece it goes for? When that piece ends the
+        episode, the world still holds food of positive value its rays have never shown it, and the time
+        left is more than walking there takes (HOLD_DETOUR x the straight line at INTERCEPT_SPEED, plus
+        HOLD_MARGIN seconds)."""
+        world = self.env.world.food
+        food = world.get(target[2]) if self.thorough and target[2] in self.memory else None  # a piece, not a place
+        if food is None or not (food.kind in LAST or self._ends_episode(food)):
+            return False
+        if not any(body not in self.sighted and piece.food_value > 0 for body, piece in world.items()):
+            return False
+        now = self.env.steps * self.env.control_dt
+        walk = math.dist(head[:2], target[0]) * HOLD_DETOUR / INTERCEPT_SPEED + HOLD_MARGIN
+        return self.level.time_limit - now > walk
 
     def _explore_goal(self, head: np.ndarray) -> tuple[float, float] | None:
         """The current exploration goal, or a new one: the unswept walkable cell cheapest to reach
@@ -320,7 +348,22 @@ class StrictSearchController(SearchController):
     strict = True
 
 
-SEARCHERS = {"search": SearchController, "search_strict": StrictSearchController}  # by policy and teacher name
+class ThoroughSearchController(SearchController):
+    """The searching reference that, before it eats a piece that ends the episode (a green), searches on
+    for food it has never seen while the time left allows (``--policy search_thorough``,
+    ``train.teacher: search_thorough``). What it reads of the world for this is whether food of positive
+    value is left that its rays have not shown it, never where or how much: so on L1 it looks for the
+    yellows before it eats the green it saw first, and on L2b it searches until the yellow has sunk from
+    its pillar into the rays' plane."""
+
+    thorough = True
+
+
+SEARCHERS = {
+    "search": SearchController,
+    "search_strict": StrictSearchController,
+    "search_thorough": ThoroughSearchController,
+}  # by policy and teacher name
 
 
 def teacher(name: str, env) -> ReferenceController:

@@ -50,7 +50,7 @@ from typing import Callable
 
 import numpy as np
 
-from aaai.config import Config, ConfigError, env_part, load_config
+from aaai.config import TEACHERS, Config, ConfigError, env_part, load_config
 from aaai.levels.seeds import TRAIN_SEEDS
 from aaai.scoring.model_config import save_model
 from aaai.scoring.runs import RunFolder, check_writable
@@ -70,8 +70,6 @@ BATCH_SIZE = 1024
 LEARNING_RATE = 1e-3
 EPISODES_PER_JOB = 4  # episodes a worker plays per task: small enough to share the load evenly
 DATA_FOLDER = "dagger"
-# the all-knowing reference; the one that searches; the one that also learns the walls (aaai.task.search)
-TEACHERS = ("reference", "search", "search_strict")
 
 
 @dataclass(frozen=True)
