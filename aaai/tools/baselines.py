@@ -77,6 +77,8 @@ ORDER = (
     "student_search_lstm_discrete_s1",
     "student_search_lstm_discrete_r12",
     "student_search_lstm_discrete_r12_s1",
+    "student_search_lstm_thorough",
+    "student_search_lstm_thorough_s1",
     "student_lstm",
     "student_camera",
 )
@@ -436,6 +438,10 @@ COMMITTED = {
     "student_search_lstm_discrete_r12_s1": (
         "models/student_search_lstm_discrete_r12_s1.zip",
         "models/student_search_lstm_discrete_r12_s1.yaml",
+    ),
+    "student_search_lstm_thorough": (
+        "models/student_search_lstm_thorough.zip",
+        "models/student_search_lstm_thorough.yaml",
     ),
     "ppo_gait": ("models/ppo_gait.zip", "models/ppo_gait.yaml"),
 }
