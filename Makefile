@@ -135,6 +135,7 @@ STUDENTS ?= student_s1:configs/student.yaml:1 student_food_memory:configs/studen
   student_search_lstm_discrete_r12:configs/student_search_lstm_discrete_r12.yaml:0 \
   student_search_lstm_discrete_r12_s1:configs/student_search_lstm_discrete_r12.yaml:1 \
   student_search_lstm_thorough:configs/student_search_lstm_thorough.yaml:0 \
+  student_search_lstm_thorough_s1:configs/student_search_lstm_thorough.yaml:1 \
   student_camera:configs/student_camera.yaml:0
 students: install-all
 	for entry in $(STUDENTS); do name=$${entry%%:*}; rest=$${entry#*:}; config=$${rest%%:*}; seed=$${rest#*:}; \

@@ -75,6 +75,7 @@ LONG = pytest.mark.long  # the other students: each re-scored in make test-long,
         pytest.param("student_search_lstm_discrete_r12", marks=LONG),
         pytest.param("student_search_lstm_discrete_r12_s1", marks=LONG),
         pytest.param("student_search_lstm_thorough", marks=LONG),
+        pytest.param("student_search_lstm_thorough_s1", marks=LONG),
     ],
 )
 def test_committed_baseline_rows_rescore_exactly(name):

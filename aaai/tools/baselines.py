@@ -443,6 +443,10 @@ COMMITTED = {
         "models/student_search_lstm_thorough.zip",
         "models/student_search_lstm_thorough.yaml",
     ),
+    "student_search_lstm_thorough_s1": (
+        "models/student_search_lstm_thorough_s1.zip",
+        "models/student_search_lstm_thorough_s1.yaml",
+    ),
     "ppo_gait": ("models/ppo_gait.zip", "models/ppo_gait.yaml"),
 }
 UNTIMED = [column for column in COLUMNS if column != "wall_seconds"]  # what a re-score must repeat
