@@ -128,7 +128,8 @@ def test_an_l0_episode_with_the_food_behind_the_start_is_passed_by_searching(gai
 
 @pytest.mark.parametrize("teacher", ["search", "search_strict", "search_thorough"])
 def test_a_search_teacher_teaches_a_student_that_drives_part_of_the_time(teacher):
-    """``train.teacher: search`` (and ``search_strict``) in a DAgger round with the student driving about half the time:
+    """``train.teacher: search`` (and ``search_strict``, ``search_thorough``) in a DAgger round with the
+    student driving about half the time:
     every decision is labelled, some by the student's actions, and bad teachers are refused."""
     pytest.importorskip("stable_baselines3", reason="needs the train extra")
     from aaai.train.student import Job, build_policy, check_teachable, play_job

@@ -306,7 +306,7 @@ class ReferenceController:
         part = self.env.world.running.get(body)
         if not isinstance(part, Bounce):
             return None
-        now = self.env.steps * self.env.control_dt
+        now = self._now()
         picked = self.intercepts.get(body)
         if picked is not None and now - picked[0] < INTERCEPT_EVERY:
             return picked[1]
@@ -344,6 +344,10 @@ class ReferenceController:
         walkable = self.walk[rows, cols] & (self.clearance[rows, cols] > self.footprint + INTERCEPT_ROOM)
         self.bounce_paths[body] = (now, xs, ys, walkable, self.walk)
         return xs, ys, walkable, 0
+
+    def _now(self) -> float:
+        """Simulated seconds since the episode began."""
+        return self.env.steps * self.env.control_dt
 
     def _ends_episode(self, food: ObjectSpec) -> bool:
         """Is ``food`` the last piece left of a kind whose every piece eaten ends the episode (multi_food)?"""
@@ -390,7 +394,7 @@ class ReferenceController:
             self._start_episode()
         head, rotation = env.body.head_pose()
         yaw = math.atan2(rotation[1, 0], rotation[0, 0])
-        now = env.steps * env.control_dt
+        now = self._now()
         self._doors(head)
         if self.ledge is not None and _off_ledge(self.ledge, head):  # start on a ledge: down, it is a solid again
             validate.fill(self.grid, self.level, corners(self.ledge))

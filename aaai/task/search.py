@@ -221,7 +221,7 @@ class SearchController(ReferenceController):
 
     def _foods(self):
         """The remembered pieces, where they should be now (in the chosen sector, in L9)."""
-        now = self.env.steps * self.env.control_dt
+        now = self._now()
         if self.sectors and self.sector is None:
             if self.looking or not self.memory:
                 return []  # looks round before it chooses a sector
@@ -262,20 +262,21 @@ class SearchController(ReferenceController):
         episode, the world still holds food of positive value its rays have never shown it, and the time
         left is more than walking there takes (HOLD_DETOUR x the straight line at INTERCEPT_SPEED, plus
         HOLD_MARGIN seconds)."""
+        if not self.thorough or target[2] not in self.memory:  # not thorough, or a place to explore
+            return False
         world = self.env.world.food
-        food = world.get(target[2]) if self.thorough and target[2] in self.memory else None  # a piece, not a place
+        food = world.get(target[2])
         if food is None or not (food.kind in LAST or self._ends_episode(food)):
             return False
         if not any(body not in self.sighted and piece.food_value > 0 for body, piece in world.items()):
             return False
-        now = self.env.steps * self.env.control_dt
         walk = math.dist(head[:2], target[0]) * HOLD_DETOUR / INTERCEPT_SPEED + HOLD_MARGIN
-        return self.level.time_limit - now > walk
+        return self.level.time_limit - self._now() > walk
 
     def _explore_goal(self, head: np.ndarray) -> tuple[float, float] | None:
         """The current exploration goal, or a new one: the unswept walkable cell cheapest to reach
         with the most unswept space round it; None when all is swept (the sweep starts again)."""
-        now = self.env.steps * self.env.control_dt
+        now = self._now()
         if self.goal is not None:
             row, col = validate.cell(self.level, *self.goal, self.seen.shape)
             timed_out = now - self.goal_started > GOAL_SECONDS or self.strict and not self.walk[row, col]  # a wall seen
@@ -317,7 +318,7 @@ class SearchController(ReferenceController):
             self._start_episode()
         head, rotation = env.body.head_pose()
         yaw = math.atan2(rotation[1, 0], rotation[0, 0])
-        now = env.steps * env.control_dt
+        now = self._now()
         self._look(head, now)
         self.gait.low = SEARCH_CROUCH if self.looking or not self._foods() else 0.0
         if self.looking:

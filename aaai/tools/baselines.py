@@ -401,53 +401,32 @@ def battery_markdown(folder: Path) -> str:
 # What each committed scoreboard of the table was scored with: --policy and --config, relative to
 # the baselines folder (None: the default config). ppo_demo is left out: the demo's model is not
 # committed (make demo trains it).
+COMMITTED_MODELS = (  # the models in baselines/models: NAME.zip, scored with NAME.yaml beside it
+    "student",
+    "student_s1",
+    "student_food_memory",
+    "student_food_memory_s1",
+    "student_food_memory_r12",
+    "student_food_memory_r12_s1",
+    "student_camera",
+    "student_search",
+    "student_search_lstm",
+    "student_search_sweep",
+    "student_search_sweep_s1",
+    "student_search_sweep_discrete",
+    "student_search_sweep_discrete_s1",
+    "student_search_lstm_discrete",
+    "student_search_lstm_discrete_s1",
+    "student_search_lstm_discrete_r12",
+    "student_search_lstm_discrete_r12_s1",
+    "student_search_lstm_thorough",
+    "student_search_lstm_thorough_s1",
+    "ppo_gait",
+)
 COMMITTED = {
     "random": ("random", None),
     "reference": ("reference", None),
-    "student": ("models/student.zip", "models/student.yaml"),
-    "student_s1": ("models/student_s1.zip", "models/student_s1.yaml"),
-    "student_food_memory": ("models/student_food_memory.zip", "models/student_food_memory.yaml"),
-    "student_food_memory_s1": ("models/student_food_memory_s1.zip", "models/student_food_memory_s1.yaml"),
-    "student_food_memory_r12": ("models/student_food_memory_r12.zip", "models/student_food_memory_r12.yaml"),
-    "student_food_memory_r12_s1": ("models/student_food_memory_r12_s1.zip", "models/student_food_memory_r12_s1.yaml"),
-    "student_camera": ("models/student_camera.zip", "models/student_camera.yaml"),
-    "student_search": ("models/student_search.zip", "models/student_search.yaml"),
-    "student_search_lstm": ("models/student_search_lstm.zip", "models/student_search_lstm.yaml"),
-    "student_search_sweep": ("models/student_search_sweep.zip", "models/student_search_sweep.yaml"),
-    "student_search_sweep_s1": ("models/student_search_sweep_s1.zip", "models/student_search_sweep_s1.yaml"),
-    "student_search_sweep_discrete": (
-        "models/student_search_sweep_discrete.zip",
-        "models/student_search_sweep_discrete.yaml",
-    ),
-    "student_search_sweep_discrete_s1": (
-        "models/student_search_sweep_discrete_s1.zip",
-        "models/student_search_sweep_discrete_s1.yaml",
-    ),
-    "student_search_lstm_discrete": (
-        "models/student_search_lstm_discrete.zip",
-        "models/student_search_lstm_discrete.yaml",
-    ),
-    "student_search_lstm_discrete_s1": (
-        "models/student_search_lstm_discrete_s1.zip",
-        "models/student_search_lstm_discrete_s1.yaml",
-    ),
-    "student_search_lstm_discrete_r12": (
-        "models/student_search_lstm_discrete_r12.zip",
-        "models/student_search_lstm_discrete_r12.yaml",
-    ),
-    "student_search_lstm_discrete_r12_s1": (
-        "models/student_search_lstm_discrete_r12_s1.zip",
-        "models/student_search_lstm_discrete_r12_s1.yaml",
-    ),
-    "student_search_lstm_thorough": (
-        "models/student_search_lstm_thorough.zip",
-        "models/student_search_lstm_thorough.yaml",
-    ),
-    "student_search_lstm_thorough_s1": (
-        "models/student_search_lstm_thorough_s1.zip",
-        "models/student_search_lstm_thorough_s1.yaml",
-    ),
-    "ppo_gait": ("models/ppo_gait.zip", "models/ppo_gait.yaml"),
+    **{name: (f"models/{name}.zip", f"models/{name}.yaml") for name in COMMITTED_MODELS},
 }
 UNTIMED = [column for column in COLUMNS if column != "wall_seconds"]  # what a re-score must repeat
 
