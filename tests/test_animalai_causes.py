@@ -149,6 +149,56 @@ def test_imported_blocks_given_one_above_another_stack_as_they_fall():
     assert [o["position"][2] for o in data["objects"]] == [12.5, 7.5, 2.5, 17.5]
 
 
+def _ramp_arena(goal_z: float, goal_y: float = 3.0, face: bool = False) -> dict:
+    """Animal-AI's 02-21: a ramp 2 high on a wall 0.6 high over most of the arena, falling towards the
+    agent's strip (z below 5); a goal given at (19, goal_z); with ``face``, a wall 3 high across the
+    strip's far side at z 3 (its face toward the ramp at z 3.5)."""
+    items = [
+        {"name": "Wall", "positions": [{"x": 20, "y": 0, "z": 22.5}], "sizes": [{"x": 40, "y": 0.6, "z": 35}]},
+        {
+            "name": "Ramp",
+            "positions": [{"x": 20, "y": 0.6, "z": 22.5}],
+            "sizes": [{"x": 40, "y": 2, "z": 35}],
+            "rotations": [180],
+        },
+        {"name": "GoodGoal", "positions": [{"x": 19, "y": goal_y, "z": goal_z}], "sizes": [{"x": 1, "y": 1, "z": 1}]},
+    ]
+    for item in items[:2]:
+        item.setdefault("rotations", [0])
+    if face:
+        items.append(
+            {
+                "name": "Wall",
+                "positions": [{"x": 20, "y": 0, "z": 3}],
+                "sizes": [{"x": 40, "y": 3, "z": 1}],
+                "rotations": [0],
+            }
+        )
+    return {"items": items}
+
+
+def test_an_imported_goal_on_a_ramps_slope_rolls_down_it_and_on_to_the_arenas_wall():
+    data, _ = convert_arena("02-21-01.yaml", 0, _ramp_arena(9), 5.0, np.random.default_rng(0))
+    goal = next(o for o in data["objects"] if o["kind"] == "food_green")
+    # down the fall line (Animal-AI's -z, our -y), off the wall's edge at y -75, to the arena's wall
+    assert goal["position"] == [-5.0, -97.5, 2.5]
+    assert data["extras"]["animalai"]["rolled"] == [{"from": [-5.0, -55.0], "to": [-5.0, -97.5]}]
+
+
+def test_a_rolling_goal_stops_against_a_face_and_one_on_a_flat_top_does_not_roll():
+    data, _ = convert_arena("t.yaml", 0, _ramp_arena(9, face=True), 5.0, np.random.default_rng(0))
+    goal = next(o for o in data["objects"] if o["kind"] == "food_green")
+    assert goal["position"][1] == pytest.approx(-82.5 + 2.5, abs=0.25)  # the face at y -82.5, its radius 2.5
+    assert goal["position"][2] == 2.5
+    # the same goal on the wall's top without the ramp: it falls on to the top and stays there
+    flat = _ramp_arena(9)
+    del flat["items"][1]
+    data, _ = convert_arena("t.yaml", 0, flat, 5.0, np.random.default_rng(0))
+    goal = next(o for o in data["objects"] if o["kind"] == "food_green")
+    assert goal["position"] == [-5.0, -55.0, 5.5]  # settled on the wall's top, 3 high
+    assert "rolled" not in (data.get("extras") or {}).get("animalai", {})
+
+
 def test_a_start_on_top_of_a_wall_is_recorded_and_one_merely_given_a_height_is_not():
     wall = {
         "name": "Wall",

@@ -127,6 +127,10 @@ def convert_file(path: Path, scale: float = DEFAULT_SCALE, fitted: bool = True) 
         except Unmappable as error:
             results.append(Converted(path.name, str(key), name, problem=str(error)))
             continue
+        rolled = (out.get("extras") or {}).get("animalai", {}).get("rolled") or []
+        if rolled:  # not a fit to our body: where Animal-AI's physics takes the goal (animalai_arena._rolled)
+            pieces = f"{len(rolled)} piece{'s' if len(rolled) > 1 else ''}"
+            changes = [f"goal rolled down a ramp, as in Animal-AI ({pieces})", *changes]
         results.append(Converted(path.name, str(key), name, _dump(out), items=names, changes=changes, unfair=unfair))
     return results
 

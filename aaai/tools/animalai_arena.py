@@ -324,6 +324,14 @@ class _Arena:
             settled[k] = _settled(objects[k], supports, ramps)
             if settled[k].get("mass") and settled[k]["kind"] == "plank" and _numbers(settled[k]):
                 supports.append(settled[k])  # a movable box (not a U, L or hollow one): what falls on it rests on it
+        rolled = []
+        for k in range(len(objects)):  # a goal left on a ramp's slope rolls down it, as Animal-AI's goals do
+            moved = _rolled(settled[k], supports, ramps, self.half)
+            if moved is not settled[k]:
+                rolled.append({"from": settled[k]["position"][:2], "to": moved["position"][:2]})
+                settled[k] = moved
+        if rolled:
+            out.setdefault("extras", {}).setdefault("animalai", {})["rolled"] = rolled
         out["objects"] = [settled[k] for k in range(len(objects))]
         for obj in out["objects"]:  # a random place overlapping an item before it is drawn again, as Animal-AI does
             if any(isinstance(v, dict) for v in obj["position"]):
@@ -744,3 +752,52 @@ def _settled(obj: dict, supports: list[dict], ramps: list[dict] | None = None) -
         if top <= bottom + 1e-6 and _inside(position[0], position[1], {**box, "yaw": box.get("yaw", 0.0)}):
             landing = max(landing, top)
     return {**obj, "position": [position[0], position[1], round(landing + height / 2, 4)]}
+
+
+ROLL_STEP = 0.25  # units: the step a rolling goal's path is followed in (aaai.tools.animalai_arena._rolled)
+
+
+def _ground(x: float, y: float, supports: list[dict], ramps: list[dict]) -> float:
+    """The height of what lies under (x, y): the floor, a static or settled box's top, a ramp's slope."""
+    height = 0.0
+    for box in supports:
+        if _inside(x, y, {**box, "yaw": box.get("yaw", 0.0)}):
+            height = max(height, box["position"][2] + box["size"][2] / 2)
+    for ramp in ramps:
+        yaw = ramp.get("yaw", 0.0)
+        if _inside(x, y, {**ramp, "yaw": yaw}):
+            u = math.cos(yaw) * (x - ramp["position"][0]) + math.sin(yaw) * (y - ramp["position"][1])
+            length, rise = ramp["size"][0], ramp["size"][2]
+            bottom = ramp["position"][2] - rise / 2
+            height = max(height, bottom + rise * min(max((u + length / 2) / length, 0.0), 1.0))
+    return height
+
+
+def _rolled(obj: dict, supports: list[dict], ramps: list[dict], half: float) -> dict:
+    """A goal resting on a ramp's slope, where Animal-AI's physics takes it: it rolls down the slope's
+    fall line and on in that direction, over tops as high as where it is and off their edges, until
+    the ground ahead of it rises or the arena's wall stops it; it rests there (settled onto what lies
+    beneath, :func:`_settled`). Any other object is returned as it is (the same object)."""
+    if obj.get("shape") != "sphere" or obj.get("behaviour") or obj.get("mass") or not _numbers(obj):
+        return obj
+    bottom = obj["position"][2] - obj["size"][2] / 2
+    under = [r for r in ramps if r["size"][2] > 0 and abs(_on_slope(obj, r) - bottom) < 1e-3 and bottom > 1e-3]
+    if not under:
+        return obj
+    ramp = max(under, key=lambda r: _on_slope(obj, r))
+    yaw = ramp.get("yaw", 0.0)
+    dx, dy = -math.cos(yaw), -math.sin(yaw)  # a ramp rises along its own +x
+    radius = obj["size"][0] / 2
+    x0, y0 = x, y = obj["position"][0], obj["position"][1]
+    level = _ground(x, y, supports, ramps)
+    for step in range(1, int(4 * half / ROLL_STEP)):
+        nx, ny = x0 + dx * ROLL_STEP * step, y0 + dy * ROLL_STEP * step
+        if abs(nx) + radius > half or abs(ny) + radius > half:
+            break  # against the arena's wall
+        ahead = _ground(nx + dx * radius, ny + dy * radius, supports, ramps)
+        here = _ground(nx, ny, supports, ramps)
+        if ahead > level + 1e-6 or here > level + 1e-6:
+            break  # the ground rises ahead: a face, or a slope up
+        x, y, level = nx, ny, here
+    high = {**obj, "position": [round(x, 2) + 0.0, round(y, 2) + 0.0, obj["position"][2] + obj["size"][2]]}
+    return _settled(high, supports, ramps)
