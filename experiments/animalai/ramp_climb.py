@@ -6,6 +6,7 @@ forward command (no turn, no crouch) for 60 s. Prints, per ramp, its slope, the 
 where the head ended and whether it got on to the platform (or ate the food on it).
 
     python experiments/animalai/ramp_climb.py
+    python experiments/animalai/ramp_climb.py --crouch 0.25 0.5 0.75 1.0   # the steep ramps, crouched
 """
 
 import math
@@ -60,7 +61,16 @@ objects:
     )
 
 
+STEEP = [(17.5, 5), (14, 5), (12.5, 5), (33.3, 10), (25, 10)]  # 15.9° to 21.8°: those it did not climb upright
+
 if __name__ == "__main__":
+    import sys
+
+    if sys.argv[1:2] == ["--crouch"]:
+        for crouch in map(float, sys.argv[2:]):
+            for L, H in STEEP:
+                print({"crouch": crouch, **trial(L, H, crouch=crouch)}, flush=True)
+        raise SystemExit
     for L, H in [
         (50, 5),
         (35, 5),
