@@ -299,3 +299,42 @@ def test_a_hole_block_beyond_the_floor_or_too_many_objects_is_refused_before_it_
     many = write(tmp_path, head + "objects:\n" + "- {kind: wall, position: [0, 0, 1], size: [1, 1, 1]}\n" * 1001)
     with pytest.raises(ConfigError, match=r"line 3, objects: got 1,001 objects; allowed: at most 1000"):
         load_arena(many)
+
+
+def channel(tmp_path: Path, width: float, beyond: str, pass_mark: float, pieces: int = 1) -> Path:
+    """A channel ``width`` across the whole arena, the start at its foot, a green 10 across in its middle
+    and ``pieces`` of ``beyond`` (5 across) past the green."""
+    half = width / 2 + 0.5
+    food = "".join(
+        f"  - {{kind: {beyond}, shape: sphere, position: [0.0, {50.0 + 20 * i}, 2.5], size: [5.0, 5.0, 5.0]}}\n"
+        for i in range(pieces)
+    )
+    return write(
+        tmp_path,
+        f"description: a channel {width} wide\narena_size: [200.0, 200.0]\ntime_limit: 100\n"
+        f"pass_mark: {pass_mark}\nreach: pass_mark\nagent: {{x: 0.0, y: -90.0, yaw: 1.570796}}\nobjects:\n"
+        f"  - {{kind: wall, position: [{-half}, 0.0, 5.0], size: [1.0, 200.0, 10.0], yaw: 0.0}}\n"
+        f"  - {{kind: wall, position: [{half}, 0.0, 5.0], size: [1.0, 200.0, 10.0], yaw: 0.0}}\n"
+        "  - {kind: food_green, shape: sphere, position: [0.0, 0.0, 5.0], size: [10.0, 10.0, 10.0]}\n" + food,
+        name=f"channel_{width:g}.yaml",
+    )
+
+
+def test_a_pass_mark_that_needs_food_past_a_green_too_close_to_pass_is_refused(tmp_path):
+    # the green (10 across) leaves (width - 10) / 2 on each side; the body needs its footprint (5) each way:
+    # the reference passed the channels 32 and 33 wide (eating the yellow, then the green), in gait mode
+    with pytest.raises(ConfigError, match=r"at most 9.00, below the pass mark 11 \(the pieces it needs lie past food"):
+        load_arena(channel(tmp_path, 31, "food_yellow", 11))
+    assert load_arena(channel(tmp_path, 32, "food_yellow", 11)).extras["pass_mark"] == 11
+    # wide open, the same pieces are no problem
+    load_arena(channel(tmp_path, 120, "food_yellow", 11))
+
+
+def test_a_pass_mark_that_needs_a_green_and_the_last_multi_food_is_refused(tmp_path):
+    # eating the last multi_food ends the episode as the green does: green and every multi_food cannot both be eaten
+    with pytest.raises(ConfigError, match=r"at most 9.00, below the pass mark 12 \(the last multi_food piece eaten"):
+        load_arena(channel(tmp_path, 120, "multi_food", 12))
+    # with two pieces (5 each) one is left: the green (10) and the other give 15, less the step term's 1
+    assert load_arena(channel(tmp_path, 120, "multi_food", 14, pieces=2)).extras["pass_mark"] == 14
+    with pytest.raises(ConfigError, match=r"at most 14.00, below the pass mark 15 \(the last multi_food"):
+        load_arena(channel(tmp_path, 120, "multi_food", 15, pieces=2))

@@ -9,7 +9,7 @@ import pytest
 
 from aaai.levels.validate import check, ramp_clearance
 from aaai.task.arena import parse_arena
-from aaai.tools.animalai_arena import convert_arena
+from aaai.tools.animalai_arena import _settled, convert_arena
 
 RAMP = "  - {kind: ramp, position: [0.0, 0.0, 5.0], size: [20.0, 10.0, 10.0], yaw: 0.0}\n"  # rises 10 over 20 along +x
 # over x = 5 the slope is 7.5 high; a sphere of radius 2.5 touches it with its centre sqrt(1.25) x 2.5 above
@@ -59,13 +59,17 @@ def test_an_imported_goal_dropped_over_a_ramp_lands_on_its_slope():
     }
     data, _ = convert_arena("t.yaml", 0, arena, 5.0, np.random.default_rng(0))
     ramp, over, beside = data["objects"]
-    # over z = 13 (our y = -35), three quarters up: 7.5 of 10 high; the piece touches the slope
-    assert over["position"][2] == pytest.approx(7.5 + 2.5 * math.sqrt(1 + 0.5**2), abs=1e-3)
     assert beside["position"][2] == pytest.approx(2.5)  # not over the ramp: on the floor
+    # over z = 13 (our y = -35), three quarters up: 7.5 of 10 high; the piece lands touching the slope
+    landed = _settled({**over, "position": [0.0, -35.0, 25.0]}, [], [ramp])
+    assert landed["position"][2] == pytest.approx(7.5 + 2.5 * math.sqrt(1 + 0.5**2), abs=1e-3)
     from aaai.spec import ObjectSpec
 
     wedge = ObjectSpec("ramp", "box", tuple(ramp["position"]), tuple(ramp["size"]), ramp["yaw"])
-    assert ramp_clearance(wedge, *over["position"], 2.5) == pytest.approx(0.0, abs=1e-3)
+    assert ramp_clearance(wedge, *landed["position"], 2.5) == pytest.approx(0.0, abs=1e-3)
+    # and then rolls down it, off its foot (our y -50) and on to the arena's wall, where it rests on the floor
+    assert data["extras"]["animalai"]["rolled"] == [{"from": [0.0, -35.0], "to": [0.0, -97.5]}]
+    assert over["position"] == [0.0, -97.5, 2.5]
 
 
 @pytest.mark.parametrize("height, walkable", [(0.95, True), (1.05, False)])

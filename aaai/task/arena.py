@@ -45,6 +45,7 @@ agent inside a wall). Nothing is run from an invalid file.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import zlib
 from pathlib import Path
@@ -59,7 +60,7 @@ from aaai.config import ConfigError
 from aaai.levels import all_levels, get_level, validate
 from aaai.levels.common import arena_walls
 from aaai.spec import Blackout, InnerLevel, LevelSpec
-from aaai.spec.kinds import ENDING_KINDS, OBJECT_KINDS
+from aaai.spec.kinds import ENDING_KINDS, OBJECT_KINDS, kind_class
 from aaai.task.arena_reader import RANDOM_FORMS, ArenaProblems, Reader, Source
 
 META_KEYS = ("description", "category", "arena_walls", "pass_mark", "reach", "walls_cross")
@@ -454,6 +455,9 @@ def _located(spec: LevelSpec, source: Source, problem: str) -> str:
     return f"{source.name} line {source.line(())}: {problem}"
 
 
+# why a pass mark is out of reach though every piece is in reach (check_arena)
+ENDING_IN_THE_WAY = "the pieces it needs lie past food that ends the episode, too close to pass without touching it"
+LAST_ENDS = "the last multi_food piece eaten ends the episode, as a green does: not all of both can be eaten"
 _WALLS_CROSS = re.compile(r"solid objects overlap: (transparent_)?wall at \([^)]*\) and (transparent_)?wall at ")
 
 
@@ -464,13 +468,58 @@ def footprint_for(body: str, arena_size=None) -> float:
     return footprint_radius(arena_size) if body == "sphere" else validate.FOOTPRINT_RADIUS
 
 
-def reachable_return(spec: LevelSpec, body: str = "quadruped") -> float:
+def reachable_return(
+    spec: LevelSpec, body: str = "quadruped", round_ending: bool = True, last_ends: bool = True
+) -> float:
     """The most an episode can return eating only the food the body can reach: the best reachable
-    episode-ending piece plus every other reachable piece, less the most the step term takes. From a
-    start on a ledge, the best of the regions it may step down into (it takes one: :func:`best_side`)."""
-    regions = validate.reach_regions(spec, footprint_for(body, spec.arena_size))
-    best = max((_region_return(spec, region) for region in regions), default=0.0)  # (none: the start is not clear)
+    episode-ending piece plus every other piece reachable without touching one that ends the episode
+    (:func:`_ending_blocked`), but one piece of a kind whose last piece ends the episode (:func:`_last_of_kind`),
+    or those pieces without the ending one, whichever is more; less the most the step term takes. From a
+    start on a ledge, the best of the regions it may step down into (it takes one: :func:`best_side`).
+    ``round_ending`` False: as if a body could pass through a piece that ends the episode; ``last_ends``
+    False: as if eating the last multi_food did not end it (for naming why a pass mark is out of reach)."""
+    footprint = footprint_for(body, spec.arena_size)
+    regions = validate.reach_regions(spec, footprint)
+    blocked = _ending_blocked(spec) if round_ending else spec
+    around = validate.reach_regions(blocked, footprint) if blocked is not spec else regions
+    best = 0.0  # (no region: the start is not clear)
+    for region in regions:
+        reached = [food for food in spec.foods if validate.food_reachable(spec, region, food)]
+        ending = max((food.food_value for food in reached if food.kind in ENDING_KINDS), default=0.0)
+        near = [other for other in around if (other & region).any()]  # the same region, less the ending pieces
+        others = [
+            food
+            for food in blocked.foods
+            if food.kind not in ENDING_KINDS and any(validate.food_reachable(blocked, r, food) for r in near)
+        ]
+        total = sum(food.food_value for food in others)
+        best = max(best, total, ending + total - (_last_of_kind(spec, others) if last_ends else 0.0))
     return best - STEP_COSTS
+
+
+def _last_of_kind(spec: LevelSpec, reached: list) -> float:
+    """What eating an episode-ending piece as well costs of ``reached`` (pieces that do not end the episode):
+    of a kind whose every piece eaten ends the episode (multi_food), when every piece of it is reached, one
+    must be left for the ending piece to be eaten: the least of them (0 when no kind is so)."""
+    cost = 0.0
+    for kind in {food.kind for food in reached if (cls := kind_class(food.kind)) is not None and cls.all_end}:
+        mine = [food.food_value for food in reached if food.kind == kind]
+        if len(mine) == sum(food.kind == kind for food in spec.foods):
+            cost += min(mine)
+    return cost
+
+
+def _ending_blocked(spec: LevelSpec) -> LevelSpec:
+    """The spec with each unmoving piece of food that ends the episode (a green, a red) standing as a solid
+    pillar of its size: the body that touches one has eaten it, so the other food counts only if it can be
+    reached round them. The spec itself when it has none."""
+    ending = [i for i, obj in enumerate(spec.objects) if obj.kind in ENDING_KINDS and obj.behaviour is None]
+    if not ending:
+        return spec
+    objects = list(spec.objects)
+    for i in ending:
+        objects[i] = dataclasses.replace(objects[i], kind="pillar", shape="box", mass=0.0)
+    return dataclasses.replace(spec, objects=tuple(objects) if isinstance(spec.objects, tuple) else objects)
 
 
 def best_side(spec: LevelSpec, body: str = "quadruped") -> np.ndarray | None:
@@ -520,6 +569,10 @@ def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body
                     if unreached
                     else "from a ledge, the food of one side"
                     if on_ledge
+                    else ENDING_IN_THE_WAY
+                    if reachable_return(spec, body, round_ending=False) >= mark
+                    else LAST_ENDS
+                    if reachable_return(spec, body, round_ending=False, last_ends=False) >= mark
                     else "all the arena's food, every piece in reach"
                 )
                 problems.append(

@@ -229,11 +229,23 @@ def problem_cause(spec: LevelSpec | None, problem: str) -> str:
         if found == "reachable food below the pass mark" and validate.start_ledge(spec) is not None:
             return ONE_SIDE
         if found == "reachable food below the pass mark":
-            return ABOVE_ALL
+            from aaai.task.arena import ENDING_IN_THE_WAY, LAST_ENDS
+
+            return (
+                ENDING_IN_WAY
+                if ENDING_IN_THE_WAY in problem
+                else LAST_ENDS_CAUSE
+                if LAST_ENDS in problem
+                else ABOVE_ALL
+            )
     return found
 
 
 # every piece is reached, and all of them together give less than the pass mark (Animal-AI's 07-13)
 ABOVE_ALL = "a pass mark above all the arena's food pays"
+# every piece is reached, but the pass mark's pieces only past a green or a red, which ends the episode
+ENDING_IN_WAY = "food that ends the episode in the way"
+# the pass mark needs a green and every multi_food piece, and the last multi_food piece eaten ends the episode
+LAST_ENDS_CAUSE = "the last multi_food ends the episode before the green"
 # every piece is reached from a start on a ledge, but on no one side enough for the pass mark
 ONE_SIDE = "one side's food below the pass mark (from a ledge the body steps down to one side)"
