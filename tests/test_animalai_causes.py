@@ -214,3 +214,33 @@ def test_a_start_on_top_of_a_wall_is_recorded_and_one_merely_given_a_height_is_n
 
     assert start_height(21.9) == 10.0  # on the wall (x 18 to 22)
     assert start_height(22.1) is None  # beside it, in the air: Animal-AI lets it fall to the floor
+
+
+@pytest.mark.parametrize(
+    "width, beyond, mark, expected",
+    [
+        (31, "food_yellow", 11, "food that ends the episode in the way"),
+        (120, "multi_food", 12, "the last multi_food ends the episode before the green"),
+        (120, "food_yellow", 13, "a pass mark above all the arena's food pays"),
+    ],
+)
+def test_a_pass_mark_out_of_reach_with_every_piece_in_reach_names_why(tmp_path, width, beyond, mark, expected):
+    from aaai.task.arena import check_arena
+
+    half = width / 2 + 0.5
+    objects = (
+        f"  - {{kind: wall, position: [{-half}, 0.0, 5.0], size: [1.0, 200.0, 10.0], yaw: 0.0}}\n"
+        f"  - {{kind: wall, position: [{half}, 0.0, 5.0], size: [1.0, 200.0, 10.0], yaw: 0.0}}\n"
+        "  - {kind: food_green, shape: sphere, position: [0.0, 0.0, 5.0], size: [10.0, 10.0, 10.0]}\n"
+        f"  - {{kind: {beyond}, shape: sphere, position: [0.0, 50.0, 2.5], size: [5.0, 5.0, 5.0]}}\n"
+    )
+    path = tmp_path / "a.yaml"
+    path.write_text(
+        HEAD.replace("x: -80.0, y: -80.0", "x: 0.0, y: -90.0")
+        + f"pass_mark: {mark}\nreach: pass_mark\n"
+        + "objects:\n"
+        + objects
+    )
+    found, _, source = parse_arena(path, 0)
+    problems = check_arena(found, source)
+    assert [problem_cause(found, p) for p in problems] == [expected]
