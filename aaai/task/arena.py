@@ -510,9 +510,9 @@ def _last_of_kind(spec: LevelSpec, reached: list) -> float:
 
 
 def _ending_blocked(spec: LevelSpec) -> LevelSpec:
-    """The spec with each unmoving piece of food that ends the episode (a green, a red) standing as a solid
-    pillar of its size: the body that touches one has eaten it, so the other food counts only if it can be
-    reached round them. The spec itself when it has none."""
+    """The spec with each unmoving piece that ends the episode (ENDING_KINDS: green, growing, shrinking or bad
+    food) standing as a solid pillar of its size: the body that touches one has eaten it, so the other food
+    counts only if it can be reached round them. The spec itself when it has none."""
     ending = [i for i, obj in enumerate(spec.objects) if obj.kind in ENDING_KINDS and obj.behaviour is None]
     if not ending:
         return spec
