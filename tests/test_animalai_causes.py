@@ -244,3 +244,16 @@ def test_a_pass_mark_out_of_reach_with_every_piece_in_reach_names_why(tmp_path, 
     found, _, source = parse_arena(path, 0)
     problems = check_arena(found, source)
     assert [problem_cause(found, p) for p in problems] == [expected]
+
+
+def test_a_rolling_goal_stops_where_a_slope_rises_ahead_of_it():
+    from aaai.tools.animalai_arena import _rolled, _settled
+
+    # two ramps 5 high over 20 meeting at x 0 in a V: one rises along +x, the other along -x
+    up = {"kind": "ramp", "position": [10.0, 0.0, 2.5], "size": [20.0, 40.0, 5.0], "yaw": 0.0}
+    down = {"kind": "ramp", "position": [-10.0, 0.0, 2.5], "size": [20.0, 40.0, 5.0], "yaw": math.pi}
+    goal = {"kind": "food_green", "shape": "sphere", "position": [10.0, 0.0, 30.0], "size": [5.0, 5.0, 5.0]}
+    resting = _settled(goal, [], [up, down])  # on the slope of the first, 2.5 up it
+    rolled = _rolled(resting, [], [up, down], 100.0)
+    # down to the V's foot, where the slope ahead rises (within its radius of the foot), not on up the other side
+    assert 0.0 <= rolled["position"][0] <= 2.5 and rolled["position"][1] == 0.0

@@ -468,33 +468,44 @@ def footprint_for(body: str, arena_size=None) -> float:
     return footprint_radius(arena_size) if body == "sphere" else validate.FOOTPRINT_RADIUS
 
 
-def reachable_return(
-    spec: LevelSpec, body: str = "quadruped", round_ending: bool = True, last_ends: bool = True
-) -> float:
+def reachable_return(spec: LevelSpec, body: str = "quadruped") -> float:
     """The most an episode can return eating only the food the body can reach: the best reachable
     episode-ending piece plus every other piece reachable without touching one that ends the episode
     (:func:`_ending_blocked`), but one piece of a kind whose last piece ends the episode (:func:`_last_of_kind`),
     or those pieces without the ending one, whichever is more; less the most the step term takes. From a
-    start on a ledge, the best of the regions it may step down into (it takes one: :func:`best_side`).
-    ``round_ending`` False: as if a body could pass through a piece that ends the episode; ``last_ends``
-    False: as if eating the last multi_food did not end it (for naming why a pass mark is out of reach)."""
+    start on a ledge, the best of the regions it may step down into (it takes one: :func:`best_side`)."""
+    return _pass_mark_returns(spec, body)[0]
+
+
+def _pass_mark_returns(spec: LevelSpec, body: str) -> tuple[float, float, float]:
+    """(:func:`reachable_return`; the same as if a body could pass through a piece that ends the episode;
+    and as if the last multi_food did not end it either, :func:`_region_return`), each less the step term's
+    most, from one pair of reach maps: the last two name why a pass mark is out of reach (check_arena)."""
     footprint = footprint_for(body, spec.arena_size)
     regions = validate.reach_regions(spec, footprint)
-    blocked = _ending_blocked(spec) if round_ending else spec
+    blocked = _ending_blocked(spec)
     around = validate.reach_regions(blocked, footprint) if blocked is not spec else regions
-    best = 0.0  # (no region: the start is not clear)
+    best = through = every = 0.0  # (no region: the start is not clear)
     for region in regions:
         reached = [food for food in spec.foods if validate.food_reachable(spec, region, food)]
         ending = max((food.food_value for food in reached if food.kind in ENDING_KINDS), default=0.0)
         near = [other for other in around if (other & region).any()]  # the same region, less the ending pieces
-        others = [
+        rounded = [
             food
             for food in blocked.foods
             if food.kind not in ENDING_KINDS and any(validate.food_reachable(blocked, r, food) for r in near)
         ]
-        total = sum(food.food_value for food in others)
-        best = max(best, total, ending + total - (_last_of_kind(spec, others) if last_ends else 0.0))
-    return best - STEP_COSTS
+        best = max(best, _with_ending(spec, ending, rounded))
+        through = max(through, _with_ending(spec, ending, [f for f in reached if f.kind not in ENDING_KINDS]))
+        every = max(every, _region_return(spec, region))
+    return best - STEP_COSTS, through - STEP_COSTS, every - STEP_COSTS
+
+
+def _with_ending(spec: LevelSpec, ending: float, others: list) -> float:
+    """The most from ``others`` (pieces that do not end the episode) and an ending piece worth ``ending``:
+    all of them, or the ending piece too, less what eating it as well costs (:func:`_last_of_kind`)."""
+    total = sum(food.food_value for food in others)
+    return max(total, ending + total - _last_of_kind(spec, others))
 
 
 def _last_of_kind(spec: LevelSpec, reached: list) -> float:
@@ -562,7 +573,7 @@ def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body
         start_blocked = not validate.reach_regions(spec, footprint_for(body, spec.arena_size))  # no region: not clear
         if unreached or on_ledge or ("pass_mark" in spec.extras and not start_blocked):
             # also with every piece in reach: a pass mark above all the arena pays is passed by no body
-            best, mark = reachable_return(spec, body), spec.extras["pass_mark"]
+            (best, through, every), mark = _pass_mark_returns(spec, body), spec.extras["pass_mark"]
             if best < mark:
                 why = (
                     f"{len(unreached)} piece{'s' if len(unreached) > 1 else ''} of food out of reach"
@@ -570,9 +581,9 @@ def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body
                     else "from a ledge, the food of one side"
                     if on_ledge
                     else ENDING_IN_THE_WAY
-                    if reachable_return(spec, body, round_ending=False) >= mark
+                    if through >= mark
                     else LAST_ENDS
-                    if reachable_return(spec, body, round_ending=False, last_ends=False) >= mark
+                    if every >= mark
                     else "all the arena's food, every piece in reach"
                 )
                 problems.append(

@@ -757,19 +757,18 @@ def _settled(obj: dict, supports: list[dict], ramps: list[dict] | None = None) -
 ROLL_STEP = 0.25  # units: the step a rolling goal's path is followed in (aaai.tools.animalai_arena._rolled)
 
 
-def _ground(x: float, y: float, supports: list[dict], ramps: list[dict]) -> float:
-    """The height of what lies under (x, y): the floor, a static or settled box's top, a ramp's slope."""
+def _ground(x: float, y: float, supports: list[dict], wedges: list) -> float:
+    """The height of what lies under (x, y): the floor, a static or settled box's top, a ramp's slope
+    (``wedges``: the ramps as ObjectSpecs, :func:`aaai.levels.validate.ramp_height`)."""
+    from aaai.levels.validate import ramp_height
+
     height = 0.0
     for box in supports:
         if _inside(x, y, {**box, "yaw": box.get("yaw", 0.0)}):
             height = max(height, box["position"][2] + box["size"][2] / 2)
-    for ramp in ramps:
-        yaw = ramp.get("yaw", 0.0)
-        if _inside(x, y, {**ramp, "yaw": yaw}):
-            u = math.cos(yaw) * (x - ramp["position"][0]) + math.sin(yaw) * (y - ramp["position"][1])
-            length, rise = ramp["size"][0], ramp["size"][2]
-            bottom = ramp["position"][2] - rise / 2
-            height = max(height, bottom + rise * min(max((u + length / 2) / length, 0.0), 1.0))
+    for wedge in wedges:
+        if _inside(x, y, {"position": wedge.position, "size": wedge.size, "yaw": wedge.yaw}):
+            height = max(height, wedge.position[2] - wedge.size[2] / 2 + ramp_height(wedge, x, y))
     return height
 
 
@@ -788,14 +787,17 @@ def _rolled(obj: dict, supports: list[dict], ramps: list[dict], half: float) -> 
     yaw = ramp.get("yaw", 0.0)
     dx, dy = -math.cos(yaw), -math.sin(yaw)  # a ramp rises along its own +x
     radius = obj["size"][0] / 2
+    from aaai.spec import ObjectSpec
+
+    wedges = [ObjectSpec("ramp", "box", tuple(r["position"]), tuple(r["size"]), r.get("yaw", 0.0)) for r in ramps]
     x0, y0 = x, y = obj["position"][0], obj["position"][1]
-    level = _ground(x, y, supports, ramps)
+    level = _ground(x, y, supports, wedges)
     for step in range(1, int(4 * half / ROLL_STEP)):
         nx, ny = x0 + dx * ROLL_STEP * step, y0 + dy * ROLL_STEP * step
         if abs(nx) + radius > half or abs(ny) + radius > half:
             break  # against the arena's wall
-        ahead = _ground(nx + dx * radius, ny + dy * radius, supports, ramps)
-        here = _ground(nx, ny, supports, ramps)
+        ahead = _ground(nx + dx * radius, ny + dy * radius, supports, wedges)
+        here = _ground(nx, ny, supports, wedges)
         if ahead > level + 1e-6 or here > level + 1e-6:
             break  # the ground rises ahead: a face, or a slope up
         x, y, level = nx, ny, here
