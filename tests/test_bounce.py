@@ -6,6 +6,7 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
 from conftest import open_arena
 
 from aaai.levels import validate
@@ -41,7 +42,7 @@ def test_the_world_moves_a_bouncing_piece_along_the_path_worked_out_without_phys
         env.step(np.zeros(3, np.float32))
         moved.append(env.unwrapped.world.food_positions()[0])
     spec = env.unwrapped.level_spec
-    path = Bounce.path(spec.foods[0], Bounds(spec).blocked, 20.0, every=0.1)
+    path = Bounce.path(spec.foods[0], Bounds(spec), 20.0, every=0.1)
     np.testing.assert_allclose(np.array(moved), np.array(path), atol=1e-9)
     headings = [(np.sign(b[0] - a[0]), np.sign(b[1] - a[1])) for a, b in zip(path, path[1:])]
     assert sum(a != b for a, b in zip(headings, headings[1:])) >= 2  # reflected off the block, then a wall
@@ -64,7 +65,7 @@ def test_a_first_reachable_place_between_the_bounds_of_the_time_limit():
     food = spec.foods[0]
     region, clear = validate.reachable_region(spec)
     assert clear
-    places = Bounce.path(food, Bounds(spec).blocked, 60.0)
+    places = Bounce.path(food, Bounds(spec), 60.0)
     first = next(i for i, place in enumerate(places) if validate._reachable_at(spec, region, food, place))
     seconds = (first + 1) * 0.5  # places are kept every 0.5 s
     just_short = dataclasses.replace(spec, time_limit=seconds - 0.25)
@@ -89,3 +90,57 @@ def test_the_reference_meets_a_piece_that_only_crosses_the_strip_between_two_dea
         if terminated or truncated:
             break
     assert info["food_eaten"] == 1 and not info.get("fell"), info
+
+
+def platform(*extra: ObjectSpec, kerb: float = 0.0, size: float = 3.0) -> list[ObjectSpec]:
+    """A platform 2 high over y 5..25 (higher than the body mounts), a bouncing piece ``size`` across
+    on it heading east, and a wall turned 45 degrees at its east end that sends the piece south, off
+    the edge; with ``kerb`` > 0 a kerb that high along the edge."""
+    piece = bouncing(-10.0, 15.0, 0.0)
+    objects = [
+        ObjectSpec("wall", "box", (0.0, 15.0, 1.0), (50.0, 20.0, 2.0)),
+        ObjectSpec("wall", "box", (15.0, 15.0, 3.5), (12.0, 0.5, 3.0), yaw=-math.pi / 4),
+        dataclasses.replace(piece, position=(-10.0, 15.0, 2.0 + size / 2), size=(size,) * 3),
+        *extra,
+    ]
+    if kerb:
+        objects.append(ObjectSpec("wall", "box", (0.0, 5.5, 2.0 + kerb / 2), (50.0, 1.0, kerb)))
+    return objects
+
+
+@pytest.mark.parametrize("size", [3.0, 10.0])  # the large one's centre is still over the edge as it falls below it
+def test_a_bouncing_piece_is_turned_by_a_slanted_wall_and_falls_off_a_platform_as_the_world_moves_it(make_env, size):
+    spec = open_arena(*platform(size=size), agent=(0.0, -18.0, 0.0), time_limit=60.0)
+    env = make_env(action_mode="gait")
+    env.reset(seed=0, options={"spec": spec})
+    moved = []
+    for _ in range(300):  # 30 s
+        env.step(np.zeros(3, np.float32))
+        moved.append(env.unwrapped.world.food_positions()[0])
+    path = np.array(Bounce.path(env.unwrapped.level_spec.foods[0], Bounds(env.unwrapped.level_spec), 30.0, every=0.1))
+    np.testing.assert_allclose(np.array(moved), path, atol=1e-9)
+    turned = int(np.argmax(path[:, 1] < 14.0))  # east along the top, then south
+    radius = size / 2
+    assert np.all(np.diff(path[:turned, 0]) >= 0) and path[turned, 0] > 5.0
+    assert np.allclose(path[:turned, 2], 2 + radius)
+    assert abs(path[turned, 0] - path[-1, 0]) < 1e-6  # straight south from there on: reflected, not sent back
+    landed = int(np.argmax(path[:, 2] < radius + 1e-9))
+    assert landed > turned and path[landed, 1] < 5.0  # fell off the edge onto the floor ...
+    # ... and stays on it, out of the platform: as near as its side (or, for the large one, its edge)
+    nearest = math.sqrt(radius**2 - max(radius - 2.0, 0.0) ** 2)
+    assert np.all(path[landed:, 2] == radius) and np.all(path[landed:, 1] < 5.0 - nearest + 0.1)
+    assert path[landed:, 1].min() < -25.0 + radius + 0.5  # on to the arena's south wall, and back to the platform
+
+
+def test_food_a_bouncing_piece_brings_down_is_fair_and_a_kerb_a_hair_higher_than_it_goes_over_keeps_it_up():
+    from aaai.spec.behaviours import STEP_OVER
+
+    def problems(**kerb):
+        return validate.check(open_arena(*platform(**kerb), agent=(0.0, -18.0, 0.0), time_limit=60.0))
+
+    assert problems() == []
+    assert problems(kerb=STEP_OVER - 0.01) == []  # it goes over the kerb and off the edge
+    assert any("cannot be reached" in problem for problem in problems(kerb=STEP_OVER + 0.01))
+    # without the slanted wall it goes east and west along the top for ever, out of the body's reach
+    spec = open_arena(*(o for i, o in enumerate(platform()) if i != 1), agent=(0.0, -18.0, 0.0), time_limit=60.0)
+    assert any("cannot be reached" in problem for problem in validate.check(spec))

@@ -26,7 +26,7 @@ import cv2
 import numpy as np
 
 from aaai.agent.urdf_writer import HEAD_RADIUS
-from aaai.sim.geometry import TOLERANCE, Bounds, corners, footprints_overlap
+from aaai.sim.geometry import TOLERANCE, Bounds, corners, footprints_overlap, local, ramp_height
 from aaai.spec import LevelSpec, ObjectSpec
 from aaai.spec.behaviours import REGISTRY, behaviour_class
 from aaai.spec.kinds import REGISTRY as REGISTRY_KINDS
@@ -296,26 +296,11 @@ def overlaps_earlier(spec: LevelSpec, index: int) -> bool:
     )
 
 
-def _local(obj: ObjectSpec, x: float, y: float) -> tuple[float, float]:
-    """The point (x, y) in the object's own frame (its centre, turned by its yaw)."""
-    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
-    dx, dy = x - obj.position[0], y - obj.position[1]
-    return c * dx + s * dy, -s * dx + c * dy
-
-
-def ramp_height(ramp: ObjectSpec, x: float, y: float) -> float:
-    """A ramp's height above its bottom over the point of its footprint nearest (x, y): it rises
-    along its own +x from 0 to its full height."""
-    u, _ = _local(ramp, x, y)
-    length = ramp.size[0]
-    return ramp.size[2] * min(max((u + length / 2) / length, 0.0), 1.0)
-
-
 def ramp_clearance(ramp: ObjectSpec, x: float, y: float, z: float, radius: float) -> float | None:
     """How far a sphere (centre (x, y, z), ``radius``) whose centre lies over a ramp's footprint is
     clear of its slope, measured upright (negative: it cuts in); None when the centre is not over
     the footprint."""
-    u, v = _local(ramp, x, y)
+    u, v = local(ramp, x, y)
     if abs(u) > ramp.size[0] / 2 or abs(v) > ramp.size[1] / 2:
         return None
     rise = ramp.size[2] / ramp.size[0]
@@ -536,7 +521,7 @@ def start_ledge(spec: LevelSpec) -> ObjectSpec | None:
     for obj in solids(spec):
         if obj.mass or obj.behaviour or obj.shape != "box" or getattr(kind_class(obj.kind), "walkable", False):
             continue
-        u, v = _local(obj, x, y)
+        u, v = local(obj, x, y)
         top = obj.position[2] + obj.size[2] / 2
         if abs(u) <= obj.size[0] / 2 and abs(v) <= obj.size[1] / 2 and abs(top - record["height"]) < TOLERANCE:
             return obj
@@ -546,7 +531,7 @@ def start_ledge(spec: LevelSpec) -> ObjectSpec | None:
 def ledge_footing(spec: LevelSpec, ledge: ObjectSpec) -> bool:
     """Does the body stand on the ledge: its edges LEDGE_FOOTING or more from the start, its height one
     the body walks down (LEDGE_DROP) and cannot climb back (above LEDGE_CLIMB), its bottom on the floor?"""
-    u, v = _local(ledge, spec.agent.x, spec.agent.y)
+    u, v = local(ledge, spec.agent.x, spec.agent.y)
     room = min(ledge.size[0] / 2 - abs(u), ledge.size[1] / 2 - abs(v))
     low, high = z_range(ledge)
     return room >= LEDGE_FOOTING and abs(low) < TOLERANCE and LEDGE_CLIMB < high <= LEDGE_DROP + TOLERANCE
@@ -706,7 +691,7 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     moving = behaviour_class(food)
     if moving is None:
         return False
-    places = moving.path(food, Bounds(spec).blocked, spec.time_limit)
+    places = moving.path(food, Bounds(spec), spec.time_limit)
     return any(_reachable_at(spec, region, food, place) for place in places)
 
 
@@ -734,7 +719,7 @@ def _on_sinking(spec: LevelSpec, x: float, y: float) -> bool:
     for obj in spec.objects:
         moving = behaviour_class(obj)
         if moving and moving.passable:
-            u, v = _local(obj, x, y)
+            u, v = local(obj, x, y)
             if abs(u) <= obj.size[0] / 2 and abs(v) <= obj.size[1] / 2:
                 return True
     return False

@@ -7,6 +7,7 @@ import math
 from collections.abc import Sequence
 
 from aaai.spec import LevelSpec, ObjectSpec
+from aaai.spec.behaviours import STEP_OVER
 from aaai.spec.kinds import kind_class
 
 TOLERANCE = 1e-3  # faces that touch do not overlap
@@ -14,14 +15,19 @@ TOLERANCE = 1e-3  # faces that touch do not overlap
 
 class Bounds:
     """What a moving part (a random walker, a bouncing piece) steers clear of: the arena's edge and
-    the axis-aligned boxes round the footprints of the static solids inside the arena (not zones,
-    not food, not anything that moves). Built from a spec alone, so a part's path can be worked out
-    without physics (aaai.spec.behaviours.Bounce.path, given its ``blocked``) as the world moves it."""
+    the static solids inside the arena (not zones, not food, not anything that moves). Built from a
+    spec alone, so a part's path can be worked out without physics (aaai.spec.behaviours.Bounce.path)
+    as the world moves it.
+
+    A random walker keeps to the floor and turns back at the axis-aligned box round any solid's
+    footprint (:meth:`blocked`). A bouncing piece goes in three dimensions: it is reflected off the
+    face of what stands higher than its lowest point (:meth:`face`, turned footprints and their true
+    faces), goes over what does not, and falls onto what lies beneath it (:meth:`ground`)."""
 
     def __init__(self, spec: LevelSpec):
         self.half_x, self.half_y = spec.arena_size[0] / 2, spec.arena_size[1] / 2
-        self.boxes = [
-            footprint(obj)
+        self.solids = [
+            obj
             for obj in spec.objects
             if not obj.is_edible
             and obj.mass == 0
@@ -29,6 +35,7 @@ class Bounds:
             and abs(obj.position[1]) < self.half_y
             and not getattr(kind_class(obj.kind), "zone", False)
         ]
+        self.boxes = [footprint(obj) for obj in self.solids]
 
     def blocked(self, x: float, y: float, radius: float) -> bool:
         """Would a disc at (x, y) leave the arena or overlap a static solid's footprint box?"""
@@ -36,6 +43,99 @@ class Bounds:
         if not (-half_x <= x <= half_x and -half_y <= y <= half_y):
             return True
         return any(abs(x - ox) < hx + radius and abs(y - oy) < hy + radius for ox, oy, hx, hy in self.boxes)
+
+    def ground(self, x: float, y: float, bottom: float) -> float:
+        """The height of what lies under (x, y) no higher than STEP_OVER above ``bottom``: the highest
+        such top of a static solid (a ramp's slope there), else the floor (0)."""
+        height = 0.0
+        for obj in self.solids:
+            u, v = local(obj, x, y)
+            if abs(u) <= obj.size[0] / 2 and abs(v) <= obj.size[1] / 2:
+                top = surface(obj, x, y)
+                if height < top <= bottom + STEP_OVER:
+                    height = top
+        return height
+
+    def face(self, x: float, y: float, z: float, radius: float, height: float) -> tuple[float, float] | None:
+        """The outward normal (x, y) of what a ball (centre (x, y, z), ``radius``) runs into: the
+        arena's edge, or the face of a static solid whose top there stands higher than ``height`` and
+        more than STEP_OVER above the ball's underside over it (on a ramp's slope: the slope, facing
+        down it). None: clear."""
+        if x < radius - self.half_x:
+            return (1.0, 0.0)
+        if x > self.half_x - radius:
+            return (-1.0, 0.0)
+        if y < radius - self.half_y:
+            return (0.0, 1.0)
+        if y > self.half_y - radius:
+            return (0.0, -1.0)
+        for obj in self.solids:
+            u, v = local(obj, x, y)
+            du, dv = abs(u) - obj.size[0] / 2, abs(v) - obj.size[1] / 2
+            off = math.hypot(max(du, 0.0), max(dv, 0.0))
+            if off >= radius:
+                continue
+            underside = z - math.sqrt(radius * radius - off * off)
+            if surface(obj, *nearest(obj, u, v)) <= max(height, underside + STEP_OVER):
+                continue
+            if obj.kind == "ramp" and du < 0 and dv < 0:
+                nu, nv = -1.0, 0.0  # on the slope: it faces down the ramp's -x
+            elif du > dv:
+                nu, nv = math.copysign(1.0, u), 0.0
+            else:
+                nu, nv = 0.0, math.copysign(1.0, v)
+            c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+            return (c * nu - s * nv, s * nu + c * nv)
+        return None
+
+    def push_out(self, x: float, y: float, z: float, radius: float) -> tuple[float, float, float]:
+        """A ball (centre (x, y, z), ``radius``) moved out of the static solids it cuts into, along the
+        line from each one's nearest point: off an edge it rolls round, it goes over and down."""
+        for obj in self.solids:
+            u, v = local(obj, x, y)
+            near_x, near_y = nearest(obj, u, v)
+            if math.hypot(x - near_x, y - near_y) >= radius:
+                continue
+            near_z = min(max(z, obj.position[2] - obj.size[2] / 2), surface(obj, near_x, near_y))
+            dx, dy, dz = x - near_x, y - near_y, z - near_z
+            distance = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if 0 < distance < radius:
+                k = radius / distance
+                x, y, z = near_x + dx * k, near_y + dy * k, near_z + dz * k
+        return x, y, z
+
+
+def nearest(obj: ObjectSpec, u: float, v: float) -> tuple[float, float]:
+    """The point (x, y) of an object's footprint nearest the point (u, v) of its own frame."""
+    cu, cv = _clamp(u, obj.size[0] / 2), _clamp(v, obj.size[1] / 2)
+    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+    return obj.position[0] + c * cu - s * cv, obj.position[1] + s * cu + c * cv
+
+
+def _clamp(value: float, half: float) -> float:
+    return min(max(value, -half), half)
+
+
+def local(obj: ObjectSpec, x: float, y: float) -> tuple[float, float]:
+    """The point (x, y) in the object's own frame (its centre, turned by its yaw)."""
+    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+    dx, dy = x - obj.position[0], y - obj.position[1]
+    return c * dx + s * dy, -s * dx + c * dy
+
+
+def ramp_height(ramp: ObjectSpec, x: float, y: float) -> float:
+    """A ramp's height above its bottom over the point of its footprint nearest (x, y): it rises
+    along its own +x from 0 to its full height."""
+    u, _ = local(ramp, x, y)
+    length = ramp.size[0]
+    return ramp.size[2] * min(max((u + length / 2) / length, 0.0), 1.0)
+
+
+def surface(obj: ObjectSpec, x: float, y: float) -> float:
+    """The height of a static solid's top over (x, y) of its footprint: a ramp's slope, or its top."""
+    if obj.kind == "ramp":
+        return obj.position[2] - obj.size[2] / 2 + ramp_height(obj, x, y)
+    return obj.position[2] + obj.size[2] / 2
 
 
 def merge_tiles(nx: int, ny: int, holes: set[tuple[int, int]]) -> list[tuple[int, int, int, int]]:

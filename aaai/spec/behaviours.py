@@ -11,7 +11,8 @@ calls; this module holds no simulator state of its own beyond each part's progre
   and the food on it);
 - slide {"to": [x, y], "speed"}: moves in a straight line to (x, y), then stops (L8 food);
 - bounce {"speed", "heading"}: moves in a straight line from heading (radians), bouncing off the
-  arena's edge and static solids (Animal-AI's bouncing goals);
+  arena's edge and the faces of static solids that stand higher than it, going over lower ones and
+  falling off their edges (Animal-AI's bouncing goals);
 - door {"direction": [ux, uy], "distance"}: hidden below the arena until the agent's head is
   farther than distance along direction and inside that 90-degree sector, then stands at its
   position for good (L9 sector openings);
@@ -28,6 +29,9 @@ from typing import ClassVar
 RANDOM_WALK_TURN = 2.0  # heading noise of a random walk, rad per sqrt(s)
 PATH_STEP = 0.02  # s: a bouncing piece's path (Bounce.path) is worked out in steps this long (the world's, by default)
 PATH_EVERY = 0.5  # s: ... and kept every this long (1.5 units at Animal-AI's bouncing speed here, 3 units/s)
+STEP_OVER = 0.05  # units: a bouncing piece goes over a top at most this far above its lowest point
+FLOAT_ROOM = 1e-6  # units: a bouncing piece this close above the ground rests on it
+FALL_ACCELERATION = 9.81  # units/s/s: a bouncing piece falls off an edge as under the default physics' gravity
 
 REGISTRY: dict[str, type["Behaviour"]] = {}
 
@@ -71,10 +75,10 @@ class Behaviour:
         return None
 
     @classmethod
-    def path(cls, obj, blocked, seconds: float) -> list[tuple[float, float, float]]:
-        """Where a part that never comes to rest will be over its first ``seconds``, sampled, moved off
-        what ``blocked(x, y, radius)`` says (validate counts food on such a path reachable where any
-        place of it is; empty: not such a part)."""
+    def path(cls, obj, bounds, seconds: float) -> list[tuple[float, float, float]]:
+        """Where a part that never comes to rest will be over its first ``seconds``, sampled, moved
+        within ``bounds`` (a spec's :class:`aaai.sim.geometry.Bounds`; validate counts food on such a
+        path reachable where any place of it is; empty: not such a part)."""
         return []
 
     def start(self, world, body: int) -> None:
@@ -108,48 +112,78 @@ class RandomWalk(Behaviour):
 
 @register
 class Bounce(Behaviour):
-    """Moves at a constant speed in a straight line, reflected off whatever blocks it."""
+    """Moves at a constant speed along the ground in a straight line, reflected off the faces of what
+    stands higher than its lowest point; it goes over what does not, and falls (at FALL_ACCELERATION)
+    onto what lies beneath it, as Animal-AI's bouncing goals roll off a platform's edge."""
 
     name = "bounce"
     fields = ("speed", "heading")
 
     def start(self, world, body: int) -> None:
-        heading = float(self.obj.behaviour["heading"])
-        self.state = [*self.obj.position, math.cos(heading), math.sin(heading)]  # x, y, z, direction
+        self.state = self.first(self.obj)
 
     @staticmethod
-    def step(state: list[float], step: float, radius: float, blocked) -> None:
-        """Moves ``state`` (x, y, z, ux, uy) by ``step`` units: on, or reflected off a side, or back;
-        where every way is blocked it stays. ``blocked(x, y, radius)`` is the world's, or a spec's
-        :class:`aaai.sim.geometry.Bounds`' (one rule for both)."""
-        x, y, z, ux, uy = state
-        for dx, dy in ((ux, uy), (-ux, uy), (ux, -uy), (-ux, -uy)):
-            nx, ny = x + step * dx, y + step * dy
-            if not blocked(nx, ny, radius):
-                state[:] = [nx, ny, z, dx, dy]
-                return
+    def first(obj) -> list[float]:
+        """Its state at the start: x, y, z, its direction (ux, uy) and its upward speed."""
+        heading = float(obj.behaviour["heading"])
+        return [*map(float, obj.position), math.cos(heading), math.sin(heading), 0.0]
+
+    @staticmethod
+    def step(state: list[float], speed: float, dt: float, radius: float, bounds) -> None:
+        """Moves ``state`` (x, y, z, ux, uy, vz) by ``dt`` seconds at ``speed``: on, or reflected off
+        the face it runs into, or back where that is blocked too; where every way is blocked it stays
+        put. On the ground a face is what stands more than STEP_OVER above its underside (there);
+        falling, what stands higher than its centre, and it rolls round what it cuts into below that
+        (``bounds.push_out``). Then it steps up onto, or falls towards, the ground there. ``bounds``
+        is a :class:`aaai.sim.geometry.Bounds`, the world's or a spec's (one rule for both)."""
+        x, y, z, ux, uy, vz = state
+        step, bottom = speed * dt, z - radius
+        falling = vz != 0 or bounds.ground(x, y, bottom) < bottom - FLOAT_ROOM
+        height = z if falling else bottom + STEP_OVER
+        nx, ny = x + step * ux, y + step * uy
+        normal = bounds.face(nx, ny, z, radius, height)
+        if normal is not None:
+            along = ux * normal[0] + uy * normal[1]
+            if along < 0:
+                ux, uy = ux - 2 * along * normal[0], uy - 2 * along * normal[1]
+            for dx, dy in ((ux, uy), (-ux, -uy)):
+                nx, ny = x + step * dx, y + step * dy
+                if bounds.face(nx, ny, z, radius, height) is None:
+                    ux, uy = dx, dy
+                    break
+            else:
+                nx, ny = x, y
+        ground = bounds.ground(nx, ny, bottom)
+        if not falling and ground >= bottom - FLOAT_ROOM:
+            state[:] = [nx, ny, max(z, ground + radius), ux, uy, 0.0]
+            return
+        vz -= FALL_ACCELERATION * dt
+        nx, ny, z = bounds.push_out(nx, ny, z + vz * dt, radius)
+        ground = bounds.ground(nx, ny, z - radius)
+        if z <= ground + radius:
+            z, vz = ground + radius, 0.0
+        state[:] = [nx, ny, z, ux, uy, vz]
 
     @classmethod
-    def path(cls, obj, blocked, seconds: float, every: float = PATH_EVERY) -> list[tuple[float, float, float]]:
+    def path(cls, obj, bounds, seconds: float, every: float = PATH_EVERY) -> list[tuple[float, float, float]]:
         """Where the piece is every ``every`` seconds of its first ``seconds`` (after its start), moved
-        as :meth:`advance` moves it, off what ``blocked(x, y, radius)`` says (the spec's
-        :class:`aaai.sim.geometry.Bounds`, as the world's), in steps of PATH_STEP seconds: the world's
-        steps with the default physics (timestep 0.01 s, action_repeat 2); with others a reflection
-        comes up to a step earlier or later there."""
-        heading = float(obj.behaviour["heading"])
-        state = [*map(float, obj.position), math.cos(heading), math.sin(heading)]
-        step, radius = float(obj.behaviour["speed"]) * PATH_STEP, obj.size[0] / 2
+        as :meth:`advance` moves it, within ``bounds`` (the spec's :class:`aaai.sim.geometry.Bounds`,
+        as the world's), in steps of PATH_STEP seconds: the world's steps with the default physics
+        (timestep 0.01 s, action_repeat 2); with others a reflection comes up to a step earlier or
+        later there."""
+        state = cls.first(obj)
+        speed, radius = float(obj.behaviour["speed"]), obj.size[0] / 2
         places, per = [], max(1, round(every / PATH_STEP))
         for index in range(1, int(seconds / PATH_STEP) + 1):
-            cls.step(state, step, radius, blocked)
+            cls.step(state, speed, PATH_STEP, radius, bounds)
             if index % per == 0:
                 places.append((state[0], state[1], state[2]))
         return places
 
     def advance(self, world, body: int, dt: float, head) -> bool:
-        before = self.state[:2]
-        self.step(self.state, self.obj.behaviour["speed"] * dt, self.obj.size[0] / 2, world.blocked)
-        if self.state[:2] != before:
+        before = self.state[:3]
+        self.step(self.state, self.obj.behaviour["speed"], dt, self.obj.size[0] / 2, world.bounds)
+        if self.state[:3] != before:
             world.place(body, tuple(self.state[:3]), None)
         return False
 

@@ -333,9 +333,9 @@ class ReferenceController:
                 if math.dist(part.state[:2], (xs[offset], ys[offset])) <= REPLAN_MOVE:
                     return xs, ys, walkable, offset
         state, places = list(part.state), [tuple(part.state[:2])]
-        step, radius = part.obj.behaviour["speed"] * PATH_STEP, food.size[0] / 2
+        speed, radius = part.obj.behaviour["speed"], food.size[0] / 2
         for _ in range(max(0, int((self.level.time_limit - now) / PATH_STEP))):
-            Bounce.step(state, step, radius, self.env.world.blocked)
+            Bounce.step(state, speed, PATH_STEP, radius, self.env.world.bounds)
             places.append((state[0], state[1]))
         xs, ys = (np.array(values) for values in zip(*places))
         shape, size = self.walk.shape, self.level.arena_size

@@ -759,8 +759,8 @@ ROLL_STEP = 0.25  # units: the step a rolling goal's path is followed in (aaai.t
 
 def _ground(x: float, y: float, supports: list[dict], wedges: list) -> float:
     """The height of what lies under (x, y): the floor, a static or settled box's top, a ramp's slope
-    (``wedges``: the ramps as ObjectSpecs, :func:`aaai.levels.validate.ramp_height`)."""
-    from aaai.levels.validate import ramp_height
+    (``wedges``: the ramps as ObjectSpecs, :func:`aaai.sim.geometry.ramp_height`)."""
+    from aaai.sim.geometry import ramp_height
 
     height = 0.0
     for box in supports:
