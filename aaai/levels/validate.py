@@ -691,8 +691,26 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     moving = behaviour_class(food)
     if moving is None:
         return False
-    places = moving.path(food, Bounds(spec), spec.time_limit)
-    return any(_reachable_at(spec, region, food, place) for place in places)
+    return any(_reachable_at(spec, region, food, place) for place in path_of(spec, food))
+
+
+PATHS_KEPT = 64  # paths path_of keeps: a file's checks ask for each piece's many times (every region, every pass mark)
+_paths: dict[str, list] = {}
+
+
+def path_of(spec: LevelSpec, food: ObjectSpec) -> list[tuple[float, float, float]]:
+    """The piece's path within the level's time limit (:meth:`aaai.spec.behaviours.Behaviour.path`,
+    within the spec's :class:`aaai.sim.geometry.Bounds`), worked out once for the piece, the arena and
+    its objects, and kept for the last PATHS_KEPT asked."""
+    moving = behaviour_class(food)
+    if moving is None:
+        return []
+    key = repr((food, spec.time_limit, spec.arena_size, spec.objects))
+    if key not in _paths:
+        if len(_paths) >= PATHS_KEPT:
+            del _paths[next(iter(_paths))]
+        _paths[key] = moving.path(food, Bounds(spec), spec.time_limit)
+    return _paths[key]
 
 
 def _reachable_at(spec: LevelSpec, region: np.ndarray, food: ObjectSpec, place) -> bool:

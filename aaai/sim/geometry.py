@@ -36,6 +36,10 @@ class Bounds:
             and not getattr(kind_class(obj.kind), "zone", False)
         ]
         self.boxes = [footprint(obj) for obj in self.solids]
+        # each solid's centre and the radius of a circle round its footprint: most are passed over at a glance
+        self.near = [
+            (obj.position[0], obj.position[1], math.hypot(obj.size[0], obj.size[1]) / 2) for obj in self.solids
+        ]
 
     def blocked(self, x: float, y: float, radius: float) -> bool:
         """Would a disc at (x, y) leave the arena or overlap a static solid's footprint box?"""
@@ -48,7 +52,9 @@ class Bounds:
         """The height of what lies under (x, y) no higher than STEP_OVER above ``bottom``: the highest
         such top of a static solid (a ramp's slope there), else the floor (0)."""
         height = 0.0
-        for obj in self.solids:
+        for obj, (cx, cy, round_) in zip(self.solids, self.near):
+            if abs(x - cx) > round_ or abs(y - cy) > round_:
+                continue
             u, v = local(obj, x, y)
             if abs(u) <= obj.size[0] / 2 and abs(v) <= obj.size[1] / 2:
                 top = surface(obj, x, y)
@@ -69,7 +75,9 @@ class Bounds:
             return (0.0, 1.0)
         if y > self.half_y - radius:
             return (0.0, -1.0)
-        for obj in self.solids:
+        for obj, (cx, cy, round_) in zip(self.solids, self.near):
+            if abs(x - cx) > round_ + radius or abs(y - cy) > round_ + radius:
+                continue
             u, v = local(obj, x, y)
             du, dv = abs(u) - obj.size[0] / 2, abs(v) - obj.size[1] / 2
             off = math.hypot(max(du, 0.0), max(dv, 0.0))
@@ -91,7 +99,9 @@ class Bounds:
     def push_out(self, x: float, y: float, z: float, radius: float) -> tuple[float, float, float]:
         """A ball (centre (x, y, z), ``radius``) moved out of the static solids it cuts into, along the
         line from each one's nearest point: off an edge it rolls round, it goes over and down."""
-        for obj in self.solids:
+        for obj, (cx, cy, round_) in zip(self.solids, self.near):
+            if abs(x - cx) > round_ + radius or abs(y - cy) > round_ + radius:
+                continue
             u, v = local(obj, x, y)
             near_x, near_y = nearest(obj, u, v)
             if math.hypot(x - near_x, y - near_y) >= radius:
