@@ -144,3 +144,16 @@ def test_food_a_bouncing_piece_brings_down_is_fair_and_a_kerb_a_hair_higher_than
     # without the slanted wall it goes east and west along the top for ever, out of the body's reach
     spec = open_arena(*(o for i, o in enumerate(platform()) if i != 1), agent=(0.0, -18.0, 0.0), time_limit=60.0)
     assert any("cannot be reached" in problem for problem in validate.check(spec))
+
+
+def test_a_piece_that_leaves_reach_in_its_first_second_is_fair_only_for_a_body_that_starts_near_it():
+    # the zone covers x 5..25; the piece starts on the open floor at x 0 heading into it, and is back out
+    # only after the time limit: it can be eaten in its first second, by a body that is there by then
+    def spec(agent):
+        return open_arena(zone(15.0, 20.0), bouncing(0.0, 0.0, 0.0), agent=agent, time_limit=10.0)
+
+    assert validate.check(spec((-6.0, 0.0, 0.0))) == []
+    far = spec((-18.0, 15.0, 0.0))
+    assert any("cannot be reached" in problem for problem in validate.check(far))
+    region, _ = validate.reachable_region(far)
+    assert validate.food_reachable(far, region, far.foods[0], speed=None)  # the sphere, many times as fast

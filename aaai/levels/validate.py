@@ -28,7 +28,7 @@ import numpy as np
 from aaai.agent.urdf_writer import HEAD_RADIUS
 from aaai.sim.geometry import TOLERANCE, Bounds, corners, footprints_overlap, local, ramp_height
 from aaai.spec import LevelSpec, ObjectSpec
-from aaai.spec.behaviours import REGISTRY, behaviour_class
+from aaai.spec.behaviours import PATH_EVERY, REGISTRY, behaviour_class
 from aaai.spec.kinds import REGISTRY as REGISTRY_KINDS
 from aaai.spec.kinds import SOLID_KINDS, kind_class
 
@@ -677,7 +677,12 @@ def cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
     return row, col
 
 
-def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> bool:
+WALK_SPEED = (
+    3.0  # units/s: the quadruped at its fastest, for a bouncing piece's timing (the gait walks 2.7 on open floor)
+)
+
+
+def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec, speed: float | None = WALK_SPEED) -> bool:
     """Can the head, its centre in the agent's region, touch the piece where it comes to rest? Only
     from where the body stands at most FOOD_REACH_HEIGHT below the piece's bottom (not on a pole or a
     block it cannot climb; on a platform it walks on to, yes: :func:`surface_heights`); a piece on what
@@ -685,13 +690,26 @@ def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec) -> boo
     the floor beside it: the region keeps the body's footprint from the top's rim.) A piece that never
     comes to rest (a bouncing one) is reachable if it is at its start or at any place of its path
     within the level's time limit (:meth:`aaai.spec.behaviours.Behaviour.path`): it passes where the
-    body can wait for it."""
-    if _reachable_at(spec, region, food, food_places(food)[-1]):
+    body can wait for it, if the body, walking straight at ``speed`` (None: any speed), could be there
+    by then (a piece that falls out of reach in the first seconds, far from the start, is not
+    reachable at its start)."""
+    path = path_of(spec, food)
+    if not path:
+        return _reachable_at(spec, region, food, food_places(food)[-1])
+    timed = [(0.0, food.position), *(((i + 1) * PATH_EVERY, place) for i, place in enumerate(path))]
+    return any(
+        _in_time(spec, food, place, seconds, speed) and _reachable_at(spec, region, food, place)
+        for seconds, place in timed
+    )
+
+
+def _in_time(spec: LevelSpec, food: ObjectSpec, place, seconds: float, speed: float | None) -> bool:
+    """Could the body, from its start, walking straight at ``speed``, touch the piece at ``place``
+    within ``seconds``?"""
+    if speed is None:
         return True
-    moving = behaviour_class(food)
-    if moving is None:
-        return False
-    return any(_reachable_at(spec, region, food, place) for place in path_of(spec, food))
+    reach = FOOTPRINT_RADIUS + HEAD_RADIUS + food.size[0] / 2
+    return math.dist((spec.agent.x, spec.agent.y), place[:2]) - reach <= speed * seconds
 
 
 PATHS_KEPT = 64  # paths path_of keeps: a file's checks ask for each piece's many times (every region, every pass mark)
@@ -853,7 +871,7 @@ def check(spec: LevelSpec, require_food: bool = True, footprint: float = FOOTPRI
         )
         return problems
     for food in spec.foods:
-        if not food_reachable(spec, region, food):
+        if not food_reachable(spec, region, food, WALK_SPEED if footprint == FOOTPRINT_RADIUS else None):
             problems.append(f"{food.kind} at {_xy(food_places(food)[-1])} cannot be reached from the start")
     if require_food and not spec.foods:
         problems.append("the level has no food")

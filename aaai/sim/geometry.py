@@ -21,8 +21,9 @@ class Bounds:
 
     A random walker keeps to the floor and turns back at the axis-aligned box round any solid's
     footprint (:meth:`blocked`). A bouncing piece goes in three dimensions: it is reflected off the
-    face of what stands higher than its lowest point (:meth:`face`, turned footprints and their true
-    faces), goes over what does not, and falls onto what lies beneath it (:meth:`ground`)."""
+    face of what stands more than STEP_OVER above its underside there (:meth:`face`, turned
+    footprints and their true faces), goes over what does not, falls onto what lies beneath it
+    (:meth:`ground`) and rolls round an edge it cuts into (:meth:`push_out`)."""
 
     def __init__(self, spec: LevelSpec):
         self.half_x, self.half_y = spec.arena_size[0] / 2, spec.arena_size[1] / 2
@@ -65,8 +66,8 @@ class Bounds:
     def face(self, x: float, y: float, z: float, radius: float, height: float) -> tuple[float, float] | None:
         """The outward normal (x, y) of what a ball (centre (x, y, z), ``radius``) runs into: the
         arena's edge, or the face of a static solid whose top there stands higher than ``height`` and
-        more than STEP_OVER above the ball's underside over it (on a ramp's slope: the slope, facing
-        down it). None: clear."""
+        more than STEP_OVER above the ball's underside over it (a ramp: its full height from beside
+        it; from over its slope, the slope, facing down it). None: clear."""
         if x < radius - self.half_x:
             return (1.0, 0.0)
         if x > self.half_x - radius:
@@ -84,7 +85,9 @@ class Bounds:
             if off >= radius:
                 continue
             underside = z - math.sqrt(radius * radius - off * off)
-            if surface(obj, *nearest(obj, u, v)) <= max(height, underside + STEP_OVER):
+            # a ramp's side or foot stops it as a wall of the ramp's full height would: it does not roll up one
+            top = surface(obj, *nearest(obj, u, v)) if off == 0 else obj.position[2] + obj.size[2] / 2
+            if top <= max(height, underside + STEP_OVER):
                 continue
             if obj.kind == "ramp" and du < 0 and dv < 0:
                 nu, nv = -1.0, 0.0  # on the slope: it faces down the ramp's -x

@@ -482,22 +482,23 @@ def _pass_mark_returns(spec: LevelSpec, body: str) -> tuple[float, float, float]
     and as if the last multi_food did not end it either, :func:`_region_return`), each less the step term's
     most, from one pair of reach maps: the last two name why a pass mark is out of reach (check_arena)."""
     footprint = footprint_for(body, spec.arena_size)
+    speed = None if body == "sphere" else validate.WALK_SPEED  # the sphere is many times as fast
     regions = validate.reach_regions(spec, footprint)
     blocked = _ending_blocked(spec)
     around = validate.reach_regions(blocked, footprint) if blocked is not spec else regions
     best = through = every = 0.0  # (no region: the start is not clear)
     for region in regions:
-        reached = [food for food in spec.foods if validate.food_reachable(spec, region, food)]
+        reached = [food for food in spec.foods if validate.food_reachable(spec, region, food, speed)]
         ending = max((food.food_value for food in reached if food.kind in ENDING_KINDS), default=0.0)
         near = [other for other in around if (other & region).any()]  # the same region, less the ending pieces
         rounded = [
             food
             for food in blocked.foods
-            if food.kind not in ENDING_KINDS and any(validate.food_reachable(blocked, r, food) for r in near)
+            if food.kind not in ENDING_KINDS and any(validate.food_reachable(blocked, r, food, speed) for r in near)
         ]
         best = max(best, _with_ending(spec, ending, rounded))
         through = max(through, _with_ending(spec, ending, [f for f in reached if f.kind not in ENDING_KINDS]))
-        every = max(every, _region_return(spec, region))
+        every = max(every, _region_return(spec, region, speed))
     return best - STEP_COSTS, through - STEP_COSTS, every - STEP_COSTS
 
 
@@ -542,8 +543,8 @@ def best_side(spec: LevelSpec, body: str = "quadruped") -> np.ndarray | None:
     return max(regions, key=lambda region: _region_return(spec, region), default=None)
 
 
-def _region_return(spec: LevelSpec, region: np.ndarray) -> float:
-    reached = [food for food in spec.foods if validate.food_reachable(spec, region, food)]
+def _region_return(spec: LevelSpec, region: np.ndarray, speed: float | None = validate.WALK_SPEED) -> float:
+    reached = [food for food in spec.foods if validate.food_reachable(spec, region, food, speed)]
     ending = [food.food_value for food in reached if food.kind in ENDING_KINDS]
     return max(ending, default=0.0) + sum(f.food_value for f in reached if f.kind not in ENDING_KINDS)
 
