@@ -677,9 +677,14 @@ def cell(spec: LevelSpec, x: float, y: float, shape) -> tuple[int, int]:
     return row, col
 
 
-WALK_SPEED = (
-    3.0  # units/s: the quadruped at its fastest, for a bouncing piece's timing (the gait walks 2.7 on open floor)
-)
+# units/s: the quadruped at its fastest, for a bouncing piece's timing (the gait walks 2.7 on open floor)
+WALK_SPEED = 3.0
+
+
+def walk_speed(footprint: float) -> float | None:
+    """The speed a body validated with ``footprint`` is timed at (:func:`food_reachable`): the walking
+    bodies' WALK_SPEED; None (any speed) for another footprint, the sphere's, many times as fast."""
+    return WALK_SPEED if footprint == FOOTPRINT_RADIUS else None
 
 
 def food_reachable(spec: LevelSpec, region: np.ndarray, food: ObjectSpec, speed: float | None = WALK_SPEED) -> bool:
@@ -871,7 +876,7 @@ def check(spec: LevelSpec, require_food: bool = True, footprint: float = FOOTPRI
         )
         return problems
     for food in spec.foods:
-        if not food_reachable(spec, region, food, WALK_SPEED if footprint == FOOTPRINT_RADIUS else None):
+        if not food_reachable(spec, region, food, walk_speed(footprint)):
             problems.append(f"{food.kind} at {_xy(food_places(food)[-1])} cannot be reached from the start")
     if require_food and not spec.foods:
         problems.append("the level has no food")

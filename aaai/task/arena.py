@@ -482,7 +482,7 @@ def _pass_mark_returns(spec: LevelSpec, body: str) -> tuple[float, float, float]
     and as if the last multi_food did not end it either, :func:`_region_return`), each less the step term's
     most, from one pair of reach maps: the last two name why a pass mark is out of reach (check_arena)."""
     footprint = footprint_for(body, spec.arena_size)
-    speed = None if body == "sphere" else validate.WALK_SPEED  # the sphere is many times as fast
+    speed = validate.walk_speed(footprint)
     regions = validate.reach_regions(spec, footprint)
     blocked = _ending_blocked(spec)
     around = validate.reach_regions(blocked, footprint) if blocked is not spec else regions

@@ -159,7 +159,7 @@ class ReferenceController:
         if spec.extras.get("reach") != "pass_mark":
             return []
         region, clear = validate.reachable_region(spec, footprint=self.footprint, clearance=self.clearance)
-        speed = None if self.sphere else validate.WALK_SPEED
+        speed = validate.walk_speed(self.footprint)
         return [food for food in spec.foods if not (clear and validate.food_reachable(spec, region, food, speed))]
 
     def _map(self, start: tuple[float, float] | None = None) -> None:
