@@ -1,6 +1,7 @@
 """A start on a dividing wall becomes a one-way ledge (aaai.tools.animalai_fit.place_ledge): the start
 on it is clear, the body steps down from it to either side, and the floor does not lead back up."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -268,3 +269,67 @@ def test_a_start_over_stacked_boxes_spawns_on_the_top_one():
     bar = ObjectSpec("wall", "box", (0.0, 0.0, 20.0), (40.0, 2.0, 1.0), 0.0)  # overhead
     spec = LevelSpec(**{**ledge_arena(ledge=False).__dict__, "objects": (low, stacked, bar)})
     assert World.ground_height(type("W", (), {"spec": spec})(), 0.0, 0.0) == 4.0
+
+
+def ledge_arena_with_slot(
+    slot_y: float, time_limit: float = 120.0, ball_x: float = -10.0, greens: tuple = ((20.0, -20.0),)
+) -> LevelSpec:
+    """ledge_arena with a slot 4 wide in the dividing wall about y = ``slot_y`` (narrower than the body, wide
+    enough for a ball); a yellow ball bouncing across it, starting at ``ball_x`` heading away from the
+    slot (by default on the left), and greens (by default one on the right)."""
+    spec = ledge_arena(food=())
+    upper = [obj for obj in spec.objects if obj.kind == "wall" and obj.position[0] == 0.0 and obj.position[1] > 0]
+    objects = [obj for obj in spec.objects if obj not in upper]
+    for y0, y1 in ((6.0, slot_y - 2.0), (slot_y + 2.0, SIZE / 2)):
+        objects.append(ObjectSpec("wall", "box", (0.0, (y0 + y1) / 2, 2.5), (4.0, y1 - y0, 5.0), 0.0))
+    heading = math.pi if ball_x < 0 else 0.0
+    ball = sphere("food_yellow", ball_x, slot_y, 2.0, behaviour={"type": "bounce", "speed": 2.0, "heading": heading})
+    foods = (ball, *(sphere("food_green", x, y, 3.0) for x, y in greens))
+    return dataclasses.replace(
+        spec,
+        objects=tuple(objects) + foods,
+        max_food_reward=sum(food.food_value for food in foods),
+        time_limit=time_limit,
+    )
+
+
+# y 12: the ball passes places on the left where the body could wait for it before any on the right;
+# y 22: it runs too near the arena's wall for the body to wait anywhere on its path (it is chased).
+@pytest.mark.parametrize("slot_y", [12.0, 22.0])
+def test_from_a_ledge_the_reference_meets_a_bouncing_piece_on_the_side_it_chose(env, slot_y):
+    """The ball's path crosses to both sides through the slot, the green is on the right: the right is
+    worth more (best_side). The reference waits on the ledge and meets the ball on the right, then eats
+    the green. Going down on the left for the ball, the body could not come back for the green."""
+    from aaai.task.arena import best_side
+    from aaai.task.reference import ReferenceController
+
+    spec = ledge_arena_with_slot(slot_y)
+    side = best_side(spec)
+    assert side[validate.cell(spec, 20.0, -20.0, side.shape)] and not side[validate.cell(spec, -20.0, 0.0, side.shape)]
+    observation, _ = env.reset(options={"spec": spec})
+    reference = ReferenceController(env)
+    lowest_x = 0.0
+    for _ in range(6000):  # 120 s, the time limit
+        observation, _, terminated, truncated, info = env.step(reference(observation))
+        lowest_x = min(lowest_x, float(env.body.head_pose()[0][0]))
+        if terminated or truncated:
+            break
+    assert lowest_x > -6.0  # it never went down on the left (the ledge's edge is at x -6)
+    assert terminated and info["food_eaten"] == 2  # the ball, then the green
+
+
+def test_from_a_ledge_with_sides_worth_the_same_the_reference_goes_for_a_bouncing_piece_at_once(env):
+    """A green on each side and the ball's path over both: neither side is worth more, so the reference
+    does not wait on the ledge for the ball to come over one (it would stand there while the ball is on
+    the right, the side it takes first of equals being the left): it goes down after it at once."""
+    from aaai.task.arena import sides
+    from aaai.task.reference import ReferenceController
+
+    spec = ledge_arena_with_slot(22.0, ball_x=10.0, greens=((-20.0, -20.0), (20.0, -20.0)))
+    (left_worth, left), (right_worth, _) = sides(spec)
+    assert left_worth == right_worth and left[validate.cell(spec, -20.0, 0.0, left.shape)]
+    observation, _ = env.reset(options={"spec": spec})
+    reference = ReferenceController(env)
+    for _ in range(500):  # 10 s
+        observation, *_ = env.step(reference(observation))
+    assert env.body.head_pose()[0][0] > 6.0  # off the ledge (its edge at x 6), on the right, after the ball

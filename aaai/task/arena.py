@@ -537,10 +537,18 @@ def _ending_blocked(spec: LevelSpec) -> LevelSpec:
 def best_side(spec: LevelSpec, body: str = "quadruped") -> np.ndarray | None:
     """Where the head can get to in the region worth most of those the body may step down into from a
     start on a ledge (aaai.levels.validate.reach_regions; the first of equals), or None without one."""
+    ranked = sides(spec, body)
+    return ranked[0][1] if ranked else None
+
+
+def sides(spec: LevelSpec, body: str = "quadruped") -> list[tuple[float, np.ndarray]]:
+    """(worth, region) of each region the body may step down into from a start on a ledge, worth most
+    first (equals in the order of aaai.levels.validate.reach_regions); empty without a ledge. A region's
+    worth is the food the head can get to in it (a bouncing piece where the body gets in time)."""
     if validate.start_ledge(spec) is None:
-        return None
+        return []
     regions = validate.reach_regions(spec, footprint_for(body, spec.arena_size))
-    return max(regions, key=lambda region: _region_return(spec, region), default=None)
+    return sorted(((_region_return(spec, region), region) for region in regions), key=lambda pair: -pair[0])
 
 
 def _region_return(spec: LevelSpec, region: np.ndarray, speed: float | None = validate.WALK_SPEED) -> float:

@@ -50,7 +50,7 @@ from aaai.sim.geometry import corners
 from aaai.spec import LevelSpec, ObjectSpec
 from aaai.spec.behaviours import PATH_STEP, Bounce, Sink, behaviour_class
 from aaai.spec.kinds import ENDING_KINDS, FOOD_KINDS, kind_class
-from aaai.task.arena import best_side
+from aaai.task.arena import sides
 from aaai.task.sphere_steer import SphereSteer
 
 # pieces that do not end the episode (yellow, multi, ripening, decaying food): eaten before the green
@@ -107,6 +107,7 @@ class ReferenceController:
     rest: tuple[float, float] | None  # where it stands with nothing left to eat
     detour: tuple[float, float] | None  # a point to walk round to before the food
     approached: set  # goals it has come near (and picked a side for)
+    side: np.ndarray | None  # from a start on a ledge: the region it steps down into, if worth more than any other
 
     def __init__(self, env):
         self.env = env.unwrapped
@@ -148,7 +149,10 @@ class ReferenceController:
         self.intercepts: dict[int, tuple[float, tuple[float, float] | None]] = {}  # body -> (picked at, place)
         self.bounce_paths: dict[int, tuple] = {}  # body -> a bouncing piece's path (_bounce_path)
         self.lures = self._lures(spec)
-        side = best_side(spec) if self.ledge is not None else None  # start on a ledge: it takes one side
+        ranked = sides(spec) if self.ledge is not None else []  # start on a ledge: it takes one side
+        side = ranked[0][1] if ranked else None
+        # where a side is worth more than every other, going down on another loses food: _held_back
+        self.side = side if len(ranked) > 1 and ranked[0][0] > ranked[1][0] else None
         if side is not None:  # the one whose food is worth most; the other sides' pieces are never gone for
             self.lures += [food for food in spec.foods if not validate.food_reachable(spec, side, food)]
 
@@ -286,7 +290,22 @@ class ReferenceController:
         """The target for eating ``food`` (body id ``body``, now at ``position``): where it is, where it
         will stop (:meth:`_food_goal`), or, for a bouncing piece still far off, where to wait (:meth:`_meet`)."""
         eat = (self._food_goal(food, position), self.radius + food.size[0] / 2, body, avoid, False)
-        return self._meet(head, body, food, position, avoid) or eat
+        met = self._meet(head, body, food, position, avoid)
+        if met is None and self._held_back(body, position):  # waits on the ledge, facing the piece
+            return (float(head[0]), float(head[1])), self.radius, ("intercept", body), avoid, True
+        return met or eat
+
+    def _held_back(self, body: int, position) -> bool:
+        """Is a bouncing piece that cannot be met yet waited for on the start ledge? So while the body is
+        still on its ledge, a side is worth more than any other (``side``), and the piece is not over that
+        side: going for where it is now could take the body down on another, from which it does not climb
+        back to the side's food, while the piece rolls on to that side. (Where sides are worth the same,
+        it goes for the piece as anywhere: down on whichever side the way to it leads.)"""
+        if self.sphere or self.ledge is None or self.side is None:
+            return False
+        if not isinstance(self.env.world.running.get(body), Bounce):
+            return False
+        return not self.side[validate.cell(self.level, position[0], position[1], self.side.shape)]
 
     def _meet(self, head: np.ndarray, body: int, food: ObjectSpec, position, avoid):
         """For a bouncing piece still far off: (its place to wait at, reach, key, avoid, wait), else None.
@@ -343,6 +362,8 @@ class ReferenceController:
         cols = np.clip(np.floor((xs + size[0] / 2) / validate.GRID), 0, shape[1] - 1).astype(int)
         rows = np.clip(np.floor((ys + size[1] / 2) / validate.GRID), 0, shape[0] - 1).astype(int)
         walkable = self.walk[rows, cols] & (self.clearance[rows, cols] > self.footprint + INTERCEPT_ROOM)
+        if self.ledge is not None and self.side is not None:  # still on its start ledge: the side worth most
+            walkable &= self.side[rows, cols]
         self.bounce_paths[body] = (now, xs, ys, walkable, self.walk)
         return xs, ys, walkable, 0
 
