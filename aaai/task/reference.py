@@ -301,11 +301,14 @@ class ReferenceController:
         side: going for where it is now could take the body down on another, from which it does not climb
         back to the side's food, while the piece rolls on to that side. (Where sides are worth the same,
         it goes for the piece as anywhere: down on whichever side the way to it leads.)"""
-        if self.sphere or self.ledge is None or self.side is None:
+        side = self._side_kept()
+        if self.sphere or side is None or not isinstance(self.env.world.running.get(body), Bounce):
             return False
-        if not isinstance(self.env.world.running.get(body), Bounce):
-            return False
-        return not self.side[validate.cell(self.level, position[0], position[1], self.side.shape)]
+        return not side[validate.cell(self.level, position[0], position[1], side.shape)]
+
+    def _side_kept(self) -> np.ndarray | None:
+        """The side worth more than any other (``side``) while the body is still on its start ledge, else None."""
+        return self.side if self.ledge is not None else None
 
     def _meet(self, head: np.ndarray, body: int, food: ObjectSpec, position, avoid):
         """For a bouncing piece still far off: (its place to wait at, reach, key, avoid, wait), else None.
@@ -362,8 +365,9 @@ class ReferenceController:
         cols = np.clip(np.floor((xs + size[0] / 2) / validate.GRID), 0, shape[1] - 1).astype(int)
         rows = np.clip(np.floor((ys + size[1] / 2) / validate.GRID), 0, shape[0] - 1).astype(int)
         walkable = self.walk[rows, cols] & (self.clearance[rows, cols] > self.footprint + INTERCEPT_ROOM)
-        if self.ledge is not None and self.side is not None:  # still on its start ledge: the side worth most
-            walkable &= self.side[rows, cols]
+        side = self._side_kept()
+        if side is not None:  # still on its start ledge: only places over the side worth most
+            walkable &= side[rows, cols]
         self.bounce_paths[body] = (now, xs, ys, walkable, self.walk)
         return xs, ys, walkable, 0
 
