@@ -7,6 +7,7 @@ where the head ended and whether it got on to the platform (or ate the food on i
 
     python experiments/animalai/ramp_climb.py
     python experiments/animalai/ramp_climb.py --crouch 0.25 0.5 0.75 1.0   # the steep ramps, crouched
+    python experiments/animalai/ramp_climb.py --grip 2.0   # the steep ramps, gripping 4 times as hard
 """
 
 import math
@@ -20,7 +21,7 @@ from aaai.env import AnimalAIEnv
 from aaai.task.arena import parse_arena
 
 
-def trial(L, H, seconds=60.0, crouch=0.0):
+def trial(L, H, seconds=60.0, crouch=0.0, grip=None):
     text = f"""description: ramp {L} x {H}
 arena_walls: true
 arena_size: [200.0, 200.0]
@@ -37,6 +38,10 @@ objects:
     spec, _, _ = parse_arena(d / "a.yaml")
     env = AnimalAIEnv(action_mode="gait", rays=False)
     env.reset(seed=0, options={"spec": spec, "check": False})
+    if grip is not None:  # the ramp's own friction (Bullet multiplies it by the feet's 1.0; the default is 0.5)
+        for body, obj in env.world.objects.items():
+            if obj.kind == "ramp":
+                p.changeDynamics(body, -1, lateralFriction=grip, physicsClientId=env.world.client)
     top, xs = -1e9, []
     n = int(seconds / 0.1)
     end = "time"  # out of time, still on the way
@@ -62,6 +67,7 @@ objects:
 
 
 STEEP = [(17.5, 5), (14, 5), (12.5, 5), (33.3, 10), (25, 10)]  # 15.9° to 21.8°: those it did not climb upright
+BATTERY = [(12.5, 5), (10, 5), (9, 5), (7, 5), (5, 5)]  # 21.8° to 45°: the slopes of the ramps the battery needs
 
 if __name__ == "__main__":
     import sys
@@ -70,6 +76,12 @@ if __name__ == "__main__":
         for crouch in map(float, sys.argv[2:]):
             for L, H in STEEP:
                 print({"crouch": crouch, **trial(L, H, crouch=crouch)}, flush=True)
+        raise SystemExit
+    if sys.argv[1:2] == ["--grip"]:
+        for grip in map(float, sys.argv[2:]):
+            for crouch in (0.0, 0.5):
+                for L, H in BATTERY:
+                    print({"grip": grip, "crouch": crouch, **trial(L, H, crouch=crouch, grip=grip)}, flush=True)
         raise SystemExit
     for L, H in [
         (50, 5),
