@@ -83,6 +83,39 @@ def test_a_verdict_is_checked_again_when_the_checking_code_has_changed(tmp_path,
     assert again.exit_code == 0 and "(2 checked now" in again.output, again.output
 
 
+def test_a_verdict_answers_for_fewer_seeds_and_more_seeds_check_only_the_new_ones(tmp_path, battery, monkeypatch):
+    import aaai.task.arena as arena
+    from aaai.train.limbs import check_tasks
+
+    checked = []
+    real = arena.load_arena
+
+    def load(path, seed=0, **keywords):
+        checked.append((path.name, seed))
+        if path.name == "01-01-01.yaml" and seed == 3:  # a draw that fails on the fourth seed, say
+            raise ConfigError("a piece drawn into a wall")
+        return real(path, seed, **keywords)
+
+    monkeypatch.setattr(arena, "load_arena", load)
+
+    def valid(seeds):
+        checked.clear()
+        found = check_tasks(tmp_path, "quadruped", LimbsSettings(arenas=(battery,), arena_seeds=seeds), print)
+        return sorted(file.name for file in found)
+
+    table = tmp_path / "tasks_quadruped.csv"
+    assert valid(2) == ["01-01-01.yaml"] and len(checked) == 3  # two seeds, and the other fails on its first
+    kept = table.read_text()
+    assert valid(1) == ["01-01-01.yaml"] and checked == []  # fewer seeds: nothing checked, nothing rewritten
+    assert table.read_text() == kept
+    assert valid(3) == ["01-01-01.yaml"] and checked == [("01-01-01.yaml", 2)]  # only the new seed
+    assert valid(5) == [] and checked == [("01-01-01.yaml", 3)]  # fails on seed 3
+    kept = table.read_text()
+    assert "seed 3: a piece drawn into a wall" in kept
+    assert valid(3) == ["01-01-01.yaml"] and checked == [] and table.read_text() == kept  # valid before seed 3
+    assert valid(4) == [] and checked == []
+
+
 def test_the_gap_is_taken_on_the_tasks_valid_for_both_and_the_rest_counted_apart():
     category = "Animal-AI 08 object permanence"
     tasks = {

@@ -172,10 +172,34 @@ def category_of(path: Path) -> str:
     return arena_meta(path)["category"] or _olympics(path.name)
 
 
+def _failing_seed(row: dict) -> int | None:
+    """The seed a stored verdict of "not valid" failed on ("seed K: ..."), None if it does not say."""
+    head = row.get("problem", "").split(":", 1)[0].split()
+    return int(head[1]) if len(head) == 2 and head[0] == "seed" and head[1].isdigit() else None
+
+
+def _reused(row: dict | None, sha: str, checker: str, seeds: int) -> tuple[bool | None, int]:
+    """What a stored verdict says of seeds 0..``seeds``-1 of an unchanged file checked by the same code:
+    (valid or not, or None when it cannot say; the seeds already known to be valid). A file valid on
+    N seeds is valid on fewer; one that failed on seed K is valid on the seeds before K."""
+    if row is None or row["sha256"] != sha or row.get("checker") != checker or not row["seeds"].isdigit():
+        return None, 0
+    checked = int(row["seeds"])
+    if row["valid"] == "yes":
+        return (True, checked) if checked >= seeds else (None, checked)
+    failed = _failing_seed(row)
+    if failed is None:
+        return (False, 0) if checked == seeds else (None, 0)
+    return (False, failed) if failed < seeds else (True, failed)
+
+
 def check_tasks(folder: Path, body: str, settings: LimbsSettings, echo: Callable[[str], None]) -> list[Path]:
     """The arena files valid for ``body`` on every seed scored (aaai.task.arena.load_arena for its
-    footprint), each file's verdict kept in tasks_<body>.csv and reused while the file, the seeds and
-    the checking code (:func:`checker_fingerprint`) are the same."""
+    footprint), each file's verdict kept in tasks_<body>.csv and reused while the file and the checking
+    code (:func:`checker_fingerprint`) are the same. A verdict answers for fewer seeds than it was made on
+    (valid on 3 seeds is valid on 1; failed on seed 2 is valid on seeds 0 and 1) and is then kept as it
+    is, so that scoring with fewer seeds leaves the file unchanged; with more seeds only the new ones are
+    checked."""
     from aaai.task.arena import arena_files, load_arena
 
     files = [file for path in settings.arenas for file in arena_files(path)]
@@ -185,19 +209,21 @@ def check_tasks(folder: Path, body: str, settings: LimbsSettings, echo: Callable
         raise ConfigError(
             f"--arenas: two arena files are named {twice}; allowed: distinct names (the tables name them)"
         )
-    seeds = list(range(settings.arena_seeds))
+    seeds = settings.arena_seeds
     path = folder / f"tasks_{body}.csv"
     known = {row["arena"]: row for row in read_rows(path)}
     checker = checker_fingerprint()
     rows: list[dict] = []
+    valid: list[Path] = []
     fresh = 0
     for file in files:
         sha = file_sha256(file)
         row = known.get(file.name)
-        if row is None or row["sha256"] != sha or row["seeds"] != str(len(seeds)) or row.get("checker") != checker:
+        verdict, done = _reused(row, sha, checker, seeds)
+        if verdict is None:
             problem = ""
             try:
-                for seed in seeds:
+                for seed in range(done, seeds):
                     load_arena(file, seed, body=body)
             except ConfigError as error:
                 problem = f"seed {seed}: " + (list(getattr(error, "problems", None) or [str(error)])[0])
@@ -205,20 +231,24 @@ def check_tasks(folder: Path, body: str, settings: LimbsSettings, echo: Callable
                 "arena": file.name,
                 "sha256": sha,
                 "category": category_of(file),
-                "seeds": str(len(seeds)),
+                "seeds": str(seeds),
                 "checker": checker,
                 "valid": "no" if problem else "yes",
                 "problem": problem,
             }
+            verdict = not problem
             fresh += 1
             if fresh % 50 == 0:  # what was checked is kept if the run stops
                 seen = {r["arena"] for r in rows} | {file.name}
                 _write_rows(path, TASK_COLUMNS, rows + [row] + [r for n, r in known.items() if n not in seen])
+        assert row is not None
         rows.append(row)
-    _write_rows(path, TASK_COLUMNS, rows)
-    valid = [file for file, row in zip(files, rows) if row["valid"] == "yes"]
+        if verdict:
+            valid.append(file)
+    if fresh or [row["arena"] for row in rows] != list(known):
+        _write_rows(path, TASK_COLUMNS, rows)
     echo(
-        f"{len(valid)} of {len(files)} arena files valid for the {body} on seeds 0-{len(seeds) - 1} "
+        f"{len(valid)} of {len(files)} arena files valid for the {body} on seeds 0-{seeds - 1} "
         f"({fresh} checked now, the others as {path.name} holds them)"
     )
     return valid
