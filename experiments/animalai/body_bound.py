@@ -12,9 +12,12 @@ change to the importer, the validator or the reference, only by another body or 
    piece whose file fails because it cuts into the thin rails it lies on, which are not modelled,
    at the height Animal-AI gives it). The head reaches 3.8 above what the feet stand on, and nothing in
    such an arena lifts the body;
-3. ``needs a step down of 5 or more``: the agent starts on a raised floor 5 or more high with the food
-   below it (coverage.csv's cause, ``extras.animalai.start_height``); the body lands on its back from
-   5, 10 and 15 whichever way it walks off (``step_down.py``, steps.md);
+3. ``needs a step down of 5 or more``: the agent starts on a raised floor 5 or more high
+   (``extras.animalai.start_height``) with the food below it (coverage.csv's cause), or on one the import
+   keeps it on (a wall's top Animal-AI's agent walks on, with no floor beside a ledge: the ``unfair``
+   column) from which the food cannot be reached even with every ramp walkable (the first relaxed import
+   below). The body lands on its back from 5, 10 and 15 whichever way it walks off (``step_down.py``,
+   steps.md);
 4. ``needs a ramp steeper than 21.8°``: valid when the validator takes every ramp as walkable (and
    steps up to 0.9), not valid when it takes ramps up to 21.8° as walkable (and steps up to 0.9). The
    gait does not get on to a ramp of 21.8° upright, crouched, or with 4 times the grip (``ramp_climb.py``,
@@ -48,6 +51,7 @@ from pathlib import Path
 from aaai.files import write_atomic
 from aaai.safe_yaml import load_mapping
 from aaai.task.arena import parse_arena
+from aaai.tools.animalai_fit import RAISED
 
 HIGH = 3.0  # Animal-AI units: food resting this high or more is out of the head's reach (3.8 at scale 5)
 DROP = 5.0  # units: a start this high or more above the food's floor (the body lands on its back)
@@ -111,7 +115,9 @@ def group(row: dict, source: Path, imported: Path, every_ramp: set[str], gait_ra
         return "no body can pass"
     if high_on_static(row, source, imported):
         return "food high on static supports"
-    if row["cause"] == "start on a raised floor, the food below it":
+    below = row["cause"] == "start on a raised floor, the food below it"
+    kept_on_top = row["unfair"] == RAISED and row["source"] not in every_ramp
+    if below or kept_on_top:
         data = load_mapping(imported / row["file"], "arena file")
         if float(((data.get("extras") or {}).get("animalai") or {}).get("start_height") or 0) >= DROP:
             return "needs a step down of 5 or more"
