@@ -21,14 +21,16 @@ from aaai.spec import AgentPose, LevelSpec, ObjectSpec
 LENGTH = 60.0
 
 
-def trial(height: float, seconds: float = 60.0) -> dict:
+def wall_and_food(name: str, near: float, height: float, beyond: float = 20.0) -> LevelSpec:
+    """A wall ``height`` high, LENGTH long and 180 across from x = ``near`` on, food on the floor
+    ``beyond`` its far end, the body at the origin facing it, in an arena 200 across (also step_down.py's)."""
     objects = (
-        ObjectSpec("wall", "box", (LENGTH / 2 + 12.0, 0.0, height / 2), (LENGTH, 180.0, height)),
-        ObjectSpec("food_green", "sphere", (LENGTH + 32.0, 0.0, 1.5), (3.0, 3.0, 3.0)),
+        ObjectSpec("wall", "box", (near + LENGTH / 2, 0.0, height / 2), (LENGTH, 180.0, height)),
+        ObjectSpec("food_green", "sphere", (near + LENGTH + beyond, 0.0, 1.5), (3.0, 3.0, 3.0)),
     )
-    spec = LevelSpec(
+    return LevelSpec(
         level=0,
-        name="step",
+        name=name,
         difficulty=0,
         seed=0,
         agent=AgentPose(0.0, 0.0, 0.0),
@@ -37,6 +39,10 @@ def trial(height: float, seconds: float = 60.0) -> dict:
         arena_size=(200.0, 200.0),
         time_limit=200.0,
     )
+
+
+def trial(height: float, seconds: float = 60.0) -> dict:
+    spec = wall_and_food("step", 12.0, height)
     env = AnimalAIEnv(action_mode="gait", rays=False)
     env.reset(seed=0, options={"spec": spec, "check": False})
     top, hits, end = -1e9, 0, "time"

@@ -12,11 +12,10 @@ per height and way, where it ended, how far its up axis turned from the sky on t
 
 import numpy as np
 import pybullet as p
+from step_climb import LENGTH, wall_and_food  # this folder's: the same wall and food
 
 from aaai.env import AnimalAIEnv
-from aaai.spec import AgentPose, LevelSpec, ObjectSpec
 
-LENGTH = 60.0
 HEIGHTS = (2.0, 2.5, 5.0, 10.0, 15.0)  # Animal-AI's raised floors: 1, 2 and 3 units at scale 5
 WAYS = (  # (forward command, crouch): the gait's commands held while it goes off
     (1.0, 0.0),
@@ -29,21 +28,7 @@ WAYS = (  # (forward command, crouch): the gait's commands held while it goes of
 
 
 def trial(height: float, forward: float, crouch: float) -> dict:
-    objects = (
-        ObjectSpec("wall", "box", (LENGTH / 2, 0.0, height / 2), (LENGTH, 180.0, height)),
-        ObjectSpec("food_green", "sphere", (LENGTH + 30.0, 0.0, 1.5), (3.0, 3.0, 3.0)),
-    )
-    spec = LevelSpec(
-        level=0,
-        name="drop",
-        difficulty=0,
-        seed=0,
-        agent=AgentPose(-60.0, 0.0, 0.0),  # moved on to the top below
-        objects=objects,
-        max_food_reward=objects[1].food_value,
-        arena_size=(200.0, 200.0),
-        time_limit=200.0,
-    )
+    spec = wall_and_food("drop", 0.0, height, beyond=30.0)  # the body is put on the top below
     env = AnimalAIEnv(action_mode="gait", rays=False)
     env.reset(seed=0, options={"spec": spec, "check": False})
     client, body = env.body.client, env.body.id
