@@ -15,7 +15,7 @@ change to the importer, the validator or the reference, only by another body or 
 3. ``needs a step down of 5 or more``: the agent starts on a raised floor 5 or more high
    (``extras.animalai.start_height``) with the food below it (coverage.csv's cause), or on one the import
    keeps it on (a wall's top Animal-AI's agent walks on, with no floor beside a ledge: the ``unfair``
-   column) from which the food cannot be reached even with every ramp walkable (the first relaxed import
+   column), and the food cannot be reached even with every ramp walkable (the first relaxed import
    below). The body lands on its back from 5, 10 and 15 whichever way it walks off (``step_down.py``,
    steps.md);
 4. ``needs a ramp steeper than 21.8°``: valid when the validator takes every ramp as walkable (and
@@ -116,8 +116,7 @@ def group(row: dict, source: Path, imported: Path, every_ramp: set[str], gait_ra
     if high_on_static(row, source, imported):
         return "food high on static supports"
     below = row["cause"] == "start on a raised floor, the food below it"
-    kept_on_top = row["unfair"] == RAISED and row["source"] not in every_ramp
-    if below or kept_on_top:
+    if (below or row["unfair"] == RAISED) and row["source"] not in every_ramp:
         data = load_mapping(imported / row["file"], "arena file")
         if float(((data.get("extras") or {}).get("animalai") or {}).get("start_height") or 0) >= DROP:
             return "needs a step down of 5 or more"
