@@ -298,13 +298,13 @@ def ledge_arena_with_slot(
 @pytest.mark.parametrize("slot_y", [12.0, 22.0])
 def test_from_a_ledge_the_reference_meets_a_bouncing_piece_on_the_side_it_chose(env, slot_y):
     """The ball's path crosses to both sides through the slot, the green is on the right: the right is
-    worth more (best_side). The reference waits on the ledge and meets the ball on the right, then eats
+    worth more (the first of sides). The reference waits on the ledge and meets the ball on the right, then eats
     the green. Going down on the left for the ball, the body could not come back for the green."""
-    from aaai.task.arena import best_side
+    from aaai.task.arena import sides
     from aaai.task.reference import ReferenceController
 
     spec = ledge_arena_with_slot(slot_y)
-    side = best_side(spec)
+    side = sides(spec)[0][1]
     assert side[validate.cell(spec, 20.0, -20.0, side.shape)] and not side[validate.cell(spec, -20.0, 0.0, side.shape)]
     observation, _ = env.reset(options={"spec": spec})
     reference = ReferenceController(env)

@@ -473,7 +473,7 @@ def reachable_return(spec: LevelSpec, body: str = "quadruped") -> float:
     episode-ending piece plus every other piece reachable without touching one that ends the episode
     (:func:`_ending_blocked`), but one piece of a kind whose last piece ends the episode (:func:`_last_of_kind`),
     or those pieces without the ending one, whichever is more; less the most the step term takes. From a
-    start on a ledge, the best of the regions it may step down into (it takes one: :func:`best_side`)."""
+    start on a ledge, the best of the regions it may step down into (it takes one: the first of :func:`sides`)."""
     return _pass_mark_returns(spec, body)[0]
 
 
@@ -534,16 +534,10 @@ def _ending_blocked(spec: LevelSpec) -> LevelSpec:
     return dataclasses.replace(spec, objects=tuple(objects) if isinstance(spec.objects, tuple) else objects)
 
 
-def best_side(spec: LevelSpec, body: str = "quadruped") -> np.ndarray | None:
-    """Where the head can get to in the region worth most of those the body may step down into from a
-    start on a ledge (aaai.levels.validate.reach_regions; the first of equals), or None without one."""
-    ranked = sides(spec, body)
-    return ranked[0][1] if ranked else None
-
-
 def sides(spec: LevelSpec, body: str = "quadruped") -> list[tuple[float, np.ndarray]]:
     """(worth, region) of each region the body may step down into from a start on a ledge, worth most
-    first (equals in the order of aaai.levels.validate.reach_regions); empty without a ledge. A region's
+    first (equals in the order of aaai.levels.validate.reach_regions; the first is the side a start on a
+    ledge takes); empty without a ledge. A region's
     worth is the food the head can get to in it (a bouncing piece where the body gets in time)."""
     if validate.start_ledge(spec) is None:
         return []

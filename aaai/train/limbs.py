@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import csv
 import io
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -172,10 +173,18 @@ def category_of(path: Path) -> str:
     return arena_meta(path)["category"] or _olympics(path.name)
 
 
+_FAILED_ON = re.compile(r"seed (\d+): ")  # how a verdict of "not valid" names its seed (:func:`_problem`)
+
+
+def _problem(seed: int, error: ConfigError) -> str:
+    """A verdict's problem: the seed the file failed on and the first problem found there."""
+    return f"seed {seed}: " + (list(getattr(error, "problems", None) or [str(error)])[0])
+
+
 def _failing_seed(row: dict) -> int | None:
-    """The seed a stored verdict of "not valid" failed on ("seed K: ..."), None if it does not say."""
-    head = row.get("problem", "").split(":", 1)[0].split()
-    return int(head[1]) if len(head) == 2 and head[0] == "seed" and head[1].isdigit() else None
+    """The seed a stored verdict of "not valid" failed on, None if it does not say."""
+    found = _FAILED_ON.match(row.get("problem", ""))
+    return int(found.group(1)) if found else None
 
 
 def _reused(row: dict | None, sha: str, checker: str, seeds: int) -> tuple[bool | None, int]:
@@ -226,7 +235,7 @@ def check_tasks(folder: Path, body: str, settings: LimbsSettings, echo: Callable
                 for seed in range(done, seeds):
                     load_arena(file, seed, body=body)
             except ConfigError as error:
-                problem = f"seed {seed}: " + (list(getattr(error, "problems", None) or [str(error)])[0])
+                problem = _problem(seed, error)
             row = {
                 "arena": file.name,
                 "sha256": sha,

@@ -51,6 +51,7 @@ from pathlib import Path
 from aaai.files import write_atomic
 from aaai.safe_yaml import load_mapping
 from aaai.task.arena import parse_arena
+from aaai.tools.animalai import read_arena_config
 from aaai.tools.animalai_fit import RAISED
 
 HIGH = 3.0  # Animal-AI units: food resting this high or more is out of the head's reach (3.8 at scale 5)
@@ -86,13 +87,8 @@ def relaxed_import(name: str, sources: Path, work: Path) -> set[str]:
 
 
 def source_items(path: Path) -> list[dict]:
-    """Animal-AI's items of the file's first arena (its YAML tags dropped)."""
-    import re
-
-    import yaml
-
-    text = re.sub(r"!\w+", "", path.read_text())
-    arena = yaml.safe_load(text)["arenas"][0]
+    """Animal-AI's items of the file's first arena, read as the importer reads them."""
+    arena = next(iter(read_arena_config(path)["arenas"].values()))
     return arena.get("items") or []
 
 
