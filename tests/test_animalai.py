@@ -192,6 +192,36 @@ arenas:
     assert [food.size[0] for food in foods] == [S, S, 2 * S]  # positions drawn at random for each
 
 
+def walls(*entries: tuple[float, float, float, float]) -> str:
+    """An arena's items: one Wall item of entries (x, y, z, size x), 1 deep and 1 high, unturned."""
+    text = "    - !Item\n      name: Wall\n      positions:\n"
+    text += "".join(f"      - !Vector3 {{x: {x}, y: {y}, z: {z}}}\n" for x, y, z, _ in entries)
+    text += "      rotations: [" + ", ".join("0" for _ in entries) + "]\n      sizes:\n"
+    text += "".join(f"      - !Vector3 {{x: {w}, y: 1, z: 1}}\n" for *_, w in entries)
+    return text
+
+
+@pytest.mark.parametrize(
+    "cut, left_out",
+    [(0.0019, False), (0.0021, True), (1.0, True)],  # a hair either side of Animal-AI's shrink (0.002), a crossing
+)
+def test_a_wall_crossing_a_wall_before_it_is_left_out_as_animalai_leaves_it_and_touching_walls_are_both_placed(
+    tmp_path, cut, left_out
+):
+    # two walls 2 wide side by side along x: the second starts `cut` inside the first (9..11, then 11 - cut ..);
+    # Animal-AI shrinks each to 0.999 of its size before it tests, so they must overlap by more than 0.002
+    source = tmp_path / "walls.yaml"
+    source.write_text(arena_config(("0", walls((10, 0, 20, 2), (12 - cut, 0, 20, 2), (10, 1, 20, 2)) + GOAL)))
+    [result] = import_animalai(source, tmp_path / "out", echo=lambda line: None)
+    spec, _, _ = parse_arena(tmp_path / "out" / "walls.yaml", 0)
+    placed = sorted(o.position for o in spec.objects[4:] if o.kind == "wall")  # after the arena's four walls
+    expected = [(-50.0, 0.0, 2.5), (-50.0, 0.0, 7.5)] + ([] if left_out else [(round(-40 - 5 * cut, 4), 0.0, 2.5)])
+    assert placed == sorted(expected)  # the wall stacked on the first (y: 1, its top) is placed: the shrink parts them
+    record = spec.extras.get("animalai", {}).get("walls_left_out")
+    assert record == ([{"item": 0, "entry": 1, "position": [round(-40 - 5 * cut, 4), 0.0]}] if left_out else None)
+    assert result.changes == (["wall crossing an earlier wall left out, as in Animal-AI (1 wall)"] if left_out else [])
+
+
 # --- files from outside: nothing written outside --out, every attack one line, in bounded time ----
 def arena_config(*arenas: tuple[str, str]) -> str:
     """An !ArenaConfig of arenas given as (key, items text)."""

@@ -2,9 +2,11 @@
 clear, a larger scale for narrow passages, unfair tasks named, food out of reach as a lure, and the
 coverage report (``aaai import-animalai --report``)."""
 
+import copy
 import csv
 
 import pytest
+import yaml
 from click.testing import CliRunner
 from conftest import AAI_AGENT, AAI_GOAL, AAI_WALL
 
@@ -182,17 +184,22 @@ def test_the_report_counts_every_arena_by_cause(tmp_path):
     assert "| walled off | 1 | 02 1 |" in table and "| data zones are not built here | 1 | 03 1 |" in table
 
 
-def test_walls_that_cross_are_allowed_as_in_animal_ai(tmp_path):
+def test_a_wall_crossing_an_earlier_one_is_left_out_as_in_animal_ai_and_walls_cross_lets_a_file_keep_both(tmp_path):
     cross = WALL.format(x=20, z=30, sx=10, sz=1) + WALL.format(x=20, z=30, sx=1, sz=10)
     results, out = convert(
         tmp_path, {"cross.yaml": arena(AGENT.format(x=20, z=5, r=0) + cross + GOAL.format(x=5, z=20))}
     )
     assert not results["cross.yaml"].unfair
-    spec = load_arena(out / "cross.yaml")
-    assert spec.extras["walls_cross"] is True
-    text = (out / "cross.yaml").read_text().replace("walls_cross: true\n", "")
-    (out / "plain.yaml").write_text(text)
-    with pytest.raises(ConfigError, match=r"objects\[0\] \(wall\): at \(0.0, 50.0\) overlaps objects\[1\] \(wall\)"):
+    data = yaml.safe_load((out / "cross.yaml").read_text())
+    [wall] = [obj for obj in data["objects"] if obj["kind"] == "wall"]  # Animal-AI places the first only
+    assert wall["size"][:2] == [50.0, 5.0] and data["extras"]["animalai"]["walls_left_out"][0]["item"] == 2
+    assert data["walls_cross"] is True  # walls Animal-AI places as touching may overlap by its shrink here
+    data["objects"].append({**copy.deepcopy(wall), "size": [5.0, 50.0, wall["size"][2]]})  # the crossing wall, by hand
+    (out / "kept.yaml").write_text(yaml.safe_dump(data))
+    assert load_arena(out / "kept.yaml").extras["walls_cross"] is True
+    del data["walls_cross"]
+    (out / "plain.yaml").write_text(yaml.safe_dump(data))
+    with pytest.raises(ConfigError, match=r"objects\[0\] \(wall\): at \(0.0, 50.0\) overlaps objects\[2\] \(wall\)"):
         load_arena(out / "plain.yaml")
 
 

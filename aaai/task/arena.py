@@ -24,8 +24,9 @@ An arena file's keys are the spec's fields (docs, "Write your own test"):
 - ``on_overlap`` (an object's key): ``refuse`` (default) or ``redraw``: placed as Animal-AI's
   ArenaBuilder places an item, drawn again where it overlaps an object before it and left out
   where it cannot be placed (:func:`_place`; the spec's ``extras["left_out"]`` lists those);
-- ``walls_cross``: true lets static walls cross each other (Animal-AI's arenas do; a wall is static
-  in physics, so nothing moves); kept in ``extras["walls_cross"]``;
+- ``walls_cross``: true lets static walls overlap each other (an imported Animal-AI arena's walls that
+  Animal-AI places as touching, its spawn check shrinking each by 0.1 %; a wall is static in physics,
+  so nothing moves); kept in ``extras["walls_cross"]``;
 - and three keys that are not the spec's: ``description`` (one line for people), ``category``
   (the level name, label or id the test belongs to, e.g. ``y_maze``: the scoreboard's summary
   groups by it; an imported Animal-AI arena without one is grouped by ``extras.animalai.category``,
@@ -567,7 +568,7 @@ def check_arena(spec: LevelSpec, source: Source, require_food: bool = True, body
             f"the ledge, {ledge.position[2] + ledge.size[2] / 2:g} high, is lower than its radius {radius:g}, "
             "so it rolls back up on to it"
         )
-    if spec.extras.get("walls_cross"):  # static walls that cross each other, as Animal-AI lets them
+    if spec.extras.get("walls_cross"):  # static walls that overlap, as Animal-AI places touching ones
         problems = [p for p in problems if not _WALLS_CROSS.match(p)]
     if spec.extras.get("reach") == "pass_mark":
         unreached = [p for p in problems if p.endswith("cannot be reached from the start")]

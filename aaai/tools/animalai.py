@@ -127,10 +127,15 @@ def convert_file(path: Path, scale: float = DEFAULT_SCALE, fitted: bool = True) 
         except Unmappable as error:
             results.append(Converted(path.name, str(key), name, problem=str(error)))
             continue
-        rolled = (out.get("extras") or {}).get("animalai", {}).get("rolled") or []
+        record = (out.get("extras") or {}).get("animalai", {})
+        rolled = record.get("rolled") or []
         if rolled:  # not a fit to our body: where Animal-AI's physics takes the goal (animalai_arena._rolled)
             pieces = f"{len(rolled)} piece{'s' if len(rolled) > 1 else ''}"
             changes = [f"goal rolled down a ramp, as in Animal-AI ({pieces})", *changes]
+        crossing = record.get("walls_left_out") or []
+        if crossing:  # nor this: Animal-AI's ArenaBuilder does not place them (animalai_arena._Arena._cuts_a_wall)
+            walls = f"{len(crossing)} wall{'s' if len(crossing) > 1 else ''}"
+            changes = [f"wall crossing an earlier wall left out, as in Animal-AI ({walls})", *changes]
         results.append(Converted(path.name, str(key), name, _dump(out), items=names, changes=changes, unfair=unfair))
     return results
 

@@ -26,6 +26,9 @@ a gap of 2 Animal-AI units the narrowest our body walks through):
   out when none is clear, as Animal-AI's ArenaBuilder places it; a random size is drawn once, here,
   from ``np.random.default_rng([IMPORT_SEED, crc32(file name), arena])`` (a random height would
   move the object's centre, which an arena file cannot express);
+- a wall crossing a wall before it (their boxes, each side shrunk to SPAWN_SHRINK, overlap) is left
+  out, as Animal-AI's ArenaBuilder does not place it (``extras.animalai.walls_left_out``); walls that
+  only touch are both placed;
 - colours (0..255) -> colour (0..1); a missing colour: the kind's own;
 - the agent starts at least AGENT_MARGIN inside the walls (its body is 10 across); a goal or
   movable block above the floor lands, as it would fall in Animal-AI, on the highest static box
@@ -49,6 +52,8 @@ from typing import Any, TypeGuard
 
 import numpy as np
 
+from aaai.sim.geometry import corners, footprints_overlap
+from aaai.spec import ObjectSpec
 from aaai.spec.kinds import ZONE_THICKNESS
 
 DEFAULT_SCALE = 5.0
@@ -62,6 +67,12 @@ WALL_HEIGHT = 4.0
 PLANK_MASS = {"light": 2.0, "heavy": 20.0}  # movable blocks (LightBlock, HeavyBlock)
 BLOCK_MASS = 5.0  # movable L, J, U blocks and hollow boxes
 AGENT_MARGIN = 6.0  # the agent starts at least this far inside the arena's walls
+# Animal-AI's ArenaBuilder places an item only where its box, each side shrunk to SPAWN_SHRINK
+# (Prefab.sizeAdjustment), cuts nothing placed before it: walls that touch are both placed, a wall
+# that crosses an earlier one is left out. (It also raises every item 0.01, which parts no two walls.)
+SPAWN_SHRINK = 0.999
+EXACT = 1e-9  # footprints_overlap's gap: closer than this (overlapping at all) counts
+WALL_KINDS = ("wall", "transparent_wall")
 
 # Animal-AI name -> (our kind, how it maps): "box" (x, z, y), "forward" (z, x, y: its own +z is
 # our +x), "goal" (a sphere), "zone" (a floor slab). Sizes: Animal-AI's range (low, high) per axis.
@@ -202,6 +213,8 @@ class _Arena:
     def __init__(self, source: str, key: object, arena: object, scale: float, rng: np.random.Generator):
         self.source, self.key, self.arena, self.scale, self.rng = source, key, arena, scale, rng
         self.half = AAI_ARENA / 2 * scale
+        self.walls: list[tuple] = []  # the walls placed so far, as Animal-AI tests a new one (_cuts_a_wall)
+        self.left_out: list[dict] = []  # walls Animal-AI's ArenaBuilder would not place
 
     def where(self, index: int, name: str) -> str:
         return f"{self.source}, arena {self.key}, item {index} ({name if len(name) <= 60 else name[:57] + '...'})"
@@ -247,7 +260,7 @@ class _Arena:
             "arena_size": [2 * self.half, 2 * self.half],
             "wall_height": WALL_HEIGHT,
             "time_limit": round(time_limit, 3),
-            "walls_cross": True,  # Animal-AI lets walls cross; ours are static too
+            "walls_cross": True,  # walls Animal-AI places as touching may overlap by its shrink (_cuts_a_wall)
         }
         found = re.match(r"(\d\d)-", self.source)
         if found and found.group(1) in CATEGORIES:  # a competition file: 04-01-02.yaml is of category 4
@@ -308,6 +321,8 @@ class _Arena:
                 "yaw": self._yaw(None),
             }
         out["agent"] = agent
+        if self.left_out:  # the import report's changes (aaai.tools.animalai)
+            out.setdefault("extras", {}).setdefault("animalai", {})["walls_left_out"] = self.left_out
         objects = self.floors(objects, out)
         supports = _supports(objects)
         if raised and all(isinstance(v, float) for v in raised):  # the agent stands on a static box there
@@ -663,6 +678,9 @@ class _Arena:
             if name.endswith("Bounce"):
                 heading = self._yaw(rotation, math.pi / 2)
                 obj["behaviour"] = {"type": "bounce", "speed": BOUNCE_SPEED, "heading": heading}
+            if kind in WALL_KINDS and self._cuts_a_wall(obj):
+                self.left_out.append({"item": index, "entry": k, "position": obj["position"][:2]})
+                continue
             objects.append(
                 {
                     key: obj[key]
@@ -671,6 +689,26 @@ class _Arena:
                 }
             )
         return objects
+
+    def _cuts_a_wall(self, wall: dict) -> bool:
+        """Whether Animal-AI's ArenaBuilder would leave ``wall`` out: its box, each side SPAWN_SHRINK of
+        the size asked for (from its bottom up), cuts a wall placed before it (Physics.OverlapBox at
+        the place asked for; there is no second try for a place the file gives). Walls that only touch
+        are both placed, as the shrink parts them. A wall placed is remembered for the walls after it.
+        Only walls are tested, and only those whose place and turn the file gives."""
+        if not _numbers(wall):
+            return False
+        size = [side * SPAWN_SHRINK for side in wall["size"]]
+        bottom = wall["position"][2] - wall["size"][2] / 2
+        box = ObjectSpec(wall["kind"], "box", tuple(wall["position"]), tuple(size), yaw=wall["yaw"])
+        here = (corners(box), bottom, bottom + size[2])
+        if any(
+            low < here[2] and here[1] < high and footprints_overlap(quad, here[0], gap=EXACT)
+            for quad, low, high in self.walls
+        ):
+            return True
+        self.walls.append(here)
+        return False
 
 
 def _count(item: dict, where: str) -> int:
