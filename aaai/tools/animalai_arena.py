@@ -700,14 +700,14 @@ class _Arena:
             return False
         size = [side * SPAWN_SHRINK for side in wall["size"]]
         bottom = wall["position"][2] - wall["size"][2] / 2
-        box = ObjectSpec(wall["kind"], "box", tuple(wall["position"]), tuple(size), yaw=wall["yaw"])
-        here = (corners(box), bottom, bottom + size[2])
+        quad = corners(ObjectSpec(wall["kind"], "box", tuple(wall["position"]), tuple(size), yaw=wall["yaw"]))
+        top = bottom + size[2]
         if any(
-            low < here[2] and here[1] < high and footprints_overlap(quad, here[0], gap=EXACT)
-            for quad, low, high in self.walls
+            low < top and bottom < high and footprints_overlap(other, quad, gap=EXACT)
+            for other, low, high in self.walls
         ):
             return True
-        self.walls.append(here)
+        self.walls.append((quad, bottom, top))
         return False
 
 

@@ -7,7 +7,8 @@ item's bounds, each side 0.999 of the size asked for (Prefab.sizeAdjustment), ra
 (Prefab.AdjustY), turned by its rotation. Otherwise the item is not placed, with no second try.
 
 This script applies that rule in Animal-AI's own units, straight from the files and independently of
-``aaai import-animalai``, to the items whose bounds and colliders are plain: walls, transparent walls and
+``aaai import-animalai`` (it shares only the plain overlap test of two turned rectangles,
+aaai.sim.geometry.footprints_overlap), to the items whose bounds and colliders are plain: walls, transparent walls and
 the pushable boxes (Cardbox1/2, LightBlock, HeavyBlock), whose collider is their box, and goals, whose
 collider is a sphere and whose bounds a cube. An earlier item of another kind (ramp, tunnel, U/L/J
 block, hollow box, dispenser, button, sign) is not tested against, as its collider is not its box: a
@@ -26,8 +27,9 @@ import csv
 import math
 from pathlib import Path
 
+from aaai.sim.geometry import footprints_overlap
 from aaai.tools.animalai import read_arena_config
-from aaai.tools.animalai_arena import ITEMS, TIMED, is_number
+from aaai.tools.animalai_arena import EXACT, ITEMS, TIMED, is_number
 
 SHRINK = 0.999
 LIFT = 0.01
@@ -61,18 +63,10 @@ def corners(box: dict) -> list[tuple[float, float]]:
 
 
 def boxes_cut(a: dict, b: dict) -> bool:
-    """Do two boxes turned about y overlap (a separating-axis test; touching is not overlapping)?"""
+    """Do two boxes turned about y overlap (touching is not overlapping)?"""
     if a["c"][1] + a["h"][1] <= b["c"][1] - b["h"][1] or b["c"][1] + b["h"][1] <= a["c"][1] - a["h"][1]:
         return False
-    pa, pb = corners(a), corners(b)
-    for quad in (pa, pb):
-        for i in range(4):
-            (x0, z0), (x1, z1) = quad[i], quad[(i + 1) % 4]
-            nx, nz = z1 - z0, x0 - x1
-            da, db = [nx * x + nz * z for x, z in pa], [nx * x + nz * z for x, z in pb]
-            if max(da) <= min(db) or max(db) <= min(da):
-                return False
-    return True
+    return footprints_overlap(corners(a), corners(b), gap=EXACT)
 
 
 def box_meets_sphere(box: dict, centre, radius: float) -> bool:
